@@ -1,0 +1,216 @@
+//! Extrinsics: the camera's pose, `P_c = R (P_w − T)` (camera-model.md §1).
+//!
+//! `T` is the centre of projection in world coordinates and the rows of `R`
+//! are the camera's axes written in world coordinates.
+//!
+//! # Yaw, pitch and roll
+//!
+//! With all three zero the camera axes coincide with the world axes (the
+//! camera looks along world `+z`, with world `+y` up). Otherwise the
+//! camera-to-world rotation is `M = R_y(yaw) · R_x(−pitch) · R_z(roll)` and
+//! `R = Mᵀ`, where `R_a(θ)` is the right-handed rotation by `θ` about axis
+//! `a`. So a positive yaw turns the optic axis from `+z` towards `+x` (the
+//! camera's left), a positive pitch tilts it up (towards `+y`), and a positive
+//! roll turns the camera's `x` axis towards its `y` axis. Angles in radians.
+
+use crate::error::{to_fixed, Error, Field};
+use crate::frame::{CameraPoint, WorldPoint};
+use crate::num::{Len, Rot, Sat, Wide};
+
+/// How far `R Rᵀ` may be from the identity, entry by entry (and `det R` from
+/// 1), for `R` to be accepted as a rotation.
+pub const ROTATION_TOLERANCE: f64 = 1e-6;
+
+/// A validated camera pose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Extrinsics {
+    r: [[Rot; 3]; 3],
+    t: WorldPoint,
+}
+
+type M3 = [[f64; 3]; 3];
+
+fn mat_mul(a: &M3, b: &M3) -> M3 {
+    let mut c = [[0.0; 3]; 3];
+    for (i, row) in c.iter_mut().enumerate() {
+        for (j, cell) in row.iter_mut().enumerate() {
+            *cell = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    c
+}
+
+fn transpose(a: &M3) -> M3 {
+    let mut t = [[0.0; 3]; 3];
+    for (i, row) in a.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            t[j][i] = *v;
+        }
+    }
+    t
+}
+
+fn det(a: &M3) -> f64 {
+    a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn norm(a: [f64; 3]) -> f64 {
+    libm::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+}
+
+fn finite3(a: [f64; 3], field: Field) -> Result<[f64; 3], Error> {
+    if a.iter().all(|v| v.is_finite()) {
+        Ok(a)
+    } else {
+        Err(Error::NotFinite(field))
+    }
+}
+
+impl Extrinsics {
+    /// From `R` (rows = camera axes in world coordinates) and `T` (metres).
+    ///
+    /// `R` must be orthonormal with `det R = +1`, each within
+    /// [`ROTATION_TOLERANCE`]; `T` within ±8.4·10⁶ m.
+    pub fn from_matrix(r: [[f64; 3]; 3], t: [f64; 3]) -> Result<Self, Error> {
+        for row in &r {
+            finite3(*row, Field::Rotation)?;
+        }
+        let t = finite3(t, Field::Translation)?;
+        let rrt = mat_mul(&r, &transpose(&r));
+        let mut worst: f64 = 0.0;
+        for (i, row) in rrt.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                let want = if i == j { 1.0 } else { 0.0 };
+                worst = worst.max((v - want).abs());
+            }
+        }
+        if worst > ROTATION_TOLERANCE {
+            return Err(Error::NotOrthonormal);
+        }
+        let d = det(&r);
+        if d < 0.0 {
+            return Err(Error::Reflection);
+        }
+        if (d - 1.0).abs() > ROTATION_TOLERANCE {
+            return Err(Error::NotOrthonormal);
+        }
+        let mut rf = [[Rot::ZERO; 3]; 3];
+        for (dst, src) in rf.iter_mut().zip(r.iter()) {
+            for (d, s) in dst.iter_mut().zip(src.iter()) {
+                *d = to_fixed(*s, Field::Rotation)?;
+            }
+        }
+        Ok(Extrinsics {
+            r: rf,
+            t: WorldPoint {
+                x: to_fixed(t[0], Field::Translation)?,
+                y: to_fixed(t[1], Field::Translation)?,
+                z: to_fixed(t[2], Field::Translation)?,
+            },
+        })
+    }
+
+    /// From yaw, pitch and roll (radians; see the module docs for the
+    /// convention) and the centre of projection `T` (metres).
+    pub fn from_yaw_pitch_roll(yaw: f64, pitch: f64, roll: f64, t: [f64; 3]) -> Result<Self, Error> {
+        finite3([yaw, pitch, roll], Field::Angle)?;
+        let (sy, cy) = (libm::sin(yaw), libm::cos(yaw));
+        let (sp, cp) = (libm::sin(-pitch), libm::cos(-pitch));
+        let (sr, cr) = (libm::sin(roll), libm::cos(roll));
+        let ry = [[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]];
+        let rx = [[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]];
+        let rz = [[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]];
+        let m = mat_mul(&mat_mul(&ry, &rx), &rz);
+        Self::from_matrix(transpose(&m), t)
+    }
+
+    /// A camera at `eye` looking at `target`, with `up` giving the image's up
+    /// direction (world coordinates, metres). The optic axis is
+    /// `z = (target − eye)/|target − eye|`, `x = up × z` normalized, `y = z × x`.
+    ///
+    /// Errors: the target within 1 µm of the eye, or `up` within 10⁻⁶ rad of
+    /// the optic axis (or zero).
+    pub fn look_at(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> Result<Self, Error> {
+        let eye = finite3(eye, Field::Translation)?;
+        let target = finite3(target, Field::Target)?;
+        let up = finite3(up, Field::Up)?;
+        let v = [target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]];
+        let vn = norm(v);
+        if !(vn > 1e-6) {
+            return Err(Error::Degenerate(Field::Target));
+        }
+        let z = [v[0] / vn, v[1] / vn, v[2] / vn];
+        let un = norm(up);
+        let x = cross(up, z);
+        let xn = norm(x);
+        if !(un > 0.0) || !(xn > 1e-6 * un) {
+            return Err(Error::Degenerate(Field::Up));
+        }
+        let x = [x[0] / xn, x[1] / xn, x[2] / xn];
+        let y = cross(z, x);
+        Self::from_matrix([x, y, z], eye)
+    }
+
+    /// `R`, as stored (I2F30 entries).
+    pub fn rotation(&self) -> [[Rot; 3]; 3] {
+        self.r
+    }
+
+    /// `T`, the centre of projection in world coordinates.
+    pub fn translation(&self) -> WorldPoint {
+        self.t
+    }
+
+    /// World → camera: `P_c = R (P_w − T)`.
+    ///
+    /// Error ≤ 0.5 pm + 10⁻¹⁸·|P_w − T| per coordinate; saturates when a
+    /// camera coordinate exceeds ±8.4·10⁶ m.
+    pub fn world_to_camera(&self, p: WorldPoint) -> Sat<CameraPoint> {
+        let [x, y, z] = self.world_to_camera_wide(p);
+        x.narrow()
+            .zip(y.narrow())
+            .zip(z.narrow())
+            .map(|((x, y), z)| CameraPoint { x, y, z })
+    }
+
+    /// World → camera, not narrowed (for fused chains).
+    pub(crate) fn world_to_camera_wide(&self, p: WorldPoint) -> [Wide; 3] {
+        let d = [
+            Wide::of(p.x).sub(Wide::of(self.t.x)),
+            Wide::of(p.y).sub(Wide::of(self.t.y)),
+            Wide::of(p.z).sub(Wide::of(self.t.z)),
+        ];
+        self.r.map(|r| {
+            Wide::of(r[0])
+                .mul(d[0])
+                .add(Wide::of(r[1]).mul(d[1]))
+                .add(Wide::of(r[2]).mul(d[2]))
+        })
+    }
+
+    /// Camera → world: `P_w = Rᵀ P_c + T`.
+    pub fn camera_to_world(&self, p: CameraPoint) -> Sat<WorldPoint> {
+        let c = [Wide::of(p.x), Wide::of(p.y), Wide::of(p.z)];
+        let t = [self.t.x, self.t.y, self.t.z];
+        let col = |j: usize| -> Sat<Len> {
+            let mut acc = Wide::of(t.get(j).copied().unwrap_or_default());
+            for (row, ci) in self.r.iter().zip(c.iter()) {
+                acc = acc.add(Wide::of(row.get(j).copied().unwrap_or_default()).mul(*ci));
+            }
+            acc.narrow()
+        };
+        col(0)
+            .zip(col(1))
+            .zip(col(2))
+            .map(|((x, y), z)| WorldPoint { x, y, z })
+    }
+}

@@ -1,0 +1,43 @@
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+//! # hilcam core
+//!
+//! The camera model of the hardware-in-the-loop camera emulator, in fixed
+//! point, without heap or floating point in its per-point and per-pixel paths
+//! (floats appear only where parameters are converted once, at
+//! construction). The contract it implements is `camera-model.md`; the f64
+//! reference that checks it lives in `host-sim`.
+//!
+//! One module per stage:
+//! - [`frame`]: coordinate frames as types;
+//! - [`extrinsics`]: pose, world → camera;
+//! - [`projection`]: perspective, weak perspective, orthographic; rays;
+//! - [`intrinsics`]: image plane ↔ pixel;
+//! - [`lens`]: thin lens, blur circle, depth of field;
+//! - [`num`]: the fixed-point formats and wide intermediates.
+//!
+//! Nothing here panics on any input: constructors return [`Error`], a point
+//! at or behind the lens plane is [`NotVisible`], and any result that leaves
+//! its format saturates and says so through [`Sat`].
+
+pub mod camera;
+pub mod error;
+pub mod extrinsics;
+pub mod frame;
+pub mod intrinsics;
+pub mod lens;
+pub mod num;
+pub mod projection;
+
+#[cfg(feature = "defmt")]
+mod fmt;
+
+pub use camera::Camera;
+pub use error::{Error, Field, NoRealImage, NotVisible};
+pub use extrinsics::Extrinsics;
+pub use frame::{CameraDir, CameraPoint, ImagePoint, NormPoint, PixelPoint, Ray, WorldPoint};
+pub use intrinsics::{Intrinsics, IntrinsicsConfig};
+pub use lens::{Aperture, DepthOfField, Distance, Lens, LensConfig};
+pub use num::{Angle, Gain, Len, Norm, Pitch, Px, Rot, Sat};
+pub use projection::{DepthBox, Model};

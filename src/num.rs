@@ -1,0 +1,436 @@
+//! Number formats and the wide intermediate arithmetic of the per-point paths.
+//!
+//! # Formats
+//!
+//! Each quantity has one storage format, chosen for its range and the accuracy
+//! the contract asks of it:
+//!
+//! | alias | format | unit | range | resolution | used for |
+//! |---|---|---|---|---|---|
+//! | [`Len`] | I24F40 | m | ±8.4·10⁶ m | 0.91 pm | world, camera and image-plane coordinates, lens distances |
+//! | [`Norm`] | I16F48 | 1 | ±32 768 | 3.6·10⁻¹⁵ | normalized image coordinates `x̂ = x/f`, ray slopes |
+//! | [`Px`] | I16F16 | px | ±32 768 px | 1.5·10⁻⁵ px | pixel coordinates |
+//! | [`Rot`] | I2F62 | 1 | ±2 | 2.2·10⁻¹⁹ | rotation matrix entries (a 10⁸ px telephoto needs 10⁻¹² of `R`) |
+//! | [`Gain`] | I32F32 | varies | ±2.1·10⁹ | 2.3·10⁻¹⁰ | scale factors: px per metre, focal length in px, F-number |
+//! | [`Angle`] | I4F60 | rad | ±8 rad | 8.7·10⁻¹⁹ rad | angles of view |
+//! | [`Pitch`] | I4F60 | m | ±8 m | 8.7·10⁻¹⁹ m | pixel pitch (0.1 µm pitches must keep 10⁻¹⁰ relative) |
+//!
+//! Lengths share one format so that no conversion sits between a world point
+//! and the lens law; 40 fractional bits keep a 1 µm blur circle to 10⁻⁶
+//! relative while 24 integer bits cover any terrestrial scene.
+//!
+//! # Wide intermediates
+//!
+//! Products and quotients of the per-point paths are computed in [`Wide`], a
+//! 128-bit integer mantissa with a binary point tracked at run time. Every
+//! operation keeps at least 62 significant bits, so the error of a chain of a
+//! few operations is far below one unit of the output format; the only
+//! rounding that matters is the final narrowing into a storage format, which
+//! saturates (and reports it through [`Sat`]) instead of wrapping. There is
+//! no floating point in it: it is integer arithmetic throughout.
+//!
+//! A chain of stages (world → camera → image plane → pixel) is evaluated in
+//! [`Wide`] end to end and rounded once, into the output format: the
+//! intermediate frames are not narrowed on the way.
+//!
+//! The per-pixel renderer does not use [`Wide`]; it has 32-bit formats of its
+//! own, chosen per frame.
+
+use fixed::types::{I16F16, I16F48, I24F40, I2F62, I32F32, I4F60};
+
+/// Lengths in metres: I24F40 (±8.4·10⁶ m, resolution 0.91 pm).
+pub type Len = I24F40;
+/// Normalized image coordinates and ray slopes (dimensionless): I16F48.
+pub type Norm = I16F48;
+/// Pixel coordinates: I16F16 (±32 768 px, resolution 1.5·10⁻⁵ px).
+pub type Px = I16F16;
+/// Rotation matrix entries (dimensionless): I2F62.
+pub type Rot = I2F62;
+/// Scale factors (px per metre, focal length in px, F-number): I32F32.
+pub type Gain = I32F32;
+/// Angles in radians: I4F60.
+pub type Angle = I4F60;
+/// Pixel pitch in metres: I4F60 (the same format as [`Angle`]).
+pub type Pitch = I4F60;
+
+/// A value computed in fixed point, with whether any step had to saturate.
+///
+/// When `saturated` is true, `value` is the nearest representable value (the
+/// end of the format's range in the direction of the true result); it is never
+/// a wrapped value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[must_use]
+pub struct Sat<T> {
+    /// The result, or the end of the range it was clamped to.
+    pub value: T,
+    /// True if the true result lay outside the output format.
+    pub saturated: bool,
+}
+
+impl<T> Sat<T> {
+    /// A result that did not saturate.
+    pub const fn exact(value: T) -> Self {
+        Sat {
+            value,
+            saturated: false,
+        }
+    }
+
+    /// Applies `f` to the value, keeping the flag.
+    pub fn map<U>(self, f: impl FnOnce(T) -> U) -> Sat<U> {
+        Sat {
+            value: f(self.value),
+            saturated: self.saturated,
+        }
+    }
+
+    /// Combines with another result: the flag is set if either saturated.
+    pub fn zip<U>(self, other: Sat<U>) -> Sat<(T, U)> {
+        Sat {
+            value: (self.value, other.value),
+            saturated: self.saturated || other.saturated,
+        }
+    }
+
+    /// Returns the value if it did not saturate.
+    pub fn ok(self) -> Option<T> {
+        if self.saturated {
+            None
+        } else {
+            Some(self.value)
+        }
+    }
+}
+
+/// A fixed-point storage format that [`Wide`] can read and narrow into.
+pub trait Format: Copy {
+    /// Fractional bits.
+    const FRAC: i32;
+    /// Smallest raw value.
+    const MIN_RAW: i128;
+    /// Largest raw value.
+    const MAX_RAW: i128;
+    /// The raw bits, widened.
+    fn raw(self) -> i128;
+    /// From raw bits already known to be in range.
+    fn from_raw_in_range(raw: i128) -> Self;
+}
+
+macro_rules! impl_format {
+    ($t:ty, $bits:ty, $frac:expr) => {
+        impl Format for $t {
+            const FRAC: i32 = $frac;
+            const MIN_RAW: i128 = <$bits>::MIN as i128;
+            const MAX_RAW: i128 = <$bits>::MAX as i128;
+            #[inline]
+            fn raw(self) -> i128 {
+                self.to_bits() as i128
+            }
+            #[inline]
+            fn from_raw_in_range(raw: i128) -> Self {
+                // In range by the caller's clamp; the cast cannot truncate.
+                <$t>::from_bits(raw as $bits)
+            }
+        }
+    };
+}
+
+impl_format!(Len, i64, 40);
+impl_format!(Norm, i64, 48);
+impl_format!(Px, i32, 16);
+impl_format!(Rot, i64, 62);
+impl_format!(Gain, i64, 32);
+impl_format!(Angle, i64, 60);
+
+/// Significant bits a mantissa is normalized to before a multiplication.
+const MUL_BITS: u32 = 63;
+/// Significant bits a mantissa is normalized to before an addition or as a
+/// dividend.
+const ADD_BITS: u32 = 125;
+
+/// A wide intermediate: `mant · 2^-frac`, with at least 62 significant bits
+/// kept by every operation. Integer arithmetic only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Wide {
+    mant: i128,
+    frac: i32,
+}
+
+/// Shifts right by `s` with rounding to nearest (ties towards +∞).
+/// `m` must have at most 126 significant bits.
+fn shr_round(m: i128, s: u32) -> i128 {
+    if s == 0 {
+        m
+    } else if s >= 127 {
+        0
+    } else {
+        (m + (1i128 << (s - 1))) >> s
+    }
+}
+
+fn sig_bits(m: i128) -> u32 {
+    128 - m.unsigned_abs().leading_zeros()
+}
+
+impl Wide {
+    /// Zero.
+    pub const ZERO: Wide = Wide { mant: 0, frac: 0 };
+
+    /// Reads a fixed-point value exactly.
+    #[inline]
+    pub fn of<T: Format>(x: T) -> Wide {
+        Wide {
+            mant: x.raw(),
+            frac: T::FRAC,
+        }
+    }
+
+    /// An integer, exactly.
+    #[inline]
+    pub const fn int(i: i64) -> Wide {
+        Wide {
+            mant: i as i128,
+            frac: 0,
+        }
+    }
+
+    /// Rescales the mantissa to exactly `bits` significant bits (or leaves zero
+    /// alone). Shifting right rounds; the value changes by at most half a unit
+    /// in the last kept place.
+    fn normalized(self, bits: u32) -> Wide {
+        if self.mant == 0 {
+            return Wide::ZERO;
+        }
+        let have = sig_bits(self.mant);
+        if have > bits {
+            let s = have - bits;
+            Wide {
+                mant: shr_round(self.mant, s),
+                frac: self.frac.saturating_sub(s as i32),
+            }
+        } else {
+            let s = bits - have;
+            Wide {
+                mant: self.mant << s,
+                frac: self.frac.saturating_add(s as i32),
+            }
+        }
+    }
+
+    /// Sign: -1, 0 or 1.
+    pub fn signum(self) -> i32 {
+        self.mant.signum() as i32
+    }
+
+    /// True if the value is zero.
+    pub fn is_zero(self) -> bool {
+        self.mant == 0
+    }
+
+    /// Absolute value.
+    pub fn abs(self) -> Wide {
+        Wide {
+            mant: self.mant.abs(),
+            frac: self.frac,
+        }
+    }
+
+    /// Negation.
+    pub fn neg(self) -> Wide {
+        Wide {
+            mant: -self.mant,
+            frac: self.frac,
+        }
+    }
+
+    /// Product, with at least 62 significant bits.
+    pub fn mul(self, o: Wide) -> Wide {
+        let a = self.normalized(MUL_BITS);
+        let b = o.normalized(MUL_BITS);
+        Wide {
+            mant: a.mant * b.mant,
+            frac: a.frac.saturating_add(b.frac),
+        }
+    }
+
+    /// Quotient, with at least 62 significant bits; `None` when `o` is zero.
+    pub fn div(self, o: Wide) -> Option<Wide> {
+        if o.mant == 0 {
+            return None;
+        }
+        let n = self.normalized(ADD_BITS);
+        let d = o.normalized(MUL_BITS);
+        // Round half away from zero, on magnitudes (both fit in 126 bits).
+        let (un, ud) = (n.mant.unsigned_abs(), d.mant.unsigned_abs());
+        let q = ((un + ud / 2) / ud) as i128;
+        let negative = (n.mant < 0) != (d.mant < 0);
+        Some(Wide {
+            mant: if negative { -q } else { q },
+            frac: n.frac.saturating_sub(d.frac),
+        })
+    }
+
+    /// Sum, exact to 2⁻¹²⁴ relative to the larger operand.
+    pub fn add(self, o: Wide) -> Wide {
+        if self.mant == 0 {
+            return o;
+        }
+        if o.mant == 0 {
+            return self;
+        }
+        let a = self.normalized(ADD_BITS);
+        let b = o.normalized(ADD_BITS);
+        // Align to the coarser binary point (the larger magnitude).
+        let frac = a.frac.min(b.frac);
+        let sa = (a.frac - frac) as u32;
+        let sb = (b.frac - frac) as u32;
+        Wide {
+            mant: shr_round(a.mant, sa) + shr_round(b.mant, sb),
+            frac,
+        }
+    }
+
+    /// Difference.
+    pub fn sub(self, o: Wide) -> Wide {
+        self.add(o.neg())
+    }
+
+    /// The larger of two values.
+    pub fn max_of(self, o: Wide) -> Wide {
+        if self.cmp(o) == core::cmp::Ordering::Less {
+            o
+        } else {
+            self
+        }
+    }
+
+    /// Compares two values.
+    pub fn cmp(self, o: Wide) -> core::cmp::Ordering {
+        self.sub(o).signum().cmp(&0)
+    }
+
+    /// Narrows to a storage format, rounding to nearest; saturates outside its
+    /// range.
+    pub fn narrow<T: Format>(self) -> Sat<T> {
+        if self.mant == 0 {
+            return Sat::exact(T::from_raw_in_range(0));
+        }
+        let shift = T::FRAC as i64 - self.frac as i64;
+        let raw: Option<i128> = if shift >= 0 {
+            // Left shift: exact unless it overflows.
+            let s = shift as u32;
+            if s >= 127 || sig_bits(self.mant) + s > 126 {
+                None
+            } else {
+                Some(self.mant << s)
+            }
+        } else {
+            // Right shift: rounds. Bring the mantissa to ≤ 126 bits first.
+            let m = self.normalized(ADD_BITS);
+            let s = T::FRAC as i64 - m.frac as i64;
+            if s >= 0 {
+                Some(m.mant << (s as u32))
+            } else {
+                Some(shr_round(m.mant, (-s).min(127) as u32))
+            }
+        };
+        match raw {
+            Some(r) if (T::MIN_RAW..=T::MAX_RAW).contains(&r) => Sat::exact(T::from_raw_in_range(r)),
+            Some(r) if r < 0 => Sat {
+                value: T::from_raw_in_range(T::MIN_RAW),
+                saturated: true,
+            },
+            Some(_) => Sat {
+                value: T::from_raw_in_range(T::MAX_RAW),
+                saturated: true,
+            },
+            None if self.mant < 0 => Sat {
+                value: T::from_raw_in_range(T::MIN_RAW),
+                saturated: true,
+            },
+            None => Sat {
+                value: T::from_raw_in_range(T::MAX_RAW),
+                saturated: true,
+            },
+        }
+    }
+}
+
+/// `n / d` narrowed to `T`. A zero divisor (only possible if a validated
+/// parameter were zero) gives the saturated end in the direction of `n`
+/// rather than a panic.
+pub fn quotient<T: Format>(n: Wide, d: Wide) -> Sat<T> {
+    match n.div(d) {
+        Some(q) => q.narrow(),
+        None => Sat {
+            value: T::from_raw_in_range(if n.signum() < 0 { T::MIN_RAW } else { T::MAX_RAW }),
+            saturated: true,
+        },
+    }
+}
+
+/// Converts a finite `f64` into a storage format; `None` if it is not finite
+/// or does not fit. For parameters converted once, at construction.
+pub fn from_f64<T>(x: f64) -> Option<T>
+where
+    T: fixed::traits::Fixed,
+{
+    if x.is_finite() {
+        T::checked_from_num(x)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn w(x: f64) -> Wide {
+        Wide::of(Len::from_num(x))
+    }
+
+    fn val(x: Wide) -> f64 {
+        x.narrow::<Len>().value.to_num::<f64>()
+    }
+
+    #[test]
+    fn arithmetic_matches_exact_values() {
+        assert_eq!(val(w(1.5).mul(w(-2.25))), -3.375);
+        assert_eq!(val(w(3.0).div(w(-4.0)).unwrap_or(Wide::ZERO)), -0.75);
+        assert_eq!(val(w(3.0).add(w(-4.5))), -1.5);
+        assert!(w(1.0).div(Wide::ZERO).is_none());
+    }
+
+    #[test]
+    fn tiny_plus_large_keeps_both() {
+        let tiny = Wide::of(Norm::from_bits(1));
+        let big = Wide::int(1 << 40);
+        let back = big.add(tiny).sub(big);
+        assert_eq!(back.narrow::<Norm>().value, Norm::from_bits(1));
+    }
+
+    #[test]
+    fn narrowing_saturates_instead_of_wrapping() {
+        let big = Wide::int(1 << 30);
+        let s = big.narrow::<Px>();
+        assert!(s.saturated);
+        assert_eq!(s.value, Px::MAX);
+        let s = big.neg().narrow::<Px>();
+        assert!(s.saturated);
+        assert_eq!(s.value, Px::MIN);
+        let huge = Wide::int(i64::MAX)
+            .mul(Wide::int(i64::MAX))
+            .mul(Wide::int(i64::MAX));
+        assert!(huge.narrow::<Len>().saturated);
+    }
+
+    #[test]
+    fn division_rounds_to_nearest_for_all_signs() {
+        for (n, d) in [(7, 2), (-7, 2), (7, -2), (-7, -2), (1, 3), (-1, 3)] {
+            let q = Wide::int(n).div(Wide::int(d)).unwrap_or(Wide::ZERO);
+            let got = q.narrow::<Norm>().value.to_num::<f64>();
+            assert!((got - n as f64 / d as f64).abs() < 1e-14, "{n}/{d} gave {got}");
+        }
+    }
+}
