@@ -88,7 +88,7 @@ impl Format for Model {
             Model::WeakPerspective { mean_depth } => {
                 write!(f, "WeakPerspective(I24F40 bits {=i64})", mean_depth.to_bits())
             }
-            Model::Orthographic { scale } => write!(f, "Orthographic(I32F32 bits {=i64})", scale.to_bits()),
+            Model::Orthographic { scale } => write!(f, "Orthographic(I16F48 bits {=i64})", scale.to_bits()),
         }
     }
 }

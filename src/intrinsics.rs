@@ -181,6 +181,14 @@ impl Intrinsics {
         x.zip(y).map(|(x, y)| NormPoint { x, y })
     }
 
+    /// Pixel → normalized, not narrowed (for fused chains). `None` only if a
+    /// focal length in pixels were zero, which construction rules out.
+    pub(crate) fn pixel_to_normalized_wide(&self, p: PixelPoint) -> Option<[Wide; 2]> {
+        let x = Wide::of(self.ox).sub(Wide::of(p.x)).div(Wide::of(self.fx))?;
+        let y = Wide::of(self.oy).sub(Wide::of(p.y)).div(Wide::of(self.fy))?;
+        Some([x, y])
+    }
+
     /// Image plane → normalized: `x̂ = x/f`.
     pub fn image_to_normalized(&self, p: ImagePoint) -> Sat<NormPoint> {
         let f = Wide::of(self.f);
