@@ -155,6 +155,8 @@ fn weak_perspective_projection_within_1_256_px() {
 
 static ORTHO: Max = Max::new("orthographic_project_px", "px");
 
+/// Points aimed at a pixel (so every case compares), and a quarter anywhere
+/// within ±2000 m (so saturation is exercised too).
 #[test]
 fn orthographic_projection_within_1_256_px() {
     let coord = -2000.0f64..2000.0;
@@ -163,11 +165,22 @@ fn orthographic_projection_within_1_256_px() {
         pose(),
         log_uniform(1e-6, 1e2),
         (coord.clone(), coord, 1e-3f64..2000.0),
-    );
-    check(strategy, |(c, (a, t), m, p)| {
+        0u8..4,
+    )
+        .prop_flat_map(|(c, p, m, q, aim)| {
+            (Just(c), Just(p), Just(m), Just(q), Just(aim), pixel_in(c.w, c.h))
+        });
+    check(strategy, |(c, (a, t), m, p, aim, target)| {
         let t = [t[0] / 2.0, t[1] / 2.0, t[2] / 2.0];
         let (cam, rpose) = cameras(&c, a, t, Model::orthographic(m).expect("valid"));
-        let wp = WorldPoint::from_f64(rpose.camera_to_world([p.0, p.1, p.2])).expect("in range");
+        let (px, py) = if aim > 0 {
+            let (x, y) = c.sensor().pixel_to_image(target.0, target.1);
+            let k = (2000.0 / (x.abs().max(y.abs()) / m).max(1e-300)).min(1.0);
+            (x / m * k, y / m * k)
+        } else {
+            (p.0, p.1)
+        };
+        let wp = WorldPoint::from_f64(rpose.camera_to_world([px, py, p.2])).expect("in range");
         let pc = rpose.world_to_camera(wp.to_f64());
         prop_assume!(pc[2] > 1e-9);
         let (x, y) = rp::project(RModel::Orthographic(m), c.f, pc).expect("in front");
