@@ -15,7 +15,8 @@
 
 use crate::error::{to_fixed, Error, Field};
 use crate::frame::{CameraPoint, WorldPoint};
-use crate::num::{Len, Rot, Sat, Wide};
+use crate::num::{Rot, Sat, Wide};
+use core::ops::{Add as _, Mul as _, Sub as _};
 
 /// How far `R Rᵀ` may be from the identity, entry by entry (and `det R` from
 /// 1), for `R` to be accepted as a rotation.
@@ -30,24 +31,21 @@ pub struct Extrinsics {
 
 type M3 = [[f64; 3]; 3];
 
-fn mat_mul(a: &M3, b: &M3) -> M3 {
-    let mut c = [[0.0; 3]; 3];
-    for (i, row) in c.iter_mut().enumerate() {
-        for (j, cell) in row.iter_mut().enumerate() {
-            *cell = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    c
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn transpose(a: &M3) -> M3 {
-    let mut t = [[0.0; 3]; 3];
-    for (i, row) in a.iter().enumerate() {
-        for (j, v) in row.iter().enumerate() {
-            t[j][i] = *v;
-        }
-    }
-    t
+    [
+        [a[0][0], a[1][0], a[2][0]],
+        [a[0][1], a[1][1], a[2][1]],
+        [a[0][2], a[1][2], a[2][2]],
+    ]
+}
+
+fn mat_mul(a: &M3, b: &M3) -> M3 {
+    let bt = transpose(b);
+    a.map(|row| bt.map(|col| dot3(row, col)))
 }
 
 fn det(a: &M3) -> f64 {
@@ -64,7 +62,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 fn norm(a: [f64; 3]) -> f64 {
-    libm::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    libm::sqrt(dot3(a, a))
 }
 
 fn finite3(a: [f64; 3], field: Field) -> Result<[f64; 3], Error> {
@@ -145,14 +143,15 @@ impl Extrinsics {
         let up = finite3(up, Field::Up)?;
         let v = [target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]];
         let vn = norm(v);
-        if !(vn > 1e-6) {
+        // All inputs are finite here, so the norms are finite too.
+        if vn <= 1e-6 {
             return Err(Error::Degenerate(Field::Target));
         }
         let z = [v[0] / vn, v[1] / vn, v[2] / vn];
         let un = norm(up);
         let x = cross(up, z);
         let xn = norm(x);
-        if !(un > 0.0) || !(xn > 1e-6 * un) {
+        if un <= 0.0 || xn <= 1e-6 * un {
             return Err(Error::Degenerate(Field::Up));
         }
         let x = [x[0] / xn, x[1] / xn, x[2] / xn];
@@ -200,17 +199,17 @@ impl Extrinsics {
     /// Camera → world: `P_w = Rᵀ P_c + T`.
     pub fn camera_to_world(&self, p: CameraPoint) -> Sat<WorldPoint> {
         let c = [Wide::of(p.x), Wide::of(p.y), Wide::of(p.z)];
-        let t = [self.t.x, self.t.y, self.t.z];
-        let col = |j: usize| -> Sat<Len> {
-            let mut acc = Wide::of(t.get(j).copied().unwrap_or_default());
-            for (row, ci) in self.r.iter().zip(c.iter()) {
-                acc = acc.add(Wide::of(row.get(j).copied().unwrap_or_default()).mul(*ci));
-            }
-            acc.narrow()
-        };
-        col(0)
-            .zip(col(1))
-            .zip(col(2))
+        let rt = [
+            [self.r[0][0], self.r[1][0], self.r[2][0]],
+            [self.r[0][1], self.r[1][1], self.r[2][1]],
+            [self.r[0][2], self.r[1][2], self.r[2][2]],
+        ];
+        let [x, y, z] =
+            rt.map(|col| Wide::of(col[0]) * c[0] + Wide::of(col[1]) * c[1] + Wide::of(col[2]) * c[2]);
+        (x + Wide::of(self.t.x))
+            .narrow()
+            .zip((y + Wide::of(self.t.y)).narrow())
+            .zip((z + Wide::of(self.t.z)).narrow())
             .map(|((x, y), z)| WorldPoint { x, y, z })
     }
 }

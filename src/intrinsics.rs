@@ -4,6 +4,7 @@
 use crate::error::{in_range, to_fixed, Error, Field};
 use crate::frame::{ImagePoint, NormPoint, PixelPoint};
 use crate::num::{quotient, Angle, Gain, Len, Norm, Pitch, Px, Sat, Wide};
+use core::ops::{Mul as _, Sub as _};
 
 /// Supported focal lengths, metres: 0.1 mm to 10 m.
 pub const FOCAL_LENGTH_RANGE: (f64, f64) = (1e-4, 10.0);
@@ -184,8 +185,12 @@ impl Intrinsics {
     /// Pixel → normalized, not narrowed (for fused chains). `None` only if a
     /// focal length in pixels were zero, which construction rules out.
     pub(crate) fn pixel_to_normalized_wide(&self, p: PixelPoint) -> Option<[Wide; 2]> {
-        let x = Wide::of(self.ox).sub(Wide::of(p.x)).div(Wide::of(self.fx))?;
-        let y = Wide::of(self.oy).sub(Wide::of(p.y)).div(Wide::of(self.fy))?;
+        let x = Wide::of(self.ox)
+            .sub(Wide::of(p.x))
+            .checked_div(Wide::of(self.fx))?;
+        let y = Wide::of(self.oy)
+            .sub(Wide::of(p.y))
+            .checked_div(Wide::of(self.fy))?;
         Some([x, y])
     }
 

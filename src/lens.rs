@@ -7,6 +7,7 @@
 use crate::error::{in_range, to_fixed, Error, Field, NoRealImage};
 use crate::intrinsics::FOCAL_LENGTH_RANGE;
 use crate::num::{quotient, Angle, Gain, Len, Sat, Wide};
+use core::ops::{Add as _, Mul as _, Sub as _};
 
 /// Supported F-numbers `N = f/d`.
 pub const F_NUMBER_RANGE: (f64, f64) = (0.5, 256.0);

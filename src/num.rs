@@ -36,6 +36,7 @@
 //! The per-pixel renderer does not use [`Wide`]; it has 32-bit formats of its
 //! own, chosen per frame.
 
+use core::ops::{Add, Mul, Neg, Sub};
 use fixed::types::{I16F16, I16F48, I24F40, I2F62, I32F32, I4F60};
 
 /// Lengths in metres: I24F40 (±8.4·10⁶ m, resolution 0.91 pm).
@@ -235,26 +236,8 @@ impl Wide {
         }
     }
 
-    /// Negation.
-    pub fn neg(self) -> Wide {
-        Wide {
-            mant: -self.mant,
-            frac: self.frac,
-        }
-    }
-
-    /// Product, with at least 62 significant bits.
-    pub fn mul(self, o: Wide) -> Wide {
-        let a = self.normalized(MUL_BITS);
-        let b = o.normalized(MUL_BITS);
-        Wide {
-            mant: a.mant * b.mant,
-            frac: a.frac.saturating_add(b.frac),
-        }
-    }
-
     /// Quotient, with at least 62 significant bits; `None` when `o` is zero.
-    pub fn div(self, o: Wide) -> Option<Wide> {
+    pub fn checked_div(self, o: Wide) -> Option<Wide> {
         if o.mant == 0 {
             return None;
         }
@@ -270,34 +253,9 @@ impl Wide {
         })
     }
 
-    /// Sum, exact to 2⁻¹²⁴ relative to the larger operand.
-    pub fn add(self, o: Wide) -> Wide {
-        if self.mant == 0 {
-            return o;
-        }
-        if o.mant == 0 {
-            return self;
-        }
-        let a = self.normalized(ADD_BITS);
-        let b = o.normalized(ADD_BITS);
-        // Align to the coarser binary point (the larger magnitude).
-        let frac = a.frac.min(b.frac);
-        let sa = (a.frac - frac) as u32;
-        let sb = (b.frac - frac) as u32;
-        Wide {
-            mant: shr_round(a.mant, sa) + shr_round(b.mant, sb),
-            frac,
-        }
-    }
-
-    /// Difference.
-    pub fn sub(self, o: Wide) -> Wide {
-        self.add(o.neg())
-    }
-
     /// The larger of two values.
     pub fn max_of(self, o: Wide) -> Wide {
-        if self.cmp(o) == core::cmp::Ordering::Less {
+        if self.compare(o) == core::cmp::Ordering::Less {
             o
         } else {
             self
@@ -305,8 +263,8 @@ impl Wide {
     }
 
     /// Compares two values.
-    pub fn cmp(self, o: Wide) -> core::cmp::Ordering {
-        self.sub(o).signum().cmp(&0)
+    pub fn compare(self, o: Wide) -> core::cmp::Ordering {
+        (self - o).signum().cmp(&0)
     }
 
     /// Narrows to a storage format, rounding to nearest; saturates outside its
@@ -356,11 +314,65 @@ impl Wide {
     }
 }
 
+impl Neg for Wide {
+    type Output = Wide;
+    fn neg(self) -> Wide {
+        Wide {
+            mant: -self.mant,
+            frac: self.frac,
+        }
+    }
+}
+
+/// Product, with at least 62 significant bits.
+impl Mul for Wide {
+    type Output = Wide;
+    fn mul(self, o: Wide) -> Wide {
+        let a = self.normalized(MUL_BITS);
+        let b = o.normalized(MUL_BITS);
+        Wide {
+            mant: a.mant * b.mant,
+            frac: a.frac.saturating_add(b.frac),
+        }
+    }
+}
+
+/// Sum, exact to 2⁻¹²⁴ relative to the larger operand.
+impl Add for Wide {
+    type Output = Wide;
+    fn add(self, o: Wide) -> Wide {
+        if self.mant == 0 {
+            return o;
+        }
+        if o.mant == 0 {
+            return self;
+        }
+        let a = self.normalized(ADD_BITS);
+        let b = o.normalized(ADD_BITS);
+        // Align to the coarser binary point (the larger magnitude).
+        let frac = a.frac.min(b.frac);
+        let sa = (a.frac - frac) as u32;
+        let sb = (b.frac - frac) as u32;
+        Wide {
+            mant: shr_round(a.mant, sa) + shr_round(b.mant, sb),
+            frac,
+        }
+    }
+}
+
+/// Difference.
+impl Sub for Wide {
+    type Output = Wide;
+    fn sub(self, o: Wide) -> Wide {
+        self + (-o)
+    }
+}
+
 /// `n / d` narrowed to `T`. A zero divisor (only possible if a validated
 /// parameter were zero) gives the saturated end in the direction of `n`
 /// rather than a panic.
 pub fn quotient<T: Format>(n: Wide, d: Wide) -> Sat<T> {
-    match n.div(d) {
+    match n.checked_div(d) {
         Some(q) => q.narrow(),
         None => Sat {
             value: T::from_raw_in_range(if n.signum() < 0 { T::MIN_RAW } else { T::MAX_RAW }),
@@ -397,9 +409,9 @@ mod tests {
     #[test]
     fn arithmetic_matches_exact_values() {
         assert_eq!(val(w(1.5).mul(w(-2.25))), -3.375);
-        assert_eq!(val(w(3.0).div(w(-4.0)).unwrap_or(Wide::ZERO)), -0.75);
+        assert_eq!(val(w(3.0).checked_div(w(-4.0)).unwrap_or(Wide::ZERO)), -0.75);
         assert_eq!(val(w(3.0).add(w(-4.5))), -1.5);
-        assert!(w(1.0).div(Wide::ZERO).is_none());
+        assert!(w(1.0).checked_div(Wide::ZERO).is_none());
     }
 
     #[test]
@@ -428,7 +440,7 @@ mod tests {
     #[test]
     fn division_rounds_to_nearest_for_all_signs() {
         for (n, d) in [(7, 2), (-7, 2), (7, -2), (-7, -2), (1, 3), (-1, 3)] {
-            let q = Wide::int(n).div(Wide::int(d)).unwrap_or(Wide::ZERO);
+            let q = Wide::int(n).checked_div(Wide::int(d)).unwrap_or(Wide::ZERO);
             let got = q.narrow::<Norm>().value.to_num::<f64>();
             assert!((got - n as f64 / d as f64).abs() < 1e-14, "{n}/{d} gave {got}");
         }

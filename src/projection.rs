@@ -14,6 +14,7 @@ use crate::error::{in_range, to_fixed, Error, Field, NotVisible};
 use crate::frame::{CameraDir, CameraPoint, ImagePoint, PixelPoint, Ray};
 use crate::intrinsics::Intrinsics;
 use crate::num::{quotient, Gain, Len, Norm, Sat, Wide};
+use core::ops::{Mul as _, Sub as _};
 
 /// Supported weak-perspective mean depths `Z̄`, metres.
 pub const MEAN_DEPTH_RANGE: (f64, f64) = (1e-3, 1e6);
@@ -86,7 +87,7 @@ impl Model {
             Model::Orthographic { scale } => return Ok([x.mul(Wide::of(scale)), y.mul(Wide::of(scale))]),
         };
         // depth > 0 here (checked above, or a validated Z̄), so div succeeds.
-        match (x.mul(k).div(depth), y.mul(k).div(depth)) {
+        match (x.mul(k).checked_div(depth), y.mul(k).checked_div(depth)) {
             (Some(u), Some(v)) => Ok([u, v]),
             _ => Err(NotVisible::BehindCamera),
         }
@@ -191,14 +192,14 @@ pub fn weak_perspective_bound(
     let ax = Wide::of(b.min.x).abs().max_of(Wide::of(b.max.x).abs());
     let ay = Wide::of(b.min.y).abs().max_of(Wide::of(b.max.y).abs());
     // max over the two depth faces of |Z̄ − Z| / (Z Z̄)
-    let per_depth = |z: Len| -> Option<Wide> { zb.sub(Wide::of(z)).abs().div(Wide::of(z).mul(zb)) };
+    let per_depth = |z: Len| -> Option<Wide> { zb.sub(Wide::of(z)).abs().checked_div(Wide::of(z).mul(zb)) };
     let k = match (per_depth(b.min.z), per_depth(b.max.z)) {
         (Some(a), Some(c)) => a.max_of(c),
         _ => return Err(NotVisible::BehindCamera),
     };
     let (sx, sy) = cam.pitch();
-    let ex = f.mul(ax).mul(k).div(Wide::of(sx));
-    let ey = f.mul(ay).mul(k).div(Wide::of(sy));
+    let ex = f.mul(ax).mul(k).checked_div(Wide::of(sx));
+    let ey = f.mul(ay).mul(k).checked_div(Wide::of(sy));
     match (ex, ey) {
         (Some(ex), Some(ey)) => Ok(ex.max_of(ey).narrow()),
         _ => Ok(Sat {
