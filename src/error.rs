@@ -44,6 +44,8 @@ pub enum Field {
     OrthographicScale,
     /// A point's coordinates.
     Point,
+    /// Radial distortion coefficients `k1`, `k2`.
+    Distortion,
 }
 
 impl Field {
@@ -69,6 +71,7 @@ impl Field {
             Field::MeanDepth => "mean_depth",
             Field::OrthographicScale => "orthographic_scale",
             Field::Point => "point",
+            Field::Distortion => "distortion",
         }
     }
 }

@@ -15,6 +15,11 @@
 //! - [`projection`]: perspective, weak perspective, orthographic; rays;
 //! - [`intrinsics`]: image plane ↔ pixel;
 //! - [`lens`]: thin lens, blur circle, depth of field;
+//! - [`distortion`]: radial distortion, its table and inverse;
+//! - [`scene`]: the compact scene;
+//! - [`render`]: the line renderer (rays, intersection, shading,
+//!   vignetting, quantization);
+//! - [`planner`]: picks the cheapest rendering that meets an error budget;
 //! - [`num`]: the fixed-point formats and wide intermediates.
 //!
 //! Nothing here panics on any input: constructors return [`Error`], a point
@@ -22,13 +27,17 @@
 //! its format saturates and says so through [`Sat`].
 
 pub mod camera;
+pub mod distortion;
 pub mod error;
 pub mod extrinsics;
 pub mod frame;
 pub mod intrinsics;
 pub mod lens;
 pub mod num;
+pub mod planner;
 pub mod projection;
+pub mod render;
+pub mod scene;
 
 #[cfg(feature = "defmt")]
 mod fmt;

@@ -37,7 +37,7 @@
 //! own, chosen per frame.
 
 use core::ops::{Add, Mul, Neg, Sub};
-use fixed::types::{I16F16, I16F48, I24F40, I2F62, I32F32, I4F60};
+use fixed::types::{I16F16, I16F48, I24F40, I2F62, I32F32, I4F28, I4F60, I64F64};
 
 /// Lengths in metres: I24F40 (±8.4·10⁶ m, resolution 0.91 pm).
 pub type Len = I24F40;
@@ -142,6 +142,8 @@ impl_format!(Px, i32, 16);
 impl_format!(Rot, i64, 62);
 impl_format!(Gain, i64, 32);
 impl_format!(Angle, i64, 60);
+impl_format!(I4F28, i32, 28);
+impl_format!(I64F64, i128, 64);
 
 /// Significant bits a mantissa is normalized to before a multiplication.
 const MUL_BITS: u32 = 63;

@@ -1,0 +1,282 @@
+//! Radial distortion (camera-model.md §3).
+//!
+//! The lens images a ray at the *distorted* normalized position
+//! `(x̂_d, ŷ_d)`; the pinhole position is `x̂ = x̂_d g(r_d²)` with
+//! `g(u) = 1 + k1 u + k2 u²`, `u = r_d² = x̂_d² + ŷ_d²` (`k1 > 0` is barrel).
+//!
+//! - The renderer needs `pixel → undistorted`, which has no iteration: a
+//!   [`Lut`] of `g` indexed by `u`, linearly interpolated. `g` is a quadratic
+//!   in `u`, so interpolation is exact when `k2 = 0` and otherwise off by at
+//!   most `|k2| h² / 4` for a step `h` in `u`.
+//! - Projecting points needs the inverse, [`Distortion::distort`]: bisection
+//!   on the monotonic branch `[0, r_fold]`, which converges by construction or
+//!   reports [`OutsideLensField`].
+//! - Past the fold radius (`1 + 3 k1 u + 5 k2 u² = 0`) the lens folds the
+//!   image over: such pixels are outside the lens field.
+
+use crate::error::{Error, Field};
+use crate::frame::NormPoint;
+use crate::num::{quotient, Norm, Sat, Wide};
+use core::ops::{Add as _, Mul as _};
+use fixed::types::{I32F32, I4F28, I64F64};
+
+/// Supported distortion coefficients: `|k1| ≤ 10`, `|k2| ≤ 100`.
+pub const K_RANGE: (f64, f64) = (10.0, 100.0);
+/// Most entries a [`Lut`] holds.
+pub const MAX_LUT: usize = 1024;
+
+/// A normalized point lies outside the lens field: beyond the fold radius,
+/// no distorted position images it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OutsideLensField;
+
+/// Validated radial distortion coefficients.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Distortion {
+    k1: Norm,
+    k2: Norm,
+    /// `u = r_d²` of the fold, if the lens folds at all.
+    fold_u: Option<Norm>,
+}
+
+impl Distortion {
+    /// No distortion.
+    pub const NONE: Distortion = Distortion {
+        k1: Norm::ZERO,
+        k2: Norm::ZERO,
+        fold_u: None,
+    };
+
+    /// From `k1`, `k2` (dimensionless, normalized coordinates), each finite
+    /// and within [`K_RANGE`].
+    pub fn new(k1: f64, k2: f64) -> Result<Self, Error> {
+        for (k, max) in [(k1, K_RANGE.0), (k2, K_RANGE.1)] {
+            if !k.is_finite() {
+                return Err(Error::NotFinite(Field::Distortion));
+            }
+            if k.abs() > max {
+                return Err(Error::OutOfRange(Field::Distortion));
+            }
+        }
+        let k1f = Norm::from_num(k1);
+        let k2f = Norm::from_num(k2);
+        // The fold from the stored (rounded) coefficients, so that every user
+        // of this value agrees with the LUT built from them.
+        let (a, b) = (3.0 * k1f.to_num::<f64>(), 5.0 * k2f.to_num::<f64>());
+        let fold = smallest_positive_root(b, a, 1.0);
+        Ok(Distortion {
+            k1: k1f,
+            k2: k2f,
+            fold_u: match fold {
+                Some(u) => Some(Norm::checked_from_num(u).unwrap_or(Norm::MAX)),
+                None => None,
+            },
+        })
+    }
+
+    /// True when `k1 = k2 = 0`: the stage can be left out.
+    pub fn is_none(&self) -> bool {
+        self.k1 == Norm::ZERO && self.k2 == Norm::ZERO
+    }
+
+    /// `(k1, k2)` as stored.
+    pub fn coefficients(&self) -> (Norm, Norm) {
+        (self.k1, self.k2)
+    }
+
+    /// The fold radius `r_d` (normalized), if the lens folds.
+    pub fn fold_radius(&self) -> Option<Norm> {
+        self.fold_u.map(|u| {
+            let r = I32F32::from_num(u).checked_sqrt().unwrap_or(I32F32::MAX);
+            Norm::saturating_from_num(r)
+        })
+    }
+
+    /// `u = r_d²` at the fold, if any.
+    pub fn fold_u(&self) -> Option<Norm> {
+        self.fold_u
+    }
+
+    /// `g(u) = 1 + k1 u + k2 u²` in wide arithmetic.
+    fn g_wide(&self, u: Wide) -> Wide {
+        Wide::int(1)
+            .add(Wide::of(self.k1).mul(u))
+            .add(Wide::of(self.k2).mul(u).mul(u))
+    }
+
+    /// Distorted → undistorted by the polynomial (per point; the renderer uses
+    /// the [`Lut`]). [`OutsideLensField`] beyond the fold radius.
+    pub fn undistort(&self, p: NormPoint) -> Result<Sat<NormPoint>, OutsideLensField> {
+        let (x, y) = (Wide::of(p.x), Wide::of(p.y));
+        let u = x.mul(x).add(y.mul(y));
+        if let Some(f) = self.fold_u {
+            if u.compare(Wide::of(f)) == core::cmp::Ordering::Greater {
+                return Err(OutsideLensField);
+            }
+        }
+        let g = self.g_wide(u);
+        Ok(x.mul(g)
+            .narrow::<Norm>()
+            .zip(y.mul(g).narrow::<Norm>())
+            .map(|(x, y)| NormPoint { x, y }))
+    }
+
+    /// Undistorted → distorted: solves `r_u = r_d g(r_d²)` on the monotonic
+    /// branch by bisection (60 halvings of a bracket, so the result is within
+    /// 2⁻⁴⁸ of the root), and scales the point by `r_d / r_u`.
+    ///
+    /// [`OutsideLensField`] when `r_u` lies beyond the image of the fold
+    /// radius (no distorted position maps there on the monotonic branch).
+    pub fn distort(&self, p: NormPoint) -> Result<Sat<NormPoint>, OutsideLensField> {
+        let (x, y) = (Wide::of(p.x), Wide::of(p.y));
+        let ru2 = x.mul(x).add(y.mul(y));
+        if ru2.is_zero() {
+            return Ok(Sat::exact(p));
+        }
+        let ru = wide_sqrt(ru2);
+        let h = |rd: Wide| rd.mul(self.g_wide(rd.mul(rd)));
+        // Upper end of the bracket: the fold, or, without a fold, a radius
+        // where h(r) ≥ r_u (h grows without bound then, since g > 0 has no
+        // root and is a polynomial of positive leading behaviour).
+        let mut hi = match self.fold_u {
+            Some(f) => wide_sqrt(Wide::of(f)),
+            None => {
+                let mut r = ru.max_of(Wide::int(1));
+                let mut n = 0;
+                while h(r).compare(ru) == core::cmp::Ordering::Less {
+                    r = r.mul(Wide::int(2));
+                    n += 1;
+                    if n > 64 {
+                        return Err(OutsideLensField);
+                    }
+                }
+                r
+            }
+        };
+        if h(hi).compare(ru) == core::cmp::Ordering::Less {
+            return Err(OutsideLensField);
+        }
+        let mut lo = Wide::ZERO;
+        let half = Wide::of(Norm::from_bits(1 << 47)); // 0.5
+        for _ in 0..60 {
+            let mid = lo.add(hi).mul(half);
+            if h(mid).compare(ru) == core::cmp::Ordering::Less {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let rd = lo.add(hi).mul(half);
+        let px = quotient::<Norm>(x.mul(rd), ru);
+        let py = quotient::<Norm>(y.mul(rd), ru);
+        Ok(px.zip(py).map(|(x, y)| NormPoint { x, y }))
+    }
+
+    /// Builds the renderer's table over `u ∈ [0, u_max]` with `entries`
+    /// entries (2 to [`MAX_LUT`]).
+    pub fn lut(&self, u_max: I32F32, entries: usize) -> Lut {
+        let n = entries.clamp(2, MAX_LUT);
+        let u_max = if u_max > I32F32::ZERO { u_max } else { I32F32::DELTA };
+        let mut table = heapless::Vec::new();
+        let step = quotient::<Norm>(Wide::of(u_max), Wide::int(n as i64 - 1)).value;
+        for i in 0..n {
+            let u = Wide::of(step).mul(Wide::int(i as i64));
+            let g = self.g_wide(u).narrow::<I4F28>().value;
+            // n ≤ MAX_LUT = capacity, so the push cannot fail.
+            let _ = table.push(g);
+        }
+        Lut {
+            u_max,
+            scale: quotient::<I32F32>(Wide::int(n as i64 - 1), Wide::of(u_max)).value,
+            table,
+        }
+    }
+
+    /// The largest error of linear interpolation in `g` for a table of
+    /// `entries` over `[0, u_max]`: `|k2| h² / 4`, `h = u_max / (entries − 1)`.
+    pub fn lut_interp_error(&self, u_max: f64, entries: usize) -> f64 {
+        let h = u_max / (entries.max(2) - 1) as f64;
+        self.k2.to_num::<f64>().abs() * h * h / 4.0
+    }
+}
+
+/// The smallest positive root of `a u² + b u + c`, if any (c > 0 here).
+fn smallest_positive_root(a: f64, b: f64, c: f64) -> Option<f64> {
+    if a == 0.0 {
+        return if b < 0.0 { Some(-c / b) } else { None };
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let s = libm::sqrt(disc);
+    // Numerically stable pair of roots.
+    let q = -0.5 * (b + if b >= 0.0 { s } else { -s });
+    let r1 = q / a;
+    let r2 = if q != 0.0 { c / q } else { f64::INFINITY };
+    [r1, r2]
+        .into_iter()
+        .filter(|r| *r > 0.0 && r.is_finite())
+        .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.min(r))))
+}
+
+/// Square root of a non-negative wide value (integer Newton iteration on the
+/// mantissa via `u128::isqrt`).
+fn wide_sqrt(x: Wide) -> Wide {
+    // Narrow to 64.64 (x is a squared normalized radius, far below 2^63) and
+    // take the integer square root: sqrt(raw·2^-64) = isqrt(raw)·2^-32.
+    let raw = x.narrow::<I64F64>().value.to_bits();
+    if raw <= 0 {
+        return Wide::ZERO;
+    }
+    let root = (raw as u128).isqrt() << 32; // sqrt(raw·2^-64)·2^64 = isqrt(raw)·2^32
+    Wide::of(I64F64::from_bits(root as i128))
+}
+
+
+/// A table of `g(u)` over `u ∈ [0, u_max]`, for the per-pixel path.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Lut {
+    u_max: I32F32,
+    /// `(entries − 1) / u_max`.
+    scale: I32F32,
+    table: heapless::Vec<I4F28, MAX_LUT>,
+}
+
+impl Lut {
+    /// Entries in the table.
+    pub fn len(&self) -> usize {
+        self.table.len()
+    }
+
+    /// Never empty (at least 2 entries).
+    pub fn is_empty(&self) -> bool {
+        self.table.is_empty()
+    }
+
+    /// Bytes the table occupies.
+    pub fn bytes(&self) -> usize {
+        self.table.len() * core::mem::size_of::<I4F28>()
+    }
+
+    /// The `u` the table covers up to.
+    pub fn u_max(&self) -> I32F32 {
+        self.u_max
+    }
+
+    /// `g(u)` by linear interpolation; `u` beyond the table is clamped to its
+    /// last interval (extrapolated linearly).
+    #[inline]
+    pub fn g(&self, u: I32F32) -> I32F32 {
+        let pos = u.saturating_mul(self.scale);
+        let last = self.table.len().saturating_sub(2);
+        let i = (pos.to_num::<i64>().max(0) as usize).min(last);
+        let frac = pos - I32F32::from_num(i);
+        let (a, b) = match (self.table.get(i), self.table.get(i + 1)) {
+            (Some(a), Some(b)) => (I32F32::from_num(*a), I32F32::from_num(*b)),
+            _ => return I32F32::ONE,
+        };
+        a + (b - a).saturating_mul(frac)
+    }
+}
