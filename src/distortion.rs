@@ -177,7 +177,11 @@ impl Distortion {
     /// entries (2 to [`MAX_LUT`]).
     pub fn lut(&self, u_max: I32F32, entries: usize) -> Lut {
         let n = entries.clamp(2, MAX_LUT);
-        let u_max = if u_max > I32F32::ZERO { u_max } else { I32F32::DELTA };
+        let u_max = if u_max > I32F32::ZERO {
+            u_max
+        } else {
+            I32F32::DELTA
+        };
         let mut table = heapless::Vec::new();
         let step = quotient::<Norm>(Wide::of(u_max), Wide::int(n as i64 - 1)).value;
         for i in 0..n {
@@ -233,7 +237,6 @@ fn wide_sqrt(x: Wide) -> Wide {
     let root = (raw as u128).isqrt() << 32; // sqrt(raw·2^-64)·2^64 = isqrt(raw)·2^32
     Wide::of(I64F64::from_bits(root as i128))
 }
-
 
 /// A table of `g(u)` over `u ∈ [0, u_max]`, for the per-pixel path.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -85,7 +85,12 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         let (w, h) = intr.size();
         let (ox, oy) = intr.principal_point();
         let mut u_corner: f64 = 0.0;
-        for (i, j) in [(0.0, 0.0), (w as f64 - 1.0, 0.0), (0.0, h as f64 - 1.0), (w as f64 - 1.0, h as f64 - 1.0)] {
+        for (i, j) in [
+            (0.0, 0.0),
+            (w as f64 - 1.0, 0.0),
+            (0.0, h as f64 - 1.0),
+            (w as f64 - 1.0, h as f64 - 1.0),
+        ] {
             let xd = (ox.to_num::<f64>() - i) / fx.to_num::<f64>();
             let yd = (oy.to_num::<f64>() - j) / fy.to_num::<f64>();
             u_corner = u_corner.max(xd * xd + yd * yd);
@@ -110,8 +115,10 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         .max()
         .unwrap_or(255) as f64;
     let arith = dn_max * ARITH_REL;
-    let wp_used = matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
-    let meets = geom <= half && arith + 0.5 <= budget.max_lsb && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
+    let wp_used =
+        matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
+    let meets =
+        geom <= half && arith + 0.5 <= budget.max_lsb && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
     Plan {
         options: Options {
             model,
@@ -140,20 +147,54 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
         }
     };
     let cam_pt = |p: crate::WorldPoint| ext.world_to_camera(p).value.to_f64();
+    let cam_dir = |d: [crate::Norm; 3]| {
+        let r = ext.rotation();
+        r.map(|row| {
+            (0..3)
+                .map(|k| {
+                    row.get(k)
+                        .zip(d.get(k))
+                        .map_or(0.0, |(a, b)| a.to_num::<f64>() * b.to_num::<f64>())
+                })
+                .sum::<f64>()
+        })
+    };
     for prim in &scene.primitives {
-        let (centre, r) = match prim.shape {
+        match prim.shape {
             Shape::Plane { .. } => return None,
-            Shape::Sphere { centre, radius } => (centre, radius.to_num::<f64>()),
-            Shape::Disc { centre, radius, .. } => (centre, radius.to_num::<f64>()),
-            Shape::Rectangle { centre, half, .. } => {
-                let (a, b) = (half[0].to_num::<f64>(), half[1].to_num::<f64>());
-                (centre, libm::sqrt(a * a + b * b))
+            Shape::Sphere { centre, radius } => {
+                let (c, r) = (cam_pt(centre), radius.to_num::<f64>());
+                grow([c[0] - r, c[1] - r, c[2] - r]);
+                grow([c[0] + r, c[1] + r, c[2] + r]);
             }
-        };
-        // A sphere of radius r around the primitive bounds it in any frame.
-        let c = cam_pt(centre);
-        grow([c[0] - r, c[1] - r, c[2] - r]);
-        grow([c[0] + r, c[1] + r, c[2] + r]);
+            Shape::Disc {
+                centre,
+                normal,
+                radius,
+            } => {
+                // Extent of a disc along axis k: r·sqrt(1 − n_k²).
+                let (c, n, r) = (cam_pt(centre), cam_dir(normal), radius.to_num::<f64>());
+                let e = n.map(|nk| r * libm::sqrt((1.0 - nk * nk).max(0.0)));
+                grow([c[0] - e[0], c[1] - e[1], c[2] - e[2]]);
+                grow([c[0] + e[0], c[1] + e[1], c[2] + e[2]]);
+            }
+            Shape::Rectangle {
+                centre,
+                u_axis,
+                v_axis,
+                half,
+            } => {
+                let (c, u, v) = (cam_pt(centre), cam_dir(u_axis), cam_dir(v_axis));
+                let (a, b) = (half[0].to_num::<f64>(), half[1].to_num::<f64>());
+                for (su, sv) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
+                    grow([
+                        c[0] + su * a * u[0] + sv * b * v[0],
+                        c[1] + su * a * u[1] + sv * b * v[1],
+                        c[2] + su * a * u[2] + sv * b * v[2],
+                    ]);
+                }
+            }
+        }
     }
     if scene.primitives.is_empty() || lo[2] <= 0.0 {
         return None;

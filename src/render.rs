@@ -164,7 +164,11 @@ fn sub3(a: V3, b: V3) -> V3 {
 }
 #[inline(always)]
 fn axpy(t: Q, d: V3, o: V3) -> V3 {
-    [add(o[0], mul(t, d[0])), add(o[1], mul(t, d[1])), add(o[2], mul(t, d[2]))]
+    [
+        add(o[0], mul(t, d[0])),
+        add(o[1], mul(t, d[1])),
+        add(o[2], mul(t, d[2])),
+    ]
 }
 #[inline(always)]
 fn scale3(t: Q, d: V3) -> V3 {
@@ -175,10 +179,30 @@ fn scale3(t: Q, d: V3) -> V3 {
 #[derive(Clone, Copy, Debug)]
 enum CamShape {
     /// `n̂·P = dist`.
-    Plane { n: V3, dist: Q },
-    Sphere { c: V3, r2: Q, inv_r: Q },
-    Disc { n: V3, dist: Q, c: V3, r2: Q },
-    Rect { n: V3, dist: Q, c: V3, u: V3, v: V3, hu: Q, hv: Q },
+    Plane {
+        n: V3,
+        dist: Q,
+    },
+    Sphere {
+        c: V3,
+        r2: Q,
+        inv_r: Q,
+    },
+    Disc {
+        n: V3,
+        dist: Q,
+        c: V3,
+        r2: Q,
+    },
+    Rect {
+        n: V3,
+        dist: Q,
+        c: V3,
+        u: V3,
+        v: V3,
+        hu: Q,
+        hv: Q,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -233,8 +257,9 @@ pub struct Frame {
     lights: heapless::Vec<CamLight, { crate::scene::MAX_LIGHTS }>,
     materials: [CamMaterial; crate::scene::MAX_MATERIALS],
     background: V3,
-    /// `K π/4 (d/f)²`: DN per unit radiance on the axis.
-    gain: Q,
+    /// `K π/4 (d/f)²` per channel (with the channel's full-scale factor):
+    /// DN per unit radiance on the axis.
+    gain: V3,
 }
 
 fn q(w: Wide) -> Q {
@@ -249,9 +274,12 @@ fn v3_world_to_cam(scene: &Scene, p: crate::frame::WorldPoint) -> V3 {
 /// Rotates a world direction into the camera frame (`R d`).
 fn dir_to_cam(scene: &Scene, d: [Norm; 3]) -> V3 {
     let r = scene.camera.extrinsics.rotation();
-    r.map(|row| q(Wide::of(row[0]).mul(Wide::of(d[0]))
-        .add(Wide::of(row[1]).mul(Wide::of(d[1])))
-        .add(Wide::of(row[2]).mul(Wide::of(d[2])))))
+    r.map(|row| {
+        q(Wide::of(row[0])
+            .mul(Wide::of(d[0]))
+            .add(Wide::of(row[1]).mul(Wide::of(d[1])))
+            .add(Wide::of(row[2]).mul(Wide::of(d[2]))))
+    })
 }
 
 impl Frame {
@@ -286,7 +314,7 @@ impl Frame {
             lights: heapless::Vec::new(),
             materials: [CamMaterial::default(); crate::scene::MAX_MATERIALS],
             background: scene.background,
-            gain: Q::ZERO,
+            gain: [Q::ZERO; 3],
         };
         // Distortion: table over [0, u_max], u_max = min(fold, corner maximum).
         if !scene.distortion.is_none() {
@@ -316,11 +344,9 @@ impl Frame {
         frame.k_origin = match opts.model {
             RenderModel::Perspective => Q::ZERO,
             RenderModel::WeakPerspective { mean_depth } => Q::from_num(mean_depth),
-            RenderModel::Orthographic { scale } => {
-                q(Wide::of(intr.focal_length())
-                    .checked_div(Wide::of(scale))
-                    .ok_or(RenderError::Degenerate)?)
-            }
+            RenderModel::Orthographic { scale } => q(Wide::of(intr.focal_length())
+                .checked_div(Wide::of(scale))
+                .ok_or(RenderError::Degenerate)?),
         };
         // Constants: gain = K π/4 (d/f)².
         let lens = &scene.camera.lens;
@@ -328,14 +354,20 @@ impl Frame {
         let dof = Wide::of(lens.diameter())
             .checked_div(Wide::of(lens.focal_length()))
             .ok_or(RenderError::Degenerate)?;
-        frame.gain = quotient::<Q>(Wide::of(scene.exposure).mul(pi).mul(dof).mul(dof), Wide::int(4)).value;
+        let base = Wide::of(scene.exposure).mul(pi).mul(dof).mul(dof);
+        for (c, g) in frame.gain.iter_mut().enumerate() {
+            let (num, den) = scene.format.channel_scale(c);
+            *g = quotient::<Q>(base.mul(Wide::int(num as i64)), Wide::int(4 * den as i64)).value;
+        }
         for (m, dst) in scene.materials.iter().zip(frame.materials.iter_mut()) {
             let n = Wide::of(m.mix);
             let ns = Wide::int(1).sub(n);
             let lobe = Wide::int(m.exponent as i64 + 2);
             for c in 0..3 {
                 let (rho, rhos, amb) = (m.albedo[c], m.specular[c], scene.ambient[c]);
-                if let (Some(kd), Some(ks), Some(ka)) = (dst.kd.get_mut(c), dst.ks.get_mut(c), dst.ka.get_mut(c)) {
+                if let (Some(kd), Some(ks), Some(ka)) =
+                    (dst.kd.get_mut(c), dst.ks.get_mut(c), dst.ka.get_mut(c))
+                {
                     *kd = quotient::<Q>(n.mul(Wide::of(rho)), pi).value;
                     *ks = quotient::<Q>(ns.mul(Wide::of(rhos)).mul(lobe), pi.mul(Wide::int(2))).value;
                     *ka = q(Wide::of(rho).mul(Wide::of(amb)));
@@ -464,7 +496,11 @@ impl Frame {
         let yd = self.yd(j);
         let mut acc = self.x0;
         let half = Q::from_bits(1 << 31);
-        for (out, flag) in pixels.chunks_exact_mut(bpp).zip(flags.iter_mut()).take(self.width as usize) {
+        for (out, flag) in pixels
+            .chunks_exact_mut(bpp)
+            .zip(flags.iter_mut())
+            .take(self.width as usize)
+        {
             let xd = Q::from_bits((acc >> 32) as i64);
             acc -= self.dx;
             let (x, y) = if DIST {
@@ -486,7 +522,10 @@ impl Frame {
             let (o, d) = if PERSP {
                 ([Q::ZERO; 3], [x, y, Q::ONE])
             } else {
-                ([mul(x, self.k_origin), mul(y, self.k_origin), Q::ZERO], [Q::ZERO, Q::ZERO, Q::ONE])
+                (
+                    [mul(x, self.k_origin), mul(y, self.k_origin), Q::ZERO],
+                    [Q::ZERO, Q::ZERO, Q::ONE],
+                )
             };
             let radiance = self.trace::<SPEC, PERSP>(o, d);
             let cos4 = if VIG {
@@ -497,8 +536,10 @@ impl Frame {
             };
             let mut dn = [0u32; 3];
             for (c, dst) in dn.iter_mut().enumerate().take(channels) {
-                let l = radiance.get(c).copied().unwrap_or(Q::ZERO);
-                let value = add(mul(mul(self.gain, l), cos4), half);
+                let (Some(l), Some(g)) = (radiance.get(c), self.gain.get(c)) else {
+                    continue;
+                };
+                let value = add(mul(mul(*g, *l), cos4), half);
                 let max = self.format.dn_max(c);
                 *dst = value.to_num::<i64>().clamp(0, max as i64) as u32;
             }
@@ -557,7 +598,9 @@ impl Frame {
                     let lv = sub3(p, point);
                     let r2 = dot(lv, lv);
                     let Some(r) = r2.checked_sqrt() else { continue };
-                    let Some(inv_r) = Q::ONE.checked_div(r) else { continue };
+                    let Some(inv_r) = Q::ONE.checked_div(r) else {
+                        continue;
+                    };
                     let ldir = scale3(inv_r, lv);
                     let cos = dot(normal, ldir);
                     if cos <= Q::ZERO {
@@ -583,7 +626,8 @@ impl Frame {
                 Q::ZERO
             };
             for c in 0..3 {
-                let (Some(kd), Some(ks), Some(ec), Some(lc)) = (mat.kd.get(c), mat.ks.get(c), e.get(c), l.get_mut(c))
+                let (Some(kd), Some(ks), Some(ec), Some(lc)) =
+                    (mat.kd.get(c), mat.ks.get(c), e.get(c), l.get_mut(c))
                 else {
                     continue;
                 };
@@ -670,7 +714,11 @@ fn intersect<const PERSP: bool>(s: &CamShape, o: V3, d: V3) -> Option<(Q, V3)> {
 #[inline(always)]
 fn plane_t<const PERSP: bool>(n: V3, dist: Q, o: V3, d: V3) -> Option<Q> {
     let denom = if PERSP { dot(n, d) } else { n[2] };
-    let num = if PERSP { dist } else { sub(dist, add(mul(n[0], o[0]), mul(n[1], o[1]))) };
+    let num = if PERSP {
+        dist
+    } else {
+        sub(dist, add(mul(n[0], o[0]), mul(n[1], o[1])))
+    };
     let t = num.checked_div(denom)?;
     (t > Q::ZERO).then_some(t)
 }
@@ -695,7 +743,11 @@ fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim {
                 c,
             )
         }
-        Shape::Disc { centre, normal, radius } => {
+        Shape::Disc {
+            centre,
+            normal,
+            radius,
+        } => {
             let n = to_q3(normal);
             let c = v3_world_to_cam(scene, centre);
             (

@@ -83,6 +83,15 @@ impl PixelFormat {
         }
     }
 
+    /// The exposure scale of channel `c` relative to channel 0: `K` is given
+    /// in DN of the first channel, and a channel with more bits (RGB565's
+    /// 6-bit green) scales it by `dn_max(c) / dn_max(0)`, so that equal
+    /// irradiance fills equal fractions of every channel. Returned as
+    /// `(numerator, denominator)`.
+    pub const fn channel_scale(self, c: usize) -> (u32, u32) {
+        (self.dn_max(c), self.dn_max(0))
+    }
+
     /// Name as the scene format spells it.
     pub const fn name(self) -> &'static str {
         match self {
@@ -355,7 +364,11 @@ impl Check {
     }
 
     fn colour(&self, field: &'static str, c: [f64; 3], hi: f64) -> Result<[Q; 3], SceneError> {
-        Ok([self.q(field, c[0], 0.0, hi)?, self.q(field, c[1], 0.0, hi)?, self.q(field, c[2], 0.0, hi)?])
+        Ok([
+            self.q(field, c[0], 0.0, hi)?,
+            self.q(field, c[1], 0.0, hi)?,
+            self.q(field, c[2], 0.0, hi)?,
+        ])
     }
 }
 
@@ -364,7 +377,11 @@ fn norm3(v: [f64; 3]) -> [Norm; 3] {
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// A checker texture as given: cell size and the `u` direction (projected
@@ -595,7 +612,11 @@ impl Scene {
 
     /// Adds a directional light: `towards` points to the light; irradiance
     /// per channel (W/m²).
-    pub fn add_directional_light(&mut self, towards: [f64; 3], irradiance: [f64; 3]) -> Result<u8, SceneError> {
+    pub fn add_directional_light(
+        &mut self,
+        towards: [f64; 3],
+        irradiance: [f64; 3],
+    ) -> Result<u8, SceneError> {
         let i = self.lights.len() as u8;
         let c = Check { item: Item::Light(i) };
         let l = Light::Directional {

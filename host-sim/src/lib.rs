@@ -8,3 +8,5 @@
 
 pub mod demo;
 pub mod reference;
+pub mod render_cmd;
+pub mod scene_file;

@@ -1,9 +1,13 @@
 //! f64 reference models, one module per stage of the core.
 
+pub mod distortion;
 pub mod extrinsics;
 pub mod intrinsics;
 pub mod lens;
 pub mod projection;
+pub mod render;
+pub mod shading;
+pub mod vignetting;
 
 /// A 3-vector.
 pub type V3 = [f64; 3];

@@ -1,0 +1,449 @@
+//! Reference renderer (camera-model.md §3, §5, §6, §7), in f64.
+//!
+//! Built from the same parsed scene file as the core, but independently: the
+//! ray of each pixel is taken into the world frame and intersected there
+//! (the core moves the scene into the camera frame instead), distortion is
+//! the polynomial itself (the core uses a table), and the scene's declared
+//! camera model is used (the core may render an approximation the planner
+//! chose).
+
+use super::distortion::Radial;
+use super::extrinsics::Pose;
+use super::intrinsics::Sensor;
+use super::shading::{self, Light, Material};
+use super::vignetting;
+use super::{cross, dot, unit, V3};
+use crate::scene_file::{LightDesc, Pose as PoseSpec, Resolved};
+use hilcam::scene::{PixelFormat, ShapeSpec};
+
+/// A shape in the world frame.
+#[derive(Clone, Copy, Debug)]
+enum Shape {
+    Plane {
+        p: V3,
+        n: V3,
+    },
+    Sphere {
+        c: V3,
+        r: f64,
+    },
+    Disc {
+        c: V3,
+        n: V3,
+        r: f64,
+    },
+    Rect {
+        c: V3,
+        n: V3,
+        u: V3,
+        v: V3,
+        hu: f64,
+        hv: f64,
+    },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Checker {
+    origin: V3,
+    u: V3,
+    v: V3,
+    cell: f64,
+    material: usize,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Prim {
+    shape: Shape,
+    material: usize,
+    checker: Option<Checker>,
+}
+
+/// The camera's model as declared by the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RefModel {
+    /// Perspective.
+    Perspective,
+    /// Orthographic with scale `m`.
+    Orthographic(f64),
+}
+
+/// What a ray sees, for edge detection: in the lens field, and which
+/// primitive and texture cell it hits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Key {
+    /// Inside the lens field.
+    pub in_field: bool,
+    /// Primitive index hit, if any.
+    pub prim: Option<usize>,
+    /// Texture cell, if the primitive is textured.
+    pub cell: Option<(i64, i64)>,
+}
+
+/// A scene in f64.
+#[derive(Clone, Debug)]
+pub struct RefScene {
+    /// Sensor.
+    pub sensor: Sensor,
+    pose: Pose,
+    /// Declared model.
+    pub model: RefModel,
+    radial: Option<Radial>,
+    materials: Vec<Material>,
+    prims: Vec<Prim>,
+    lights: Vec<Light>,
+    ambient: [f64; 3],
+    background: [f64; 3],
+    exposure: f64,
+    aperture: f64,
+    /// Output format.
+    pub format: PixelFormat,
+}
+
+/// A rendered reference frame.
+#[derive(Clone, Debug)]
+pub struct RefFrame {
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+    /// Pixel values per channel (unused channels 0), row-major.
+    pub dn: Vec<[u32; 3]>,
+    /// Inside the lens field.
+    pub in_field: Vec<bool>,
+    /// Edge pixels: a 1/256 px move of the centre changes the key.
+    pub edge: Vec<bool>,
+    /// Undistorted normalized point of each pixel (None outside the field).
+    pub undistorted: Vec<Option<(f64, f64)>>,
+}
+
+fn in_plane_axes(n: V3, u: V3) -> (V3, V3) {
+    let u = unit(u);
+    let d = dot(u, n);
+    let u = unit([u[0] - d * n[0], u[1] - d * n[1], u[2] - d * n[2]]);
+    (u, cross(n, u))
+}
+
+fn sub(a: V3, b: V3) -> V3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn at(o: V3, d: V3, t: f64) -> V3 {
+    [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]]
+}
+
+impl RefScene {
+    /// From a parsed scene file.
+    pub fn new(r: &Resolved) -> RefScene {
+        let c = &r.desc.camera;
+        let (sx, sy) = match c.pitch {
+            crate::scene_file::Pair::One(v) => (v, v),
+            crate::scene_file::Pair::Two([a, b]) => (a, b),
+        };
+        let mut sensor = Sensor::centred(c.focal_length, sx, sy, c.width as u32, c.height as u32);
+        if let Some([ox, oy]) = c.principal_point {
+            sensor.ox = ox;
+            sensor.oy = oy;
+        }
+        let pose = match r.pose {
+            PoseSpec::LookAt { eye, target, up } => Pose::look_at(eye, target, up),
+            PoseSpec::Ypr { position, angles } => {
+                Pose::from_yaw_pitch_roll(angles[0], angles[1], angles[2], position)
+            }
+            PoseSpec::Matrix { position, rotation } => Pose {
+                r: rotation,
+                t: position,
+            },
+        };
+        let model = match c.orthographic_scale {
+            Some(m) if c.model == "orthographic" => RefModel::Orthographic(m),
+            _ => RefModel::Perspective,
+        };
+        let radial = c.distortion.map(|[k1, k2]| Radial { k1, k2 });
+        let materials = r
+            .desc
+            .materials
+            .iter()
+            .map(|m| Material {
+                albedo: m.albedo.rgb(),
+                specular: m.specular.rgb(),
+                mix: m.mix,
+                exponent: m.exponent,
+            })
+            .collect();
+        let prims = r
+            .primitives
+            .iter()
+            .map(|p| {
+                let (shape, plane) = match p.shape {
+                    ShapeSpec::Plane { point, normal } => {
+                        let n = unit(normal);
+                        (Shape::Plane { p: point, n }, Some((point, n)))
+                    }
+                    ShapeSpec::Sphere { centre, radius } => (Shape::Sphere { c: centre, r: radius }, None),
+                    ShapeSpec::Disc {
+                        centre,
+                        normal,
+                        radius,
+                    } => {
+                        let n = unit(normal);
+                        (
+                            Shape::Disc {
+                                c: centre,
+                                n,
+                                r: radius,
+                            },
+                            Some((centre, n)),
+                        )
+                    }
+                    ShapeSpec::Rectangle {
+                        centre,
+                        normal,
+                        u_axis,
+                        size,
+                    } => {
+                        let n = unit(normal);
+                        let (u, v) = in_plane_axes(n, u_axis);
+                        (
+                            Shape::Rect {
+                                c: centre,
+                                n,
+                                u,
+                                v,
+                                hu: size[0] / 2.0,
+                                hv: size[1] / 2.0,
+                            },
+                            Some((centre, n)),
+                        )
+                    }
+                };
+                let checker = match (p.checker, plane) {
+                    (Some((cell, u_axis, material)), Some((origin, n))) => {
+                        let (u, v) = in_plane_axes(n, u_axis);
+                        Some(Checker {
+                            origin,
+                            u,
+                            v,
+                            cell,
+                            material,
+                        })
+                    }
+                    _ => None,
+                };
+                Prim {
+                    shape,
+                    material: p.material,
+                    checker,
+                }
+            })
+            .collect();
+        let lights = r
+            .desc
+            .lights
+            .iter()
+            .map(|l| match l {
+                LightDesc::Point { position, intensity } => Light::Point {
+                    position: *position,
+                    intensity: intensity.rgb(),
+                },
+                LightDesc::Directional {
+                    direction,
+                    irradiance,
+                } => Light::Directional {
+                    towards: unit(*direction),
+                    irradiance: irradiance.rgb(),
+                },
+            })
+            .collect();
+        RefScene {
+            sensor,
+            pose,
+            model,
+            radial,
+            materials,
+            prims,
+            lights,
+            ambient: r.desc.environment.ambient.rgb(),
+            background: r.desc.environment.background.rgb(),
+            exposure: r.desc.output.exposure,
+            aperture: r.aperture_diameter(),
+            format: r.format,
+        }
+    }
+
+    /// Pixel position → undistorted normalized point; `None` outside the
+    /// lens field.
+    pub fn undistorted(&self, xi: f64, yi: f64) -> Option<(f64, f64)> {
+        let (xd, yd) = self.sensor.pixel_to_normalized(xi, yi);
+        match self.radial {
+            Some(r) => r.undistort(xd, yd),
+            None => Some((xd, yd)),
+        }
+    }
+
+    /// The world-frame ray of an undistorted normalized point.
+    fn ray(&self, x: f64, y: f64) -> (V3, V3) {
+        let (o, d) = match self.model {
+            RefModel::Perspective => ([0.0; 3], [x, y, 1.0]),
+            RefModel::Orthographic(m) => {
+                let f = self.sensor.f;
+                ([x * f / m, y * f / m, 0.0], [0.0, 0.0, 1.0])
+            }
+        };
+        let ow = self.pose.camera_to_world(o);
+        let dw = sub(self.pose.camera_to_world(d), self.pose.t);
+        (ow, dw)
+    }
+
+    /// Nearest hit `t > 0`: (t, primitive index, unit normal).
+    fn hit(&self, o: V3, d: V3) -> Option<(f64, usize, V3)> {
+        let mut best: Option<(f64, usize, V3)> = None;
+        for (i, p) in self.prims.iter().enumerate() {
+            let h = match p.shape {
+                Shape::Plane { p, n } => plane(o, d, p, n).map(|t| (t, n)),
+                Shape::Disc { c, n, r } => plane(o, d, c, n).and_then(|t| {
+                    let q = sub(at(o, d, t), c);
+                    (dot(q, q) <= r * r).then_some((t, n))
+                }),
+                Shape::Rect { c, n, u, v, hu, hv } => plane(o, d, c, n).and_then(|t| {
+                    let q = sub(at(o, d, t), c);
+                    (dot(q, u).abs() <= hu && dot(q, v).abs() <= hv).then_some((t, n))
+                }),
+                Shape::Sphere { c, r } => {
+                    let oc = sub(o, c);
+                    let a = dot(d, d);
+                    let b = dot(oc, d);
+                    let cc = dot(oc, oc) - r * r;
+                    let disc = b * b - a * cc;
+                    if disc < 0.0 {
+                        None
+                    } else {
+                        let s = disc.sqrt();
+                        [(-b - s) / a, (-b + s) / a]
+                            .into_iter()
+                            .find(|t| *t > 0.0)
+                            .map(|t| {
+                                let q = sub(at(o, d, t), c);
+                                (t, [q[0] / r, q[1] / r, q[2] / r])
+                            })
+                    }
+                }
+            };
+            if let Some((t, n)) = h {
+                if best.is_none_or(|(bt, _, _)| t < bt) {
+                    best = Some((t, i, n));
+                }
+            }
+        }
+        best
+    }
+
+    fn cell(&self, prim: usize, p: V3) -> Option<(i64, i64)> {
+        let c = self.prims[prim].checker?;
+        let q = sub(p, c.origin);
+        Some((
+            (dot(q, c.u) / c.cell).floor() as i64,
+            (dot(q, c.v) / c.cell).floor() as i64,
+        ))
+    }
+
+    /// What the ray through pixel position `(xi, yi)` sees.
+    pub fn key(&self, xi: f64, yi: f64) -> Key {
+        let Some((x, y)) = self.undistorted(xi, yi) else {
+            return Key {
+                in_field: false,
+                prim: None,
+                cell: None,
+            };
+        };
+        let (o, d) = self.ray(x, y);
+        match self.hit(o, d) {
+            None => Key {
+                in_field: true,
+                prim: None,
+                cell: None,
+            },
+            Some((t, i, _)) => Key {
+                in_field: true,
+                prim: Some(i),
+                cell: self.cell(i, at(o, d, t)),
+            },
+        }
+    }
+
+    /// Pixel values of pixel position `(xi, yi)` per channel, and whether it
+    /// is in the lens field.
+    pub fn pixel(&self, xi: f64, yi: f64) -> ([u32; 3], bool) {
+        let Some((x, y)) = self.undistorted(xi, yi) else {
+            return ([0; 3], false);
+        };
+        let (o, d) = self.ray(x, y);
+        let radiance = match self.hit(o, d) {
+            None => self.background,
+            Some((t, i, n)) => {
+                let p = at(o, d, t);
+                let mut m = self.prims[i].material;
+                if let (Some(c), Some((cu, cv))) = (self.prims[i].checker, self.cell(i, p)) {
+                    if (cu + cv).rem_euclid(2) == 1 {
+                        m = c.material;
+                    }
+                }
+                let n = if dot(n, d) > 0.0 { [-n[0], -n[1], -n[2]] } else { n };
+                let dl = dot(d, d).sqrt();
+                let v = [-d[0] / dl, -d[1] / dl, -d[2] / dl];
+                shading::radiance(&self.materials[m], &self.lights, self.ambient, p, n, v)
+            }
+        };
+        let cos4 = match self.model {
+            RefModel::Orthographic(_) => 1.0,
+            RefModel::Perspective => vignetting::cos4(x, y),
+        };
+        let mut dn = [0u32; 3];
+        for (c, v) in dn.iter_mut().enumerate().take(self.format.channels()) {
+            let e = vignetting::irradiance(radiance[c], self.aperture, self.sensor.f, cos4);
+            // K is in DN of channel 0; a channel with a larger full scale
+            // (RGB565 green) scales it by dn_max(c) / dn_max(0).
+            let k = self.exposure * self.format.dn_max(c) as f64 / self.format.dn_max(0) as f64;
+            *v = vignetting::quantize(k, e, self.format.dn_max(c));
+        }
+        (dn, true)
+    }
+
+    /// Renders the frame, with edge pixels marked.
+    pub fn render(&self) -> RefFrame {
+        let (w, h) = (self.sensor.width as usize, self.sensor.height as usize);
+        let mut f = RefFrame {
+            width: w,
+            height: h,
+            dn: Vec::with_capacity(w * h),
+            in_field: Vec::with_capacity(w * h),
+            edge: Vec::with_capacity(w * h),
+            undistorted: Vec::with_capacity(w * h),
+        };
+        let e = 1.0 / 256.0;
+        for j in 0..h {
+            for i in 0..w {
+                let (x, y) = (i as f64, j as f64);
+                let (dn, in_field) = self.pixel(x, y);
+                let k = self.key(x, y);
+                let edge = [(x + e, y), (x - e, y), (x, y + e), (x, y - e)]
+                    .into_iter()
+                    .any(|(a, b)| self.key(a, b) != k);
+                f.dn.push(dn);
+                f.in_field.push(in_field);
+                f.edge.push(edge);
+                f.undistorted.push(self.undistorted(x, y));
+            }
+        }
+        f
+    }
+}
+
+/// `t > 0` where the ray meets the plane through `p` with normal `n`.
+fn plane(o: V3, d: V3, p: V3, n: V3) -> Option<f64> {
+    let den = dot(n, d);
+    if den == 0.0 {
+        return None;
+    }
+    let t = dot(n, sub(p, o)) / den;
+    (t > 0.0).then_some(t)
+}

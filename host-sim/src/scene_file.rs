@@ -1,0 +1,530 @@
+//! Scene files (`docs/scenes.md`): TOML, parsed with serde, unknown keys
+//! rejected. One parsed [`SceneDesc`] builds both the core's fixed-point
+//! scene and the reference's f64 scene, so both render the same input.
+
+use hilcam::lens::{Aperture, LensConfig};
+use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec};
+use hilcam::{Camera, Extrinsics, IntrinsicsConfig, Model};
+use serde::Deserialize;
+use std::path::Path;
+
+/// A scene file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// A short name.
+    pub name: String,
+    /// Output format and exposure.
+    pub output: Output,
+    /// The camera.
+    pub camera: CameraDesc,
+    /// Ambient and background.
+    #[serde(default)]
+    pub environment: Environment,
+    /// Materials, referred to by name.
+    pub materials: Vec<MaterialDesc>,
+    /// Lights.
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
+    /// Primitives.
+    pub primitives: Vec<PrimitiveDesc>,
+}
+
+/// `[output]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Output {
+    /// `gray8`, `gray16` or `rgb565`.
+    pub format: String,
+    /// Significant bits for `gray16` (9 to 16).
+    pub bits: Option<u8>,
+    /// `K`: DN per W/m² of image irradiance.
+    pub exposure: f64,
+}
+
+/// `[camera]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    /// Sensor width, pixels.
+    pub width: u16,
+    /// Sensor height, pixels.
+    pub height: u16,
+    /// Focal length, metres.
+    pub focal_length: f64,
+    /// Pixel pitch, metres: one number, or `[s_x, s_y]`.
+    pub pitch: Pair,
+    /// Principal point, pixels (default: the sensor centre).
+    pub principal_point: Option<[f64; 2]>,
+    /// `perspective` (default) or `orthographic`.
+    #[serde(default = "perspective")]
+    pub model: String,
+    /// `m` for an orthographic camera.
+    pub orthographic_scale: Option<f64>,
+    /// F-number (or give `aperture`).
+    pub f_number: Option<f64>,
+    /// Aperture diameter, metres (or give `f_number`).
+    pub aperture: Option<f64>,
+    /// Focus distance, metres.
+    pub focus_distance: f64,
+    /// Tolerable blur diameter, metres.
+    pub tolerable_blur: f64,
+    /// `[k1, k2]` (default none).
+    pub distortion: Option<[f64; 2]>,
+    /// The pose.
+    pub pose: PoseDesc,
+}
+
+fn perspective() -> String {
+    "perspective".into()
+}
+
+/// A number or a pair.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum Pair {
+    /// The same for both.
+    One(f64),
+    /// `[a, b]`.
+    Two([f64; 2]),
+}
+
+impl Pair {
+    fn get(self) -> (f64, f64) {
+        match self {
+            Pair::One(v) => (v, v),
+            Pair::Two([a, b]) => (a, b),
+        }
+    }
+}
+
+/// `[camera.pose]`: exactly one of look-at (`eye`, `target`, `up`),
+/// `position` with `yaw_pitch_roll` (radians), or `position` with `rotation`
+/// (rows = camera axes in world coordinates).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseDesc {
+    /// Look-at eye.
+    pub eye: Option<[f64; 3]>,
+    /// Look-at target.
+    pub target: Option<[f64; 3]>,
+    /// Look-at up.
+    pub up: Option<[f64; 3]>,
+    /// Centre of projection.
+    pub position: Option<[f64; 3]>,
+    /// Yaw, pitch, roll, radians.
+    pub yaw_pitch_roll: Option<[f64; 3]>,
+    /// Rotation matrix rows.
+    pub rotation: Option<[[f64; 3]; 3]>,
+}
+
+/// The pose, resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pose {
+    /// Look-at.
+    LookAt {
+        /// Eye.
+        eye: [f64; 3],
+        /// Target.
+        target: [f64; 3],
+        /// Up.
+        up: [f64; 3],
+    },
+    /// Yaw, pitch, roll.
+    Ypr {
+        /// Position.
+        position: [f64; 3],
+        /// Angles, radians.
+        angles: [f64; 3],
+    },
+    /// Matrix.
+    Matrix {
+        /// Position.
+        position: [f64; 3],
+        /// Rows.
+        rotation: [[f64; 3]; 3],
+    },
+}
+
+/// `[environment]`.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Environment {
+    /// Ambient `A`.
+    #[serde(default)]
+    pub ambient: Colour,
+    /// Background radiance `L_bg`.
+    #[serde(default)]
+    pub background: Colour,
+}
+
+/// A gray value or an `[r, g, b]` triple.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Colour {
+    /// Gray.
+    Gray(f64),
+    /// Per channel.
+    Rgb([f64; 3]),
+}
+
+impl Default for Colour {
+    fn default() -> Self {
+        Colour::Gray(0.0)
+    }
+}
+
+impl Colour {
+    /// Per channel.
+    pub fn rgb(self) -> [f64; 3] {
+        match self {
+            Colour::Gray(v) => [v; 3],
+            Colour::Rgb(c) => c,
+        }
+    }
+}
+
+/// `[[materials]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialDesc {
+    /// Name primitives refer to.
+    pub name: String,
+    /// Lambertian albedo `ρ`.
+    pub albedo: Colour,
+    /// Specular albedo `ρ_s` (default 0).
+    #[serde(default)]
+    pub specular: Colour,
+    /// Mix `n` (default 1: Lambertian).
+    #[serde(default = "one")]
+    pub mix: f64,
+    /// Phong exponent `s` (default 0).
+    #[serde(default)]
+    pub exponent: u16,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `[[lights]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "lowercase")]
+pub enum LightDesc {
+    /// Point light.
+    Point {
+        /// Position, metres.
+        position: [f64; 3],
+        /// Intensity, W/sr.
+        intensity: Colour,
+    },
+    /// Directional light.
+    Directional {
+        /// Direction towards the light.
+        direction: [f64; 3],
+        /// Irradiance `E₀`, W/m².
+        irradiance: Colour,
+    },
+}
+
+/// `[[primitives]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PrimitiveDesc {
+    /// `plane`, `sphere`, `disc` or `rectangle`.
+    pub kind: String,
+    /// Material name.
+    pub material: String,
+    /// Plane: a point on it.
+    pub point: Option<[f64; 3]>,
+    /// Plane, disc, rectangle: normal.
+    pub normal: Option<[f64; 3]>,
+    /// Sphere, disc, rectangle: centre.
+    pub centre: Option<[f64; 3]>,
+    /// Sphere, disc: radius.
+    pub radius: Option<f64>,
+    /// Rectangle: direction of the `u` edges.
+    pub u_axis: Option<[f64; 3]>,
+    /// Rectangle: `[width, height]` along `u`, `v`.
+    pub size: Option<[f64; 2]>,
+    /// Planar shapes: checker texture.
+    pub checker: Option<CheckerDesc>,
+}
+
+/// A checker texture.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckerDesc {
+    /// Cell size, metres.
+    pub cell: f64,
+    /// Material of the odd cells.
+    pub material: String,
+    /// Direction of the texture's `u` axis (projected into the plane).
+    pub u_axis: [f64; 3],
+}
+
+/// A shape with every field resolved (f64), shared by core and reference.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResolvedPrimitive {
+    /// Geometry.
+    pub shape: ShapeSpec,
+    /// Material index.
+    pub material: usize,
+    /// Checker (cell, u direction, odd material index).
+    pub checker: Option<(f64, [f64; 3], usize)>,
+}
+
+/// A scene with names resolved and every field checked for presence.
+#[derive(Clone, Debug)]
+pub struct Resolved {
+    /// The file as parsed.
+    pub desc: SceneDesc,
+    /// Output format.
+    pub format: PixelFormat,
+    /// Pose.
+    pub pose: Pose,
+    /// Primitives.
+    pub primitives: Vec<ResolvedPrimitive>,
+}
+
+/// Reads and checks a scene file. Errors name the file and the field.
+pub fn load(path: &Path) -> Result<Resolved, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Parses and checks scene text.
+pub fn parse(text: &str) -> Result<Resolved, String> {
+    let desc: SceneDesc = toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())?;
+    resolve(desc)
+}
+
+fn need<T: Copy>(v: Option<T>, what: &str) -> Result<T, String> {
+    v.ok_or_else(|| format!("{what}: missing"))
+}
+
+fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
+    let format = match (desc.output.format.as_str(), desc.output.bits) {
+        ("gray8", None) => PixelFormat::Gray8,
+        ("gray16", Some(bits)) => PixelFormat::Gray16 { bits },
+        ("gray16", None) => return Err("output.bits: missing (gray16 needs 9 to 16)".into()),
+        ("rgb565", None) => PixelFormat::Rgb565,
+        ("gray8" | "rgb565", Some(_)) => return Err("output.bits: only for gray16".into()),
+        (other, _) => {
+            return Err(format!(
+                "output.format: unknown format {other:?} (gray8, gray16, rgb565)"
+            ))
+        }
+    };
+    let p = &desc.camera.pose;
+    let pose = match (p.eye, p.target, p.up, p.position, p.yaw_pitch_roll, p.rotation) {
+        (Some(eye), Some(target), Some(up), None, None, None) => Pose::LookAt { eye, target, up },
+        (None, None, None, Some(position), Some(angles), None) => Pose::Ypr { position, angles },
+        (None, None, None, Some(position), None, Some(rotation)) => Pose::Matrix { position, rotation },
+        _ => {
+            return Err(
+                "camera.pose: give either eye, target and up; or position and yaw_pitch_roll; \
+                        or position and rotation"
+                    .into(),
+            )
+        }
+    };
+    let names: Vec<&str> = desc.materials.iter().map(|m| m.name.as_str()).collect();
+    let material = |name: &str, field: String| -> Result<usize, String> {
+        names
+            .iter()
+            .position(|n| *n == name)
+            .ok_or_else(|| format!("{field}: no material named {name:?}"))
+    };
+    if format.channels() == 1 {
+        let gray = |c: &Colour, field: String| match c {
+            Colour::Rgb(_) => Err(format!("{field}: a colour triple needs the rgb565 format")),
+            Colour::Gray(_) => Ok(()),
+        };
+        for (i, m) in desc.materials.iter().enumerate() {
+            gray(&m.albedo, format!("materials[{i}].albedo"))?;
+            gray(&m.specular, format!("materials[{i}].specular"))?;
+        }
+        for (i, l) in desc.lights.iter().enumerate() {
+            match l {
+                LightDesc::Point { intensity, .. } => gray(intensity, format!("lights[{i}].intensity"))?,
+                LightDesc::Directional { irradiance, .. } => {
+                    gray(irradiance, format!("lights[{i}].irradiance"))?
+                }
+            }
+        }
+        gray(&desc.environment.ambient, "environment.ambient".into())?;
+        gray(&desc.environment.background, "environment.background".into())?;
+    }
+    let mut primitives = Vec::new();
+    for (i, pd) in desc.primitives.iter().enumerate() {
+        let f = |name: &str| format!("primitives[{i}].{name}");
+        let shape = match pd.kind.as_str() {
+            "plane" => ShapeSpec::Plane {
+                point: need(pd.point, &f("point"))?,
+                normal: need(pd.normal, &f("normal"))?,
+            },
+            "sphere" => ShapeSpec::Sphere {
+                centre: need(pd.centre, &f("centre"))?,
+                radius: need(pd.radius, &f("radius"))?,
+            },
+            "disc" => ShapeSpec::Disc {
+                centre: need(pd.centre, &f("centre"))?,
+                normal: need(pd.normal, &f("normal"))?,
+                radius: need(pd.radius, &f("radius"))?,
+            },
+            "rectangle" => ShapeSpec::Rectangle {
+                centre: need(pd.centre, &f("centre"))?,
+                normal: need(pd.normal, &f("normal"))?,
+                u_axis: need(pd.u_axis, &f("u_axis"))?,
+                size: need(pd.size, &f("size"))?,
+            },
+            other => {
+                return Err(format!(
+                    "{}: unknown kind {other:?} (plane, sphere, disc, rectangle)",
+                    f("kind")
+                ))
+            }
+        };
+        let used: &[(&str, bool)] = &[
+            ("point", pd.point.is_some()),
+            ("normal", pd.normal.is_some()),
+            ("centre", pd.centre.is_some()),
+            ("radius", pd.radius.is_some()),
+            ("u_axis", pd.u_axis.is_some()),
+            ("size", pd.size.is_some()),
+        ];
+        let allowed: &[&str] = match pd.kind.as_str() {
+            "plane" => &["point", "normal"],
+            "sphere" => &["centre", "radius"],
+            "disc" => &["centre", "normal", "radius"],
+            _ => &["centre", "normal", "u_axis", "size"],
+        };
+        for (name, present) in used {
+            if *present && !allowed.contains(name) {
+                return Err(format!("{}: not used by a {}", f(name), pd.kind));
+            }
+        }
+        let checker = match &pd.checker {
+            None => None,
+            Some(c) => Some((c.cell, c.u_axis, material(&c.material, f("checker.material"))?)),
+        };
+        primitives.push(ResolvedPrimitive {
+            shape,
+            material: material(&pd.material, f("material"))?,
+            checker,
+        });
+    }
+    let r = Resolved {
+        desc,
+        format,
+        pose,
+        primitives,
+    };
+    // Build the core scene once, so that every range check runs now.
+    r.core_scene()?;
+    Ok(r)
+}
+
+impl Resolved {
+    /// The camera's lens settings.
+    fn lens(&self) -> Result<LensConfig, String> {
+        let c = &self.desc.camera;
+        let aperture = match (c.f_number, c.aperture) {
+            (Some(n), None) => Aperture::FNumber(n),
+            (None, Some(d)) => Aperture::Diameter(d),
+            _ => return Err("camera: give exactly one of f_number and aperture".into()),
+        };
+        Ok(LensConfig {
+            aperture,
+            focus_distance: c.focus_distance,
+            tolerable_blur: c.tolerable_blur,
+        })
+    }
+
+    /// Aperture diameter, metres.
+    pub fn aperture_diameter(&self) -> f64 {
+        let c = &self.desc.camera;
+        c.aperture
+            .unwrap_or_else(|| c.focal_length / c.f_number.unwrap_or(1.0))
+    }
+
+    /// The core's scene. Errors name the field.
+    pub fn core_scene(&self) -> Result<Scene, String> {
+        let c = &self.desc.camera;
+        let cam_err = |e: hilcam::Error| format!("camera.{}", e);
+        let intr = IntrinsicsConfig {
+            focal_length: c.focal_length,
+            pitch: c.pitch.get(),
+            size: (c.width, c.height),
+            principal_point: c.principal_point.map(|[x, y]| (x, y)),
+        };
+        let pose = match self.pose {
+            Pose::LookAt { eye, target, up } => Extrinsics::look_at(eye, target, up),
+            Pose::Ypr { position, angles } => {
+                Extrinsics::from_yaw_pitch_roll(angles[0], angles[1], angles[2], position)
+            }
+            Pose::Matrix { position, rotation } => Extrinsics::from_matrix(rotation, position),
+        }
+        .map_err(|e| format!("camera.pose.{e}"))?;
+        let model = match (c.model.as_str(), c.orthographic_scale) {
+            ("perspective", None) => Model::Perspective,
+            ("orthographic", Some(m)) => Model::orthographic(m).map_err(cam_err)?,
+            ("orthographic", None) => return Err("camera.orthographic_scale: missing".into()),
+            ("perspective", Some(_)) => return Err("camera.orthographic_scale: only for orthographic".into()),
+            (other, _) => {
+                return Err(format!(
+                    "camera.model: unknown model {other:?} (perspective, orthographic)"
+                ))
+            }
+        };
+        let camera = Camera::new(&intr, &self.lens()?, pose, model).map_err(cam_err)?;
+        let distortion = match c.distortion {
+            Some([k1, k2]) => hilcam::distortion::Distortion::new(k1, k2).map_err(cam_err)?,
+            None => hilcam::distortion::Distortion::NONE,
+        };
+        let env = &self.desc.environment;
+        let mut scene = Scene::new(
+            camera,
+            distortion,
+            self.format,
+            self.desc.output.exposure,
+            env.ambient.rgb(),
+            env.background.rgb(),
+        )
+        .map_err(|e| rename(e.to_string()))?;
+        for m in &self.desc.materials {
+            scene
+                .add_material(m.albedo.rgb(), m.specular.rgb(), m.mix, m.exponent)
+                .map_err(|e| e.to_string())?;
+        }
+        for p in &self.primitives {
+            let checker = p.checker.map(|(cell, u_axis, m)| CheckerSpec {
+                cell,
+                u_axis,
+                material: m as u8,
+            });
+            scene
+                .add_primitive(p.shape, p.material as u8, checker)
+                .map_err(|e| e.to_string())?;
+        }
+        for l in &self.desc.lights {
+            match l {
+                LightDesc::Point { position, intensity } => scene.add_point_light(*position, intensity.rgb()),
+                LightDesc::Directional {
+                    direction,
+                    irradiance,
+                } => scene.add_directional_light(*direction, irradiance.rgb()),
+            }
+            .map_err(|e| e.to_string())?;
+        }
+        Ok(scene)
+    }
+}
+
+/// The core names scene-wide fields after their place in the file.
+fn rename(s: String) -> String {
+    s.replace("exposure:", "output.exposure:")
+        .replace("ambient:", "environment.ambient:")
+        .replace("background:", "environment.background:")
+}
