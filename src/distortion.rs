@@ -68,10 +68,7 @@ impl Distortion {
         Ok(Distortion {
             k1: k1f,
             k2: k2f,
-            fold_u: match fold {
-                Some(u) => Some(Norm::checked_from_num(u).unwrap_or(Norm::MAX)),
-                None => None,
-            },
+            fold_u: fold.map(|u| Norm::checked_from_num(u).unwrap_or(Norm::MAX)),
         })
     }
 

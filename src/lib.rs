@@ -17,8 +17,9 @@
 //! - [`lens`]: thin lens, blur circle, depth of field;
 //! - [`distortion`]: radial distortion, its table and inverse;
 //! - [`scene`]: the compact scene;
-//! - [`render`]: the line renderer (rays, intersection, shading,
-//!   vignetting, quantization);
+//! - [`shading`]: the mixed BRDF and lights;
+//! - [`vignetting`]: cos⁴ fall-off, exposure and quantization;
+//! - [`render`]: the line renderer (rays, intersection, and the stages above);
 //! - [`planner`]: picks the cheapest rendering that meets an error budget;
 //! - [`num`]: the fixed-point formats and wide intermediates.
 //!
@@ -38,6 +39,8 @@ pub mod planner;
 pub mod projection;
 pub mod render;
 pub mod scene;
+pub mod shading;
+pub mod vignetting;
 
 #[cfg(feature = "defmt")]
 mod fmt;

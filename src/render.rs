@@ -17,8 +17,9 @@
 //! physics says so (over-exposure).
 
 use crate::distortion::Lut;
-use crate::num::{quotient, Angle, Len, Norm, Wide};
+use crate::num::{quotient, Len, Norm, Wide};
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
+use crate::vignetting;
 use core::ops::{Add as _, Mul as _, Sub as _};
 use fixed::types::I64F64;
 
@@ -140,40 +141,7 @@ impl Stages {
     }
 }
 
-type V3 = [Q; 3];
-
-#[inline(always)]
-fn mul(a: Q, b: Q) -> Q {
-    a.saturating_mul(b)
-}
-#[inline(always)]
-fn add(a: Q, b: Q) -> Q {
-    a.saturating_add(b)
-}
-#[inline(always)]
-fn sub(a: Q, b: Q) -> Q {
-    a.saturating_sub(b)
-}
-#[inline(always)]
-fn dot(a: V3, b: V3) -> Q {
-    add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
-}
-#[inline(always)]
-fn sub3(a: V3, b: V3) -> V3 {
-    [sub(a[0], b[0]), sub(a[1], b[1]), sub(a[2], b[2])]
-}
-#[inline(always)]
-fn axpy(t: Q, d: V3, o: V3) -> V3 {
-    [
-        add(o[0], mul(t, d[0])),
-        add(o[1], mul(t, d[1])),
-        add(o[2], mul(t, d[2])),
-    ]
-}
-#[inline(always)]
-fn scale3(t: Q, d: V3) -> V3 {
-    [mul(t, d[0]), mul(t, d[1]), mul(t, d[2])]
-}
+use crate::shading::{add, axpy, dot, mul, scale3, sub, sub3, Brdf, ShadingLight, V3};
 
 /// A primitive in the camera frame.
 #[derive(Clone, Copy, Debug)]
@@ -221,22 +189,6 @@ struct CamPrim {
     checker: Option<CamChecker>,
 }
 
-#[derive(Clone, Copy, Debug)]
-enum CamLight {
-    Point { p: V3, i: V3 },
-    Dir { l: V3, e: V3 },
-}
-
-/// A material with its constants folded: `kd = n ρ/π`,
-/// `ks = (1 − n) ρ_s (s + 2)/(2π)`, `ka = ρ A`.
-#[derive(Clone, Copy, Debug, Default)]
-struct CamMaterial {
-    kd: V3,
-    ks: V3,
-    ka: V3,
-    exponent: u16,
-}
-
 /// A frame prepared for rendering.
 #[derive(Clone, Debug)]
 pub struct Frame {
@@ -254,8 +206,8 @@ pub struct Frame {
     /// Parallel-ray origin scale: `Z̄` or `f/m`.
     k_origin: Q,
     prims: heapless::Vec<CamPrim, { crate::scene::MAX_PRIMITIVES }>,
-    lights: heapless::Vec<CamLight, { crate::scene::MAX_LIGHTS }>,
-    materials: [CamMaterial; crate::scene::MAX_MATERIALS],
+    lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }>,
+    materials: [Brdf; crate::scene::MAX_MATERIALS],
     background: V3,
     /// `K π/4 (d/f)²` per channel (with the channel's full-scale factor):
     /// DN per unit radiance on the axis.
@@ -312,7 +264,7 @@ impl Frame {
             k_origin: Q::ZERO,
             prims: heapless::Vec::new(),
             lights: heapless::Vec::new(),
-            materials: [CamMaterial::default(); crate::scene::MAX_MATERIALS],
+            materials: [Brdf::default(); crate::scene::MAX_MATERIALS],
             background: scene.background,
             gain: [Q::ZERO; 3],
         };
@@ -350,41 +302,25 @@ impl Frame {
         };
         // Constants: gain = K π/4 (d/f)².
         let lens = &scene.camera.lens;
-        let pi = Wide::of(Angle::PI);
         let dof = Wide::of(lens.diameter())
             .checked_div(Wide::of(lens.focal_length()))
             .ok_or(RenderError::Degenerate)?;
-        let base = Wide::of(scene.exposure).mul(pi).mul(dof).mul(dof);
         for (c, g) in frame.gain.iter_mut().enumerate() {
-            let (num, den) = scene.format.channel_scale(c);
-            *g = quotient::<Q>(base.mul(Wide::int(num as i64)), Wide::int(4 * den as i64)).value;
+            *g = vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c));
         }
         for (m, dst) in scene.materials.iter().zip(frame.materials.iter_mut()) {
-            let n = Wide::of(m.mix);
-            let ns = Wide::int(1).sub(n);
-            let lobe = Wide::int(m.exponent as i64 + 2);
-            for c in 0..3 {
-                let (rho, rhos, amb) = (m.albedo[c], m.specular[c], scene.ambient[c]);
-                if let (Some(kd), Some(ks), Some(ka)) =
-                    (dst.kd.get_mut(c), dst.ks.get_mut(c), dst.ka.get_mut(c))
-                {
-                    *kd = quotient::<Q>(n.mul(Wide::of(rho)), pi).value;
-                    *ks = quotient::<Q>(ns.mul(Wide::of(rhos)).mul(lobe), pi.mul(Wide::int(2))).value;
-                    *ka = q(Wide::of(rho).mul(Wide::of(amb)));
-                }
-            }
-            dst.exponent = m.exponent;
+            *dst = Brdf::new(m, scene.ambient);
         }
         for p in &scene.primitives {
             let _ = frame.prims.push(cam_prim(scene, p));
         }
         for l in &scene.lights {
             let _ = frame.lights.push(match *l {
-                Light::Point { position, intensity } => CamLight::Point {
+                Light::Point { position, intensity } => ShadingLight::Point {
                     p: v3_world_to_cam(scene, position),
                     i: intensity,
                 },
-                Light::Directional { towards, irradiance } => CamLight::Dir {
+                Light::Directional { towards, irradiance } => ShadingLight::Directional {
                     l: dir_to_cam(scene, towards),
                     e: irradiance,
                 },
@@ -495,7 +431,6 @@ impl Frame {
         let channels = self.format.channels();
         let yd = self.yd(j);
         let mut acc = self.x0;
-        let half = Q::from_bits(1 << 31);
         for (out, flag) in pixels
             .chunks_exact_mut(bpp)
             .zip(flags.iter_mut())
@@ -528,20 +463,13 @@ impl Frame {
                 )
             };
             let radiance = self.trace::<SPEC, PERSP>(o, d);
-            let cos4 = if VIG {
-                let w = add(Q::ONE, add(mul(x, x), mul(y, y)));
-                Q::ONE.checked_div(mul(w, w)).unwrap_or(Q::ZERO)
-            } else {
-                Q::ONE
-            };
+            let cos4 = if VIG { vignetting::cos4(x, y) } else { Q::ONE };
             let mut dn = [0u32; 3];
             for (c, dst) in dn.iter_mut().enumerate().take(channels) {
                 let (Some(l), Some(g)) = (radiance.get(c), self.gain.get(c)) else {
                     continue;
                 };
-                let value = add(mul(mul(*g, *l), cos4), half);
-                let max = self.format.dn_max(c);
-                *dst = value.to_num::<i64>().clamp(0, max as i64) as u32;
+                *dst = vignetting::quantize(*g, *l, cos4, self.format.dn_max(c));
             }
             self.format.pack(dn, out);
         }
@@ -591,67 +519,8 @@ impl Frame {
         } else {
             [Q::ZERO; 3]
         };
-        let mut l = mat.ka;
-        for light in &self.lights {
-            let (ldir, e) = match *light {
-                CamLight::Point { p, i } => {
-                    let lv = sub3(p, point);
-                    let r2 = dot(lv, lv);
-                    let Some(r) = r2.checked_sqrt() else { continue };
-                    let Some(inv_r) = Q::ONE.checked_div(r) else {
-                        continue;
-                    };
-                    let ldir = scale3(inv_r, lv);
-                    let cos = dot(normal, ldir);
-                    if cos <= Q::ZERO {
-                        continue;
-                    }
-                    let k = cos.checked_div(r2).unwrap_or(Q::MAX);
-                    (ldir, scale3(k, i))
-                }
-                CamLight::Dir { l, e } => {
-                    let cos = dot(normal, l);
-                    if cos <= Q::ZERO {
-                        continue;
-                    }
-                    (l, scale3(cos, e))
-                }
-            };
-            let lobe = if SPEC && mat.exponent < u16::MAX {
-                // r̂·v̂ with r̂ = 2 (n̂·l̂) n̂ − l̂
-                let nl = dot(normal, ldir);
-                let rv = sub(mul(add(nl, nl), dot(normal, view)), dot(ldir, view));
-                powi(rv.max(Q::ZERO), mat.exponent)
-            } else {
-                Q::ZERO
-            };
-            for c in 0..3 {
-                let (Some(kd), Some(ks), Some(ec), Some(lc)) =
-                    (mat.kd.get(c), mat.ks.get(c), e.get(c), l.get_mut(c))
-                else {
-                    continue;
-                };
-                let brdf = if SPEC { add(*kd, mul(*ks, lobe)) } else { *kd };
-                *lc = add(*lc, mul(brdf, *ec));
-            }
-        }
-        l
+        crate::shading::radiance::<SPEC>(&mat, &self.lights, point, normal, view)
     }
-}
-
-/// `x^n` by squaring (x ∈ [0, 1] here).
-#[inline(always)]
-fn powi(x: Q, mut n: u16) -> Q {
-    let mut base = x;
-    let mut acc = Q::ONE;
-    while n > 0 {
-        if n & 1 == 1 {
-            acc = mul(acc, base);
-        }
-        base = mul(base, base);
-        n >>= 1;
-    }
-    acc
 }
 
 #[inline(always)]

@@ -130,6 +130,8 @@ pub fn decode(format: PixelFormat, b: &[u8]) -> [u32; 3] {
 }
 
 /// Renders with both, and compares.
+// `k` indexes four parallel per-pixel arrays.
+#[allow(clippy::needless_range_loop)]
 pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
     let scene = r.core_scene()?;
     let plan = planner::plan(&scene, budget);
