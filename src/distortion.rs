@@ -18,7 +18,7 @@ use crate::error::{Error, Field};
 use crate::frame::NormPoint;
 use crate::num::{quotient, Norm, Sat, Wide};
 use core::ops::{Add as _, Mul as _};
-use fixed::types::{I32F32, I4F28, I64F64};
+use fixed::types::{I32F32, I4F28};
 
 /// Supported distortion coefficients: `|k1| ≤ 10`, `|k2| ≤ 100`.
 pub const K_RANGE: (f64, f64) = (10.0, 100.0);
@@ -171,8 +171,11 @@ impl Distortion {
     }
 
     /// Builds the renderer's table over `u ∈ [0, u_max]` with `entries`
-    /// entries (2 to [`MAX_LUT`]).
-    pub fn lut(&self, u_max: I32F32, entries: usize) -> Lut {
+    /// entries (2 to [`MAX_LUT`]). Entries are I4F28, so `g` must stay
+    /// within ±8 over the range: if it does not, the result is flagged
+    /// saturated (and the renderer refuses the frame).
+    pub fn lut(&self, u_max: I32F32, entries: usize) -> Sat<Lut> {
+        let mut saturated = false;
         let n = entries.clamp(2, MAX_LUT);
         let u_max = if u_max > I32F32::ZERO {
             u_max
@@ -183,14 +186,18 @@ impl Distortion {
         let step = quotient::<Norm>(Wide::of(u_max), Wide::int(n as i64 - 1)).value;
         for i in 0..n {
             let u = Wide::of(step).mul(Wide::int(i as i64));
-            let g = self.g_wide(u).narrow::<I4F28>().value;
+            let g = self.g_wide(u).narrow::<I4F28>();
+            saturated |= g.saturated;
             // n ≤ MAX_LUT = capacity, so the push cannot fail.
-            let _ = table.push(g);
+            let _ = table.push(g.value);
         }
-        Lut {
-            u_max,
-            scale: quotient::<I32F32>(Wide::int(n as i64 - 1), Wide::of(u_max)).value,
-            table,
+        Sat {
+            value: Lut {
+                u_max,
+                scale: quotient::<I32F32>(Wide::int(n as i64 - 1), Wide::of(u_max)).value,
+                table,
+            },
+            saturated,
         }
     }
 
@@ -222,17 +229,8 @@ fn smallest_positive_root(a: f64, b: f64, c: f64) -> Option<f64> {
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.min(r))))
 }
 
-/// Square root of a non-negative wide value (integer Newton iteration on the
-/// mantissa via `u128::isqrt`).
 fn wide_sqrt(x: Wide) -> Wide {
-    // Narrow to 64.64 (x is a squared normalized radius, far below 2^63) and
-    // take the integer square root: sqrt(raw·2^-64) = isqrt(raw)·2^-32.
-    let raw = x.narrow::<I64F64>().value.to_bits();
-    if raw <= 0 {
-        return Wide::ZERO;
-    }
-    let root = (raw as u128).isqrt() << 32; // sqrt(raw·2^-64)·2^64 = isqrt(raw)·2^32
-    Wide::of(I64F64::from_bits(root as i128))
+    x.sqrt().unwrap_or(Wide::ZERO)
 }
 
 /// A table of `g(u)` over `u ∈ [0, u_max]`, for the per-pixel path.

@@ -255,6 +255,32 @@ impl Wide {
         })
     }
 
+    /// Square root, with at least 62 significant bits; `None` for a negative
+    /// value.
+    pub fn sqrt(self) -> Option<Wide> {
+        if self.mant < 0 {
+            return None;
+        }
+        if self.mant == 0 {
+            return Some(Wide::ZERO);
+        }
+        // Make the binary point even, then fill the mantissa to 125-126 bits
+        // by an even shift, so that the integer root has 62-63 bits.
+        let mut m = self.mant as u128;
+        let mut frac = self.frac as i64;
+        if frac & 1 != 0 {
+            m <<= 1;
+            frac += 1;
+        }
+        let room = m.leading_zeros().saturating_sub(2) & !1;
+        m <<= room;
+        frac += room as i64;
+        Some(Wide {
+            mant: m.isqrt() as i128,
+            frac: (frac / 2) as i32,
+        })
+    }
+
     /// The larger of two values.
     pub fn max_of(self, o: Wide) -> Wide {
         if self.compare(o) == core::cmp::Ordering::Less {

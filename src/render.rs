@@ -89,6 +89,8 @@ pub enum RenderError {
     /// A primitive lies at the centre of projection, or a ray model
     /// parameter is degenerate.
     Degenerate,
+    /// The distortion factor `g` leaves the table's ±8 over the sensor.
+    DistortionOutOfRange,
 }
 
 /// The error of [`Frame::render`]: the renderer's or the sink's.
@@ -281,6 +283,10 @@ impl Frame {
                 _ => (u_corner, Q::MAX),
             };
             let lut = scene.distortion.lut(u_max, opts.lut_entries);
+            if lut.saturated {
+                return Err(RenderError::DistortionOutOfRange);
+            }
+            let lut = lut.value;
             frame.stages.distortion_lut = Some(lut.len());
             frame.lut = Some((lut, limit));
         }

@@ -108,24 +108,45 @@ impl Brdf {
     }
 }
 
-/// `x^n` by squaring (`x ∈ [0, 1]` here).
+/// One, with 63 fractional bits.
+const ONE63: u64 = 1 << 63;
+
 #[inline(always)]
-pub fn powi(x: Q, mut n: u16) -> Q {
-    let mut base = x;
-    let mut acc = Q::ONE;
+fn mul63(a: u64, b: u64) -> u64 {
+    ((a as u128 * b as u128 + (1u128 << 62)) >> 63) as u64
+}
+
+/// `x^n` for `x ∈ [0, 1]` (clamped), by squaring, as a fraction with 63
+/// fractional bits: a Phong lobe of 10⁻⁶ keeps 10⁻¹³ relative, where I32F32
+/// would keep only 10⁻⁴.
+#[inline(always)]
+pub fn powi(x: Q, mut n: u16) -> u64 {
+    let mut base = (x.to_bits().clamp(0, 1 << 32) as u64) << 31;
+    let mut acc = ONE63;
     while n > 0 {
         if n & 1 == 1 {
-            acc = mul(acc, base);
+            acc = mul63(acc, base);
         }
-        base = mul(base, base);
+        base = mul63(base, base);
         n >>= 1;
     }
     acc
 }
 
+/// `v · f` for a fraction `f` with 63 fractional bits, rounded.
+#[inline(always)]
+fn scale63(v: Q, f: u64) -> Q {
+    Q::from_bits(((v.to_bits() as i128 * f as i128 + (1i128 << 62)) >> 63) as i64)
+}
+
 /// Radiance per channel leaving `point` (unit `normal`, facing the viewer)
 /// towards the viewer (unit `view`). With `SPEC = false` the specular lobe
 /// is left out (the scene has none).
+///
+/// Relative error ≤ 10⁻⁶ + (s + 2)·10⁻⁹ / r², `r` (metres) the distance to
+/// the nearest point light: the Phong lobe turns the 2⁻³² absolute rounding
+/// of `r²` into `s` times as much relative error (measured by
+/// `tests/shading.rs`).
 #[inline(always)]
 pub fn radiance<const SPEC: bool>(
     mat: &Brdf,
@@ -165,7 +186,7 @@ pub fn radiance<const SPEC: bool>(
             let rv = sub(mul(add(nl, nl), dot(normal, view)), dot(ldir, view));
             powi(rv.max(Q::ZERO), mat.exponent)
         } else {
-            Q::ZERO
+            0
         };
         for c in 0..3 {
             let (Some(kd), Some(ks), Some(ec), Some(lc)) =
@@ -173,8 +194,11 @@ pub fn radiance<const SPEC: bool>(
             else {
                 continue;
             };
-            let brdf = if SPEC { add(*kd, mul(*ks, lobe)) } else { *kd };
-            *lc = add(*lc, mul(brdf, *ec));
+            let mut v = mul(*kd, *ec);
+            if SPEC {
+                v = add(v, scale63(mul(*ks, *ec), lobe));
+            }
+            *lc = add(*lc, v);
         }
     }
     l

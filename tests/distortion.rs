@@ -1,0 +1,189 @@
+//! Property tests: the distortion table against the polynomial, the
+//! bracketed inverse, and the fold, against the f64 reference. 10 000 cases
+//! each over k1, k2 in [−1, 1].
+
+mod common;
+
+use common::*;
+use fixed::types::I32F32;
+use hilcam::distortion::{Distortion, OutsideLensField};
+use hilcam::{Norm, NormPoint};
+use host_sim::reference::distortion::Radial;
+use proptest::prelude::*;
+
+fn ks() -> impl Strategy<Value = (f64, f64)> {
+    (-1.0f64..=1.0, -1.0f64..=1.0)
+}
+
+/// The coefficients as the core stores them, for the reference.
+fn radial(d: &Distortion) -> Radial {
+    let (k1, k2) = d.coefficients();
+    Radial {
+        k1: k1.to_num(),
+        k2: k2.to_num(),
+    }
+}
+
+static LUT: Max = Max::new(
+    "distortion_lut_vs_polynomial_over_bound",
+    "of the documented bound",
+);
+
+/// `g` from the table is within the documented interpolation bound
+/// `|k2| h²/4` (plus the I4F28 rounding, 2⁻²⁹) of the polynomial.
+#[test]
+fn lut_within_interpolation_bound_of_polynomial() {
+    let strategy = (
+        ks(),
+        1e-3f64..4.0,
+        prop::sample::select(vec![2usize, 3, 16, 64, 256, 1024]),
+        0.0f64..=1.0,
+    );
+    check(strategy, |((k1, k2), u_top, n, s)| {
+        let d = Distortion::new(k1, k2).expect("in range");
+        let r = radial(&d);
+        let u_max = d.fold_u().map_or(u_top, |f| u_top.min(f.to_num()));
+        let lut = d.lut(I32F32::from_num(u_max), n);
+        if lut.saturated {
+            // Only allowed when g leaves the I4F28 entries' ±8 on the range
+            // (g is quadratic: its extremes are at the ends or the vertex).
+            let vertex = if k2 != 0.0 {
+                (-k1 / (2.0 * k2)).clamp(0.0, u_max)
+            } else {
+                0.0
+            };
+            let big = [0.0, u_max, vertex]
+                .iter()
+                .map(|u| r.g(*u).abs())
+                .fold(0.0, f64::max);
+            prop_assert!(big >= 8.0 - 1e-6, "saturated with |g| ≤ {big}");
+            return Ok(());
+        }
+        let lut = lut.value;
+        let u = I32F32::from_num(u_max * s);
+        let got: f64 = lut.g(u).to_num();
+        let want = r.g(u.to_num());
+        let bound = d.lut_interp_error(lut.u_max().to_num(), n) + 2f64.powi(-28);
+        let e = (got - want).abs();
+        LUT.record(e / bound);
+        prop_assert!(
+            e <= bound,
+            "g error {e} over bound {bound} at u = {u} with {n} entries"
+        );
+        Ok(())
+    });
+    LUT.report();
+}
+
+static FOLD: Max = Max::new("distortion_fold_radius_rel", "relative");
+static INVERSE: Max = Max::new("distortion_inverse_round_trip_normalized", "normalized units");
+
+/// The inverse returns the distorted point whose undistortion is the input
+/// (round trip within 10⁻¹², far below 1/256 px at any supported focal
+/// length), agrees with the reference's inverse, and reports
+/// `OutsideLensField` exactly when the point is beyond the fold's image.
+#[test]
+fn inverse_round_trip_and_fold() {
+    let strategy = (ks(), 0.0f64..1.2, -std::f64::consts::PI..std::f64::consts::PI);
+    check(strategy, |((k1, k2), frac, angle)| {
+        let d = Distortion::new(k1, k2).expect("in range");
+        let r = radial(&d);
+        prop_assert_eq!(d.fold_u().is_some(), r.fold_u().is_some());
+        if let (Some(c), Some(rf)) = (d.fold_u(), r.fold_u()) {
+            let e = rel(c.to_num(), rf, 0.0);
+            FOLD.record(e);
+            prop_assert!(e <= 1e-9, "fold u {c} vs {rf}");
+        }
+        // A distorted radius up to 1.2 × the fold (or × 2 without one).
+        let r_fold = r.fold_u().map(f64::sqrt);
+        let rd = frac * r_fold.unwrap_or(2.0);
+        let (xd, yd) = (rd * angle.cos(), rd * angle.sin());
+        let p = NormPoint {
+            x: Norm::from_num(xd),
+            y: Norm::from_num(yd),
+        };
+        let (xd, yd) = (p.x.to_num::<f64>(), p.y.to_num::<f64>());
+        match (d.undistort(p), r.undistort(xd, yd)) {
+            (Ok(u), Some((rx, ry))) if rx.abs().max(ry.abs()) >= 32767.0 => {
+                prop_assert!(u.saturated, "beyond I16F48 but not flagged");
+            }
+            (Ok(u), Some((rx, ry))) => {
+                prop_assert!(!u.saturated);
+                prop_assert!(
+                    (u.value.x.to_num::<f64>() - rx).abs() <= 1e-12
+                        && (u.value.y.to_num::<f64>() - ry).abs() <= 1e-12
+                );
+                // Back through the inverse.
+                let back = d.distort(u.value);
+                let on_branch = r_fold.is_none_or(|f| rd < f * (1.0 - 1e-6));
+                if on_branch {
+                    let b =
+                        back.map_err(|_| TestCaseError::fail("inverse failed on the monotonic branch"))?;
+                    let e = (b.value.x.to_num::<f64>() - xd).hypot(b.value.y.to_num::<f64>() - yd);
+                    INVERSE.record(e);
+                    prop_assert!(e <= 1e-12, "round trip off by {e}");
+                    let (ex, ey) = r
+                        .distort(u.value.x.to_num(), u.value.y.to_num())
+                        .expect("reference inverse");
+                    prop_assert!(
+                        (b.value.x.to_num::<f64>() - ex).hypot(b.value.y.to_num::<f64>() - ey) <= 1e-12
+                    );
+                }
+            }
+            (Err(OutsideLensField), None) => {
+                // Beyond the fold: the undistorted image of a point there is
+                // also the image of a point on the branch, or beyond the fold's
+                // image, and the inverse must say which, never guess.
+                let (ux, uy) = (xd * r.g(xd * xd + yd * yd), yd * r.g(xd * xd + yd * yd));
+                let q = NormPoint {
+                    x: Norm::saturating_from_num(ux),
+                    y: Norm::saturating_from_num(uy),
+                };
+                let fold_image = r_fold.map(|f| f * r.g(f * f)).unwrap_or(f64::INFINITY);
+                let ru = ux.hypot(uy);
+                match d.distort(q) {
+                    Ok(b) => {
+                        prop_assert!(ru <= fold_image * (1.0 + 1e-9), "inverse beyond the fold's image");
+                        let (bx, by) = (b.value.x.to_num::<f64>(), b.value.y.to_num::<f64>());
+                        prop_assert!(
+                            r_fold.is_some_and(|f| bx.hypot(by) <= f * (1.0 + 1e-9)),
+                            "not on the branch"
+                        );
+                    }
+                    Err(OutsideLensField) => {
+                        prop_assert!(ru >= fold_image * (1.0 - 1e-9), "refused a point inside")
+                    }
+                }
+            }
+            (c, rf) => prop_assert!(
+                (rd - r_fold.unwrap_or(f64::INFINITY)).abs() < 1e-9,
+                "in-field flags disagree away from the fold: {c:?} vs {rf:?}"
+            ),
+        }
+        Ok(())
+    });
+    FOLD.report();
+    INVERSE.report();
+}
+
+#[test]
+fn distortion_rejects_bad_coefficients() {
+    use hilcam::{Error, Field};
+    assert_eq!(
+        Distortion::new(f64::NAN, 0.0),
+        Err(Error::NotFinite(Field::Distortion))
+    );
+    assert_eq!(
+        Distortion::new(0.0, f64::INFINITY),
+        Err(Error::NotFinite(Field::Distortion))
+    );
+    assert_eq!(
+        Distortion::new(11.0, 0.0),
+        Err(Error::OutOfRange(Field::Distortion))
+    );
+    assert!(Distortion::new(0.0, 0.0).expect("ok").is_none());
+    assert!(Distortion::new(0.0, 0.0).expect("ok").fold_u().is_none());
+    // k1 < 0 folds at u = −1 / (3 k1).
+    let d = Distortion::new(-0.5, 0.0).expect("ok");
+    assert!((d.fold_u().expect("folds").to_num::<f64>() - 2.0 / 3.0).abs() < 1e-12);
+}
