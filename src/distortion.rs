@@ -18,7 +18,7 @@ use crate::error::{Error, Field};
 use crate::frame::NormPoint;
 use crate::num::{quotient, Norm, Sat, Wide};
 use core::ops::{Add as _, Mul as _};
-use fixed::types::{I32F32, I4F28};
+use fixed::types::{I32F0, I32F32};
 
 /// Supported distortion coefficients: `|k1| ≤ 10`, `|k2| ≤ 100`.
 pub const K_RANGE: (f64, f64) = (10.0, 100.0);
@@ -171,34 +171,63 @@ impl Distortion {
     }
 
     /// Builds the renderer's table over `u ∈ [0, u_max]` with `entries`
-    /// entries (2 to [`MAX_LUT`]). Entries are I4F28, so `g` must stay
-    /// within ±8 over the range: if it does not, the result is flagged
-    /// saturated (and the renderer refuses the frame).
+    /// entries (2 to [`MAX_LUT`]).
+    ///
+    /// The entry format is chosen for the camera: i32 with the most
+    /// fractional bits (at most 30) that still hold the largest `|g|` over
+    /// the range — I2F30 for `|g| < 2`, I4F28 below 8, I8F24 below 128. A
+    /// `g` beyond even I16F16 (|g| ≥ 32 768, a lens far outside any real one)
+    /// is flagged saturated, and the renderer refuses the frame.
     pub fn lut(&self, u_max: I32F32, entries: usize) -> Sat<Lut> {
-        let mut saturated = false;
         let n = entries.clamp(2, MAX_LUT);
         let u_max = if u_max > I32F32::ZERO {
             u_max
         } else {
             I32F32::DELTA
         };
+        let uw = Wide::of(u_max);
+        let frac = self.entry_frac_bits(u_max);
+        let mut saturated = false;
         let mut table = heapless::Vec::new();
-        let step = quotient::<Norm>(Wide::of(u_max), Wide::int(n as i64 - 1)).value;
+        let step = quotient::<Norm>(uw, Wide::int(n as i64 - 1)).value;
         for i in 0..n {
             let u = Wide::of(step).mul(Wide::int(i as i64));
-            let g = self.g_wide(u).narrow::<I4F28>();
+            let g = self.g_wide(u).mul(Wide::int(1i64 << frac)).narrow::<I32F0>();
             saturated |= g.saturated;
             // n ≤ MAX_LUT = capacity, so the push cannot fail.
-            let _ = table.push(g.value);
+            let _ = table.push(g.value.to_bits());
         }
         Sat {
             value: Lut {
                 u_max,
-                scale: quotient::<I32F32>(Wide::int(n as i64 - 1), Wide::of(u_max)).value,
+                scale: quotient::<I32F32>(Wide::int(n as i64 - 1), uw).value,
+                shift: 32 - frac,
                 table,
             },
             saturated,
         }
+    }
+
+    /// Fractional bits of the table entries for `u ∈ [0, u_max]`: the most
+    /// (at most 30, at least 16) with which an i32 holds the largest `|g|`
+    /// there.
+    pub fn entry_frac_bits(&self, u_max: I32F32) -> u32 {
+        let uw = Wide::of(u_max);
+        // |g| is largest at an end of the range or at the vertex of the
+        // quadratic, −k1 / (2 k2), if that lies inside.
+        let mut g_max = self.g_wide(Wide::ZERO).abs().max_of(self.g_wide(uw).abs());
+        if self.k2 != Norm::ZERO {
+            if let Some(v) = (-Wide::of(self.k1)).checked_div(Wide::of(self.k2).mul(Wide::int(2))) {
+                if v.signum() > 0 && v.compare(uw) == core::cmp::Ordering::Less {
+                    g_max = g_max.max_of(self.g_wide(v).abs());
+                }
+            }
+        }
+        let mut frac = 30u32;
+        while frac > 16 && g_max.compare(Wide::int(1i64 << (31 - frac))) != core::cmp::Ordering::Less {
+            frac -= 1;
+        }
+        frac
     }
 
     /// The largest error of linear interpolation in `g` for a table of
@@ -239,7 +268,9 @@ pub struct Lut {
     u_max: I32F32,
     /// `(entries − 1) / u_max`.
     scale: I32F32,
-    table: heapless::Vec<I4F28, MAX_LUT>,
+    /// Entries are i32 with `32 − shift` fractional bits.
+    shift: u32,
+    table: heapless::Vec<i32, MAX_LUT>,
 }
 
 impl Lut {
@@ -255,7 +286,12 @@ impl Lut {
 
     /// Bytes the table occupies.
     pub fn bytes(&self) -> usize {
-        self.table.len() * core::mem::size_of::<I4F28>()
+        self.table.len() * core::mem::size_of::<i32>()
+    }
+
+    /// Fractional bits of the entries (the format chosen for the camera).
+    pub fn entry_frac_bits(&self) -> u32 {
+        32 - self.shift
     }
 
     /// The `u` the table covers up to.
@@ -272,7 +308,10 @@ impl Lut {
         let i = (pos.to_num::<i64>().max(0) as usize).min(last);
         let frac = pos - I32F32::from_num(i);
         let (a, b) = match (self.table.get(i), self.table.get(i + 1)) {
-            (Some(a), Some(b)) => (I32F32::from_num(*a), I32F32::from_num(*b)),
+            (Some(a), Some(b)) => (
+                I32F32::from_bits((*a as i64) << self.shift),
+                I32F32::from_bits((*b as i64) << self.shift),
+            ),
             _ => return I32F32::ONE,
         };
         a + (b - a).saturating_mul(frac)

@@ -143,6 +143,7 @@ impl_format!(Rot, i64, 62);
 impl_format!(Gain, i64, 32);
 impl_format!(Angle, i64, 60);
 impl_format!(I4F28, i32, 28);
+impl_format!(fixed::types::I32F0, i32, 0);
 impl_format!(I64F64, i128, 64);
 
 /// Significant bits a mantissa is normalized to before a multiplication.

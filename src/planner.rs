@@ -8,11 +8,12 @@
 //!   depth, is within half the geometric budget; otherwise in perspective.
 //! - **Distortion table.** None when `k1 = k2 = 0`. Otherwise the smallest
 //!   power-of-two size (2 to 1024 entries) whose predicted error (linear
-//!   interpolation `|k2| h²/4`, plus the I4F28 entries' rounding), in pixels
-//!   at the widest corner, is within half the geometric budget.
-//! - **Formats.** The renderer's format set is fixed (I32F32 per-pixel
-//!   values, I4F28 table entries); the planner predicts its arithmetic error
-//!   in LSB and checks it against the LSB budget.
+//!   interpolation `|k2| h²/4`, plus the entries' rounding), in pixels at the
+//!   widest corner, is within half the geometric budget. The entries' format
+//!   is the finest i32 format that holds `g` over the range
+//!   ([`crate::distortion::Distortion::entry_frac_bits`]).
+//! - **Formats.** Per-pixel values are I32F32; the planner predicts their
+//!   arithmetic error in LSB and checks it against the LSB budget.
 //!
 //! Planning runs once per scene, like construction, and uses f64.
 
@@ -100,7 +101,10 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             None => u_corner,
         };
         let r_max = libm::sqrt(u_max);
-        let rounding = f_px * r_max * libm::ldexp(1.0, -29) + f_px * libm::ldexp(1.0, -31);
+        let frac = scene
+            .distortion
+            .entry_frac_bits(crate::scene::Q::saturating_from_num(u_max));
+        let rounding = f_px * r_max * libm::ldexp(1.0, -(frac as i32 + 1)) + f_px * libm::ldexp(1.0, -31);
         let mut entries = 2;
         loop {
             let geom = f_px * r_max * scene.distortion.lut_interp_error(u_max, entries) + rounding;

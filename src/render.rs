@@ -89,7 +89,7 @@ pub enum RenderError {
     /// A primitive lies at the centre of projection, or a ray model
     /// parameter is degenerate.
     Degenerate,
-    /// The distortion factor `g` leaves the table's ±8 over the sensor.
+    /// The distortion factor `g` exceeds ±32 768 over the sensor.
     DistortionOutOfRange,
 }
 
@@ -348,6 +348,11 @@ impl Frame {
     /// Bytes a line occupies.
     pub fn line_bytes(&self) -> usize {
         self.width as usize * self.format.bytes_per_pixel()
+    }
+
+    /// Fractional bits of the distortion table's i32 entries, if any.
+    pub fn table_frac_bits(&self) -> Option<u32> {
+        self.lut.as_ref().map(|(l, _)| l.entry_frac_bits())
     }
 
     /// Distortion table bytes (0 without distortion).

@@ -36,6 +36,8 @@ pub struct PlanReport {
     pub mean_depth_m: Option<f64>,
     /// Distortion table entries (0: no distortion stage).
     pub lut_entries: usize,
+    /// The entries' format, chosen for the camera (e.g. "I4F28").
+    pub lut_format: Option<String>,
     /// Predicted pixel → undistorted error, px.
     pub predicted_geom_err_px: f64,
     /// §2 weak-perspective bound over the scene, px (null: unbounded scene).
@@ -228,6 +230,7 @@ pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
                 _ => None,
             },
             lut_entries: stages.distortion_lut.unwrap_or(0),
+            lut_format: frame.table_frac_bits().map(|f| format!("I{}F{}", 32 - f, f)),
             predicted_geom_err_px: plan.predicted_geom_err_px,
             weak_perspective_err_px: plan.weak_perspective_err_px,
             predicted_arith_lsb: plan.predicted_arith_lsb,
