@@ -21,6 +21,7 @@
 //! - [`vignetting`]: cos⁴ fall-off, exposure and quantization;
 //! - [`render`]: the line renderer (rays, intersection, and the stages above);
 //! - [`planner`]: picks the cheapest rendering that meets an error budget;
+//! - [`link`]: the wire protocol and the frame encoder;
 //! - [`num`]: the fixed-point formats and wide intermediates.
 //!
 //! Nothing here panics on any input: constructors return [`Error`], a point
@@ -34,6 +35,7 @@ pub mod extrinsics;
 pub mod frame;
 pub mod intrinsics;
 pub mod lens;
+pub mod link;
 pub mod num;
 pub mod planner;
 pub mod projection;

@@ -7,6 +7,8 @@
 //! `projection`, `intrinsics`, `lens`).
 
 pub mod demo;
+pub mod link;
 pub mod reference;
 pub mod render_cmd;
 pub mod scene_file;
+pub mod stream_cmd;

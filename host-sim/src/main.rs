@@ -35,6 +35,69 @@ enum Cmd {
         #[arg(long, default_value_t = 1.0)]
         max_lsb: f64,
     },
+    /// Render a scene, encode N frames with the core's encoder, send them
+    /// through a simulated link with faults, decode, and report (stream.json,
+    /// received.png).
+    Stream {
+        /// Scene file.
+        #[arg(long)]
+        scene: std::path::PathBuf,
+        /// uart:BAUD or usb-fs.
+        #[arg(long, default_value = "usb-fs")]
+        link: String,
+        /// Faults, e.g. ber=1e-5,drop=1e-6,dup=0,insert=0,truncate=0.01,cut=0,seed=1 (or none).
+        #[arg(long, default_value = "none")]
+        faults: String,
+        /// Frames to send.
+        #[arg(long, default_value_t = 100)]
+        frames: u32,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
+    /// Run the standard fault campaign (12 000 frames of the standard scene)
+    /// and write faults.json.
+    Faults {
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+        /// Scale the campaign's frame counts (1 = 12 000 frames).
+        #[arg(long, default_value_t = 1.0)]
+        scale: f64,
+    },
+    /// Decode frames from a real serial device or pty and write them as PNGs.
+    Receive {
+        /// Device path, e.g. /dev/ttyUSB0.
+        #[arg(long)]
+        device: String,
+        /// Baud rate.
+        #[arg(long, default_value_t = 115_200)]
+        baud: u32,
+        /// Frames to wait for.
+        #[arg(long, default_value_t = 1)]
+        frames: u64,
+        /// Give up after this many seconds without a byte.
+        #[arg(long, default_value_t = 5.0)]
+        timeout: f64,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
+    /// Print a complete small frame as it goes on the wire (docs/wire.md).
+    WireExample,
+}
+
+fn finish(r: Result<String, String>) -> ExitCode {
+    match r {
+        Ok(line) => {
+            println!("{line}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -77,16 +140,118 @@ fn main() -> ExitCode {
                 host_sim::render_cmd::write(&out, &o)?;
                 Ok(host_sim::render_cmd::summary(&o.metrics))
             };
-            match run() {
-                Ok(line) => {
-                    println!("{line}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
-            }
+            finish(run())
         }
+        Cmd::Stream {
+            scene,
+            link,
+            faults,
+            frames,
+            out,
+        } => finish((|| {
+            let link = host_sim::link::sim::Link::parse(&link)?;
+            let faults = host_sim::link::sim::Faults::parse(&faults)?;
+            if frames == 0 {
+                return Err("--frames: must be at least 1".into());
+            }
+            let resolved = host_sim::scene_file::load(&scene)?;
+            let (report, first) = host_sim::stream_cmd::stream(&resolved, link, &faults, frames)?;
+            let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+            let png = host_sim::render_cmd::encode_png(
+                resolved.format,
+                report.width as usize,
+                report.height as usize,
+                &first,
+            )?;
+            std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+            std::fs::write(out.join("stream.json"), json).map_err(|e| e.to_string())?;
+            std::fs::write(out.join("received.png"), png).map_err(|e| e.to_string())?;
+            let o = &report.outcome;
+            Ok(format!(
+                "{} over {}: {} B/frame on the wire, efficiency {:.4}, {:.2} ms/frame = {:.1} fps; \
+                 sent {} hit {} delivered intact {} corrupted accepted {} intact lost {}",
+                report.scene,
+                report.link,
+                report.wire_bytes_per_frame.round(),
+                report.link_efficiency,
+                report.seconds_per_frame * 1e3,
+                report.achievable_fps,
+                o.frames_sent,
+                o.frames_hit_by_faults,
+                o.frames_delivered_intact,
+                o.corrupted_frames_accepted,
+                o.intact_frames_lost
+            ))
+        })()),
+        Cmd::Faults { out, scale } => finish((|| {
+            if !(scale > 0.0 && scale <= 100.0) {
+                return Err("--scale: must lie in (0, 100]".into());
+            }
+            let standard = host_sim::scene_file::load(std::path::Path::new(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../scenes/standard.toml"
+            )))?;
+            let report = host_sim::stream_cmd::campaign(&standard, scale, &mut |name| eprintln!("  {name}"))?;
+            let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+            std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+            std::fs::write(out.join("faults.json"), json).map_err(|e| e.to_string())?;
+            Ok(format!(
+                "fault campaign: {} frames sent, {} hit by faults, {} delivered intact, \
+                 {} corrupted accepted, {} intact lost; {} intact messages, {} of them lost; \
+                 link efficiency {:.4} ({})",
+                report.frames_sent,
+                report.frames_hit_by_faults,
+                report.frames_delivered_intact,
+                report.corrupted_frames_accepted,
+                report.intact_frames_lost,
+                report.untouched_messages,
+                report.untouched_messages_lost,
+                report.link_efficiency,
+                report.frame
+            ))
+        })()),
+        Cmd::Receive {
+            device,
+            baud,
+            frames,
+            timeout,
+            out,
+        } => finish((|| {
+            if !(timeout > 0.0 && timeout.is_finite()) {
+                return Err("--timeout: must be a positive number of seconds".into());
+            }
+            let mut dec = host_sim::link::decoder::Decoder::new(1 << 20, 1 << 24);
+            let got = host_sim::link::serial::receive(
+                &device,
+                baud,
+                frames,
+                std::time::Duration::from_secs_f64(timeout),
+                &mut dec,
+            )?;
+            std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+            for f in &got {
+                let fmt = match f.start.format {
+                    hilcam::link::WireFormat::Gray8 => hilcam::scene::PixelFormat::Gray8,
+                    hilcam::link::WireFormat::Gray16 { bits } => hilcam::scene::PixelFormat::Gray16 { bits },
+                    hilcam::link::WireFormat::Rgb565 => hilcam::scene::PixelFormat::Rgb565,
+                };
+                let png = host_sim::render_cmd::encode_png(
+                    fmt,
+                    f.start.width as usize,
+                    f.start.height as usize,
+                    &f.pixels,
+                )?;
+                std::fs::write(out.join(format!("frame-{:05}.png", f.start.frame_id)), png)
+                    .map_err(|e| e.to_string())?;
+            }
+            let json = serde_json::to_vec_pretty(&dec.stats).map_err(|e| e.to_string())?;
+            std::fs::write(out.join("receive.json"), json).map_err(|e| e.to_string())?;
+            Ok(format!(
+                "{} frames received from {device}; decoder: {:?}",
+                got.len(),
+                dec.stats
+            ))
+        })()),
+        Cmd::WireExample => finish(host_sim::stream_cmd::wire_example().map(|s| s.trim_end().to_string())),
     }
 }

@@ -264,6 +264,20 @@ pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
     })
 }
 
+/// Encodes frame bytes (as the core produces them) as a PNG.
+pub fn encode_png(format: PixelFormat, w: usize, h: usize, bytes: &[u8]) -> Result<Vec<u8>, String> {
+    let bpp = format.bytes_per_pixel();
+    if bytes.len() != w * h * bpp {
+        return Err(format!(
+            "frame of {} bytes is not {w}x{h} {}",
+            bytes.len(),
+            format.name()
+        ));
+    }
+    let dn: Vec<[u32; 3]> = bytes.chunks_exact(bpp).map(|b| decode(format, b)).collect();
+    png(format, w, h, &dn)
+}
+
 /// Encodes channel values as a PNG (8-bit gray, 16-bit gray scaled to the
 /// full 16 bits, or 8-bit RGB).
 fn png(format: PixelFormat, w: usize, h: usize, dn: &[[u32; 3]]) -> Result<Vec<u8>, String> {

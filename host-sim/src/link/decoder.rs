@@ -1,0 +1,244 @@
+//! The streaming frame decoder: reassembles frames from any byte stream,
+//! checks every message's CRC-32 and every frame's, resynchronises at the
+//! next `0x00` after any error, and counts what it dropped and why. It never
+//! panics, whatever the bytes (a fuzz target and a proptest check it).
+
+use hilcam::link::{FrameEnd, FrameStart, Message, CRC32, PROTOCOL_VERSION};
+use serde::Serialize;
+use std::io::Read;
+
+/// A delivered frame.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Frame {
+    /// Its start message.
+    pub start: FrameStart,
+    /// All its pixel bytes.
+    pub pixels: Vec<u8>,
+    /// Its end message (CRC, device cost).
+    pub end: FrameEnd,
+}
+
+/// What the decoder saw, and dropped, and why.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Stats {
+    /// Bytes fed in.
+    pub bytes: u64,
+    /// Messages that decoded and passed their CRC.
+    pub messages_ok: u64,
+    /// Empty messages (consecutive delimiters; frame starts send one).
+    pub empty_messages: u64,
+    /// Messages whose COBS encoding was invalid.
+    pub bad_cobs: u64,
+    /// Messages whose CRC-32 did not match (or too short to carry one).
+    pub bad_crc: u64,
+    /// Messages with a good CRC that did not parse (or were of an unknown
+    /// protocol version).
+    pub bad_message: u64,
+    /// Messages longer than the decoder accepts (discarded to the next
+    /// delimiter).
+    pub oversize: u64,
+    /// Chunks or ends that belonged to no open frame.
+    pub orphans: u64,
+    /// Frames delivered.
+    pub frames_delivered: u64,
+    /// Frames dropped because a chunk was missing or out of place.
+    pub frames_dropped_gap: u64,
+    /// Frames dropped because the next frame started before their end.
+    pub frames_dropped_unfinished: u64,
+    /// Frames dropped because the whole-frame CRC did not match.
+    pub frames_dropped_crc: u64,
+    /// Frames refused at their start (size or version).
+    pub frames_refused: u64,
+}
+
+struct Assembly {
+    start: FrameStart,
+    pixels: Vec<u8>,
+    broken: bool,
+}
+
+/// The decoder. Feed it bytes with [`Decoder::push`].
+pub struct Decoder {
+    msg: Vec<u8>,
+    overflow: bool,
+    max_message: usize,
+    max_frame: usize,
+    open: Option<Assembly>,
+    /// Counts so far.
+    pub stats: Stats,
+    /// When true, the CRC-32 of every good message's body is kept in
+    /// `received` (to tell, in tests and campaigns, which messages arrived).
+    pub record: bool,
+    /// See `record`.
+    pub received: Vec<u32>,
+}
+
+impl Decoder {
+    /// Accepts messages up to `max_message` bytes (encoded) and frames up to
+    /// `max_frame` pixel bytes.
+    pub fn new(max_message: usize, max_frame: usize) -> Decoder {
+        Decoder {
+            msg: Vec::with_capacity(max_message.min(1 << 16)),
+            overflow: false,
+            max_message,
+            max_frame,
+            open: None,
+            stats: Stats::default(),
+            record: false,
+            received: Vec::new(),
+        }
+    }
+
+    /// Feeds bytes; calls `deliver` for every frame completed intact.
+    pub fn push(&mut self, bytes: &[u8], deliver: &mut impl FnMut(Frame)) {
+        self.stats.bytes += bytes.len() as u64;
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            match rest.iter().position(|b| *b == 0) {
+                Some(i) => {
+                    let (part, tail) = rest.split_at(i);
+                    self.append(part);
+                    self.end_of_message(deliver);
+                    rest = &tail[1..];
+                }
+                None => {
+                    self.append(rest);
+                    rest = &[];
+                }
+            }
+        }
+    }
+
+    fn append(&mut self, part: &[u8]) {
+        if self.overflow {
+            return;
+        }
+        if self.msg.len() + part.len() > self.max_message {
+            self.overflow = true;
+            self.msg.clear();
+        } else {
+            self.msg.extend_from_slice(part);
+        }
+    }
+
+    fn end_of_message(&mut self, deliver: &mut impl FnMut(Frame)) {
+        if self.overflow {
+            self.overflow = false;
+            self.stats.oversize += 1;
+            self.msg.clear();
+            return;
+        }
+        if self.msg.is_empty() {
+            self.stats.empty_messages += 1;
+            return;
+        }
+        let mut buf = std::mem::take(&mut self.msg);
+        match cobs::decode_in_place(&mut buf) {
+            Err(_) => self.stats.bad_cobs += 1,
+            Ok(n) => self.message(&buf[..n], deliver),
+        }
+        buf.clear();
+        self.msg = buf;
+    }
+
+    fn message(&mut self, bytes: &[u8], deliver: &mut impl FnMut(Frame)) {
+        if bytes.len() < 4 {
+            self.stats.bad_crc += 1;
+            return;
+        }
+        let (body, crc) = bytes.split_at(bytes.len() - 4);
+        let sum = CRC32.checksum(body);
+        if sum.to_le_bytes() != crc {
+            self.stats.bad_crc += 1;
+            return;
+        }
+        if self.record {
+            self.received.push(sum);
+        }
+        let msg: Message<'_> = match postcard::from_bytes(body) {
+            Ok(m) => m,
+            Err(_) => {
+                self.stats.bad_message += 1;
+                return;
+            }
+        };
+        self.stats.messages_ok += 1;
+        match msg {
+            Message::FrameStart(s) => {
+                if self.open.take().is_some() {
+                    self.stats.frames_dropped_unfinished += 1;
+                }
+                if s.version != PROTOCOL_VERSION
+                    || s.frame_bytes() > self.max_frame
+                    || s.width == 0
+                    || s.height == 0
+                {
+                    self.stats.frames_refused += 1;
+                    return;
+                }
+                self.open = Some(Assembly {
+                    start: s,
+                    pixels: Vec::with_capacity(s.frame_bytes()),
+                    broken: false,
+                });
+            }
+            Message::Chunk(c) => match &mut self.open {
+                Some(a) if a.start.frame_id == c.frame_id => {
+                    let line = a.start.line_bytes();
+                    let ok = !a.broken
+                        && c.offset as usize == a.pixels.len()
+                        && c.offset as usize == c.first_line as usize * line
+                        && a.pixels.len() + c.data.len() <= a.start.frame_bytes()
+                        && c.data.len() % line == 0;
+                    if ok {
+                        a.pixels.extend_from_slice(c.data);
+                    } else {
+                        a.broken = true;
+                    }
+                }
+                _ => self.stats.orphans += 1,
+            },
+            Message::FrameEnd(e) => match self.open.take() {
+                Some(a) if a.start.frame_id == e.frame_id => {
+                    if a.broken || a.pixels.len() != a.start.frame_bytes() {
+                        self.stats.frames_dropped_gap += 1;
+                    } else if CRC32.checksum(&a.pixels) != e.crc {
+                        self.stats.frames_dropped_crc += 1;
+                    } else {
+                        self.stats.frames_delivered += 1;
+                        deliver(Frame {
+                            start: a.start,
+                            pixels: a.pixels,
+                            end: e,
+                        });
+                    }
+                }
+                other => {
+                    // An end for another frame: the open one cannot finish.
+                    if other.is_some() {
+                        self.stats.frames_dropped_gap += 1;
+                    }
+                    self.stats.orphans += 1;
+                }
+            },
+        }
+    }
+}
+
+/// Decodes a whole stream from any reader (a file, a pipe, a serial port),
+/// until end of input.
+pub fn decode_reader<R: Read>(
+    mut r: R,
+    dec: &mut Decoder,
+    deliver: &mut impl FnMut(Frame),
+) -> std::io::Result<()> {
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        match r.read(&mut buf) {
+            Ok(0) => return Ok(()),
+            Ok(n) => dec.push(&buf[..n], deliver),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! The host side of the link: the streaming decoder, simulated UART and USB
+//! links with fault injection, and a reader for real serial ports.
+
+pub mod decoder;
+pub mod serial;
+pub mod sim;

@@ -1,0 +1,324 @@
+//! `host-sim stream`, `host-sim faults` and the wire example: frames rendered
+//! by the core, encoded by the core's encoder, sent through a simulated link
+//! with faults, decoded by the host decoder, and checked byte for byte.
+
+use crate::link::decoder::{Decoder, Stats};
+use crate::link::sim::{inject, send_frames, Faults, Link, Sent};
+use crate::scene_file::Resolved;
+use hilcam::link::{FrameStart, WireFormat, PROTOCOL_VERSION};
+use hilcam::planner::{plan, Budget};
+use hilcam::render::Frame as CoreFrame;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// The core's render of a scene: pixel bytes and the frame header to send
+/// them with.
+pub fn core_frame(r: &Resolved, scene_id: u32) -> Result<(Vec<u8>, FrameStart), String> {
+    let scene = r.core_scene()?;
+    let p = plan(&scene, &Budget::default());
+    let frame =
+        CoreFrame::new(&scene, &p.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let (w, h) = frame.size();
+    let mut line = vec![0u8; frame.line_bytes()];
+    let mut flags = vec![0u8; w as usize];
+    let mut pixels = Vec::with_capacity(frame.line_bytes() * h as usize);
+    for j in 0..h {
+        frame
+            .render_line(j, &mut line, &mut flags)
+            .map_err(|e| format!("render: {e:?}"))?;
+        pixels.extend_from_slice(&line);
+    }
+    let start = FrameStart {
+        version: PROTOCOL_VERSION,
+        frame_id: 0,
+        width: w,
+        height: h,
+        format: WireFormat::from(scene.format),
+        scene_id,
+        exposure: scene.exposure.to_bits(),
+    };
+    Ok((pixels, start))
+}
+
+/// The outcome of sending frames through a link.
+#[derive(Clone, Debug, Serialize)]
+pub struct Outcome {
+    /// Fault settings.
+    pub faults: Faults,
+    /// Frames sent.
+    pub frames_sent: u64,
+    /// Frames any fault touched (a byte of theirs, from the leading
+    /// delimiter to the end message's delimiter).
+    pub frames_hit_by_faults: u64,
+    /// Frames delivered with exactly the bytes sent.
+    pub frames_delivered_intact: u64,
+    /// Frames delivered whose bytes differ from what was sent under that id.
+    pub corrupted_frames_accepted: u64,
+    /// Frames no fault touched that were not delivered.
+    pub intact_frames_lost: u64,
+    /// Messages no fault touched, neither their bytes nor the delimiter
+    /// before them (the intact messages).
+    pub untouched_messages: u64,
+    /// Intact messages that did not decode (must be 0: decoding resumes at
+    /// the first intact message after a fault).
+    pub untouched_messages_lost: u64,
+    /// The decoder's counts.
+    pub decoder: Stats,
+}
+
+/// Sends the encoded frames through `faults` and checks what comes out.
+pub fn run(sent: &Sent, faults: &Faults) -> Outcome {
+    let out = inject(&sent.stream, &sent.messages, faults);
+    // Each sent message's identity: the CRC-32 of its body, from a clean
+    // decode of the sent stream (in order, one per non-empty message).
+    let mut clean = Decoder::new(1 << 20, 1 << 24);
+    clean.record = true;
+    clean.push(&sent.stream, &mut |_| {});
+    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    dec.record = true;
+    let mut got: HashMap<u32, Vec<u8>> = HashMap::new();
+    let mut corrupted = 0u64;
+    let by_id: HashMap<u32, &Vec<u8>> = sent.frames.iter().map(|(id, _, p)| (*id, p)).collect();
+    for piece in out.stream.chunks(1 << 16) {
+        dec.push(piece, &mut |f| match by_id.get(&f.start.frame_id) {
+            Some(p) if **p == f.pixels && !got.contains_key(&f.start.frame_id) => {
+                got.insert(f.start.frame_id, f.pixels);
+            }
+            _ => corrupted += 1,
+        });
+    }
+    let touched = |(a, b): (usize, usize)| {
+        let i = out.hits.partition_point(|h| *h < a);
+        out.hits.get(i).is_some_and(|h| *h < b)
+    };
+    let mut hit = 0;
+    let mut lost = 0;
+    for (id, range, _) in &sent.frames {
+        let t = touched(*range);
+        hit += t as u64;
+        if !t && !got.contains_key(id) {
+            lost += 1;
+        }
+    }
+    let received: std::collections::HashSet<u32> = dec.received.iter().copied().collect();
+    let mut untouched_messages = 0;
+    let mut untouched_lost = 0;
+    let bodies = sent
+        .messages
+        .iter()
+        .filter(|(a, b)| b - a > 1)
+        .zip(clean.received.iter());
+    for ((a, b), id) in bodies {
+        // intact: its bytes and the delimiter before it
+        if !touched((a.saturating_sub(1), *b)) {
+            untouched_messages += 1;
+            untouched_lost += (!received.contains(id)) as u64;
+        }
+    }
+    Outcome {
+        faults: *faults,
+        frames_sent: sent.frames.len() as u64,
+        frames_hit_by_faults: hit,
+        frames_delivered_intact: got.len() as u64,
+        corrupted_frames_accepted: corrupted,
+        intact_frames_lost: lost,
+        untouched_messages,
+        untouched_messages_lost: untouched_lost,
+        decoder: dec.stats,
+    }
+}
+
+/// `stream.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct StreamReport {
+    /// Scene name.
+    pub scene: String,
+    /// Link.
+    pub link: String,
+    /// Frame size and format.
+    pub width: u16,
+    /// Frame size and format.
+    pub height: u16,
+    /// Frame size and format.
+    pub format: String,
+    /// Chunk buffer of the encoder, bytes.
+    pub chunk_bytes: usize,
+    /// Pixel bytes per frame.
+    pub frame_bytes: usize,
+    /// Bytes on the wire per frame (without faults).
+    pub wire_bytes_per_frame: f64,
+    /// Pixel payload bytes / bytes on the wire.
+    pub link_efficiency: f64,
+    /// Time a frame takes on the link, s.
+    pub seconds_per_frame: f64,
+    /// Frames per second the link carries.
+    pub achievable_fps: f64,
+    /// What happened to the frames.
+    pub outcome: Outcome,
+}
+
+/// Renders, encodes `frames` frames, sends them through `link` with
+/// `faults`, decodes, and reports. Also returns the first intact frame.
+pub fn stream(
+    r: &Resolved,
+    link: Link,
+    faults: &Faults,
+    frames: u32,
+) -> Result<(StreamReport, Vec<u8>), String> {
+    let (pixels, start) = core_frame(r, 0)?;
+    let sent = send_frames(&pixels, start, frames, None)?;
+    let outcome = run(&sent, faults);
+    let wire_per_frame = sent.stream.len() as f64 / frames.max(1) as f64;
+    let secs = link.seconds(wire_per_frame.ceil() as u64);
+    let first = sent.frames.first().map(|f| f.2.clone()).unwrap_or_default();
+    Ok((
+        StreamReport {
+            scene: r.desc.name.clone(),
+            link: link.name(),
+            width: start.width,
+            height: start.height,
+            format: r.format.name().into(),
+            chunk_bytes: crate::link::sim::HOST_CHUNK,
+            frame_bytes: start.frame_bytes(),
+            wire_bytes_per_frame: wire_per_frame,
+            link_efficiency: sent.pixel_bytes as f64 / sent.stream.len() as f64,
+            seconds_per_frame: secs,
+            achievable_fps: 1.0 / secs,
+            outcome,
+        },
+        first,
+    ))
+}
+
+/// One setting of the campaign.
+#[derive(Clone, Debug, Serialize)]
+pub struct Setting {
+    /// Name.
+    pub name: String,
+    /// Outcome.
+    #[serde(flatten)]
+    pub outcome: Outcome,
+}
+
+/// `faults.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CampaignReport {
+    /// Frames sent over all settings.
+    pub frames_sent: u64,
+    /// Frames a fault touched.
+    pub frames_hit_by_faults: u64,
+    /// Frames delivered intact.
+    pub frames_delivered_intact: u64,
+    /// Corrupted frames delivered (must be 0).
+    pub corrupted_frames_accepted: u64,
+    /// Untouched frames not delivered (must be 0).
+    pub intact_frames_lost: u64,
+    /// Intact messages (no fault on their bytes or the delimiter before them).
+    pub untouched_messages: u64,
+    /// Intact messages that did not decode (must be 0).
+    pub untouched_messages_lost: u64,
+    /// Pixel payload bytes / bytes on the wire, 160×120 Gray8, no faults.
+    pub link_efficiency: f64,
+    /// The frames: scene, size, format, chunk buffer.
+    pub frame: String,
+    /// Per setting.
+    pub settings: Vec<Setting>,
+}
+
+/// The standard campaign: 12 000 frames of the standard scene (160×120
+/// Gray8), each frame distinct, through bit-error rates from 10⁻⁶ to 10⁻³,
+/// drops, duplicates, inserts, truncations, cuts, and a mix.
+pub fn campaign(
+    standard: &Resolved,
+    scale: f64,
+    progress: &mut dyn FnMut(&str),
+) -> Result<CampaignReport, String> {
+    let (pixels, start) = core_frame(standard, 0)?;
+    let f = |ber, drop, dup, insert, truncate, cut, seed| Faults {
+        ber,
+        drop,
+        dup,
+        insert,
+        truncate,
+        cut,
+        seed,
+    };
+    let plan: Vec<(&str, u32, Faults)> = vec![
+        ("ber-1e-6", 2000, f(1e-6, 0.0, 0.0, 0.0, 0.0, 0.0, 1)),
+        ("ber-1e-5", 2000, f(1e-5, 0.0, 0.0, 0.0, 0.0, 0.0, 2)),
+        ("ber-1e-4", 1500, f(1e-4, 0.0, 0.0, 0.0, 0.0, 0.0, 3)),
+        ("ber-1e-3", 500, f(1e-3, 0.0, 0.0, 0.0, 0.0, 0.0, 4)),
+        ("drop-1e-5", 1000, f(0.0, 1e-5, 0.0, 0.0, 0.0, 0.0, 5)),
+        ("dup-1e-5", 1000, f(0.0, 0.0, 1e-5, 0.0, 0.0, 0.0, 6)),
+        ("insert-1e-5", 1000, f(0.0, 0.0, 0.0, 1e-5, 0.0, 0.0, 7)),
+        ("truncate-0.01", 1000, f(0.0, 0.0, 0.0, 0.0, 0.01, 0.0, 8)),
+        ("cut-0.002", 1000, f(0.0, 0.0, 0.0, 0.0, 0.0, 0.002, 9)),
+        ("mixed", 1000, f(1e-5, 1e-6, 1e-6, 1e-6, 0.002, 0.0005, 10)),
+    ];
+    let clean = send_frames(&pixels, start, 10, None)?;
+    let efficiency = clean.pixel_bytes as f64 / clean.stream.len() as f64;
+    let mut settings = Vec::new();
+    for (name, n, faults) in plan {
+        let n = ((n as f64 * scale).ceil() as u32).max(1);
+        progress(name);
+        let sent = send_frames(&pixels, start, n, None)?;
+        settings.push(Setting {
+            name: name.into(),
+            outcome: run(&sent, &faults),
+        });
+    }
+    let sum = |g: &dyn Fn(&Outcome) -> u64| settings.iter().map(|s| g(&s.outcome)).sum::<u64>();
+    Ok(CampaignReport {
+        frames_sent: sum(&|o| o.frames_sent),
+        frames_hit_by_faults: sum(&|o| o.frames_hit_by_faults),
+        frames_delivered_intact: sum(&|o| o.frames_delivered_intact),
+        corrupted_frames_accepted: sum(&|o| o.corrupted_frames_accepted),
+        intact_frames_lost: sum(&|o| o.intact_frames_lost),
+        untouched_messages: sum(&|o| o.untouched_messages),
+        untouched_messages_lost: sum(&|o| o.untouched_messages_lost),
+        link_efficiency: efficiency,
+        frame: format!(
+            "{} {}x{} {} chunk {} B",
+            standard.desc.name,
+            start.width,
+            start.height,
+            standard.format.name(),
+            crate::link::sim::HOST_CHUNK
+        ),
+        settings,
+    })
+}
+
+/// A complete small frame on the wire (4×2 Gray8), as annotated hex: the
+/// example `docs/wire.md` shows.
+pub fn wire_example() -> Result<String, String> {
+    use std::fmt::Write;
+    let start = FrameStart {
+        version: PROTOCOL_VERSION,
+        frame_id: 7,
+        width: 4,
+        height: 2,
+        format: WireFormat::Gray8,
+        scene_id: 1,
+        exposure: 800i64 << 32,
+    };
+    let pixels = [0x00, 0x01, 0x7f, 0x80, 0xff, 0x00, 0x10, 0x20];
+    let mut enc =
+        hilcam::link::Encoder::<crate::link::sim::Recorder, 8, { hilcam::link::wire_size(8) }>::new(
+            crate::link::sim::Recorder::default(),
+        )
+        .map_err(|e| format!("{e:?}"))?;
+    enc.begin_frame(start).map_err(|e| format!("{e:?}"))?;
+    for l in pixels.chunks(4) {
+        enc.push_line(l).map_err(|e| format!("{e:?}"))?;
+    }
+    enc.end_frame(Some(1234)).map_err(|e| format!("{e:?}"))?;
+    let rec = enc.into_inner();
+    let names = ["delimiter", "FrameStart", "Chunk", "FrameEnd"];
+    let mut s = String::new();
+    for (k, (a, b)) in rec.writes.iter().enumerate() {
+        let hex: Vec<String> = rec.bytes[*a..*b].iter().map(|x| format!("{x:02x}")).collect();
+        let _ = writeln!(s, "{:<10} {}", names.get(k).unwrap_or(&"?"), hex.join(" "));
+    }
+    Ok(s)
+}

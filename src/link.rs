@@ -1,0 +1,351 @@
+//! The link protocol: frames as postcard messages, each with a CRC-32 and
+//! framed with COBS, written to any `embedded_io::Write` (`docs/wire.md` is
+//! the byte-level specification).
+//!
+//! A frame is a [`FrameStart`], [`Chunk`]s of whole lines (as many as fit the
+//! encoder's chunk buffer, so the overhead stays small), and a [`FrameEnd`]
+//! with the CRC-32 of all the frame's pixel bytes. Each message is
+//! `COBS(postcard(message) ‖ CRC-32(postcard(message)) LE) 0x00`; a frame
+//! starts with an extra `0x00`, so that a lost delimiter at the end of one
+//! frame never merges into the next.
+//!
+//! The [`Encoder`] is fed line by line (it is a [`LineSink`], so the renderer
+//! feeds it directly) and holds one chunk and one encoded message: RAM is
+//! `CHUNK + WIRE` bytes, whatever the frame height. No heap.
+
+use crate::render::LineSink;
+use crate::scene::PixelFormat;
+use postcard::ser_flavors::crc::CrcModifier;
+use postcard::ser_flavors::{Cobs, Slice};
+use serde::{Deserialize, Serialize};
+
+/// The protocol version this crate speaks.
+pub const PROTOCOL_VERSION: u8 = 1;
+
+/// CRC-32/ISO-HDLC (the zlib/Ethernet CRC): polynomial 0x04C11DB7 reflected,
+/// initial value and final XOR 0xFFFFFFFF; check value 0xCBF43926.
+pub const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// Largest postcard header of a [`Chunk`] message (tag, frame id, first
+/// line, offset, length varints), in bytes.
+pub const CHUNK_HEADER_MAX: usize = 1 + 5 + 3 + 5 + 5;
+
+/// The chunk buffer the shipped senders use, bytes: 12 lines of 160 Gray8
+/// pixels per message, link efficiency above 0.98 for 160×120 Gray8.
+pub const DEFAULT_CHUNK: usize = 2048;
+
+/// The encoded size a chunk buffer of `chunk` bytes needs: the message, its
+/// CRC, COBS's overhead, and the delimiter.
+pub const fn wire_size(chunk: usize) -> usize {
+    let msg = chunk + CHUNK_HEADER_MAX + 4;
+    msg + msg / 254 + 2
+}
+
+/// Pixel format on the wire.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WireFormat {
+    /// One byte a pixel.
+    Gray8,
+    /// Two bytes a pixel, little-endian, `bits` significant.
+    Gray16 {
+        /// Significant bits (9 to 16).
+        bits: u8,
+    },
+    /// Two bytes a pixel, little-endian `r << 11 | g << 5 | b`.
+    Rgb565,
+}
+
+impl From<PixelFormat> for WireFormat {
+    fn from(f: PixelFormat) -> Self {
+        match f {
+            PixelFormat::Gray8 => WireFormat::Gray8,
+            PixelFormat::Gray16 { bits } => WireFormat::Gray16 { bits },
+            PixelFormat::Rgb565 => WireFormat::Rgb565,
+        }
+    }
+}
+
+impl WireFormat {
+    /// Bytes a pixel.
+    pub const fn bytes_per_pixel(self) -> usize {
+        match self {
+            WireFormat::Gray8 => 1,
+            _ => 2,
+        }
+    }
+}
+
+/// Opens a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FrameStart {
+    /// [`PROTOCOL_VERSION`].
+    pub version: u8,
+    /// Frame counter (wraps).
+    pub frame_id: u32,
+    /// Width, pixels.
+    pub width: u16,
+    /// Height, pixels.
+    pub height: u16,
+    /// Pixel format.
+    pub format: WireFormat,
+    /// Which scene the frame shows (the sender's numbering).
+    pub scene_id: u32,
+    /// Exposure `K` (DN per W/m²) as I32F32 raw bits.
+    pub exposure: i64,
+}
+
+impl FrameStart {
+    /// Bytes of pixel data the frame carries.
+    pub const fn frame_bytes(&self) -> usize {
+        self.width as usize * self.height as usize * self.format.bytes_per_pixel()
+    }
+
+    /// Bytes of one line.
+    pub const fn line_bytes(&self) -> usize {
+        self.width as usize * self.format.bytes_per_pixel()
+    }
+}
+
+/// Consecutive whole lines of a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Chunk<'a> {
+    /// The frame's id.
+    pub frame_id: u32,
+    /// First line in the chunk.
+    pub first_line: u16,
+    /// Offset of the first byte within the frame's pixel bytes.
+    pub offset: u32,
+    /// Pixel bytes (serialized as a byte string: length, then the bytes).
+    #[serde(with = "serde_bytes", borrow)]
+    pub data: &'a [u8],
+}
+
+/// Closes a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FrameEnd {
+    /// The frame's id.
+    pub frame_id: u32,
+    /// CRC-32 of all the frame's pixel bytes, in order.
+    pub crc: u32,
+    /// What the frame cost the device (instructions), when it knows.
+    pub cost: Option<u64>,
+}
+
+/// A message on the wire.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Message<'a> {
+    /// Tag 0.
+    FrameStart(FrameStart),
+    /// Tag 1.
+    #[serde(borrow)]
+    Chunk(Chunk<'a>),
+    /// Tag 2.
+    FrameEnd(FrameEnd),
+}
+
+/// What went wrong while encoding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkError<E> {
+    /// The writer failed.
+    Write(E),
+    /// `WIRE` is below [`wire_size`]`(CHUNK)`.
+    BufferTooSmall,
+    /// A line does not fit the chunk buffer.
+    LineTooLong,
+    /// A line of the wrong length, a line past the frame's height, or a
+    /// frame ended before all its lines.
+    Sequence,
+    /// Serialization failed (cannot happen with a correctly sized buffer).
+    Encode,
+}
+
+/// Encodes one message into `wire` (COBS, CRC appended, delimiter included)
+/// and returns the encoded bytes.
+pub fn encode_message<'w>(msg: &Message<'_>, wire: &'w mut [u8]) -> Option<&'w mut [u8]> {
+    let cobs = Cobs::try_new(Slice::new(wire)).ok()?;
+    postcard::serialize_with_flavor(msg, CrcModifier::new(cobs, CRC32.digest())).ok()
+}
+
+/// The frame encoder: writes frames to `W`, fed line by line, holding one
+/// chunk (`CHUNK` bytes of pixels) and one encoded message (`WIRE` bytes).
+pub struct Encoder<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> {
+    writer: W,
+    chunk: [u8; CHUNK],
+    fill: usize,
+    wire: [u8; WIRE],
+    frame: Option<FrameStart>,
+    crc: crc::Digest<'static, u32>,
+    line: u16,
+    chunk_first_line: u16,
+    offset: u32,
+    /// Bytes written to the link so far.
+    pub bytes_written: u64,
+    /// Pixel bytes sent so far.
+    pub pixel_bytes: u64,
+}
+
+impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CHUNK, WIRE> {
+    /// An encoder over `writer`; `WIRE` must be at least
+    /// [`wire_size`]`(CHUNK)`.
+    pub fn new(writer: W) -> Result<Self, LinkError<W::Error>> {
+        if WIRE < wire_size(CHUNK) || CHUNK == 0 {
+            return Err(LinkError::BufferTooSmall);
+        }
+        Ok(Encoder {
+            writer,
+            chunk: [0; CHUNK],
+            fill: 0,
+            wire: [0; WIRE],
+            frame: None,
+            crc: CRC32.digest(),
+            line: 0,
+            chunk_first_line: 0,
+            offset: 0,
+            bytes_written: 0,
+            pixel_bytes: 0,
+        })
+    }
+
+    /// The writer.
+    pub fn writer(&mut self) -> &mut W {
+        &mut self.writer
+    }
+
+    /// Gives the writer back.
+    pub fn into_inner(self) -> W {
+        self.writer
+    }
+
+    fn send(&mut self, msg: &Message<'_>) -> Result<(), LinkError<W::Error>> {
+        let bytes = encode_message(msg, &mut self.wire).ok_or(LinkError::Encode)?;
+        self.writer.write_all(bytes).map_err(LinkError::Write)?;
+        self.bytes_written += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// Opens a frame: a delimiter, then the [`FrameStart`] message. A frame
+    /// still open is abandoned (the receiver drops it).
+    pub fn begin_frame(&mut self, start: FrameStart) -> Result<(), LinkError<W::Error>> {
+        if start.line_bytes() > CHUNK {
+            return Err(LinkError::LineTooLong);
+        }
+        self.writer.write_all(&[0]).map_err(LinkError::Write)?;
+        self.bytes_written += 1;
+        self.send(&Message::FrameStart(start))?;
+        self.frame = Some(start);
+        self.crc = CRC32.digest();
+        self.fill = 0;
+        self.line = 0;
+        self.chunk_first_line = 0;
+        self.offset = 0;
+        Ok(())
+    }
+
+    fn flush_chunk(&mut self) -> Result<(), LinkError<W::Error>> {
+        let Some(f) = self.frame else {
+            return Err(LinkError::Sequence);
+        };
+        if self.fill == 0 {
+            return Ok(());
+        }
+        let data = self.chunk.get(..self.fill).ok_or(LinkError::Encode)?;
+        let msg = Message::Chunk(Chunk {
+            frame_id: f.frame_id,
+            first_line: self.chunk_first_line,
+            offset: self.offset,
+            data,
+        });
+        let bytes = encode_message(&msg, &mut self.wire).ok_or(LinkError::Encode)?;
+        self.writer.write_all(bytes).map_err(LinkError::Write)?;
+        self.bytes_written += bytes.len() as u64;
+        self.pixel_bytes += self.fill as u64;
+        self.offset += self.fill as u32;
+        self.fill = 0;
+        self.chunk_first_line = self.line;
+        Ok(())
+    }
+
+    /// Adds the next line of the open frame; sends a chunk when the next line
+    /// would not fit.
+    pub fn push_line(&mut self, line: &[u8]) -> Result<(), LinkError<W::Error>> {
+        let Some(f) = self.frame else {
+            return Err(LinkError::Sequence);
+        };
+        if line.len() != f.line_bytes() || self.line >= f.height {
+            return Err(LinkError::Sequence);
+        }
+        if self.fill + line.len() > CHUNK {
+            self.flush_chunk()?;
+        }
+        let dst = self
+            .chunk
+            .get_mut(self.fill..self.fill + line.len())
+            .ok_or(LinkError::LineTooLong)?;
+        dst.copy_from_slice(line);
+        self.crc.update(line);
+        self.fill += line.len();
+        self.line += 1;
+        Ok(())
+    }
+
+    /// Sends the last chunk and the [`FrameEnd`]; returns the frame's CRC-32.
+    pub fn end_frame(&mut self, cost: Option<u64>) -> Result<u32, LinkError<W::Error>> {
+        let Some(f) = self.frame else {
+            return Err(LinkError::Sequence);
+        };
+        if self.line != f.height {
+            return Err(LinkError::Sequence);
+        }
+        self.flush_chunk()?;
+        let crc = core::mem::replace(&mut self.crc, CRC32.digest()).finalize();
+        self.send(&Message::FrameEnd(FrameEnd {
+            frame_id: f.frame_id,
+            crc,
+            cost,
+        }))?;
+        self.frame = None;
+        self.writer.flush().map_err(LinkError::Write)?;
+        Ok(crc)
+    }
+}
+
+/// The renderer feeds the encoder directly: `Frame::render(.., &mut encoder)`
+/// between `begin_frame` and `end_frame`.
+impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> LineSink for Encoder<W, CHUNK, WIRE> {
+    type Error = LinkError<W::Error>;
+    fn line(&mut self, _y: u16, pixels: &[u8], _flags: &[u8]) -> Result<(), Self::Error> {
+        self.push_line(pixels)
+    }
+}
+
+/// A frame strobe and frame pacing through embedded-hal 1.0: the pin is high
+/// while a frame is sent (VSYNC-like), and after each frame the sender waits
+/// `gap_ns` (set it to the target period minus the frame's time on the link,
+/// which `host-sim stream` reports).
+#[cfg(feature = "hal")]
+pub struct FrameSync<P, D> {
+    /// The strobe pin.
+    pub pin: P,
+    /// The delay source.
+    pub delay: D,
+    /// Pause after each frame, ns.
+    pub gap_ns: u32,
+}
+
+#[cfg(feature = "hal")]
+impl<P: embedded_hal::digital::OutputPin, D: embedded_hal::delay::DelayNs> FrameSync<P, D> {
+    /// Raises the strobe: a frame starts.
+    pub fn frame_start(&mut self) -> Result<(), P::Error> {
+        self.pin.set_high()
+    }
+
+    /// Lowers the strobe and waits the gap.
+    pub fn frame_end(&mut self) -> Result<(), P::Error> {
+        self.pin.set_low()?;
+        self.delay.delay_ns(self.gap_ns);
+        Ok(())
+    }
+}
