@@ -1,0 +1,218 @@
+//! The link: encoder → decoder round trips, the decoder on arbitrary and
+//! corrupted bytes, the fault campaign's targets, link efficiency, a real pty,
+//! and the wire example of docs/wire.md.
+
+use hilcam::link::{Encoder, FrameStart, LinkError, WireFormat, PROTOCOL_VERSION};
+use host_sim::link::decoder::{Decoder, Frame};
+use host_sim::link::sim::{inject, send_frames, Faults, Link, Recorder};
+use host_sim::stream_cmd::{campaign, run, wire_example};
+use proptest::prelude::*;
+use std::path::Path;
+
+fn header(width: u16, height: u16, format: WireFormat) -> FrameStart {
+    FrameStart {
+        version: PROTOCOL_VERSION,
+        frame_id: 0,
+        width,
+        height,
+        format,
+        scene_id: 3,
+        exposure: 1 << 32,
+    }
+}
+
+fn decode_all(bytes: &[u8]) -> (Vec<Frame>, Decoder) {
+    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    let mut out = Vec::new();
+    dec.push(bytes, &mut |f| out.push(f));
+    (out, dec)
+}
+
+fn format() -> impl Strategy<Value = WireFormat> {
+    prop_oneof![
+        Just(WireFormat::Gray8),
+        (9u8..=16).prop_map(|bits| WireFormat::Gray16 { bits }),
+        Just(WireFormat::Rgb565)
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, failure_persistence: None, .. ProptestConfig::default() })]
+
+    /// Any frame size, format, content and number of frames survives the
+    /// trip exactly, fed to the decoder in arbitrary pieces.
+    #[test]
+    fn frames_round_trip(w in 1u16..200, h in 1u16..40, fmt in format(), n in 1u32..4, seed in any::<u64>(), piece in 1usize..5000) {
+        let start = header(w, h, fmt);
+        let base: Vec<u8> = (0..start.frame_bytes()).map(|i| (i as u64).wrapping_mul(seed | 1).rotate_left(7) as u8).collect();
+        let sent = send_frames(&base, start, n, Some(42)).expect("encodes");
+        let mut dec = Decoder::new(1 << 20, 1 << 24);
+        let mut got = Vec::new();
+        for p in sent.stream.chunks(piece) {
+            dec.push(p, &mut |f| got.push(f));
+        }
+        prop_assert_eq!(got.len(), n as usize);
+        for (f, (id, _, px)) in got.iter().zip(&sent.frames) {
+            prop_assert_eq!(f.start.frame_id, *id);
+            prop_assert_eq!(&f.pixels, px);
+            prop_assert_eq!(f.end.cost, Some(42));
+        }
+        prop_assert_eq!(dec.stats.bad_crc + dec.stats.bad_cobs + dec.stats.orphans, 0);
+    }
+
+    /// Arbitrary bytes never make the decoder panic or deliver a frame.
+    #[test]
+    fn decoder_survives_arbitrary_bytes(bytes in prop::collection::vec(any::<u8>(), 0..4000)) {
+        let (frames, _) = decode_all(&bytes);
+        prop_assert!(frames.is_empty());
+    }
+
+    /// Random corruption of a valid stream (flips, overwrites, deletions,
+    /// insertions, cut points): the decoder never panics and never delivers
+    /// a frame whose bytes differ from what was sent under its id.
+    #[test]
+    fn corrupted_streams_never_yield_wrong_frames(
+        edits in prop::collection::vec((any::<prop::sample::Index>(), 0u8..4, any::<u8>()), 1..30),
+        seed in any::<u64>(),
+    ) {
+        let start = header(40, 6, WireFormat::Gray8);
+        let base: Vec<u8> = (0..240).map(|i| (i as u64 ^ seed) as u8).collect();
+        let sent = send_frames(&base, start, 4, None).expect("encodes");
+        let mut s = sent.stream.clone();
+        for (at, op, v) in edits {
+            if s.is_empty() { break; }
+            let i = at.index(s.len());
+            match op {
+                0 => s[i] ^= 1 << (v % 8),
+                1 => s[i] = v,
+                2 => { s.remove(i); }
+                _ => s.insert(i, v),
+            }
+        }
+        let (frames, _) = decode_all(&s);
+        for f in frames {
+            let want = sent.frames.iter().find(|(id, _, _)| *id == f.start.frame_id);
+            prop_assert!(want.is_some_and(|(_, _, px)| *px == f.pixels), "corrupted frame accepted");
+        }
+    }
+}
+
+/// The campaign's targets, on a tenth of the standard campaign (1 200
+/// frames; `host-sim faults` runs all 12 000): no corrupted frame accepted,
+/// no untouched frame lost, no intact message lost, efficiency ≥ 0.98.
+#[test]
+fn fault_campaign_meets_targets() {
+    let standard = host_sim::scene_file::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/standard.toml"
+    )))
+    .expect("standard scene");
+    let r = campaign(&standard, 0.1, &mut |_| {}).expect("runs");
+    assert!(r.frames_sent >= 1200);
+    assert!(
+        r.frames_hit_by_faults > 100,
+        "the faults must hit something: {}",
+        r.frames_hit_by_faults
+    );
+    assert_eq!(r.corrupted_frames_accepted, 0);
+    assert_eq!(r.intact_frames_lost, 0);
+    assert_eq!(r.untouched_messages_lost, 0);
+    assert!(r.link_efficiency >= 0.98, "efficiency {}", r.link_efficiency);
+    assert!(r.frames_delivered_intact + r.frames_hit_by_faults >= r.frames_sent);
+}
+
+/// A link cut in the middle of a frame loses that frame (and what the cut
+/// spans) but decoding resumes with the next frame.
+#[test]
+fn decoding_resumes_after_a_cut() {
+    let start = header(160, 120, WireFormat::Gray8);
+    let base = vec![7u8; start.frame_bytes()];
+    let sent = send_frames(&base, start, 6, None).expect("encodes");
+    let (_, (a, b), _) = sent.frames[2];
+    let mut s = sent.stream[..a + (b - a) / 2].to_vec();
+    s.extend_from_slice(&sent.stream[b - 10..]); // resume mid-message, near frame 2's end
+    let (frames, dec) = decode_all(&s);
+    let ids: Vec<u32> = frames.iter().map(|f| f.start.frame_id).collect();
+    assert_eq!(ids, [0, 1, 3, 4, 5]);
+    assert!(dec.stats.bad_crc + dec.stats.bad_cobs >= 1);
+    // and the faults model: truncation of every message loses every frame
+    let out = run(
+        &sent,
+        &Faults {
+            truncate: 1.0,
+            ..Faults::default()
+        },
+    );
+    assert_eq!(out.frames_delivered_intact, 0);
+    assert_eq!(out.corrupted_frames_accepted, 0);
+    let clean = inject(&sent.stream, &sent.messages, &Faults::default());
+    assert_eq!(clean.stream, sent.stream);
+    assert!(clean.hits.is_empty());
+}
+
+/// Encoder misuse is a typed error, not a panic or a malformed stream.
+#[test]
+fn encoder_rejects_misuse() {
+    let mut enc =
+        Encoder::<Recorder, 64, { hilcam::link::wire_size(64) }>::new(Recorder::default()).expect("ok");
+    assert_eq!(enc.push_line(&[1, 2, 3]), Err(LinkError::Sequence));
+    assert_eq!(
+        enc.begin_frame(header(65, 1, WireFormat::Gray8)),
+        Err(LinkError::LineTooLong)
+    );
+    enc.begin_frame(header(4, 2, WireFormat::Gray8)).expect("ok");
+    assert_eq!(enc.push_line(&[1, 2, 3]), Err(LinkError::Sequence));
+    enc.push_line(&[1, 2, 3, 4]).expect("ok");
+    assert_eq!(enc.end_frame(None), Err(LinkError::Sequence));
+    assert!(matches!(
+        Encoder::<Recorder, 64, 32>::new(Recorder::default()),
+        Err(LinkError::BufferTooSmall)
+    ));
+}
+
+/// Link timing models.
+#[test]
+fn link_models() {
+    assert_eq!(Link::parse("uart:115200"), Ok(Link::Uart { baud: 115_200 }));
+    assert!(Link::parse("uart:0").is_err() && Link::parse("spi").is_err());
+    assert!((Link::Uart { baud: 1_000_000 }.seconds(100_000) - 1.0).abs() < 1e-12);
+    // 19 × 64 bytes per millisecond
+    assert!((Link::UsbFs.seconds(19 * 64 * 1000) - 1.0).abs() < 1e-12);
+    assert!(Faults::parse("ber=2").is_err() && Faults::parse("nope=1").is_err());
+    assert_eq!(Faults::parse("ber=1e-5,seed=9").expect("ok").seed, 9);
+}
+
+/// The same decoder reads a real serial device: here a pty pair.
+#[test]
+fn decoder_reads_a_pty() {
+    use std::io::Write;
+    let (mut master, mut slave) = serialport::TTYPort::pair().expect("pty pair");
+    let start = header(32, 8, WireFormat::Gray8);
+    let base: Vec<u8> = (0..256).map(|i| i as u8).collect();
+    let sent = send_frames(&base, start, 3, None).expect("encodes");
+    let stream = sent.stream.clone();
+    let writer = std::thread::spawn(move || {
+        master.write_all(&stream).expect("write");
+        master.flush().expect("flush");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        drop(master);
+    });
+    serialport::SerialPort::set_timeout(&mut slave, std::time::Duration::from_millis(50)).expect("timeout");
+    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    let frames =
+        host_sim::link::serial::read_frames(&mut slave, 3, std::time::Duration::from_secs(5), &mut dec)
+            .expect("reads");
+    writer.join().expect("writer");
+    assert_eq!(frames.len(), 3);
+    assert_eq!(frames[2].pixels, sent.frames[2].2);
+}
+
+/// docs/wire.md shows exactly what the encoder produces.
+#[test]
+fn wire_doc_example_is_current() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/wire.md"))
+        .expect("docs/wire.md");
+    for line in wire_example().expect("example").lines() {
+        assert!(doc.contains(line.trim_end()), "docs/wire.md lacks {line:?}");
+    }
+}
