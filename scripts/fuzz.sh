@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Runs a cargo-fuzz target for a given time: ./scripts/fuzz.sh [TARGET] [SECONDS]
+# (default: every target, 60 s each). Needs the nightly toolchain and
+# cargo-fuzz; installs cargo-fuzz if missing.
+set -euo pipefail
+cd "$(dirname "$0")/../fuzz"
+command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
+rustup toolchain list | grep -q nightly || rustup toolchain install nightly --profile minimal
+targets=${1:-$(cargo +nightly fuzz list)}
+secs=${2:-60}
+for t in $targets; do
+  echo "== fuzz $t for ${secs}s"
+  cargo +nightly fuzz run "$t" -- -max_total_time="$secs" 2>&1 | grep -E "^Done|ERROR|panicked|SUMMARY" || true
+done
