@@ -2,10 +2,13 @@
 # The main job: renders every shipped scene with the fixed-point core and the
 # f64 reference, writes the frames, diff maps and metrics under out/, and
 # prints one line of metrics a scene; streams the standard scene through the
-# simulated UART and USB links and runs the fault campaign; then the demo
-# camera's projections and lens figures, core vs reference.
+# simulated UART and USB links and runs the fault campaign; runs the firmware
+# in QEMU on both boards (installing QEMU when it can) and checks its frames
+# against the host render; then the demo camera's projections and lens
+# figures, core vs reference.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. scripts/lib.sh
 cargo build -q --release -p host-sim
 for scene in scenes/*.toml; do
   name=$(basename "$scene" .toml)
@@ -18,5 +21,17 @@ echo
 ./target/release/host-sim stream --scene scenes/standard.toml --link uart:921600 --frames 20 --out out/stream-uart
 ./target/release/host-sim stream --scene scenes/standard.toml --link usb-fs --frames 200 --out out/stream-usb
 ./target/release/host-sim faults --out out/faults 2>/dev/null
+echo
+# The firmware in QEMU: the same scenes rendered on a Cortex-M3 and a
+# Cortex-M4F, streamed over their UARTs, checked byte for byte.
+if ensure_qemu; then
+  build_firmware
+  ./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
+  ./target/release/host-sim hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
+else
+  echo "SKIPPED: the firmware-in-QEMU run (qemu-system-arm is not installed and could not be"
+  echo "installed: run as root on Debian, or apt-get install qemu-system-arm, then rerun)."
+  echo "Everything above ran on the host only."
+fi
 echo
 ./target/release/host-sim demo

@@ -3,6 +3,7 @@
 # rustup: it installs the thumb targets and components it needs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. scripts/lib.sh
 
 echo "== toolchain (targets and components from rust-toolchain.toml)"
 rustup component add clippy rustfmt >/dev/null
@@ -27,9 +28,27 @@ done
 cargo build -q --lib --release --target thumbv7em-none-eabihf --features defmt
 echo "   thumbv7em-none-eabihf --features defmt: ok"
 
+echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (compile only)"
+build_firmware
+(cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings)
+
 echo "== tests"
 rm -rf target/tmp/accuracy
 cargo test --workspace
+
+echo "== firmware in QEMU: every shipped scene, byte-identical with the host render"
+ensure_qemu || { echo "qemu-system-arm is missing and could not be installed"; exit 1; }
+cargo build -q --release -p host-sim
+for board in lm3s6965evb mps2-an386; do
+  ./target/release/host-sim hil --board "$board" --elf "firmware/target/$( [ $board = lm3s6965evb ] && echo thumbv7m-none-eabi || echo thumbv7em-none-eabihf )/release/hilcam-firmware" --out "target/hil/$board"
+done
+
+echo "== firmware in QEMU at 640x480 (the standard scene, wider): streams by lines, RAM O(width)"
+mkdir -p target/scenes640
+sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 640/' \
+    -e 's/^height = 120/height = 480/' -e 's/^pitch = 12e-6/pitch = 3e-6/' \
+    -e 's/^tolerable_blur = 12e-6/tolerable_blur = 3e-6/' scenes/standard.toml > target/scenes640/standard-640.toml
+./target/release/host-sim hil --board lm3s6965evb --scene target/scenes640/standard-640.toml --out target/hil/lm3s6965evb-640
 
 echo "== largest errors measured by the property tests (core vs f64 reference)"
 cat target/tmp/accuracy/*.txt

@@ -487,7 +487,7 @@ impl Frame {
     }
 
     /// Radiance (per channel) seen along the ray `o + t d`.
-    #[inline(always)]
+    #[inline]
     fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3, d: V3) -> V3 {
         let mut best = Q::MAX;
         let mut hit: Option<(usize, V3, V3)> = None; // (material, point, normal)
@@ -545,7 +545,7 @@ fn undistort(lut: &Lut, limit: Q, xd: Q, yd: Q) -> Option<(Q, Q)> {
 }
 
 /// Nearest hit `t > 0` of the ray with a shape, and the (unit) normal there.
-#[inline(always)]
+#[inline]
 fn intersect<const PERSP: bool>(s: &CamShape, o: V3, d: V3) -> Option<(Q, V3)> {
     match *s {
         CamShape::Plane { n, dist } => plane_t::<PERSP>(n, dist, o, d).map(|t| (t, n)),
@@ -591,7 +591,7 @@ fn intersect<const PERSP: bool>(s: &CamShape, o: V3, d: V3) -> Option<(Q, V3)> {
     }
 }
 
-#[inline(always)]
+#[inline]
 fn plane_t<const PERSP: bool>(n: V3, dist: Q, o: V3, d: V3) -> Option<Q> {
     let denom = if PERSP { dot(n, d) } else { n[2] };
     let num = if PERSP {

@@ -7,6 +7,7 @@
 //! `projection`, `intrinsics`, `lens`).
 
 pub mod demo;
+pub mod hil_cmd;
 pub mod link;
 pub mod reference;
 pub mod render_cmd;

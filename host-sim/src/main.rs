@@ -85,6 +85,23 @@ enum Cmd {
     },
     /// Print a complete small frame as it goes on the wire (docs/wire.md).
     WireExample,
+    /// Run the firmware in QEMU, decode its UART, and compare every frame
+    /// with the host render (bit-exact) and the f64 reference; writes hil.json
+    /// and the frames as PNGs.
+    Hil {
+        /// lm3s6965evb (Cortex-M3) or mps2-an386 (Cortex-M4F).
+        #[arg(long)]
+        board: String,
+        /// Scenes to embed (default: every scene in scenes/).
+        #[arg(long, num_args = 1..)]
+        scene: Vec<std::path::PathBuf>,
+        /// A firmware ELF built already (default: build it).
+        #[arg(long)]
+        elf: Option<std::path::PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
 }
 
 fn finish(r: Result<String, String>) -> ExitCode {
@@ -253,5 +270,44 @@ fn main() -> ExitCode {
             ))
         })()),
         Cmd::WireExample => finish(host_sim::stream_cmd::wire_example().map(|s| s.trim_end().to_string())),
+        Cmd::Hil {
+            board,
+            scene,
+            elf,
+            out,
+        } => finish((|| {
+            let board = host_sim::hil_cmd::Board::parse(&board)?;
+            let r = host_sim::hil_cmd::hil(board, elf, &scene, &out)?;
+            let mut s = String::new();
+            for f in &r.frames {
+                s.push_str(&format!(
+                    "  {:<20} {}x{} {:<7} bit_exact={} instructions/pixel={} max_abs_lsb={}\n",
+                    f.scene,
+                    f.width,
+                    f.height,
+                    f.format,
+                    f.bit_exact,
+                    f.instructions_per_pixel.map_or("-".into(), |v| format!("{v:.0}")),
+                    f.max_abs_lsb
+                ));
+            }
+            s.push_str(&format!(
+                "{}: {} frames, bit_exact={}, standard scene {} instructions/pixel (QEMU -icount; not cycles), \
+                 flash {} B, static RAM {} B, peak stack {} B, max_abs_lsb {}",
+                r.board,
+                r.frames.len(),
+                r.bit_exact,
+                r.instructions_per_pixel.map_or("-".into(), |v| format!("{v:.0}")),
+                r.flash_bytes,
+                r.ram_bytes,
+                r.stack_peak_bytes.map_or("-".into(), |v| v.to_string()),
+                r.max_abs_lsb
+            ));
+            if r.bit_exact {
+                Ok(s)
+            } else {
+                Err(format!("{s}\nnot bit-exact with the host render"))
+            }
+        })()),
     }
 }

@@ -1,0 +1,190 @@
+//! hilcam firmware: renders every shipped scene (built in flash from
+//! `scenes/`) with the core and streams the frames over UART0 with the link
+//! protocol. Each frame's cost — instructions, counted with SysTick under
+//! QEMU `-icount` — goes in its `FrameEnd`. Status goes to semihosting; a
+//! panic reports there and exits non-zero.
+#![no_std]
+#![no_main]
+
+mod board;
+
+#[allow(clippy::all)]
+mod scenes {
+    use hilcam::distortion::Distortion;
+    use hilcam::lens::{Aperture, LensConfig};
+    use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec};
+    use hilcam::{Camera, Extrinsics, IntrinsicsConfig, Model};
+    include!(concat!(env!("OUT_DIR"), "/scenes.rs"));
+}
+
+use core::sync::atomic::{AtomicU32, Ordering};
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use cortex_m_rt::{entry, exception};
+use cortex_m_semihosting::debug;
+#[cfg(feature = "status")]
+use cortex_m_semihosting::hprintln;
+use hilcam::link::{wire_size, Encoder, FrameStart, WireFormat, DEFAULT_CHUNK, PROTOCOL_VERSION};
+use hilcam::planner::{plan, Budget};
+use hilcam::render::Frame;
+
+/// Status text over semihosting (QEMU, probe-rs), unless the `status`
+/// feature is off; the exit code is always reported through semihosting.
+macro_rules! status {
+    ($($t:tt)*) => {
+        #[cfg(feature = "status")]
+        hprintln!($($t)*);
+    };
+}
+
+/// The `-icount` shift `host-sim hil` runs QEMU with: 2^7 ns an instruction.
+const ICOUNT_SHIFT: u32 = 7;
+
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+#[exception]
+fn SysTick() {
+    WRAPS.store(WRAPS.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+}
+
+/// SysTick ticks since start (24-bit counter with wraps counted).
+fn ticks() -> u64 {
+    loop {
+        let w1 = WRAPS.load(Ordering::Relaxed);
+        let cvr = SYST::get_current();
+        let w2 = WRAPS.load(Ordering::Relaxed);
+        if w1 == w2 {
+            return ((w1 as u64) << 24) | (0x00FF_FFFF - cvr) as u64;
+        }
+    }
+}
+
+/// Ticks → instructions under `-icount shift=7`.
+fn instructions(ticks: u64) -> u64 {
+    ticks * board::SYSTICK_NS / (1 << ICOUNT_SHIFT)
+}
+
+/// Stack painting: the RAM between the end of the statics (`__sheap`) and
+/// the stack pointer is filled with a pattern at start; the lowest word no
+/// longer holding it after the frames marks the deepest stack use.
+mod stack {
+    const PAINT: u32 = 0xA5A5_A5A5;
+    extern "C" {
+        static mut __sheap: u32;
+        static _stack_start: u32;
+    }
+
+    fn bounds() -> (usize, usize) {
+        // Addresses of linker symbols only; nothing is read.
+        (
+            core::ptr::addr_of_mut!(__sheap) as usize,
+            core::ptr::addr_of!(_stack_start) as usize,
+        )
+    }
+
+    /// Paints from the end of the statics to 256 bytes below the stack
+    /// pointer.
+    pub fn paint() {
+        let (lo, _) = bounds();
+        let sp = cortex_m::register::msp::read() as usize;
+        let mut p = lo;
+        while p + 4 <= sp.saturating_sub(256) {
+            // SAFETY: free RAM between the statics and the live stack.
+            unsafe { core::ptr::write_volatile(p as *mut u32, PAINT) };
+            p += 4;
+        }
+    }
+
+    /// Deepest stack use so far, bytes.
+    #[cfg_attr(not(feature = "status"), allow(dead_code))]
+    pub fn peak() -> usize {
+        let (lo, top) = bounds();
+        let mut p = lo;
+        // SAFETY: reads of RAM painted by `paint`.
+        while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
+            p += 4;
+        }
+        top - p
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    stack::paint();
+    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| fail("peripherals"));
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(0x00FF_FFFF);
+    cp.SYST.clear_current();
+    cp.SYST.enable_interrupt();
+    cp.SYST.enable_counter();
+    // QEMU raises one SysTick as soon as the counter starts from 0: let it
+    // pass before counting.
+    while SYST::get_current() == 0 {}
+    WRAPS.store(0, Ordering::Relaxed);
+
+    let mut enc = match Encoder::<board::Uart0, DEFAULT_CHUNK, { wire_size(DEFAULT_CHUNK) }>::new(
+        board::Uart0::new(),
+    ) {
+        Ok(e) => e,
+        Err(_) => fail("encoder"),
+    };
+    let mut line = [0u8; scenes::MAX_LINE_BYTES];
+    let mut flags = [0u8; scenes::MAX_WIDTH];
+    for (id, name) in scenes::NAMES.iter().enumerate() {
+        let scene = scenes::build(id).unwrap_or_else(|e| fail(e));
+        let p = plan(&scene, &Budget::default());
+        let t0 = ticks();
+        let frame = Frame::new(&scene, &p.options).unwrap_or_else(|_| fail("frame"));
+        let mut cost = ticks() - t0;
+        let (w, h) = frame.size();
+        let start = FrameStart {
+            version: PROTOCOL_VERSION,
+            frame_id: id as u32,
+            width: w,
+            height: h,
+            format: WireFormat::from(scene.format),
+            scene_id: id as u32,
+            exposure: scene.exposure.to_bits(),
+        };
+        enc.begin_frame(start).unwrap_or_else(|_| fail("begin"));
+        let n = frame.line_bytes();
+        for j in 0..h {
+            // Only rendering is counted: the UART's back-pressure is not.
+            let t = ticks();
+            frame
+                .render_line(j, &mut line, &mut flags)
+                .unwrap_or_else(|_| fail("render"));
+            cost += ticks() - t;
+            enc.push_line(line.get(..n).unwrap_or_else(|| fail("line")))
+                .unwrap_or_else(|_| fail("send"));
+        }
+        let ins = instructions(cost);
+        enc.end_frame(Some(ins)).unwrap_or_else(|_| fail("end"));
+        status!("frame {} {}: {}x{}, {} instructions", id, name, w, h, ins);
+        let _ = name;
+    }
+    status!("stack_peak_bytes {}", stack::peak());
+    status!("done");
+    debug::exit(debug::EXIT_SUCCESS);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+fn fail(what: &str) -> ! {
+    status!("firmware error: {}", what);
+    let _ = what;
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    status!("firmware panic: {}", info);
+    let _ = info;
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

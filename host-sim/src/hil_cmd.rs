@@ -1,0 +1,325 @@
+//! `host-sim hil`: the firmware in QEMU. Builds (or is given) the firmware
+//! ELF, runs it in qemu-system-arm with UART0 on a binary-clean serial file
+//! and `-icount`, decodes the frames, and compares each to the host-side core
+//! render of the same scene (they must be byte-identical) and to the f64
+//! reference.
+
+use crate::link::decoder::Decoder;
+use crate::render_cmd::{decode, encode_png, render};
+use crate::scene_file::{load, Resolved};
+use crate::stream_cmd::core_frame;
+use hilcam::planner::Budget;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// A QEMU board the firmware supports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Board {
+    /// TI LM3S6965 evaluation board: Cortex-M3, PL011 UART0.
+    Lm3s6965evb,
+    /// Arm MPS2+ AN386: Cortex-M4F, CMSDK UART0.
+    Mps2An386,
+}
+
+impl Board {
+    /// `lm3s6965evb` or `mps2-an386`.
+    pub fn parse(s: &str) -> Result<Board, String> {
+        match s {
+            "lm3s6965evb" => Ok(Board::Lm3s6965evb),
+            "mps2-an386" => Ok(Board::Mps2An386),
+            _ => Err(format!("--board: expected lm3s6965evb or mps2-an386, got {s:?}")),
+        }
+    }
+    /// QEMU machine name.
+    pub fn machine(self) -> &'static str {
+        match self {
+            Board::Lm3s6965evb => "lm3s6965evb",
+            Board::Mps2An386 => "mps2-an386",
+        }
+    }
+    fn cpu(self) -> &'static str {
+        match self {
+            Board::Lm3s6965evb => "cortex-m3",
+            Board::Mps2An386 => "cortex-m4",
+        }
+    }
+    /// Rust target.
+    pub fn target(self) -> &'static str {
+        match self {
+            Board::Lm3s6965evb => "thumbv7m-none-eabi",
+            Board::Mps2An386 => "thumbv7em-none-eabihf",
+        }
+    }
+    fn feature(self) -> &'static str {
+        match self {
+            Board::Lm3s6965evb => "board-lm3s6965",
+            Board::Mps2An386 => "board-mps2-an386",
+        }
+    }
+}
+
+/// The repository root (host-sim's parent).
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+}
+
+/// Builds the firmware for `board` with `scenes` embedded (all of
+/// `scenes/` when empty); returns the ELF path.
+pub fn build_firmware(board: Board, scenes: &[PathBuf]) -> Result<PathBuf, String> {
+    let dir = repo_root().join("firmware");
+    let list: Vec<String> = scenes
+        .iter()
+        .map(|p| {
+            std::fs::canonicalize(p)
+                .map(|p| p.display().to_string())
+                .map_err(|e| format!("{}: {e}", p.display()))
+        })
+        .collect::<Result<_, _>>()?;
+    let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .current_dir(&dir)
+        .env("HILCAM_SCENES", list.join("\n"))
+        .args([
+            "build",
+            "--release",
+            "--features",
+            board.feature(),
+            "--target",
+            board.target(),
+        ])
+        .output()
+        .map_err(|e| format!("cargo build (firmware): {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "firmware build failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    Ok(dir
+        .join("target")
+        .join(board.target())
+        .join("release")
+        .join("hilcam-firmware"))
+}
+
+/// Flash and static RAM of an ELF, bytes, from its sections: flash holds
+/// the vector table, code, read-only data and the initial values of `.data`;
+/// RAM holds `.data`, `.bss` and `.uninit`.
+pub fn elf_sizes(elf: &Path) -> Result<(u64, u64), String> {
+    use object::{Object, ObjectSection};
+    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let (mut flash, mut ram) = (0, 0);
+    for s in file.sections() {
+        let name = s.name().unwrap_or("");
+        match name {
+            ".vector_table" | ".text" | ".rodata" => flash += s.size(),
+            ".data" => {
+                flash += s.size();
+                ram += s.size();
+            }
+            ".bss" | ".uninit" => ram += s.size(),
+            _ => {}
+        }
+    }
+    Ok((flash, ram))
+}
+
+/// QEMU's binary, if installed.
+pub fn qemu() -> Option<PathBuf> {
+    std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|p| p.join("qemu-system-arm"))
+            .find(|p| p.is_file())
+    })
+}
+
+/// Runs the ELF in QEMU under `-icount shift=7` (the firmware converts
+/// SysTick ticks to instructions with that shift); UART0 bytes go to `uart`.
+/// Returns the semihosting text.
+pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Result<String, String> {
+    let qemu = qemu().ok_or("qemu-system-arm is not installed (apt-get install qemu-system-arm)")?;
+    let mut child = Command::new(qemu)
+        .args(["-cpu", board.cpu(), "-machine", board.machine()])
+        .args(["-display", "none", "-monitor", "none"])
+        .arg("-serial")
+        .arg(format!("file:{}", uart.display()))
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-icount", "shift=7,align=off,sleep=off"])
+        .arg("-kernel")
+        .arg(elf)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("qemu: {e}"))?;
+    let t = Instant::now();
+    loop {
+        match child.try_wait().map_err(|e| format!("qemu: {e}"))? {
+            Some(status) => {
+                let out = child.wait_with_output().map_err(|e| format!("qemu: {e}"))?;
+                let text = String::from_utf8_lossy(&out.stdout).to_string();
+                if !status.success() {
+                    return Err(format!(
+                        "firmware exited with {status}:\n{text}{}",
+                        String::from_utf8_lossy(&out.stderr)
+                    ));
+                }
+                return Ok(text);
+            }
+            None if t.elapsed() > timeout => {
+                let _ = child.kill();
+                return Err(format!("qemu did not finish within {timeout:?}"));
+            }
+            None => std::thread::sleep(Duration::from_millis(20)),
+        }
+    }
+}
+
+/// One frame's result.
+#[derive(Clone, Debug, Serialize)]
+pub struct HilFrame {
+    /// Scene name.
+    pub scene: String,
+    /// Size.
+    pub width: u16,
+    /// Size.
+    pub height: u16,
+    /// Format.
+    pub format: String,
+    /// Byte-identical to the host-side core render.
+    pub bit_exact: bool,
+    /// Instructions the frame cost on the device (QEMU `-icount`; not cycles).
+    pub instructions: Option<u64>,
+    /// Instructions per pixel.
+    pub instructions_per_pixel: Option<f64>,
+    /// Largest |firmware − reference| in LSB.
+    pub max_abs_lsb: u32,
+    /// Fraction of pixels equal to the reference.
+    pub exact_fraction: f64,
+}
+
+/// `hil.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct HilReport {
+    /// Board.
+    pub board: String,
+    /// Frames received.
+    pub frames: Vec<HilFrame>,
+    /// Every frame received and byte-identical to the host render.
+    pub bit_exact: bool,
+    /// Instructions per pixel of the standard scene (if it was rendered).
+    pub instructions_per_pixel: Option<f64>,
+    /// Static RAM (.data + .bss + .uninit), bytes.
+    pub ram_bytes: u64,
+    /// Deepest stack use, bytes (the firmware paints its free RAM at start
+    /// and reports the lowest word overwritten).
+    pub stack_peak_bytes: Option<u64>,
+    /// `ram_bytes + stack_peak_bytes`: all the RAM the firmware used.
+    pub ram_peak_bytes: Option<u64>,
+    /// Flash (vector table, code, read-only data, .data image), bytes.
+    pub flash_bytes: u64,
+    /// Largest |firmware − reference| over all frames, LSB.
+    pub max_abs_lsb: u32,
+    /// Wall-clock seconds QEMU ran.
+    pub qemu_seconds: f64,
+}
+
+/// Runs the firmware on `board` and checks its frames. Writes the frames as
+/// PNGs into `out`.
+pub fn hil(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -> Result<HilReport, String> {
+    let list: Vec<PathBuf> = if scenes.is_empty() {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(repo_root().join("scenes"))
+            .map_err(|e| format!("scenes/: {e}"))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect();
+        v.sort();
+        v
+    } else {
+        scenes.to_vec()
+    };
+    let resolved: Vec<Resolved> = list.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
+    let elf = match elf {
+        Some(e) => e,
+        None => build_firmware(board, scenes)?,
+    };
+    let (flash, ram) = elf_sizes(&elf)?;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let uart = out.join("uart.bin");
+    let _ = std::fs::remove_file(&uart);
+    let t = Instant::now();
+    let text = run_qemu(board, &elf, &uart, Duration::from_secs(600))?;
+    let qemu_seconds = t.elapsed().as_secs_f64();
+    std::fs::write(out.join("semihosting.txt"), &text).map_err(|e| e.to_string())?;
+    let bytes = std::fs::read(&uart).map_err(|e| format!("{}: {e}", uart.display()))?;
+    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    let mut got = Vec::new();
+    dec.push(&bytes, &mut |f| got.push(f));
+    let mut frames = Vec::new();
+    let mut all_exact = got.len() == resolved.len();
+    let mut ipp_standard = None;
+    for f in &got {
+        let Some(r) = resolved.get(f.start.scene_id as usize) else {
+            all_exact = false;
+            continue;
+        };
+        let (host, start) = core_frame(r, f.start.scene_id)?;
+        let exact = host == f.pixels && start.width == f.start.width && start.height == f.start.height;
+        all_exact &= exact;
+        let reference = render(r, &Budget::default())?.reference;
+        let bpp = r.format.bytes_per_pixel();
+        let (mut max, mut same) = (0u32, 0usize);
+        for (k, px) in f.pixels.chunks_exact(bpp).enumerate() {
+            let dn = decode(r.format, px);
+            let d = (0..r.format.channels())
+                .map(|c| dn[c].abs_diff(reference.dn[k][c]))
+                .max()
+                .unwrap_or(0);
+            max = max.max(d);
+            same += (d == 0) as usize;
+        }
+        let pixels = f.start.width as f64 * f.start.height as f64;
+        let ipp = f.end.cost.map(|c| c as f64 / pixels);
+        if r.desc.name == "standard" {
+            ipp_standard = ipp;
+        }
+        let png = encode_png(
+            r.format,
+            f.start.width as usize,
+            f.start.height as usize,
+            &f.pixels,
+        )?;
+        std::fs::write(out.join(format!("{}.png", r.desc.name)), png).map_err(|e| e.to_string())?;
+        frames.push(HilFrame {
+            scene: r.desc.name.clone(),
+            width: f.start.width,
+            height: f.start.height,
+            format: r.format.name().into(),
+            bit_exact: exact,
+            instructions: f.end.cost,
+            instructions_per_pixel: ipp,
+            max_abs_lsb: max,
+            exact_fraction: same as f64 / pixels,
+        });
+    }
+    let stack = text
+        .lines()
+        .find_map(|l| l.strip_prefix("stack_peak_bytes "))
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    let report = HilReport {
+        board: board.machine().into(),
+        stack_peak_bytes: stack,
+        ram_peak_bytes: stack.map(|s| s + ram),
+        bit_exact: all_exact,
+        instructions_per_pixel: ipp_standard,
+        ram_bytes: ram,
+        flash_bytes: flash,
+        max_abs_lsb: frames.iter().map(|f| f.max_abs_lsb).max().unwrap_or(0),
+        qemu_seconds,
+        frames,
+    };
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+    std::fs::write(out.join("hil.json"), json).map_err(|e| e.to_string())?;
+    Ok(report)
+}

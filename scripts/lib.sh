@@ -1,0 +1,20 @@
+# Shared by the scripts: installs qemu-system-arm when it is missing and this
+# is root on a Debian-like machine. Returns non-zero if QEMU is unavailable.
+ensure_qemu() {
+  command -v qemu-system-arm >/dev/null 2>&1 && return 0
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "   installing qemu-system-arm (apt-get)"
+    apt-get update -qq >/dev/null 2>&1 || true
+    DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends qemu-system-arm >/dev/null 2>&1 || return 1
+    command -v qemu-system-arm >/dev/null 2>&1 && return 0
+  fi
+  return 1
+}
+
+# Builds the firmware for the three Cortex-M targets (M0 compiles only).
+build_firmware() {
+  (cd firmware &&
+    cargo build -q --release --features board-lm3s6965 --target thumbv7m-none-eabi &&
+    cargo build -q --release --features board-mps2-an386 --target thumbv7em-none-eabihf &&
+    cargo build -q --release --features board-lm3s6965 --target thumbv6m-none-eabi)
+}
