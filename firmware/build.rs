@@ -126,7 +126,7 @@ fn main() {
                 p.shape, p.material
             );
         }
-        for l in &r.desc.lights {
+        for l in &r.lights {
             match l {
                 LightDesc::Point { position, intensity } => {
                     let _ = writeln!(

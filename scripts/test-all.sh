@@ -50,5 +50,10 @@ sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 
     -e 's/^tolerable_blur = 12e-6/tolerable_blur = 3e-6/' scenes/standard.toml > target/scenes640/standard-640.toml
 ./target/release/host-sim hil --board lm3s6965evb --scene target/scenes640/standard-640.toml --out target/hil/lm3s6965evb-640
 
+echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
+./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
+if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
+[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 3 ] || { echo "a fuzz target did not run"; exit 1; }
+
 echo "== largest errors measured by the property tests (core vs f64 reference)"
 cat target/tmp/accuracy/*.txt

@@ -25,7 +25,7 @@ pub struct SceneDesc {
     pub materials: Vec<MaterialDesc>,
     /// Lights.
     #[serde(default)]
-    pub lights: Vec<LightDesc>,
+    pub lights: Vec<LightEntry>,
     /// Primitives.
     pub primitives: Vec<PrimitiveDesc>,
 }
@@ -207,9 +207,26 @@ fn one() -> f64 {
     1.0
 }
 
-/// `[[lights]]`.
+/// `[[lights]]` as written: a `kind` and the keys it uses. (A plain struct
+/// rather than a tagged enum, so that a bad value is reported at its own key,
+/// not at the table's header.)
 #[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields, tag = "kind", rename_all = "lowercase")]
+#[serde(deny_unknown_fields)]
+pub struct LightEntry {
+    /// `point` or `directional`.
+    pub kind: String,
+    /// Point: position, metres.
+    pub position: Option<[f64; 3]>,
+    /// Point: intensity, W/sr.
+    pub intensity: Option<Colour>,
+    /// Directional: direction towards the light.
+    pub direction: Option<[f64; 3]>,
+    /// Directional: irradiance `E₀`, W/m².
+    pub irradiance: Option<Colour>,
+}
+
+/// A light, resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LightDesc {
     /// Point light.
     Point {
@@ -285,6 +302,8 @@ pub struct Resolved {
     pub pose: Pose,
     /// Primitives.
     pub primitives: Vec<ResolvedPrimitive>,
+    /// Lights.
+    pub lights: Vec<LightDesc>,
 }
 
 /// Reads and checks a scene file. Errors name the file and the field.
@@ -346,11 +365,11 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
             gray(&m.specular, format!("materials[{i}].specular"))?;
         }
         for (i, l) in desc.lights.iter().enumerate() {
-            match l {
-                LightDesc::Point { intensity, .. } => gray(intensity, format!("lights[{i}].intensity"))?,
-                LightDesc::Directional { irradiance, .. } => {
-                    gray(irradiance, format!("lights[{i}].irradiance"))?
-                }
+            if let Some(c) = &l.intensity {
+                gray(c, format!("lights[{i}].intensity"))?;
+            }
+            if let Some(c) = &l.irradiance {
+                gray(c, format!("lights[{i}].irradiance"))?;
             }
         }
         gray(&desc.environment.ambient, "environment.ambient".into())?;
@@ -415,11 +434,50 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
             checker,
         });
     }
+    let mut lights = Vec::new();
+    for (i, l) in desc.lights.iter().enumerate() {
+        let f = |name: &str| format!("lights[{i}].{name}");
+        let (light, unused): (LightDesc, [(&str, bool); 2]) = match l.kind.as_str() {
+            "point" => (
+                LightDesc::Point {
+                    position: need(l.position, &f("position"))?,
+                    intensity: need(l.intensity, &f("intensity"))?,
+                },
+                [
+                    ("direction", l.direction.is_some()),
+                    ("irradiance", l.irradiance.is_some()),
+                ],
+            ),
+            "directional" => (
+                LightDesc::Directional {
+                    direction: need(l.direction, &f("direction"))?,
+                    irradiance: need(l.irradiance, &f("irradiance"))?,
+                },
+                [
+                    ("position", l.position.is_some()),
+                    ("intensity", l.intensity.is_some()),
+                ],
+            ),
+            other => {
+                return Err(format!(
+                    "{}: unknown kind {other:?} (point, directional)",
+                    f("kind")
+                ))
+            }
+        };
+        for (name, present) in unused {
+            if present {
+                return Err(format!("{}: not used by a {} light", f(name), l.kind));
+            }
+        }
+        lights.push(light);
+    }
     let r = Resolved {
         desc,
         format,
         pose,
         primitives,
+        lights,
     };
     // Build the core scene once, so that every range check runs now.
     r.core_scene()?;
@@ -508,7 +566,7 @@ impl Resolved {
                 .add_primitive(p.shape, p.material as u8, checker)
                 .map_err(|e| e.to_string())?;
         }
-        for l in &self.desc.lights {
+        for l in &self.lights {
             match l {
                 LightDesc::Point { position, intensity } => scene.add_point_light(*position, intensity.rgb()),
                 LightDesc::Directional {

@@ -237,7 +237,6 @@ impl RefScene {
             })
             .collect();
         let lights = r
-            .desc
             .lights
             .iter()
             .map(|l| match l {
