@@ -183,7 +183,7 @@ fn main() -> ExitCode {
             std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
             std::fs::write(out.join("stream.json"), json).map_err(|e| e.to_string())?;
             std::fs::write(out.join("received.png"), png).map_err(|e| e.to_string())?;
-            let o = &report.outcome;
+            let o = &report.outcome.counts;
             Ok(format!(
                 "{} over {}: {} B/frame on the wire, efficiency {:.4}, {:.2} ms/frame = {:.1} fps; \
                  sent {} hit {} delivered intact {} corrupted accepted {} intact lost {}",
@@ -216,13 +216,13 @@ fn main() -> ExitCode {
                 "fault campaign: {} frames sent, {} hit by faults, {} delivered intact, \
                  {} corrupted accepted, {} intact lost; {} intact messages, {} of them lost; \
                  link efficiency {:.4} ({})",
-                report.frames_sent,
-                report.frames_hit_by_faults,
-                report.frames_delivered_intact,
-                report.corrupted_frames_accepted,
-                report.intact_frames_lost,
-                report.untouched_messages,
-                report.untouched_messages_lost,
+                report.totals.frames_sent,
+                report.totals.frames_hit_by_faults,
+                report.totals.frames_delivered_intact,
+                report.totals.corrupted_frames_accepted,
+                report.totals.intact_frames_lost,
+                report.totals.untouched_messages,
+                report.totals.untouched_messages_lost,
                 report.link_efficiency,
                 report.frame
             ))

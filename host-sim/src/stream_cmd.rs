@@ -40,11 +40,9 @@ pub fn core_frame(r: &Resolved, scene_id: u32) -> Result<(Vec<u8>, FrameStart), 
     Ok((pixels, start))
 }
 
-/// The outcome of sending frames through a link.
-#[derive(Clone, Debug, Serialize)]
-pub struct Outcome {
-    /// Fault settings.
-    pub faults: Faults,
+/// What happened to the frames and messages sent through a link.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Counts {
     /// Frames sent.
     pub frames_sent: u64,
     /// Frames any fault touched (a byte of theirs, from the leading
@@ -52,9 +50,10 @@ pub struct Outcome {
     pub frames_hit_by_faults: u64,
     /// Frames delivered with exactly the bytes sent.
     pub frames_delivered_intact: u64,
-    /// Frames delivered whose bytes differ from what was sent under that id.
+    /// Frames delivered whose bytes differ from what was sent under that id
+    /// (must be 0).
     pub corrupted_frames_accepted: u64,
-    /// Frames no fault touched that were not delivered.
+    /// Frames no fault touched that were not delivered (must be 0).
     pub intact_frames_lost: u64,
     /// Messages no fault touched, neither their bytes nor the delimiter
     /// before them (the intact messages).
@@ -62,6 +61,28 @@ pub struct Outcome {
     /// Intact messages that did not decode (must be 0: decoding resumes at
     /// the first intact message after a fault).
     pub untouched_messages_lost: u64,
+}
+
+impl std::ops::AddAssign for Counts {
+    fn add_assign(&mut self, o: Counts) {
+        self.frames_sent += o.frames_sent;
+        self.frames_hit_by_faults += o.frames_hit_by_faults;
+        self.frames_delivered_intact += o.frames_delivered_intact;
+        self.corrupted_frames_accepted += o.corrupted_frames_accepted;
+        self.intact_frames_lost += o.intact_frames_lost;
+        self.untouched_messages += o.untouched_messages;
+        self.untouched_messages_lost += o.untouched_messages_lost;
+    }
+}
+
+/// The outcome of sending frames through a link.
+#[derive(Clone, Debug, Serialize)]
+pub struct Outcome {
+    /// Fault settings.
+    pub faults: Faults,
+    /// What happened.
+    #[serde(flatten)]
+    pub counts: Counts,
     /// The decoder's counts.
     pub decoder: Stats,
 }
@@ -117,13 +138,15 @@ pub fn run(sent: &Sent, faults: &Faults) -> Outcome {
     }
     Outcome {
         faults: *faults,
-        frames_sent: sent.frames.len() as u64,
-        frames_hit_by_faults: hit,
-        frames_delivered_intact: got.len() as u64,
-        corrupted_frames_accepted: corrupted,
-        intact_frames_lost: lost,
-        untouched_messages,
-        untouched_messages_lost: untouched_lost,
+        counts: Counts {
+            frames_sent: sent.frames.len() as u64,
+            frames_hit_by_faults: hit,
+            frames_delivered_intact: got.len() as u64,
+            corrupted_frames_accepted: corrupted,
+            intact_frames_lost: lost,
+            untouched_messages,
+            untouched_messages_lost: untouched_lost,
+        },
         decoder: dec.stats,
     }
 }
@@ -203,20 +226,9 @@ pub struct Setting {
 /// `faults.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct CampaignReport {
-    /// Frames sent over all settings.
-    pub frames_sent: u64,
-    /// Frames a fault touched.
-    pub frames_hit_by_faults: u64,
-    /// Frames delivered intact.
-    pub frames_delivered_intact: u64,
-    /// Corrupted frames delivered (must be 0).
-    pub corrupted_frames_accepted: u64,
-    /// Untouched frames not delivered (must be 0).
-    pub intact_frames_lost: u64,
-    /// Intact messages (no fault on their bytes or the delimiter before them).
-    pub untouched_messages: u64,
-    /// Intact messages that did not decode (must be 0).
-    pub untouched_messages_lost: u64,
+    /// Totals over all settings.
+    #[serde(flatten)]
+    pub totals: Counts,
     /// Pixel payload bytes / bytes on the wire, 160×120 Gray8, no faults.
     pub link_efficiency: f64,
     /// The frames: scene, size, format, chunk buffer.
@@ -267,15 +279,12 @@ pub fn campaign(
             outcome: run(&sent, &faults),
         });
     }
-    let sum = |g: &dyn Fn(&Outcome) -> u64| settings.iter().map(|s| g(&s.outcome)).sum::<u64>();
+    let mut totals = Counts::default();
+    for st in &settings {
+        totals += st.outcome.counts;
+    }
     Ok(CampaignReport {
-        frames_sent: sum(&|o| o.frames_sent),
-        frames_hit_by_faults: sum(&|o| o.frames_hit_by_faults),
-        frames_delivered_intact: sum(&|o| o.frames_delivered_intact),
-        corrupted_frames_accepted: sum(&|o| o.corrupted_frames_accepted),
-        intact_frames_lost: sum(&|o| o.intact_frames_lost),
-        untouched_messages: sum(&|o| o.untouched_messages),
-        untouched_messages_lost: sum(&|o| o.untouched_messages_lost),
+        totals,
         link_efficiency: efficiency,
         frame: format!(
             "{} {}x{} {} chunk {} B",
