@@ -108,17 +108,18 @@ fn fault_campaign_meets_targets() {
     )))
     .expect("standard scene");
     let r = campaign(&standard, 0.1, &mut |_| {}).expect("runs");
-    assert!(r.frames_sent >= 1200);
+    let t = r.totals;
+    assert!(t.frames_sent >= 1200);
     assert!(
-        r.frames_hit_by_faults > 100,
+        t.frames_hit_by_faults > 100,
         "the faults must hit something: {}",
-        r.frames_hit_by_faults
+        t.frames_hit_by_faults
     );
-    assert_eq!(r.corrupted_frames_accepted, 0);
-    assert_eq!(r.intact_frames_lost, 0);
-    assert_eq!(r.untouched_messages_lost, 0);
+    assert_eq!(t.corrupted_frames_accepted, 0);
+    assert_eq!(t.intact_frames_lost, 0);
+    assert_eq!(t.untouched_messages_lost, 0);
     assert!(r.link_efficiency >= 0.98, "efficiency {}", r.link_efficiency);
-    assert!(r.frames_delivered_intact + r.frames_hit_by_faults >= r.frames_sent);
+    assert!(t.frames_delivered_intact + t.frames_hit_by_faults >= t.frames_sent);
 }
 
 /// A link cut in the middle of a frame loses that frame (and what the cut
@@ -142,7 +143,8 @@ fn decoding_resumes_after_a_cut() {
             truncate: 1.0,
             ..Faults::default()
         },
-    );
+    )
+    .counts;
     assert_eq!(out.frames_delivered_intact, 0);
     assert_eq!(out.corrupted_frames_accepted, 0);
     let clean = inject(&sent.stream, &sent.messages, &Faults::default());
