@@ -82,7 +82,7 @@ fn mutations(value: &str) -> Vec<(&'static str, String, bool)> {
 
 #[test]
 fn every_field_wrong_in_turn_is_rejected_naming_it() {
-    let (mut tried, mut rejected, mut accepted_valid) = (0usize, 0usize, 0usize);
+    let (mut tried, mut rejected, mut accepted_valid, mut rendered) = (0usize, 0usize, 0usize, 0usize);
     for (path, text) in scenes() {
         let lines: Vec<&str> = text.lines().collect();
         for (n, line) in lines.iter().enumerate() {
@@ -125,12 +125,12 @@ fn every_field_wrong_in_turn_is_rejected_naming_it() {
                             "{path}:{}: {key} {what} ({replacement:?}) was accepted",
                             n + 1
                         );
-                        // A value that is still valid: the scene must render.
-                        let mut small = r.clone();
-                        small.desc.camera.width = small.desc.camera.width.min(32);
-                        small.desc.camera.height = small.desc.camera.height.min(24);
-                        if let Ok(o) = render(&small, &Budget::default()) {
-                            assert!(o.metrics.max_abs_lsb_smooth <= 255);
+                        // A value that is still valid: rendering it must
+                        // return (frames, or a typed error such as a field
+                        // too wide for the renderer), never panic. A panic
+                        // here fails the test.
+                        if render(&r, &Budget::default()).is_ok() {
+                            rendered += 1;
                         }
                         accepted_valid += 1;
                     }
@@ -181,12 +181,18 @@ fn every_field_wrong_in_turn_is_rejected_naming_it() {
         assert!(e.contains("camera.pose.rotation"), "{e}");
         rejected += 1;
     }
-    eprintln!("bad scene inputs tried: {tried}; rejected with the field named: {rejected}; still valid (and rendered): {accepted_valid}");
+    eprintln!(
+        "bad scene inputs tried: {tried}; rejected with the field named: {rejected}; still valid: {accepted_valid} \
+         ({rendered} rendered, the rest refused with a typed error)"
+    );
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("accuracy");
     let _ = std::fs::create_dir_all(&dir);
     let _ = std::fs::write(
         dir.join("bad_scene_inputs.txt"),
-        format!("{:<58} {tried} tried, {rejected} rejected naming the field, {accepted_valid} still valid and rendered\n", "bad_scene_inputs"),
+        format!(
+            "{:<58} {tried} tried, {rejected} rejected naming the field, {accepted_valid} still valid ({rendered} rendered)\n",
+            "bad_scene_inputs"
+        ),
     );
     assert!(rejected > 300, "only {rejected} rejections");
 }
