@@ -45,10 +45,7 @@ fn main() {
         names.push(r.desc.name.clone());
         max_w = max_w.max(c.width as usize);
         max_line = max_line.max(c.width as usize * r.format.bytes_per_pixel());
-        let pitch = match c.pitch {
-            host_sim::scene_file::Pair::One(v) => (v, v),
-            host_sim::scene_file::Pair::Two([a, b]) => (a, b),
-        };
+        let pitch = c.pitch.get();
         let pose = match r.pose {
             Pose::LookAt { eye, target, up } => format!("Extrinsics::look_at({eye:?}, {target:?}, {up:?})"),
             Pose::Ypr { position, angles } => format!(

@@ -131,13 +131,13 @@ impl Distortion {
         if ru2.is_zero() {
             return Ok(Sat::exact(p));
         }
-        let ru = wide_sqrt(ru2);
+        let ru = ru2.sqrt().unwrap_or(Wide::ZERO);
         let h = |rd: Wide| rd.mul(self.g_wide(rd.mul(rd)));
         // Upper end of the bracket: the fold, or, without a fold, a radius
         // where h(r) ≥ r_u (h grows without bound then, since g > 0 has no
         // root and is a polynomial of positive leading behaviour).
         let mut hi = match self.fold_u {
-            Some(f) => wide_sqrt(Wide::of(f)),
+            Some(f) => Wide::of(f).sqrt().unwrap_or(Wide::ZERO),
             None => {
                 let mut r = ru.max_of(Wide::int(1));
                 let mut n = 0;
@@ -256,10 +256,6 @@ fn smallest_positive_root(a: f64, b: f64, c: f64) -> Option<f64> {
         .into_iter()
         .filter(|r| *r > 0.0 && r.is_finite())
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.min(r))))
-}
-
-fn wide_sqrt(x: Wide) -> Wide {
-    x.sqrt().unwrap_or(Wide::ZERO)
 }
 
 /// A table of `g(u)` over `u ∈ [0, u_max]`, for the per-pixel path.

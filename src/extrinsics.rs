@@ -16,6 +16,7 @@
 use crate::error::{to_fixed, Error, Field};
 use crate::frame::{CameraPoint, WorldPoint};
 use crate::num::{Rot, Sat, Wide};
+use crate::vec3::{cross, div, dot, norm};
 use core::ops::{Add as _, Mul as _, Sub as _};
 
 /// How far `R Rᵀ` may be from the identity, entry by entry (and `det R` from
@@ -31,10 +32,6 @@ pub struct Extrinsics {
 
 type M3 = [[f64; 3]; 3];
 
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 fn transpose(a: &M3) -> M3 {
     [
         [a[0][0], a[1][0], a[2][0]],
@@ -45,24 +42,12 @@ fn transpose(a: &M3) -> M3 {
 
 fn mat_mul(a: &M3, b: &M3) -> M3 {
     let bt = transpose(b);
-    a.map(|row| bt.map(|col| dot3(row, col)))
+    a.map(|row| bt.map(|col| dot(row, col)))
 }
 
 fn det(a: &M3) -> f64 {
     a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
         + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    libm::sqrt(dot3(a, a))
 }
 
 fn finite3(a: [f64; 3], field: Field) -> Result<[f64; 3], Error> {
@@ -147,14 +132,14 @@ impl Extrinsics {
         if vn <= 1e-6 {
             return Err(Error::Degenerate(Field::Target));
         }
-        let z = [v[0] / vn, v[1] / vn, v[2] / vn];
+        let z = div(v, vn);
         let un = norm(up);
         let x = cross(up, z);
         let xn = norm(x);
         if un <= 0.0 || xn <= 1e-6 * un {
             return Err(Error::Degenerate(Field::Up));
         }
-        let x = [x[0] / xn, x[1] / xn, x[2] / xn];
+        let x = div(x, xn);
         let y = cross(z, x);
         Self::from_matrix([x, y, z], eye)
     }

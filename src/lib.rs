@@ -42,6 +42,7 @@ pub mod projection;
 pub mod render;
 pub mod scene;
 pub mod shading;
+mod vec3;
 pub mod vignetting;
 
 #[cfg(feature = "defmt")]

@@ -169,6 +169,17 @@ pub fn encode_message<'w>(msg: &Message<'_>, wire: &'w mut [u8]) -> Option<&'w m
     postcard::serialize_with_flavor(msg, CrcModifier::new(cobs, CRC32.digest())).ok()
 }
 
+/// Encodes `msg` into `wire` and writes it; returns the bytes written.
+fn write_message<W: embedded_io::Write>(
+    writer: &mut W,
+    wire: &mut [u8],
+    msg: &Message<'_>,
+) -> Result<u64, LinkError<W::Error>> {
+    let bytes = encode_message(msg, wire).ok_or(LinkError::Encode)?;
+    writer.write_all(bytes).map_err(LinkError::Write)?;
+    Ok(bytes.len() as u64)
+}
+
 /// The frame encoder: writes frames to `W`, fed line by line, holding one
 /// chunk (`CHUNK` bytes of pixels) and one encoded message (`WIRE` bytes).
 pub struct Encoder<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> {
@@ -220,9 +231,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
     }
 
     fn send(&mut self, msg: &Message<'_>) -> Result<(), LinkError<W::Error>> {
-        let bytes = encode_message(msg, &mut self.wire).ok_or(LinkError::Encode)?;
-        self.writer.write_all(bytes).map_err(LinkError::Write)?;
-        self.bytes_written += bytes.len() as u64;
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, msg)?;
         Ok(())
     }
 
@@ -258,9 +267,8 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
             offset: self.offset,
             data,
         });
-        let bytes = encode_message(&msg, &mut self.wire).ok_or(LinkError::Encode)?;
-        self.writer.write_all(bytes).map_err(LinkError::Write)?;
-        self.bytes_written += bytes.len() as u64;
+        // `send` would borrow all of `self` while `msg` borrows the chunk.
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &msg)?;
         self.pixel_bytes += self.fill as u64;
         self.offset += self.fill as u32;
         self.fill = 0;

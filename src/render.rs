@@ -362,8 +362,7 @@ impl Frame {
 
     #[inline(always)]
     fn xd(&self, i: u16) -> Q {
-        let acc = self.x0 - self.dx * i as i128;
-        Q::from_bits((acc >> 32) as i64)
+        xd_of(self.x0 - self.dx * i as i128)
     }
 
     fn yd(&self, j: u16) -> Q {
@@ -440,6 +439,7 @@ impl Frame {
     ) {
         let bpp = self.format.bytes_per_pixel();
         let channels = self.format.channels();
+        let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c));
         let yd = self.yd(j);
         let mut acc = self.x0;
         for (out, flag) in pixels
@@ -447,7 +447,7 @@ impl Frame {
             .zip(flags.iter_mut())
             .take(self.width as usize)
         {
-            let xd = Q::from_bits((acc >> 32) as i64);
+            let xd = xd_of(acc);
             acc -= self.dx;
             let (x, y) = if DIST {
                 match &self.lut {
@@ -476,11 +476,14 @@ impl Frame {
             let radiance = self.trace::<SPEC, PERSP>(o, d);
             let cos4 = if VIG { vignetting::cos4(x, y) } else { Q::ONE };
             let mut dn = [0u32; 3];
-            for (c, dst) in dn.iter_mut().enumerate().take(channels) {
-                let (Some(l), Some(g)) = (radiance.get(c), self.gain.get(c)) else {
-                    continue;
-                };
-                *dst = vignetting::quantize(*g, *l, cos4, self.format.dn_max(c));
+            for (((dst, l), g), max) in dn
+                .iter_mut()
+                .zip(radiance)
+                .zip(self.gain)
+                .zip(dn_max)
+                .take(channels)
+            {
+                *dst = vignetting::quantize(g, l, cos4, max);
             }
             self.format.pack(dn, out);
         }
@@ -532,6 +535,12 @@ impl Frame {
         };
         crate::shading::radiance::<SPEC>(&mat, &self.lights, point, normal, view)
     }
+}
+
+/// `x̂_d` from its I64F64 accumulator.
+#[inline(always)]
+fn xd_of(acc: i128) -> Q {
+    Q::from_bits((acc >> 32) as i64)
 }
 
 #[inline(always)]

@@ -13,6 +13,7 @@ use crate::camera::Camera;
 use crate::distortion::Distortion;
 use crate::frame::WorldPoint;
 use crate::num::{Len, Norm};
+use crate::vec3::{cross, div, dot, norm};
 use core::fmt;
 use fixed::types::I32F32;
 
@@ -356,11 +357,11 @@ impl Check {
         for c in v {
             self.range(field, c, -1e6, 1e6)?;
         }
-        let n = libm::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        let n = norm(v);
         if n < 1e-9 {
             return Err(self.err(field, Problem::Degenerate));
         }
-        Ok([v[0] / n, v[1] / n, v[2] / n])
+        Ok(div(v, n))
     }
 
     fn colour(&self, field: &'static str, c: [f64; 3], hi: f64) -> Result<[Q; 3], SceneError> {
@@ -374,14 +375,6 @@ impl Check {
 
 fn norm3(v: [f64; 3]) -> [Norm; 3] {
     v.map(Norm::from_num)
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// A checker texture as given: cell size and the `u` direction (projected
@@ -464,9 +457,9 @@ impl Scene {
             camera,
             distortion,
             format,
-            exposure: c.q("exposure", exposure, 0.0, 1e9)?,
-            ambient: c.colour("ambient", ambient, MAX_RADIOMETRIC)?,
-            background: c.colour("background", background, MAX_RADIOMETRIC)?,
+            exposure: c.q("output.exposure", exposure, 0.0, 1e9)?,
+            ambient: c.colour("environment.ambient", ambient, MAX_RADIOMETRIC)?,
+            background: c.colour("environment.background", background, MAX_RADIOMETRIC)?,
             materials: heapless::Vec::new(),
             primitives: heapless::Vec::new(),
             lights: heapless::Vec::new(),
@@ -644,12 +637,12 @@ fn in_plane_axes(
     u: [f64; 3],
 ) -> Result<([f64; 3], [f64; 3]), SceneError> {
     let u = c.unit_f64(field, u)?;
-    let d = u[0] * n[0] + u[1] * n[1] + u[2] * n[2];
+    let d = dot(u, n);
     let p = [u[0] - d * n[0], u[1] - d * n[1], u[2] - d * n[2]];
-    let pn = libm::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    let pn = norm(p);
     if pn < 1e-6 {
         return Err(c.err(field, Problem::Degenerate));
     }
-    let u = [p[0] / pn, p[1] / pn, p[2] / pn];
+    let u = div(p, pn);
     Ok((u, cross(n, u)))
 }

@@ -7,7 +7,6 @@
 use crate::link::decoder::Decoder;
 use crate::render_cmd::{decode, encode_png, render};
 use crate::scene_file::{load, Resolved};
-use crate::stream_cmd::core_frame;
 use hilcam::planner::Budget;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -264,10 +263,12 @@ pub fn hil(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -
             all_exact = false;
             continue;
         };
-        let (host, start) = core_frame(r, f.start.scene_id)?;
-        let exact = host == f.pixels && start.width == f.start.width && start.height == f.start.height;
+        let host = render(r, &Budget::default())?;
+        let exact = host.core.pixels == f.pixels
+            && host.metrics.width == f.start.width as usize
+            && host.metrics.height == f.start.height as usize;
         all_exact &= exact;
-        let reference = render(r, &Budget::default())?.reference;
+        let reference = host.reference;
         let bpp = r.format.bytes_per_pixel();
         let (mut max, mut same) = (0u32, 0usize);
         for (k, px) in f.pixels.chunks_exact(bpp).enumerate() {

@@ -131,25 +131,36 @@ pub fn decode(format: PixelFormat, b: &[u8]) -> [u32; 3] {
     }
 }
 
-/// Renders with both, and compares.
-// `k` indexes four parallel per-pixel arrays.
-#[allow(clippy::needless_range_loop)]
-pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
+/// The core's scene, its plan for `budget`, the prepared frame, and the
+/// frame rendered line by line (bytes and flags).
+pub fn core_render(
+    r: &Resolved,
+    budget: &Budget,
+) -> Result<(hilcam::scene::Scene, Plan, Frame, Collect), String> {
     let scene = r.core_scene()?;
     let plan = planner::plan(&scene, budget);
     let frame =
         Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
     let (w, h) = frame.size();
-    let (w, h) = (w as usize, h as usize);
     let mut line = vec![0u8; frame.line_bytes()];
-    let mut flags = vec![0u8; w];
+    let mut flags = vec![0u8; w as usize];
     let mut core = Collect {
-        pixels: Vec::with_capacity(frame.line_bytes() * h),
-        flags: Vec::with_capacity(w * h),
+        pixels: Vec::with_capacity(frame.line_bytes() * h as usize),
+        flags: Vec::with_capacity(w as usize * h as usize),
     };
     frame
         .render(&mut line, &mut flags, &mut core)
         .map_err(|e| format!("{}: render failed: {e:?}", r.desc.name))?;
+    Ok((scene, plan, frame, core))
+}
+
+/// Renders with both, and compares.
+// `k` indexes four parallel per-pixel arrays.
+#[allow(clippy::needless_range_loop)]
+pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
+    let (scene, plan, frame, core) = core_render(r, budget)?;
+    let (w, h) = frame.size();
+    let (w, h) = (w as usize, h as usize);
     let format = scene.format;
     let bpp = format.bytes_per_pixel();
     let core_dn: Vec<[u32; 3]> = core.pixels.chunks_exact(bpp).map(|b| decode(format, b)).collect();

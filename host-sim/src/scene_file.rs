@@ -90,7 +90,8 @@ pub enum Pair {
 }
 
 impl Pair {
-    fn get(self) -> (f64, f64) {
+    /// `(a, b)`, a number standing for both.
+    pub fn get(self) -> (f64, f64) {
         match self {
             Pair::One(v) => (v, v),
             Pair::Two([a, b]) => (a, b),
@@ -550,7 +551,7 @@ impl Resolved {
             env.ambient.rgb(),
             env.background.rgb(),
         )
-        .map_err(|e| rename(e.to_string()))?;
+        .map_err(|e| e.to_string())?;
         for m in &self.desc.materials {
             scene
                 .add_material(m.albedo.rgb(), m.specular.rgb(), m.mix, m.exponent)
@@ -578,11 +579,4 @@ impl Resolved {
         }
         Ok(scene)
     }
-}
-
-/// The core names scene-wide fields after their place in the file.
-fn rename(s: String) -> String {
-    s.replace("exposure:", "output.exposure:")
-        .replace("ambient:", "environment.ambient:")
-        .replace("background:", "environment.background:")
 }

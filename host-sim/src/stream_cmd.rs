@@ -6,28 +6,16 @@ use crate::link::decoder::{Decoder, Stats};
 use crate::link::sim::{inject, send_frames, Faults, Link, Sent};
 use crate::scene_file::Resolved;
 use hilcam::link::{FrameStart, WireFormat, PROTOCOL_VERSION};
-use hilcam::planner::{plan, Budget};
-use hilcam::render::Frame as CoreFrame;
+use hilcam::planner::Budget;
 use serde::Serialize;
 use std::collections::HashMap;
 
 /// The core's render of a scene: pixel bytes and the frame header to send
 /// them with.
 pub fn core_frame(r: &Resolved, scene_id: u32) -> Result<(Vec<u8>, FrameStart), String> {
-    let scene = r.core_scene()?;
-    let p = plan(&scene, &Budget::default());
-    let frame =
-        CoreFrame::new(&scene, &p.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let (scene, _, frame, core) = crate::render_cmd::core_render(r, &Budget::default())?;
     let (w, h) = frame.size();
-    let mut line = vec![0u8; frame.line_bytes()];
-    let mut flags = vec![0u8; w as usize];
-    let mut pixels = Vec::with_capacity(frame.line_bytes() * h as usize);
-    for j in 0..h {
-        frame
-            .render_line(j, &mut line, &mut flags)
-            .map_err(|e| format!("render: {e:?}"))?;
-        pixels.extend_from_slice(&line);
-    }
+    let pixels = core.pixels;
     let start = FrameStart {
         version: PROTOCOL_VERSION,
         frame_id: 0,

@@ -135,10 +135,7 @@ impl RefScene {
     /// From a parsed scene file.
     pub fn new(r: &Resolved) -> RefScene {
         let c = &r.desc.camera;
-        let (sx, sy) = match c.pitch {
-            crate::scene_file::Pair::One(v) => (v, v),
-            crate::scene_file::Pair::Two([a, b]) => (a, b),
-        };
+        let (sx, sy) = c.pitch.get();
         let mut sensor = Sensor::centred(c.focal_length, sx, sy, c.width as u32, c.height as u32);
         if let Some([ox, oy]) = c.principal_point {
             sensor.ox = ox;
