@@ -295,6 +295,17 @@ impl Lut {
         self.u_max
     }
 
+    /// `(entries − 1) / u_max`: table positions per unit of `u`.
+    pub fn scale(&self) -> I32F32 {
+        self.scale
+    }
+
+    /// The raw entries: `g` at `u = i · u_max / (entries − 1)`, as i32 with
+    /// [`Lut::entry_frac_bits`] fractional bits.
+    pub fn entries(&self) -> &[i32] {
+        &self.table
+    }
+
     /// `g(u)` by linear interpolation; `u` beyond the table is clamped to its
     /// last interval (extrapolated linearly).
     #[inline]

@@ -20,6 +20,7 @@
 //! - [`shading`]: the mixed BRDF and lights;
 //! - [`vignetting`]: cos⁴ fall-off, exposure and quantization;
 //! - [`render`]: the line renderer (rays, intersection, and the stages above);
+//! - [`scalar`]: the per-pixel number type (I32F32, 32-bit fixed point, `f32`);
 //! - [`planner`]: picks the cheapest rendering that meets an error budget;
 //! - [`link`]: the wire protocol and the frame encoder;
 //! - [`num`]: the fixed-point formats and wide intermediates.
@@ -40,6 +41,7 @@ pub mod num;
 pub mod planner;
 pub mod projection;
 pub mod render;
+pub mod scalar;
 pub mod scene;
 pub mod shading;
 mod vec3;

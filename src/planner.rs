@@ -124,10 +124,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let meets =
         geom <= half && arith + 0.5 <= budget.max_lsb && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
     Plan {
-        options: Options {
-            model,
-            lut_entries: entries,
-        },
+        options: Options::new(model, entries),
         predicted_geom_err_px: geom,
         weak_perspective_err_px: wp.map(|(e, _)| e),
         predicted_arith_lsb: arith,

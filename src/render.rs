@@ -11,14 +11,20 @@
 //! rays): a stage the scene does not need costs nothing, and no pixel
 //! branches on configuration.
 //!
-//! Per-pixel values are I32F32 ([`Q`]) with saturating arithmetic: nothing
-//! wraps, and a value that saturates ends as a saturated pixel. Scene ranges
-//! ([`crate::scene`]) keep valid scenes clear of saturation except where the
-//! physics says so (over-exposure).
+//! Per-pixel values are a [`Scalar`]: I32F32 ([`Q`]) for [`Frame::new`],
+//! the planned renderer, which meets the planner's budget; 32-bit fixed
+//! point and `f32` for [`Frame::build`], the variants `host-sim tradeoff`
+//! measures. Arithmetic saturates: nothing wraps, and a value that saturates
+//! ends as a saturated pixel. Scene ranges ([`crate::scene`]) keep valid
+//! scenes clear of saturation in I32F32 except where the physics says so
+//! (over-exposure); the narrower types have narrower ranges
+//! ([`crate::scalar`]).
 
-use crate::distortion::Lut;
+use crate::distortion::{Distortion, MAX_LUT};
 use crate::num::{quotient, Len, Norm, Wide};
+use crate::scalar::Scalar;
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
+use crate::shading::{axpy, dot, scale3, sub3, Brdf, ShadingLight, V3};
 use crate::vignetting;
 use core::ops::{Add as _, Mul as _, Sub as _};
 use fixed::types::I64F64;
@@ -69,13 +75,56 @@ impl RenderModel {
     }
 }
 
+/// How `g(u)` (distorted → undistorted, camera-model.md §3) is evaluated per
+/// pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DistortionEval {
+    /// The table entry nearest to `u` (error up to `|g'| h / 2`).
+    Nearest,
+    /// Linear interpolation between table entries (error up to `|k2| h²/4`).
+    Linear,
+    /// The polynomial `1 + u (k1 + k2 u)` itself: no table.
+    Polynomial,
+}
+
+impl DistortionEval {
+    /// Stage name.
+    pub const fn name(&self) -> &'static str {
+        match self {
+            DistortionEval::Nearest => "distortion-lut-nearest",
+            DistortionEval::Linear => "distortion-lut",
+            DistortionEval::Polynomial => "distortion-polynomial",
+        }
+    }
+}
+
 /// What the renderer is told to do (the planner's choice).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Options {
     /// Ray model.
     pub model: RenderModel,
-    /// Distortion table entries (ignored without distortion).
+    /// Distortion table entries (2 to [`MAX_LUT`]; ignored without
+    /// distortion or with [`DistortionEval::Polynomial`]).
     pub lut_entries: usize,
+    /// How `g(u)` is evaluated.
+    pub distortion_eval: DistortionEval,
+    /// Runs the distortion and specular stages even when the scene makes
+    /// them identities (`k1 = k2 = 0`, no specular material): the renderer
+    /// without the planner's pruning, for measuring what the pruning saves.
+    pub keep_all_stages: bool,
+}
+
+impl Options {
+    /// `model` with a linearly interpolated table of `lut_entries`, stages
+    /// pruned to what the scene needs.
+    pub const fn new(model: RenderModel, lut_entries: usize) -> Options {
+        Options {
+            model,
+            lut_entries,
+            distortion_eval: DistortionEval::Linear,
+            keep_all_stages: false,
+        }
+    }
 }
 
 /// Why a frame cannot be rendered.
@@ -107,7 +156,9 @@ pub enum FrameError<E> {
 pub struct Stages {
     /// Ray model.
     pub model: RenderModel,
-    /// Distortion table entries, if distortion is modelled.
+    /// How distortion is undone, if it is modelled.
+    pub distortion: Option<DistortionEval>,
+    /// Distortion table entries, if a table is used.
     pub distortion_lut: Option<usize>,
     /// cos⁴ fall-off.
     pub vignetting: bool,
@@ -122,8 +173,8 @@ impl Stages {
     pub fn names(&self) -> heapless::Vec<&'static str, 8> {
         let mut v = heapless::Vec::new();
         let _ = v.push("pixel-to-normalized");
-        if self.distortion_lut.is_some() {
-            let _ = v.push("distortion-lut");
+        if let Some(d) = self.distortion {
+            let _ = v.push(d.name());
         }
         let _ = v.push(self.model.name());
         let _ = v.push("intersect");
@@ -143,57 +194,114 @@ impl Stages {
     }
 }
 
-use crate::shading::{add, axpy, dot, mul, scale3, sub, sub3, Brdf, ShadingLight, V3};
-
 /// A primitive in the camera frame.
 #[derive(Clone, Copy, Debug)]
-enum CamShape {
+enum CamShape<S> {
     /// `n̂·P = dist`.
     Plane {
-        n: V3,
-        dist: Q,
+        n: V3<S>,
+        dist: S,
     },
     Sphere {
-        c: V3,
-        r2: Q,
-        inv_r: Q,
+        c: V3<S>,
+        r2: S,
+        inv_r: S,
     },
     Disc {
-        n: V3,
-        dist: Q,
-        c: V3,
-        r2: Q,
+        n: V3<S>,
+        dist: S,
+        c: V3<S>,
+        r2: S,
     },
     Rect {
-        n: V3,
-        dist: Q,
-        c: V3,
-        u: V3,
-        v: V3,
-        hu: Q,
-        hv: Q,
+        n: V3<S>,
+        dist: S,
+        c: V3<S>,
+        u: V3<S>,
+        v: V3<S>,
+        hu: S,
+        hv: S,
     },
 }
 
 #[derive(Clone, Copy, Debug)]
-struct CamChecker {
-    origin: V3,
-    u: V3,
-    v: V3,
-    inv_cell: Q,
+struct CamChecker<S> {
+    origin: V3<S>,
+    u: V3<S>,
+    v: V3<S>,
+    inv_cell: S,
     material: u8,
 }
 
 #[derive(Clone, Copy, Debug)]
-struct CamPrim {
-    shape: CamShape,
+struct CamPrim<S> {
+    shape: CamShape<S>,
     material: u8,
-    checker: Option<CamChecker>,
+    checker: Option<CamChecker<S>>,
 }
 
-/// A frame prepared for rendering.
+fn c1<S: Scalar>(v: Q) -> S {
+    S::from_q(v)
+}
+fn c3<S: Scalar>(v: V3) -> V3<S> {
+    v.map(S::from_q)
+}
+
+impl CamPrim<Q> {
+    /// The primitive in another scalar type (prepared in I32F32, converted
+    /// once).
+    fn to<S: Scalar>(&self) -> CamPrim<S> {
+        let shape = match self.shape {
+            CamShape::Plane { n, dist } => CamShape::Plane {
+                n: c3(n),
+                dist: c1(dist),
+            },
+            CamShape::Sphere { c, r2, inv_r } => CamShape::Sphere {
+                c: c3(c),
+                r2: c1(r2),
+                inv_r: c1(inv_r),
+            },
+            CamShape::Disc { n, dist, c, r2 } => CamShape::Disc {
+                n: c3(n),
+                dist: c1(dist),
+                c: c3(c),
+                r2: c1(r2),
+            },
+            CamShape::Rect {
+                n,
+                dist,
+                c,
+                u,
+                v,
+                hu,
+                hv,
+            } => CamShape::Rect {
+                n: c3(n),
+                dist: c1(dist),
+                c: c3(c),
+                u: c3(u),
+                v: c3(v),
+                hu: c1(hu),
+                hv: c1(hv),
+            },
+        };
+        CamPrim {
+            shape,
+            material: self.material,
+            checker: self.checker.map(|k| CamChecker {
+                origin: c3(k.origin),
+                u: c3(k.u),
+                v: c3(k.v),
+                inv_cell: c1(k.inv_cell),
+                material: k.material,
+            }),
+        }
+    }
+}
+
+/// A frame prepared for rendering, with per-pixel values in `S`.
 #[derive(Clone, Debug)]
-pub struct Frame {
+pub struct Frame<S: Scalar = Q> {
     width: u16,
     height: u16,
     format: PixelFormat,
@@ -204,16 +312,25 @@ pub struct Frame {
     /// `o_y / f_y` and `1 / f_y` as wide values, for `ŷ_d` per line.
     oy: Wide,
     fy: Wide,
-    lut: Option<(Lut, Q)>,
+    /// `g` at the table's nodes (empty without a table).
+    table: heapless::Vec<S, MAX_LUT>,
+    /// Table positions per unit of `u`.
+    lut_scale: S,
+    /// Fractional bits of the table's i32 entries before conversion.
+    lut_frac: u32,
+    /// `k1`, `k2` for [`DistortionEval::Polynomial`].
+    poly: [S; 2],
+    /// `u = r_d²` beyond which a pixel is outside the lens field.
+    limit: S,
     /// Parallel-ray origin scale: `Z̄` or `f/m`.
-    k_origin: Q,
-    prims: heapless::Vec<CamPrim, { crate::scene::MAX_PRIMITIVES }>,
-    lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }>,
-    materials: [Brdf; crate::scene::MAX_MATERIALS],
-    background: V3,
+    k_origin: S,
+    prims: heapless::Vec<CamPrim<S>, { crate::scene::MAX_PRIMITIVES }>,
+    lights: heapless::Vec<ShadingLight<S>, { crate::scene::MAX_LIGHTS }>,
+    materials: [Brdf<S>; crate::scene::MAX_MATERIALS],
+    background: V3<S>,
     /// `K π/4 (d/f)²` per channel (with the channel's full-scale factor):
     /// DN per unit radiance on the axis.
-    gain: V3,
+    gain: V3<S>,
 }
 
 fn q(w: Wide) -> Q {
@@ -236,9 +353,17 @@ fn dir_to_cam(scene: &Scene, d: [Norm; 3]) -> V3 {
     })
 }
 
-impl Frame {
-    /// Prepares `scene` for rendering with `opts`.
+impl Frame<Q> {
+    /// Prepares `scene` for rendering with `opts`, in I32F32: the renderer
+    /// the planner's predictions hold for.
     pub fn new(scene: &Scene, opts: &Options) -> Result<Frame, RenderError> {
+        Frame::build(scene, opts)
+    }
+}
+
+impl<S: Scalar> Frame<S> {
+    /// Prepares `scene` for rendering with `opts`, per-pixel values in `S`.
+    pub fn build(scene: &Scene, opts: &Options) -> Result<Frame<S>, RenderError> {
         let intr = &scene.camera.intrinsics;
         let (w, h) = intr.size();
         let (fx, fy) = intr.focal_px();
@@ -253,58 +378,82 @@ impl Frame {
             format: scene.format,
             stages: Stages {
                 model: opts.model,
+                distortion: None,
                 distortion_lut: None,
                 vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
-                specular: scene.has_specular(),
+                specular: scene.has_specular() || opts.keep_all_stages,
                 format: scene.format,
             },
             x0,
             dx,
             oy: Wide::of(oy),
             fy: Wide::of(fy),
-            lut: None,
-            k_origin: Q::ZERO,
+            table: heapless::Vec::new(),
+            lut_scale: S::ZERO,
+            lut_frac: 0,
+            poly: [S::ZERO; 2],
+            limit: S::MAX,
+            k_origin: S::ZERO,
             prims: heapless::Vec::new(),
             lights: heapless::Vec::new(),
-            materials: [Brdf::default(); crate::scene::MAX_MATERIALS],
-            background: scene.background,
-            gain: [Q::ZERO; 3],
+            materials: [Brdf::<Q>::default().to(); crate::scene::MAX_MATERIALS],
+            background: c3(scene.background),
+            gain: [S::ZERO; 3],
         };
-        // Distortion: table over [0, u_max], u_max = min(fold, corner maximum).
-        if !scene.distortion.is_none() {
+        // Distortion over [0, u_max], u_max = min(fold, corner maximum).
+        let distortion = if scene.distortion.is_none() && opts.keep_all_stages {
+            Some(Distortion::NONE)
+        } else if scene.distortion.is_none() {
+            None
+        } else {
+            Some(scene.distortion)
+        };
+        if let Some(dist) = distortion {
             let mut u_corner = Q::ZERO;
             for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
-                let (xd, yd) = (frame.xd(i), frame.yd(j));
-                u_corner = u_corner.max(add(mul(xd, xd), mul(yd, yd)));
+                let (xd, yd) = (frame.xd_q(i), frame.yd_q(j));
+                u_corner = u_corner.max(Scalar::add(Scalar::mul(xd, xd), Scalar::mul(yd, yd)));
             }
-            let fold = scene.distortion.fold_u().map(Q::saturating_from_num);
+            let fold = dist.fold_u().map(Q::saturating_from_num);
             let (u_max, limit) = match fold {
                 Some(f) if f < u_corner => (f, f),
                 _ => (u_corner, Q::MAX),
             };
-            let lut = scene.distortion.lut(u_max, opts.lut_entries);
-            if lut.saturated {
-                return Err(RenderError::DistortionOutOfRange);
+            frame.limit = if limit == Q::MAX { S::MAX } else { S::from_q(limit) };
+            frame.stages.distortion = Some(opts.distortion_eval);
+            if opts.distortion_eval == DistortionEval::Polynomial {
+                let (k1, k2) = dist.coefficients();
+                frame.poly = [k1, k2].map(|k| S::from_q(Q::saturating_from_num(k)));
+            } else {
+                let lut = dist.lut(u_max, opts.lut_entries);
+                if lut.saturated {
+                    return Err(RenderError::DistortionOutOfRange);
+                }
+                let lut = lut.value;
+                frame.lut_frac = lut.entry_frac_bits();
+                frame.lut_scale = S::from_q(lut.scale());
+                for e in lut.entries() {
+                    // The table holds at most MAX_LUT entries, as does this.
+                    let _ = frame.table.push(S::from_fixed_bits(*e, frame.lut_frac));
+                }
+                frame.stages.distortion_lut = Some(lut.len());
             }
-            let lut = lut.value;
-            frame.stages.distortion_lut = Some(lut.len());
-            frame.lut = Some((lut, limit));
         }
         // The widest undistorted corner must stay within MAX_SLOPE.
         for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
             if let Some((x, y)) = frame.undistorted(i, j) {
-                let lim = Q::from_num(MAX_SLOPE);
+                let lim = S::from_int(MAX_SLOPE);
                 if x.abs() > lim || y.abs() > lim {
                     return Err(RenderError::FieldTooWide);
                 }
             }
         }
         frame.k_origin = match opts.model {
-            RenderModel::Perspective => Q::ZERO,
-            RenderModel::WeakPerspective { mean_depth } => Q::from_num(mean_depth),
-            RenderModel::Orthographic { scale } => q(Wide::of(intr.focal_length())
+            RenderModel::Perspective => S::ZERO,
+            RenderModel::WeakPerspective { mean_depth } => S::from_q(Q::saturating_from_num(mean_depth)),
+            RenderModel::Orthographic { scale } => S::from_q(q(Wide::of(intr.focal_length())
                 .checked_div(Wide::of(scale))
-                .ok_or(RenderError::Degenerate)?),
+                .ok_or(RenderError::Degenerate)?)),
         };
         // Constants: gain = K π/4 (d/f)².
         let lens = &scene.camera.lens;
@@ -312,16 +461,20 @@ impl Frame {
             .checked_div(Wide::of(lens.focal_length()))
             .ok_or(RenderError::Degenerate)?;
         for (c, g) in frame.gain.iter_mut().enumerate() {
-            *g = vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c));
+            *g = S::from_q(vignetting::gain(
+                scene.exposure,
+                dof,
+                scene.format.channel_scale(c),
+            ));
         }
         for (m, dst) in scene.materials.iter().zip(frame.materials.iter_mut()) {
-            *dst = Brdf::new(m, scene.ambient);
+            *dst = Brdf::new(m, scene.ambient).to();
         }
         for p in &scene.primitives {
-            let _ = frame.prims.push(cam_prim(scene, p));
+            let _ = frame.prims.push(cam_prim(scene, p).to());
         }
         for l in &scene.lights {
-            let _ = frame.lights.push(match *l {
+            let light: ShadingLight = match *l {
                 Light::Point { position, intensity } => ShadingLight::Point {
                     p: v3_world_to_cam(scene, position),
                     i: intensity,
@@ -330,7 +483,8 @@ impl Frame {
                     l: dir_to_cam(scene, towards),
                     e: irradiance,
                 },
-            });
+            };
+            let _ = frame.lights.push(light.to());
         }
         Ok(frame)
     }
@@ -352,32 +506,60 @@ impl Frame {
 
     /// Fractional bits of the distortion table's i32 entries, if any.
     pub fn table_frac_bits(&self) -> Option<u32> {
-        self.lut.as_ref().map(|(l, _)| l.entry_frac_bits())
+        self.stages.distortion_lut.map(|_| self.lut_frac)
     }
 
-    /// Distortion table bytes (0 without distortion).
+    /// Distortion table bytes as the per-pixel path holds it (0 without a
+    /// table).
     pub fn table_bytes(&self) -> usize {
-        self.lut.as_ref().map_or(0, |(l, _)| l.bytes())
+        self.table.len() * core::mem::size_of::<S>()
     }
 
     #[inline(always)]
-    fn xd(&self, i: u16) -> Q {
+    fn xd_q(&self, i: u16) -> Q {
         xd_of(self.x0 - self.dx * i as i128)
     }
 
-    fn yd(&self, j: u16) -> Q {
+    fn yd_q(&self, j: u16) -> Q {
         quotient::<Q>(self.oy.sub(Wide::int(j as i64)), self.fy).value
     }
 
     /// The undistorted normalized point `(x̂, ŷ)` the renderer uses for
     /// pixel `(i, j)`, or `None` outside the lens field — the same code path
     /// as the pixel loop.
-    pub fn undistorted(&self, i: u16, j: u16) -> Option<(Q, Q)> {
-        let (xd, yd) = (self.xd(i), self.yd(j));
-        match &self.lut {
-            Some((lut, limit)) => undistort(lut, *limit, xd, yd),
+    pub fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
+        let (xd, yd) = (S::from_q(self.xd_q(i)), S::from_q(self.yd_q(j)));
+        match self.stages.distortion {
+            Some(_) => self.undistort(xd, yd),
             None => Some((xd, yd)),
         }
+    }
+
+    /// `(x̂_d, ŷ_d) g(u)`, or `None` beyond the fold.
+    #[inline(always)]
+    fn undistort(&self, xd: S, yd: S) -> Option<(S, S)> {
+        let u = xd.mul(xd).add(yd.mul(yd));
+        if u > self.limit {
+            return None;
+        }
+        let g = match self.stages.distortion {
+            Some(DistortionEval::Polynomial) => S::ONE.add(u.mul(self.poly[0].add(u.mul(self.poly[1])))),
+            Some(DistortionEval::Nearest) => {
+                let pos = u.mul(self.lut_scale).add(S::HALF);
+                let i = (pos.floor_int().max(0) as usize).min(self.table.len().saturating_sub(1));
+                self.table.get(i).copied().unwrap_or(S::ONE)
+            }
+            _ => {
+                let pos = u.mul(self.lut_scale);
+                let i = (pos.floor_int().max(0) as usize).min(self.table.len().saturating_sub(2));
+                let frac = pos.sub(S::from_int(i as i32));
+                match (self.table.get(i), self.table.get(i + 1)) {
+                    (Some(a), Some(b)) => a.add(b.sub(*a).mul(frac)),
+                    _ => S::ONE,
+                }
+            }
+        };
+        Some((xd.mul(g), yd.mul(g)))
     }
 
     /// Renders line `j` into `pixels` (at least [`Frame::line_bytes`]) and
@@ -387,7 +569,7 @@ impl Frame {
             return Err(RenderError::BufferTooSmall);
         }
         let persp = matches!(self.stages.model, RenderModel::Perspective);
-        let d = self.lut.is_some();
+        let d = self.stages.distortion.is_some();
         let v = self.stages.vignetting;
         let s = self.stages.specular;
         // Per-frame dispatch to one monomorphized loop.
@@ -413,12 +595,12 @@ impl Frame {
     }
 
     /// Renders every line through `sink`, reusing the caller's line buffers.
-    pub fn render<S: LineSink>(
+    pub fn render<K: LineSink>(
         &self,
         pixels: &mut [u8],
         flags: &mut [u8],
-        sink: &mut S,
-    ) -> Result<(), FrameError<S::Error>> {
+        sink: &mut K,
+    ) -> Result<(), FrameError<K::Error>> {
         for j in 0..self.height {
             self.render_line(j, pixels, flags).map_err(FrameError::Render)?;
             let n = self.line_bytes();
@@ -440,41 +622,38 @@ impl Frame {
         let bpp = self.format.bytes_per_pixel();
         let channels = self.format.channels();
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c));
-        let yd = self.yd(j);
+        let yd = S::from_q(self.yd_q(j));
         let mut acc = self.x0;
         for (out, flag) in pixels
             .chunks_exact_mut(bpp)
             .zip(flags.iter_mut())
             .take(self.width as usize)
         {
-            let xd = xd_of(acc);
+            let xd = S::from_q(xd_of(acc));
             acc -= self.dx;
             let (x, y) = if DIST {
-                match &self.lut {
-                    Some((lut, limit)) => match undistort(lut, *limit, xd, yd) {
-                        Some(p) => p,
-                        None => {
-                            *flag = FLAG_OUTSIDE_FIELD;
-                            out.iter_mut().for_each(|b| *b = 0);
-                            continue;
-                        }
-                    },
-                    None => (xd, yd),
+                match self.undistort(xd, yd) {
+                    Some(p) => p,
+                    None => {
+                        *flag = FLAG_OUTSIDE_FIELD;
+                        out.iter_mut().for_each(|b| *b = 0);
+                        continue;
+                    }
                 }
             } else {
                 (xd, yd)
             };
             *flag = 0;
             let (o, d) = if PERSP {
-                ([Q::ZERO; 3], [x, y, Q::ONE])
+                ([S::ZERO; 3], [x, y, S::ONE])
             } else {
                 (
-                    [mul(x, self.k_origin), mul(y, self.k_origin), Q::ZERO],
-                    [Q::ZERO, Q::ZERO, Q::ONE],
+                    [x.mul(self.k_origin), y.mul(self.k_origin), S::ZERO],
+                    [S::ZERO, S::ZERO, S::ONE],
                 )
             };
             let radiance = self.trace::<SPEC, PERSP>(o, d);
-            let cos4 = if VIG { vignetting::cos4(x, y) } else { Q::ONE };
+            let cos4 = if VIG { vignetting::cos4(x, y) } else { S::ONE };
             let mut dn = [0u32; 3];
             for (((dst, l), g), max) in dn
                 .iter_mut()
@@ -491,19 +670,19 @@ impl Frame {
 
     /// Radiance (per channel) seen along the ray `o + t d`.
     #[inline]
-    fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3, d: V3) -> V3 {
-        let mut best = Q::MAX;
-        let mut hit: Option<(usize, V3, V3)> = None; // (material, point, normal)
+    fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3<S>, d: V3<S>) -> V3<S> {
+        let mut best = S::MAX;
+        let mut hit: Option<(usize, V3<S>, V3<S>)> = None; // (material, point, normal)
         for p in &self.prims {
-            if let Some((t, n)) = intersect::<PERSP>(&p.shape, o, d) {
+            if let Some((t, n)) = intersect::<S, PERSP>(&p.shape, o, d) {
                 if t < best {
                     best = t;
                     let point = axpy(t, d, o);
                     let mut m = p.material as usize;
                     if let Some(ch) = &p.checker {
                         let rel = sub3(point, ch.origin);
-                        let cu = mul(dot(rel, ch.u), ch.inv_cell).to_num::<i64>();
-                        let cv = mul(dot(rel, ch.v), ch.inv_cell).to_num::<i64>();
+                        let cu = dot(rel, ch.u).mul(ch.inv_cell).floor_int();
+                        let cv = dot(rel, ch.v).mul(ch.inv_cell).floor_int();
                         if (cu + cv) & 1 != 0 {
                             m = ch.material as usize;
                         }
@@ -515,25 +694,27 @@ impl Frame {
         let Some((m, point, normal)) = hit else {
             return self.background;
         };
-        let mat = self.materials.get(m).copied().unwrap_or_default();
+        let Some(mat) = self.materials.get(m) else {
+            return self.background;
+        };
         // Two-sided surfaces: the normal faces the viewer.
-        let normal = if dot(normal, d) > Q::ZERO {
-            scale3(-Q::ONE, normal)
+        let normal = if dot(normal, d) > S::ZERO {
+            normal.map(S::neg)
         } else {
             normal
         };
         let view = if SPEC {
             if PERSP {
-                let len = dot(d, d).checked_sqrt().unwrap_or(Q::ONE);
-                let inv = Q::ONE.checked_div(len).unwrap_or(Q::ZERO);
-                scale3(-inv, d)
+                let len = dot(d, d).sqrt().unwrap_or(S::ONE);
+                let inv = S::ONE.div(len).unwrap_or(S::ZERO);
+                scale3(inv.neg(), d)
             } else {
-                [Q::ZERO, Q::ZERO, -Q::ONE]
+                [S::ZERO, S::ZERO, S::ONE.neg()]
             }
         } else {
-            [Q::ZERO; 3]
+            [S::ZERO; 3]
         };
-        crate::shading::radiance::<SPEC>(&mat, &self.lights, point, normal, view)
+        crate::shading::radiance::<S, SPEC>(mat, &self.lights, point, normal, view)
     }
 }
 
@@ -543,23 +724,13 @@ fn xd_of(acc: i128) -> Q {
     Q::from_bits((acc >> 32) as i64)
 }
 
-#[inline(always)]
-fn undistort(lut: &Lut, limit: Q, xd: Q, yd: Q) -> Option<(Q, Q)> {
-    let u = add(mul(xd, xd), mul(yd, yd));
-    if u > limit {
-        return None;
-    }
-    let g = lut.g(u);
-    Some((mul(xd, g), mul(yd, g)))
-}
-
 /// Nearest hit `t > 0` of the ray with a shape, and the (unit) normal there.
 #[inline]
-fn intersect<const PERSP: bool>(s: &CamShape, o: V3, d: V3) -> Option<(Q, V3)> {
+fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>) -> Option<(S, V3<S>)> {
     match *s {
-        CamShape::Plane { n, dist } => plane_t::<PERSP>(n, dist, o, d).map(|t| (t, n)),
+        CamShape::Plane { n, dist } => plane_t::<S, PERSP>(n, dist, o, d).map(|t| (t, n)),
         CamShape::Disc { n, dist, c, r2 } => {
-            let t = plane_t::<PERSP>(n, dist, o, d)?;
+            let t = plane_t::<S, PERSP>(n, dist, o, d)?;
             let rel = sub3(axpy(t, d, o), c);
             (dot(rel, rel) <= r2).then_some((t, n))
         }
@@ -572,25 +743,25 @@ fn intersect<const PERSP: bool>(s: &CamShape, o: V3, d: V3) -> Option<(Q, V3)> {
             hu,
             hv,
         } => {
-            let t = plane_t::<PERSP>(n, dist, o, d)?;
+            let t = plane_t::<S, PERSP>(n, dist, o, d)?;
             let rel = sub3(axpy(t, d, o), c);
             (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then_some((t, n))
         }
         CamShape::Sphere { c, r2, inv_r } => {
             // |o + t d − c|² = r²: a t² − 2 b t + cc = 0
             let oc = sub3(c, o);
-            let a = if PERSP { dot(d, d) } else { Q::ONE };
+            let a = if PERSP { dot(d, d) } else { S::ONE };
             let b = dot(d, oc);
-            let cc = sub(dot(oc, oc), r2);
-            let disc = sub(mul(b, b), mul(a, cc));
-            if disc < Q::ZERO {
+            let cc = dot(oc, oc).sub(r2);
+            let disc = b.mul(b).sub(a.mul(cc));
+            if disc < S::ZERO {
                 return None;
             }
-            let sq = disc.checked_sqrt()?;
-            let mut t = sub(b, sq).checked_div(a)?;
-            if t <= Q::ZERO {
-                t = add(b, sq).checked_div(a)?;
-                if t <= Q::ZERO {
+            let sq = disc.sqrt()?;
+            let mut t = b.sub(sq).div(a)?;
+            if t <= S::ZERO {
+                t = b.add(sq).div(a)?;
+                if t <= S::ZERO {
                     return None;
                 }
             }
@@ -601,18 +772,18 @@ fn intersect<const PERSP: bool>(s: &CamShape, o: V3, d: V3) -> Option<(Q, V3)> {
 }
 
 #[inline]
-fn plane_t<const PERSP: bool>(n: V3, dist: Q, o: V3, d: V3) -> Option<Q> {
+fn plane_t<S: Scalar, const PERSP: bool>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Option<S> {
     let denom = if PERSP { dot(n, d) } else { n[2] };
     let num = if PERSP {
         dist
     } else {
-        sub(dist, add(mul(n[0], o[0]), mul(n[1], o[1])))
+        dist.sub(n[0].mul(o[0]).add(n[1].mul(o[1])))
     };
-    let t = num.checked_div(denom)?;
-    (t > Q::ZERO).then_some(t)
+    let t = num.div(denom)?;
+    (t > S::ZERO).then_some(t)
 }
 
-fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim {
+fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim<Q> {
     let to_q3 = |d: [Norm; 3]| dir_to_cam(scene, d);
     let (shape, origin) = match p.shape {
         Shape::Plane { point, normal } => {
@@ -659,10 +830,11 @@ fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim {
             let v = to_q3(v_axis);
             let c = v3_world_to_cam(scene, centre);
             // n = u × v
+            let x = |a: Q, b: Q, c: Q, d: Q| Scalar::sub(Scalar::mul(a, b), Scalar::mul(c, d));
             let n = [
-                sub(mul(u[1], v[2]), mul(u[2], v[1])),
-                sub(mul(u[2], v[0]), mul(u[0], v[2])),
-                sub(mul(u[0], v[1]), mul(u[1], v[0])),
+                x(u[1], v[2], u[2], v[1]),
+                x(u[2], v[0], u[0], v[2]),
+                x(u[0], v[1], u[1], v[0]),
             ];
             (
                 CamShape::Rect {

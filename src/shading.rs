@@ -1,6 +1,6 @@
 //! Shading (camera-model.md §6): the mixed BRDF, point and directional
-//! lights, the ambient term — per pixel, in I32F32 with saturating
-//! arithmetic.
+//! lights, the ambient term — per pixel, in any [`Scalar`] (I32F32 by
+//! default) with saturating arithmetic.
 //!
 //! Radiance towards the viewer of a point `P` with unit normal `n̂`, unit
 //! direction to the viewer `v̂`:
@@ -9,80 +9,95 @@
 //! `E₀ max(0, n̂·l̂)` (directional).
 
 use crate::num::{quotient, Angle, Wide};
+use crate::scalar::Scalar;
 use crate::scene::{Material, Q};
 use core::ops::{Mul as _, Sub as _};
 
-/// A vector of three I32F32 values (a point, direction or colour).
-pub type V3 = [Q; 3];
+/// A vector of three per-pixel values (a point, direction or colour).
+pub type V3<S = Q> = [S; 3];
 
-/// Saturating I32F32 product. Kept out of line: inlined at every use it made
-/// each pixel loop 25 KB on Cortex-M (the 64-bit product with its saturation
-/// checks is long there).
-#[inline(never)]
-pub(crate) fn mul(a: Q, b: Q) -> Q {
-    a.saturating_mul(b)
+#[inline(always)]
+pub(crate) fn dot<S: Scalar>(a: V3<S>, b: V3<S>) -> S {
+    a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]))
 }
 #[inline(always)]
-pub(crate) fn add(a: Q, b: Q) -> Q {
-    a.saturating_add(b)
+pub(crate) fn sub3<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
+    [a[0].sub(b[0]), a[1].sub(b[1]), a[2].sub(b[2])]
 }
 #[inline(always)]
-pub(crate) fn sub(a: Q, b: Q) -> Q {
-    a.saturating_sub(b)
-}
-#[inline(always)]
-pub(crate) fn dot(a: V3, b: V3) -> Q {
-    add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
-}
-#[inline(always)]
-pub(crate) fn sub3(a: V3, b: V3) -> V3 {
-    [sub(a[0], b[0]), sub(a[1], b[1]), sub(a[2], b[2])]
-}
-#[inline(always)]
-pub(crate) fn axpy(t: Q, d: V3, o: V3) -> V3 {
+pub(crate) fn axpy<S: Scalar>(t: S, d: V3<S>, o: V3<S>) -> V3<S> {
     [
-        add(o[0], mul(t, d[0])),
-        add(o[1], mul(t, d[1])),
-        add(o[2], mul(t, d[2])),
+        o[0].add(t.mul(d[0])),
+        o[1].add(t.mul(d[1])),
+        o[2].add(t.mul(d[2])),
     ]
 }
 #[inline(always)]
-pub(crate) fn scale3(t: Q, d: V3) -> V3 {
-    [mul(t, d[0]), mul(t, d[1]), mul(t, d[2])]
+pub(crate) fn scale3<S: Scalar>(t: S, d: V3<S>) -> V3<S> {
+    [t.mul(d[0]), t.mul(d[1]), t.mul(d[2])]
 }
 
 /// A light in the frame shading works in (the renderer's: the camera frame).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ShadingLight {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShadingLight<S: Scalar = Q> {
     /// Point light at `p` with intensity `i` per channel (W/sr).
     Point {
         /// Position, metres.
-        p: V3,
+        p: V3<S>,
         /// Intensity per channel, W/sr.
-        i: V3,
+        i: V3<S>,
     },
     /// Directional light: unit direction `l` towards it, irradiance `e`
     /// per channel (W/m²).
     Directional {
         /// Unit direction towards the light.
-        l: V3,
+        l: V3<S>,
         /// Irradiance per channel, W/m².
-        e: V3,
+        e: V3<S>,
     },
 }
 
 /// A material with its constants folded once per frame:
 /// `kd = n ρ/π`, `ks = (1 − n) ρ_s (s + 2)/(2π)`, `ka = ρ A`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Brdf {
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Brdf<S: Scalar = Q> {
     /// Diffuse constant per channel.
-    pub kd: V3,
+    pub kd: V3<S>,
     /// Specular constant per channel.
-    pub ks: V3,
+    pub ks: V3<S>,
     /// Ambient radiance per channel.
-    pub ka: V3,
+    pub ka: V3<S>,
     /// Phong exponent `s`.
     pub exponent: u16,
+}
+
+impl<S: Scalar> ShadingLight<S> {
+    /// The same light with values in another scalar type.
+    pub fn to<T: Scalar>(&self) -> ShadingLight<T> {
+        match *self {
+            ShadingLight::Point { p, i } => ShadingLight::Point {
+                p: p.map(|v| T::from_q(v.to_q())),
+                i: i.map(|v| T::from_q(v.to_q())),
+            },
+            ShadingLight::Directional { l, e } => ShadingLight::Directional {
+                l: l.map(|v| T::from_q(v.to_q())),
+                e: e.map(|v| T::from_q(v.to_q())),
+            },
+        }
+    }
+}
+
+impl<S: Scalar> Brdf<S> {
+    /// The same constants in another scalar type.
+    pub fn to<T: Scalar>(&self) -> Brdf<T> {
+        let c = |v: V3<S>| v.map(|x| T::from_q(x.to_q()));
+        Brdf {
+            kd: c(self.kd),
+            ks: c(self.ks),
+            ka: c(self.ka),
+            exponent: self.exponent,
+        }
+    }
 }
 
 impl Brdf {
@@ -111,74 +126,43 @@ impl Brdf {
     }
 }
 
-/// One, with 63 fractional bits.
-const ONE63: u64 = 1 << 63;
-
-#[inline(always)]
-fn mul63(a: u64, b: u64) -> u64 {
-    ((a as u128 * b as u128 + (1u128 << 62)) >> 63) as u64
-}
-
-/// `x^n` for `x ∈ [0, 1]` (clamped), by squaring, as a fraction with 63
-/// fractional bits: a Phong lobe of 10⁻⁶ keeps 10⁻¹³ relative, where I32F32
-/// would keep only 10⁻⁴.
-#[inline]
-pub fn powi(x: Q, mut n: u16) -> u64 {
-    let mut base = (x.to_bits().clamp(0, 1 << 32) as u64) << 31;
-    let mut acc = ONE63;
-    while n > 0 {
-        if n & 1 == 1 {
-            acc = mul63(acc, base);
-        }
-        base = mul63(base, base);
-        n >>= 1;
-    }
-    acc
-}
-
-/// `v · f` for a fraction `f` with 63 fractional bits, rounded.
-#[inline(always)]
-fn scale63(v: Q, f: u64) -> Q {
-    Q::from_bits(((v.to_bits() as i128 * f as i128 + (1i128 << 62)) >> 63) as i64)
-}
-
 /// Radiance per channel leaving `point` (unit `normal`, facing the viewer)
 /// towards the viewer (unit `view`). With `SPEC = false` the specular lobe
 /// is left out (the scene has none).
 ///
-/// Relative error ≤ 10⁻⁶ + (s + 2)·10⁻⁹ / r², `r` (metres) the distance to
-/// the nearest point light: the Phong lobe turns the 2⁻³² absolute rounding
-/// of `r²` into `s` times as much relative error (measured by
-/// `tests/shading.rs`).
+/// In I32F32 the relative error is ≤ 10⁻⁶ + (s + 2)·10⁻⁹ / r², `r`
+/// (metres) the distance to the nearest point light: the Phong lobe turns
+/// the 2⁻³² absolute rounding of `r²` into `s` times as much relative error
+/// (measured by `tests/shading.rs`). Other scalar types: `host-sim tradeoff`.
 #[inline]
-pub fn radiance<const SPEC: bool>(
-    mat: &Brdf,
-    lights: &[ShadingLight],
-    point: V3,
-    normal: V3,
-    view: V3,
-) -> V3 {
+pub fn radiance<S: Scalar, const SPEC: bool>(
+    mat: &Brdf<S>,
+    lights: &[ShadingLight<S>],
+    point: V3<S>,
+    normal: V3<S>,
+    view: V3<S>,
+) -> V3<S> {
     let mut l = mat.ka;
     for light in lights {
         let (ldir, e) = match *light {
             ShadingLight::Point { p, i } => {
                 let lv = sub3(p, point);
                 let r2 = dot(lv, lv);
-                let Some(r) = r2.checked_sqrt() else { continue };
-                let Some(inv_r) = Q::ONE.checked_div(r) else {
+                let Some(r) = r2.sqrt() else { continue };
+                let Some(inv_r) = S::ONE.div(r) else {
                     continue;
                 };
                 let ldir = scale3(inv_r, lv);
                 let cos = dot(normal, ldir);
-                if cos <= Q::ZERO {
+                if cos <= S::ZERO {
                     continue;
                 }
-                let k = cos.checked_div(r2).unwrap_or(Q::MAX);
+                let k = cos.div(r2).unwrap_or(S::MAX);
                 (ldir, scale3(k, i))
             }
             ShadingLight::Directional { l, e } => {
                 let cos = dot(normal, l);
-                if cos <= Q::ZERO {
+                if cos <= S::ZERO {
                     continue;
                 }
                 (l, scale3(cos, e))
@@ -186,10 +170,10 @@ pub fn radiance<const SPEC: bool>(
         };
         let lobe = if SPEC {
             let nl = dot(normal, ldir);
-            let rv = sub(mul(add(nl, nl), dot(normal, view)), dot(ldir, view));
-            powi(rv.max(Q::ZERO), mat.exponent)
+            let rv = nl.add(nl).mul(dot(normal, view)).sub(dot(ldir, view));
+            Some(S::lobe(rv, mat.exponent))
         } else {
-            0
+            None
         };
         for c in 0..3 {
             let (Some(kd), Some(ks), Some(ec), Some(lc)) =
@@ -197,11 +181,11 @@ pub fn radiance<const SPEC: bool>(
             else {
                 continue;
             };
-            let mut v = mul(*kd, *ec);
-            if SPEC {
-                v = add(v, scale63(mul(*ks, *ec), lobe));
+            let mut v = kd.mul(*ec);
+            if let Some(f) = lobe {
+                v = v.add(S::scale_lobe(ks.mul(*ec), f));
             }
-            *lc = add(*lc, v);
+            *lc = lc.add(v);
         }
     }
     l

@@ -1,4 +1,5 @@
-//! Vignetting and exposure (camera-model.md §5), per pixel in I32F32.
+//! Vignetting and exposure (camera-model.md §5), per pixel in any
+//! [`Scalar`] (I32F32 by default).
 //!
 //! `E = L π/4 (d/f)² cos⁴α`, `cos⁴α = 1 / (1 + x̂² + ŷ²)²` for the
 //! undistorted normalized point (no root, no trigonometry);
@@ -6,17 +7,16 @@
 //! have no `cos⁴` fall-off: the renderer leaves the stage out.
 
 use crate::num::{quotient, Angle, Wide};
+use crate::scalar::Scalar;
 use crate::scene::Q;
 use core::ops::Mul as _;
 
 /// `cos⁴α = 1 / (1 + x̂² + ŷ²)²` (saturating; 0 only for slopes beyond the
 /// renderer's range).
 #[inline(always)]
-pub fn cos4(x: Q, y: Q) -> Q {
-    let w = Q::ONE
-        .saturating_add(x.saturating_mul(x))
-        .saturating_add(y.saturating_mul(y));
-    Q::ONE.checked_div(w.saturating_mul(w)).unwrap_or(Q::ZERO)
+pub fn cos4<S: Scalar>(x: S, y: S) -> S {
+    let w = S::ONE.add(x.mul(x)).add(y.mul(y));
+    S::ONE.div(w.mul(w)).unwrap_or(S::ZERO)
 }
 
 /// The per-frame gain `K π/4 (d/f)² · num/den`: DN per unit radiance on the
@@ -31,11 +31,7 @@ pub fn gain(exposure: Q, d_over_f: Wide, (num, den): (u32, u32)) -> Q {
 /// `DN = min(DN_max, floor(gain · L · cos4 + 1/2))`, never negative, never
 /// wrapped.
 #[inline(always)]
-pub fn quantize(gain: Q, radiance: Q, cos4: Q, dn_max: u32) -> u32 {
-    let half = Q::from_bits(1 << 31);
-    let v = gain
-        .saturating_mul(radiance)
-        .saturating_mul(cos4)
-        .saturating_add(half);
-    v.to_num::<i64>().clamp(0, dn_max as i64) as u32
+pub fn quantize<S: Scalar>(gain: S, radiance: S, cos4: S, dn_max: u32) -> u32 {
+    let v = gain.mul(radiance).mul(cos4).add(S::HALF);
+    v.floor_int().clamp(0, dn_max as i64) as u32
 }
