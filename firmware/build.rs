@@ -4,6 +4,7 @@
 //! exactly what the host renders.
 
 use host_sim::scene_file::{load, LightDesc, Pose};
+use host_sim::variant::Variant;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -167,5 +168,38 @@ fn main() {
         let _ = writeln!(code, "        {i} => scene_{i}(),");
     }
     let _ = writeln!(code, "        _ => Err(\"no such scene\"),\n    }}\n}}");
+
+    // HILCAM_VARIANTS: variant names (host-sim tradeoff), separated by commas
+    // or newlines; otherwise the planned renderer only.
+    println!("cargo:rerun-if-env-changed=HILCAM_VARIANTS");
+    let variants: Vec<Variant> = match std::env::var("HILCAM_VARIANTS") {
+        Ok(list) if !list.trim().is_empty() => list
+            .split([',', '\n'])
+            .map(str::trim)
+            .filter(|v| !v.is_empty())
+            .map(|v| Variant::parse(v).unwrap_or_else(|e| panic!("HILCAM_VARIANTS: {e}")))
+            .collect(),
+        _ => vec![Variant::PLANNED],
+    };
+    let names: Vec<String> = variants.iter().map(Variant::name).collect();
+    let _ = writeln!(
+        code,
+        "/// Variants every scene is rendered with, in order.\npub const VARIANTS: [&str; {}] = {:?};",
+        names.len(),
+        names
+    );
+    let _ = writeln!(
+        code,
+        "/// Renders with variant `v`.\npub fn render_variant<R: super::Runner>(v: usize, planned: &Options, r: &mut R) -> Result<u64, &'static str> {{\n    match v {{"
+    );
+    for (i, v) in variants.iter().enumerate() {
+        let _ = writeln!(
+            code,
+            "        {i} => r.run::<{}>(&planned.with({})),",
+            v.scalar.type_path(),
+            v.override_expr()
+        );
+    }
+    let _ = writeln!(code, "        _ => Err(\"no such variant\"),\n    }}\n}}");
     std::fs::write(out.join("scenes.rs"), code).expect("scenes.rs");
 }

@@ -20,7 +20,7 @@
 //! (over-exposure); the narrower types have narrower ranges
 //! ([`crate::scalar`]).
 
-use crate::distortion::{Distortion, MAX_LUT};
+use crate::distortion::{Distortion, Lut, MAX_LUT};
 use crate::num::{quotient, Len, Norm, Wide};
 use crate::scalar::Scalar;
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
@@ -123,6 +123,54 @@ impl Options {
             lut_entries,
             distortion_eval: DistortionEval::Linear,
             keep_all_stages: false,
+        }
+    }
+}
+
+/// A departure from the plan, for measuring the speed/accuracy trade
+/// (`host-sim tradeoff`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Override {
+    /// The plan as it is.
+    Planned,
+    /// A distortion table of `entries` (2 to [`MAX_LUT`]) read by `eval`.
+    Table {
+        /// Entries.
+        entries: usize,
+        /// [`DistortionEval::Nearest`] or [`DistortionEval::Linear`].
+        eval: DistortionEval,
+    },
+    /// The distortion polynomial per pixel: no table.
+    Polynomial,
+    /// Nothing pruned: perspective rays (unless the camera is telecentric),
+    /// a [`MAX_LUT`]-entry table even without distortion, and the specular
+    /// stage even without a specular material.
+    AllStages,
+}
+
+impl Options {
+    /// These options with `o` applied.
+    pub fn with(self, o: Override) -> Options {
+        match o {
+            Override::Planned => self,
+            Override::Table { entries, eval } => Options {
+                lut_entries: entries,
+                distortion_eval: eval,
+                ..self
+            },
+            Override::Polynomial => Options {
+                distortion_eval: DistortionEval::Polynomial,
+                ..self
+            },
+            Override::AllStages => Options {
+                model: match self.model {
+                    RenderModel::WeakPerspective { .. } => RenderModel::Perspective,
+                    m => m,
+                },
+                lut_entries: MAX_LUT,
+                distortion_eval: DistortionEval::Linear,
+                keep_all_stages: true,
+            },
         }
     }
 }
@@ -312,11 +360,12 @@ pub struct Frame<S: Scalar = Q> {
     /// `o_y / f_y` and `1 / f_y` as wide values, for `ŷ_d` per line.
     oy: Wide,
     fy: Wide,
-    /// `g` at the table's nodes (empty without a table).
-    table: heapless::Vec<S, MAX_LUT>,
+    /// `g` at the table's nodes, i32 entries converted per lookup (a shift
+    /// in fixed point): one table serves every scalar type.
+    lut: Option<Lut>,
     /// Table positions per unit of `u`.
     lut_scale: S,
-    /// Fractional bits of the table's i32 entries before conversion.
+    /// Fractional bits of the table's entries.
     lut_frac: u32,
     /// `k1`, `k2` for [`DistortionEval::Polynomial`].
     poly: [S; 2],
@@ -388,7 +437,7 @@ impl<S: Scalar> Frame<S> {
             dx,
             oy: Wide::of(oy),
             fy: Wide::of(fy),
-            table: heapless::Vec::new(),
+            lut: None,
             lut_scale: S::ZERO,
             lut_frac: 0,
             poly: [S::ZERO; 2],
@@ -432,11 +481,8 @@ impl<S: Scalar> Frame<S> {
                 let lut = lut.value;
                 frame.lut_frac = lut.entry_frac_bits();
                 frame.lut_scale = S::from_q(lut.scale());
-                for e in lut.entries() {
-                    // The table holds at most MAX_LUT entries, as does this.
-                    let _ = frame.table.push(S::from_fixed_bits(*e, frame.lut_frac));
-                }
                 frame.stages.distortion_lut = Some(lut.len());
+                frame.lut = Some(lut);
             }
         }
         // The widest undistorted corner must stay within MAX_SLOPE.
@@ -509,10 +555,9 @@ impl<S: Scalar> Frame<S> {
         self.stages.distortion_lut.map(|_| self.lut_frac)
     }
 
-    /// Distortion table bytes as the per-pixel path holds it (0 without a
-    /// table).
+    /// Distortion table bytes (0 without a table).
     pub fn table_bytes(&self) -> usize {
-        self.table.len() * core::mem::size_of::<S>()
+        self.lut.as_ref().map_or(0, Lut::bytes)
     }
 
     #[inline(always)]
@@ -545,16 +590,26 @@ impl<S: Scalar> Frame<S> {
         let g = match self.stages.distortion {
             Some(DistortionEval::Polynomial) => S::ONE.add(u.mul(self.poly[0].add(u.mul(self.poly[1])))),
             Some(DistortionEval::Nearest) => {
+                let table = self.lut.as_ref().map_or(&[][..], Lut::entries);
                 let pos = u.mul(self.lut_scale).add(S::HALF);
-                let i = (pos.floor_int().max(0) as usize).min(self.table.len().saturating_sub(1));
-                self.table.get(i).copied().unwrap_or(S::ONE)
+                let i = (pos.floor_int().max(0) as usize).min(table.len().saturating_sub(1));
+                table
+                    .get(i)
+                    .map_or(S::ONE, |e| S::from_fixed_bits(*e, self.lut_frac))
             }
             _ => {
+                let table = self.lut.as_ref().map_or(&[][..], Lut::entries);
                 let pos = u.mul(self.lut_scale);
-                let i = (pos.floor_int().max(0) as usize).min(self.table.len().saturating_sub(2));
+                let i = (pos.floor_int().max(0) as usize).min(table.len().saturating_sub(2));
                 let frac = pos.sub(S::from_int(i as i32));
-                match (self.table.get(i), self.table.get(i + 1)) {
-                    (Some(a), Some(b)) => a.add(b.sub(*a).mul(frac)),
+                match (table.get(i), table.get(i + 1)) {
+                    (Some(a), Some(b)) => {
+                        let (a, b) = (
+                            S::from_fixed_bits(*a, self.lut_frac),
+                            S::from_fixed_bits(*b, self.lut_frac),
+                        );
+                        a.add(b.sub(a).mul(frac))
+                    }
                     _ => S::ONE,
                 }
             }

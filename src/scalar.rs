@@ -17,7 +17,7 @@
 //! The fixed types saturate (never wrap); `f32` overflows to infinity, and
 //! a non-finite value quantizes to a clamped DN (NaN to 0) — nothing panics.
 
-use fixed::types::{I12F20, I16F16, I32F32};
+pub use fixed::types::{I12F20, I16F16, I32F32};
 
 /// A number the per-pixel pipeline runs in.
 pub trait Scalar: Copy + PartialOrd + core::fmt::Debug {
@@ -37,6 +37,8 @@ pub trait Scalar: Copy + PartialOrd + core::fmt::Debug {
     fn to_q(self) -> I32F32;
     /// An integer, saturating.
     fn from_int(i: i32) -> Self;
+    /// The value as f64 (exact), for analysis on the host.
+    fn to_f64(self) -> f64;
     /// `bits / 2^frac` (a table entry), rounded to nearest.
     fn from_fixed_bits(bits: i32, frac: u32) -> Self;
     /// Sum (saturating).
@@ -140,6 +142,9 @@ macro_rules! fixed_scalar {
             fn from_int(i: i32) -> Self {
                 <$t>::saturating_from_num(i)
             }
+            fn to_f64(self) -> f64 {
+                self.to_num::<f64>()
+            }
             #[inline(always)]
             fn from_fixed_bits(bits: i32, frac: u32) -> Self {
                 // Both shifts are by less than 64; the table entry has at
@@ -235,9 +240,14 @@ impl Scalar for f32 {
     fn from_int(i: i32) -> Self {
         i as f32
     }
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
     #[inline(always)]
     fn from_fixed_bits(bits: i32, frac: u32) -> Self {
-        bits as f32 / (1u64 << frac.min(62)) as f32
+        // 2^−frac built from its bits (exact for frac ≤ 126): a product,
+        // not a quotient, on soft-float targets.
+        bits as f32 * f32::from_bits((127 - frac.min(126)) << 23)
     }
     #[inline(always)]
     fn add(self, o: Self) -> Self {

@@ -8,9 +8,10 @@
 
 mod board;
 
-#[allow(clippy::all)]
+#[allow(clippy::all, unused_imports)]
 mod scenes {
     use hilcam::distortion::Distortion;
+    use hilcam::render::{DistortionEval, Options, Override};
     use hilcam::lens::{Aperture, LensConfig};
     use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec};
     use hilcam::{Camera, Extrinsics, IntrinsicsConfig, Model};
@@ -25,7 +26,11 @@ use cortex_m_semihosting::debug;
 use cortex_m_semihosting::hprintln;
 use hilcam::link::{wire_size, Encoder, FrameStart, WireFormat, DEFAULT_CHUNK, PROTOCOL_VERSION};
 use hilcam::planner::{plan, Budget};
-use hilcam::render::Frame;
+use hilcam::render::{Frame, Options};
+use hilcam::scalar::Scalar;
+use hilcam::scene::Scene;
+
+type Enc = Encoder<board::Uart0, DEFAULT_CHUNK, { wire_size(DEFAULT_CHUNK) }>;
 
 /// Status text over semihosting (QEMU, probe-rs), unless the `status`
 /// feature is off; the exit code is always reported through semihosting.
@@ -121,9 +126,7 @@ fn main() -> ! {
     while SYST::get_current() == 0 {}
     WRAPS.store(0, Ordering::Relaxed);
 
-    let mut enc = match Encoder::<board::Uart0, DEFAULT_CHUNK, { wire_size(DEFAULT_CHUNK) }>::new(
-        board::Uart0::new(),
-    ) {
+    let mut enc = match Enc::new(board::Uart0::new()) {
         Ok(e) => e,
         Err(_) => fail("encoder"),
     };
@@ -132,41 +135,75 @@ fn main() -> ! {
     for (id, name) in scenes::NAMES.iter().enumerate() {
         let scene = scenes::build(id).unwrap_or_else(|e| fail(e));
         let p = plan(&scene, &Budget::default());
-        let t0 = ticks();
-        let frame = Frame::new(&scene, &p.options).unwrap_or_else(|_| fail("frame"));
-        let mut cost = ticks() - t0;
-        let (w, h) = frame.size();
-        let start = FrameStart {
-            version: PROTOCOL_VERSION,
-            frame_id: id as u32,
-            width: w,
-            height: h,
-            format: WireFormat::from(scene.format),
-            scene_id: id as u32,
-            exposure: scene.exposure.to_bits(),
-        };
-        enc.begin_frame(start).unwrap_or_else(|_| fail("begin"));
-        let n = frame.line_bytes();
-        for j in 0..h {
-            // Only rendering is counted: the UART's back-pressure is not.
-            let t = ticks();
-            frame
-                .render_line(j, &mut line, &mut flags)
-                .unwrap_or_else(|_| fail("render"));
-            cost += ticks() - t;
-            enc.push_line(line.get(..n).unwrap_or_else(|| fail("line")))
-                .unwrap_or_else(|_| fail("send"));
+        for (v, variant) in scenes::VARIANTS.iter().enumerate() {
+            let mut run = Run {
+                scene: &scene,
+                enc: &mut enc,
+                line: &mut line,
+                flags: &mut flags,
+                frame_id: (id * scenes::VARIANTS.len() + v) as u32,
+                scene_id: id as u32,
+            };
+            let ins = scenes::render_variant(v, &p.options, &mut run).unwrap_or_else(|e| fail(e));
+            status!("frame {} {} {}: {} instructions", id, name, variant, ins);
+            let _ = (name, variant, ins);
         }
-        let ins = instructions(cost);
-        enc.end_frame(Some(ins)).unwrap_or_else(|_| fail("end"));
-        status!("frame {} {}: {}x{}, {} instructions", id, name, w, h, ins);
-        let _ = name;
     }
     status!("stack_peak_bytes {}", stack::peak());
     status!("done");
     debug::exit(debug::EXIT_SUCCESS);
     loop {
         cortex_m::asm::wfi();
+    }
+}
+
+/// Renders a scene in a chosen scalar type and streams the frame.
+pub trait Runner {
+    /// Renders with per-pixel values in `S` and `opts`; returns the
+    /// frame's cost in instructions.
+    fn run<S: Scalar>(&mut self, opts: &Options) -> Result<u64, &'static str>;
+}
+
+struct Run<'a> {
+    scene: &'a Scene,
+    enc: &'a mut Enc,
+    line: &'a mut [u8],
+    flags: &'a mut [u8],
+    frame_id: u32,
+    scene_id: u32,
+}
+
+impl Runner for Run<'_> {
+    // Out of line, so that each scalar type's frame has its own stack frame
+    // rather than all of them summed in the caller.
+    #[inline(never)]
+    fn run<S: Scalar>(&mut self, opts: &Options) -> Result<u64, &'static str> {
+        let scene = self.scene;
+        let t0 = ticks();
+        let frame = Frame::<S>::build(scene, opts).map_err(|_| "frame")?;
+        let mut cost = ticks() - t0;
+        let (w, h) = frame.size();
+        let start = FrameStart {
+            version: PROTOCOL_VERSION,
+            frame_id: self.frame_id,
+            width: w,
+            height: h,
+            format: WireFormat::from(scene.format),
+            scene_id: self.scene_id,
+            exposure: scene.exposure.to_bits(),
+        };
+        self.enc.begin_frame(start).map_err(|_| "begin")?;
+        let n = frame.line_bytes();
+        for j in 0..h {
+            // Only rendering is counted: the UART's back-pressure is not.
+            let t = ticks();
+            frame.render_line(j, self.line, self.flags).map_err(|_| "render")?;
+            cost += ticks() - t;
+            self.enc.push_line(self.line.get(..n).ok_or("line")?).map_err(|_| "send")?;
+        }
+        let ins = instructions(cost);
+        self.enc.end_frame(Some(ins)).map_err(|_| "end")?;
+        Ok(ins)
     }
 }
 

@@ -5,9 +5,13 @@
 //! reference.
 
 use crate::link::decoder::Decoder;
-use crate::render_cmd::{decode, encode_png, render};
+use crate::reference::render::{RefFrame, RefScene};
+use crate::render_cmd::{decode, encode_png, Collect};
 use crate::scene_file::{load, Resolved};
-use hilcam::planner::Budget;
+use crate::variant::{FrameUser, Variant};
+use hilcam::planner::{Budget, Plan};
+use hilcam::render::Frame;
+use hilcam::scalar::Scalar;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -65,8 +69,9 @@ pub fn repo_root() -> PathBuf {
 }
 
 /// Builds the firmware for `board` with `scenes` embedded (all of
-/// `scenes/` when empty); returns the ELF path.
-pub fn build_firmware(board: Board, scenes: &[PathBuf]) -> Result<PathBuf, String> {
+/// `scenes/` when empty), rendering each with every one of `variants` (the
+/// planned renderer when empty); returns the ELF path.
+pub fn build_firmware(board: Board, scenes: &[PathBuf], variants: &[Variant]) -> Result<PathBuf, String> {
     let dir = repo_root().join("firmware");
     let list: Vec<String> = scenes
         .iter()
@@ -79,6 +84,10 @@ pub fn build_firmware(board: Board, scenes: &[PathBuf]) -> Result<PathBuf, Strin
     let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(&dir)
         .env("HILCAM_SCENES", list.join("\n"))
+        .env(
+            "HILCAM_VARIANTS",
+            variants.iter().map(Variant::name).collect::<Vec<_>>().join(","),
+        )
         .args([
             "build",
             "--release",
@@ -180,6 +189,8 @@ pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Res
 pub struct HilFrame {
     /// Scene name.
     pub scene: String,
+    /// Rendering variant (`i32f32-planned`: the planned renderer).
+    pub variant: String,
     /// Size.
     pub width: u16,
     /// Size.
@@ -224,9 +235,36 @@ pub struct HilReport {
     pub qemu_seconds: f64,
 }
 
-/// Runs the firmware on `board` and checks its frames. Writes the frames as
-/// PNGs into `out`.
+/// The host-side core render of a frame: its bytes.
+struct HostBytes;
+
+impl FrameUser for HostBytes {
+    type Out = Vec<u8>;
+    fn use_frame<S: Scalar>(self, _: &Plan, _: &Frame<S>, core: Collect) -> Vec<u8> {
+        core.pixels
+    }
+}
+
+/// Runs the firmware on `board` and checks its frames (the planned
+/// renderer, or each of `variants`). Writes the frames as PNGs into `out`.
 pub fn hil(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -> Result<HilReport, String> {
+    hil_variants(board, elf, scenes, &[], out)
+}
+
+/// [`hil`] with every scene rendered with each of `variants` (the planned
+/// renderer when empty). Frame `k` is scene `k / n`, variant `k % n`.
+pub fn hil_variants(
+    board: Board,
+    elf: Option<PathBuf>,
+    scenes: &[PathBuf],
+    variants: &[Variant],
+    out: &Path,
+) -> Result<HilReport, String> {
+    let variants: Vec<Variant> = if variants.is_empty() {
+        vec![Variant::PLANNED]
+    } else {
+        variants.to_vec()
+    };
     let list: Vec<PathBuf> = if scenes.is_empty() {
         let mut v: Vec<PathBuf> = std::fs::read_dir(repo_root().join("scenes"))
             .map_err(|e| format!("scenes/: {e}"))?
@@ -241,7 +279,7 @@ pub fn hil(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -
     let resolved: Vec<Resolved> = list.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
     let elf = match elf {
         Some(e) => e,
-        None => build_firmware(board, scenes)?,
+        None => build_firmware(board, scenes, &variants)?,
     };
     let (flash, ram) = elf_sizes(&elf)?;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
@@ -256,19 +294,30 @@ pub fn hil(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -
     let mut got = Vec::new();
     dec.push(&bytes, &mut |f| got.push(f));
     let mut frames = Vec::new();
-    let mut all_exact = got.len() == resolved.len();
+    let nv = variants.len();
+    let mut all_exact = got.len() == resolved.len() * nv;
     let mut ipp_standard = None;
+    let mut references: Vec<Option<RefFrame>> = vec![None; resolved.len()];
     for f in &got {
-        let Some(r) = resolved.get(f.start.scene_id as usize) else {
+        let k = f.start.frame_id as usize;
+        let (Some(r), Some(v), Some(cached)) = (
+            resolved.get(f.start.scene_id as usize),
+            variants.get(k % nv),
+            references.get_mut(f.start.scene_id as usize),
+        ) else {
             all_exact = false;
             continue;
         };
-        let host = render(r, &Budget::default())?;
-        let exact = host.core.pixels == f.pixels
-            && host.metrics.width == f.start.width as usize
-            && host.metrics.height == f.start.height as usize;
+        if k / nv != f.start.scene_id as usize {
+            all_exact = false;
+            continue;
+        }
+        let host = v.render(r, &Budget::default(), HostBytes)?;
+        let exact = host == f.pixels
+            && r.desc.camera.width == f.start.width
+            && r.desc.camera.height == f.start.height;
         all_exact &= exact;
-        let reference = host.reference;
+        let reference = cached.get_or_insert_with(|| RefScene::new(r).render());
         let bpp = r.format.bytes_per_pixel();
         let (mut max, mut same) = (0u32, 0usize);
         for (k, px) in f.pixels.chunks_exact(bpp).enumerate() {
@@ -282,7 +331,7 @@ pub fn hil(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -
         }
         let pixels = f.start.width as f64 * f.start.height as f64;
         let ipp = f.end.cost.map(|c| c as f64 / pixels);
-        if r.desc.name == "standard" {
+        if r.desc.name == "standard" && ipp_standard.is_none() {
             ipp_standard = ipp;
         }
         let png = encode_png(
@@ -291,9 +340,15 @@ pub fn hil(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -
             f.start.height as usize,
             &f.pixels,
         )?;
-        std::fs::write(out.join(format!("{}.png", r.desc.name)), png).map_err(|e| e.to_string())?;
+        let file = if nv == 1 {
+            format!("{}.png", r.desc.name)
+        } else {
+            format!("{}-{}.png", r.desc.name, v.name())
+        };
+        std::fs::write(out.join(file), png).map_err(|e| e.to_string())?;
         frames.push(HilFrame {
             scene: r.desc.name.clone(),
+            variant: v.name(),
             width: f.start.width,
             height: f.start.height,
             format: r.format.name().into(),

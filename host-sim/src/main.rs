@@ -98,9 +98,34 @@ enum Cmd {
         /// A firmware ELF built already (default: build it).
         #[arg(long)]
         elf: Option<std::path::PathBuf>,
+        /// Render every scene with each of these variants (e.g.
+        /// i16f16-lut256-linear; default: the planned renderer).
+        #[arg(long, num_args = 1..)]
+        variant: Vec<String>,
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
+    },
+    /// Measure the speed/accuracy trade: every variant's fidelity against the
+    /// f64 reference, its instructions per pixel on the M3 and the M4F in
+    /// QEMU, host ns per pixel, table and flash bytes; growth with resolution
+    /// and primitives; what the planner's pruning saves. Writes tradeoff.json,
+    /// tradeoff.md and tradeoff.png.
+    Tradeoff {
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+        /// A tiny sweep (a 40x30 scene, three variants, no growth or
+        /// pruning runs): checks that the sweep works.
+        #[arg(long)]
+        tiny: bool,
+        /// Boards to measure on, comma-separated (lm3s6965evb, mps2-an386),
+        /// or "none" for the host only.
+        #[arg(long, default_value = "lm3s6965evb,mps2-an386")]
+        boards: String,
+        /// Host timing repeats (the median is reported).
+        #[arg(long, default_value_t = 7)]
+        repeats: usize,
     },
 }
 
@@ -270,19 +295,46 @@ fn main() -> ExitCode {
             ))
         })()),
         Cmd::WireExample => finish(host_sim::stream_cmd::wire_example().map(|s| s.trim_end().to_string())),
+        Cmd::Tradeoff {
+            out,
+            tiny,
+            boards,
+            repeats,
+        } => finish((|| {
+            let boards = if boards == "none" {
+                Vec::new()
+            } else {
+                boards
+                    .split(',')
+                    .map(host_sim::hil_cmd::Board::parse)
+                    .collect::<Result<Vec<_>, _>>()?
+            };
+            let cfg = if tiny {
+                host_sim::tradeoff::Config::tiny(boards, repeats)
+            } else {
+                host_sim::tradeoff::Config::full(boards, repeats)
+            };
+            host_sim::tradeoff::run(&cfg, &out)
+        })()),
         Cmd::Hil {
             board,
             scene,
             elf,
+            variant,
             out,
         } => finish((|| {
             let board = host_sim::hil_cmd::Board::parse(&board)?;
-            let r = host_sim::hil_cmd::hil(board, elf, &scene, &out)?;
+            let variants = variant
+                .iter()
+                .map(|v| host_sim::variant::Variant::parse(v))
+                .collect::<Result<Vec<_>, _>>()?;
+            let r = host_sim::hil_cmd::hil_variants(board, elf, &scene, &variants, &out)?;
             let mut s = String::new();
             for f in &r.frames {
                 s.push_str(&format!(
-                    "  {:<20} {}x{} {:<7} bit_exact={} instructions/pixel={} max_abs_lsb={}\n",
+                    "  {:<20} {:<22} {}x{} {:<7} bit_exact={} instructions/pixel={} max_abs_lsb={}\n",
                     f.scene,
+                    f.variant,
                     f.width,
                     f.height,
                     f.format,

@@ -5,7 +5,8 @@
 use crate::reference::render::{RefFrame, RefScene};
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{Frame, LineSink, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, LineSink, Override, FLAG_OUTSIDE_FIELD};
+use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
 use std::path::Path;
@@ -82,6 +83,8 @@ pub struct Metrics {
     /// Largest distance between the core's and the reference's pixel →
     /// undistorted image point, over pixels both place in the lens field, px.
     pub max_geom_err_px: f64,
+    /// RMS of that distance, px.
+    pub rms_geom_err_px: f64,
     /// Pixels a 1/256 px move of whose centre changes what the reference ray
     /// hits (primitive, texture cell) or its in-field flag.
     pub edge_pixels: usize,
@@ -137,10 +140,26 @@ pub fn core_render(
     r: &Resolved,
     budget: &Budget,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame, Collect), String> {
+    core_render_variant(r, budget, Override::Planned)
+}
+
+/// [`core_render`] with per-pixel values in `S` and the plan overridden by
+/// `over`.
+pub fn core_render_variant<S: Scalar>(
+    r: &Resolved,
+    budget: &Budget,
+    over: Override,
+) -> Result<(hilcam::scene::Scene, Plan, Frame<S>, Collect), String> {
     let scene = r.core_scene()?;
     let plan = planner::plan(&scene, budget);
-    let frame =
-        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let frame = Frame::<S>::build(&scene, &plan.options.with(over))
+        .map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
+    Ok((scene, plan, frame, core))
+}
+
+/// Renders a prepared frame into memory.
+pub fn collect<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
     let (w, h) = frame.size();
     let mut line = vec![0u8; frame.line_bytes()];
     let mut flags = vec![0u8; w as usize];
@@ -150,34 +169,62 @@ pub fn core_render(
     };
     frame
         .render(&mut line, &mut flags, &mut core)
-        .map_err(|e| format!("{}: render failed: {e:?}", r.desc.name))?;
-    Ok((scene, plan, frame, core))
+        .map_err(|e| format!("render failed: {e:?}"))?;
+    Ok(core)
 }
 
 /// Renders with both, and compares.
-// `k` indexes four parallel per-pixel arrays.
-#[allow(clippy::needless_range_loop)]
 pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
     let (scene, plan, frame, core) = core_render(r, budget)?;
-    let (w, h) = frame.size();
-    let (w, h) = (w as usize, h as usize);
+    let rs = RefScene::new(r);
+    let reference = rs.render();
     let format = scene.format;
     let bpp = format.bytes_per_pixel();
     let core_dn: Vec<[u32; 3]> = core.pixels.chunks_exact(bpp).map(|b| decode(format, b)).collect();
-    let rs = RefScene::new(r);
-    let reference = rs.render();
+    let metrics = compare(r, &rs, &reference, &plan, budget, &frame, &core);
+    Ok(RenderOutput {
+        core,
+        core_dn,
+        reference,
+        metrics,
+        plan,
+        format,
+    })
+}
+
+/// The render metrics of a core frame against the reference frame of the
+/// same scene.
+// `k` indexes four parallel per-pixel arrays.
+#[allow(clippy::needless_range_loop)]
+pub fn compare<S: Scalar>(
+    r: &Resolved,
+    rs: &RefScene,
+    reference: &RefFrame,
+    plan: &Plan,
+    budget: &Budget,
+    frame: &Frame<S>,
+    core: &Collect,
+) -> Metrics {
+    let (w, h) = frame.size();
+    let (w, h) = (w as usize, h as usize);
+    let format = r.format;
+    let bpp = format.bytes_per_pixel();
+    let core_dn: Vec<[u32; 3]> = core.pixels.chunks_exact(bpp).map(|b| decode(format, b)).collect();
 
     // Geometry: the core's pixel → undistorted mapping against the reference.
     let (fx, fy) = (rs.sensor.f / rs.sensor.sx, rs.sensor.f / rs.sensor.sy);
     let mut max_geom: f64 = 0.0;
+    let (mut sq_geom, mut n_geom) = (0.0, 0usize);
     for j in 0..h {
         for i in 0..w {
             if let (Some((cx, cy)), Some((rx, ry))) = (
                 frame.undistorted(i as u16, j as u16),
                 reference.undistorted[j * w + i],
             ) {
-                let e = ((cx.to_num::<f64>() - rx) * fx).hypot((cy.to_num::<f64>() - ry) * fy);
+                let e = ((cx.to_f64() - rx) * fx).hypot((cy.to_f64() - ry) * fy);
                 max_geom = max_geom.max(e);
+                sq_geom += e * e;
+                n_geom += 1;
             }
         }
     }
@@ -227,7 +274,7 @@ pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
         .max()
         .unwrap_or(8);
     let stages = frame.stages();
-    let metrics = Metrics {
+    Metrics {
         scene: r.desc.name.clone(),
         width: w,
         height: h,
@@ -255,6 +302,7 @@ pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
         exact_fraction: exact as f64 / (w * h) as f64,
         psnr_db: psnr(nsq_all, n_all),
         max_geom_err_px: max_geom,
+        rms_geom_err_px: (sq_geom / n_geom.max(1) as f64).sqrt(),
         edge_pixels: edges,
         edge_pixels_differing: edges_diff,
         edge_pixels_differing_fraction: edges_diff as f64 / (w * h) as f64,
@@ -264,15 +312,7 @@ pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
         exact_fraction_smooth: exact_smooth as f64 / smooth.max(1) as f64,
         outside_field_pixels: reference.in_field.iter().filter(|f| !**f).count(),
         field_flags_differing: flags_diff,
-    };
-    Ok(RenderOutput {
-        core,
-        core_dn,
-        reference,
-        metrics,
-        plan,
-        format,
-    })
+    }
 }
 
 /// Encodes frame bytes (as the core produces them) as a PNG.

@@ -1,0 +1,220 @@
+//! Rendering variants for the speed/accuracy trade: a per-pixel scalar type
+//! and a departure from the plan. Named as `host-sim tradeoff` reports them
+//! and as the firmware's `HILCAM_VARIANTS` takes them, e.g.
+//! `i16f16-lut256-linear`, `f32-poly`, `i32f32-planned`.
+
+use crate::render_cmd::{core_render_variant, Collect};
+use crate::scene_file::Resolved;
+use hilcam::planner::{Budget, Plan};
+use hilcam::render::{DistortionEval, Frame, Override};
+use hilcam::scalar::{Scalar, I12F20, I16F16, I32F32};
+
+/// The per-pixel number type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ScalarKind {
+    /// I32F32 (the planned default).
+    I32F32,
+    /// I16F16.
+    I16F16,
+    /// I12F20.
+    I12F20,
+    /// IEEE single precision.
+    F32,
+}
+
+impl ScalarKind {
+    /// All of them.
+    pub const ALL: [ScalarKind; 4] = [
+        ScalarKind::I32F32,
+        ScalarKind::I16F16,
+        ScalarKind::I12F20,
+        ScalarKind::F32,
+    ];
+
+    /// Name as in variant names.
+    pub fn name(self) -> &'static str {
+        match self {
+            ScalarKind::I32F32 => I32F32::NAME,
+            ScalarKind::I16F16 => I16F16::NAME,
+            ScalarKind::I12F20 => I12F20::NAME,
+            ScalarKind::F32 => f32::NAME,
+        }
+    }
+
+    /// The Rust type, as firmware code names it.
+    pub fn type_path(self) -> &'static str {
+        match self {
+            ScalarKind::I32F32 => "hilcam::scalar::I32F32",
+            ScalarKind::I16F16 => "hilcam::scalar::I16F16",
+            ScalarKind::I12F20 => "hilcam::scalar::I12F20",
+            ScalarKind::F32 => "f32",
+        }
+    }
+}
+
+/// Something to do with a scalar type chosen at run time.
+pub trait WithScalar {
+    /// The result.
+    type Out;
+    /// Does it in `S`.
+    fn run<S: Scalar>(self) -> Self::Out;
+}
+
+impl ScalarKind {
+    /// Runs `w` with this type.
+    pub fn dispatch<W: WithScalar>(self, w: W) -> W::Out {
+        match self {
+            ScalarKind::I32F32 => w.run::<I32F32>(),
+            ScalarKind::I16F16 => w.run::<I16F16>(),
+            ScalarKind::I12F20 => w.run::<I12F20>(),
+            ScalarKind::F32 => w.run::<f32>(),
+        }
+    }
+}
+
+/// A scalar type and a departure from the plan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Variant {
+    /// Per-pixel type.
+    pub scalar: ScalarKind,
+    /// What changes from the plan.
+    pub over: Override,
+}
+
+impl Variant {
+    /// The planned renderer (I32F32, the plan as it is).
+    pub const PLANNED: Variant = Variant {
+        scalar: ScalarKind::I32F32,
+        over: Override::Planned,
+    };
+
+    /// `scalar-planned`, `scalar-lutN-linear`, `scalar-lutN-nearest`,
+    /// `scalar-poly` or `scalar-all-stages`.
+    pub fn name(&self) -> String {
+        let s = self.scalar.name();
+        match self.over {
+            Override::Planned => format!("{s}-planned"),
+            Override::Table { entries, eval } => format!(
+                "{s}-lut{entries}-{}",
+                if eval == DistortionEval::Nearest {
+                    "nearest"
+                } else {
+                    "linear"
+                }
+            ),
+            Override::Polynomial => format!("{s}-poly"),
+            Override::AllStages => format!("{s}-all-stages"),
+        }
+    }
+
+    /// Parses [`Variant::name`]'s form.
+    pub fn parse(name: &str) -> Result<Variant, String> {
+        let bad = || {
+            format!(
+                "variant {name:?}: expected SCALAR-planned, SCALAR-lutN-linear, SCALAR-lutN-nearest, \
+                 SCALAR-poly or SCALAR-all-stages, SCALAR one of i32f32, i16f16, i12f20, f32"
+            )
+        };
+        let (s, rest) = name.split_once('-').ok_or_else(bad)?;
+        let scalar = ScalarKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(bad)?;
+        let over = match rest {
+            "planned" => Override::Planned,
+            "poly" => Override::Polynomial,
+            "all-stages" => Override::AllStages,
+            _ => {
+                let (n, eval) = rest
+                    .strip_prefix("lut")
+                    .and_then(|r| r.split_once('-'))
+                    .ok_or_else(bad)?;
+                let entries: usize = n.parse().map_err(|_| bad())?;
+                if !(2..=hilcam::distortion::MAX_LUT).contains(&entries) {
+                    return Err(format!(
+                        "variant {name:?}: table entries must be 2 to {}",
+                        hilcam::distortion::MAX_LUT
+                    ));
+                }
+                let eval = match eval {
+                    "linear" => DistortionEval::Linear,
+                    "nearest" => DistortionEval::Nearest,
+                    _ => return Err(bad()),
+                };
+                Override::Table { entries, eval }
+            }
+        };
+        Ok(Variant { scalar, over })
+    }
+
+    /// The override as a Rust expression (for generated firmware code).
+    pub fn override_expr(&self) -> String {
+        match self.over {
+            Override::Planned => "Override::Planned".into(),
+            Override::Polynomial => "Override::Polynomial".into(),
+            Override::AllStages => "Override::AllStages".into(),
+            Override::Table { entries, eval } => {
+                format!("Override::Table {{ entries: {entries}, eval: DistortionEval::{eval:?} }}")
+            }
+        }
+    }
+
+    /// Renders `r` on the host with this variant: the frame's bytes and
+    /// what [`crate::render_cmd::compare`] needs.
+    pub fn render<W: FrameUser>(&self, r: &Resolved, budget: &Budget, user: W) -> Result<W::Out, String> {
+        struct Go<'a, W> {
+            r: &'a Resolved,
+            budget: &'a Budget,
+            over: Override,
+            user: W,
+        }
+        impl<W: FrameUser> WithScalar for Go<'_, W> {
+            type Out = Result<W::Out, String>;
+            fn run<S: Scalar>(self) -> Self::Out {
+                let (_, plan, frame, core) = core_render_variant::<S>(self.r, self.budget, self.over)?;
+                Ok(self.user.use_frame(&plan, &frame, core))
+            }
+        }
+        self.scalar.dispatch(Go {
+            r,
+            budget,
+            over: self.over,
+            user,
+        })
+    }
+}
+
+/// Takes a frame rendered in some scalar type.
+pub trait FrameUser {
+    /// The result.
+    type Out;
+    /// Uses the plan, the prepared frame and its rendered bytes.
+    fn use_frame<S: Scalar>(self, plan: &Plan, frame: &Frame<S>, core: Collect) -> Self::Out;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_bad_names_are_refused() {
+        for n in [
+            "i32f32-planned",
+            "i16f16-lut256-linear",
+            "i12f20-lut16-nearest",
+            "f32-poly",
+            "i32f32-all-stages",
+        ] {
+            assert_eq!(Variant::parse(n).map(|v| v.name()), Ok(n.to_string()));
+        }
+        for n in [
+            "i64f64-poly",
+            "f32",
+            "f32-lut1-linear",
+            "f32-lut2048-linear",
+            "f32-lut64-cubic",
+        ] {
+            assert!(Variant::parse(n).is_err(), "{n}");
+        }
+    }
+}
