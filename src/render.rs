@@ -26,7 +26,7 @@ use crate::scalar::Scalar;
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
 use crate::shading::{axpy, dot, scale3, sub3, Brdf, ShadingLight, V3};
 use crate::vignetting;
-use core::ops::{Add as _, Mul as _, Sub as _};
+use core::ops::{Add as _, Mul as _};
 use fixed::types::I64F64;
 
 /// Flag bit: the pixel lies beyond the fold radius, outside the lens field
@@ -254,6 +254,8 @@ enum CamShape<S> {
         c: V3<S>,
         r2: S,
         inv_r: S,
+        /// `|c|² − r²`: the constant term for rays from the origin.
+        cc: S,
     },
     Disc {
         n: V3<S>,
@@ -304,11 +306,16 @@ impl CamPrim<Q> {
                 n: c3(n),
                 dist: c1(dist),
             },
-            CamShape::Sphere { c, r2, inv_r } => CamShape::Sphere {
-                c: c3(c),
-                r2: c1(r2),
-                inv_r: c1(inv_r),
-            },
+            CamShape::Sphere { c, r2, inv_r, .. } => {
+                let (c, r2) = (c3::<S>(c), c1::<S>(r2));
+                CamShape::Sphere {
+                    c,
+                    r2,
+                    inv_r: c1(inv_r),
+                    // In S, as the per-pixel path would compute it.
+                    cc: dot(c, c).sub(r2),
+                }
+            }
             CamShape::Disc { n, dist, c, r2 } => CamShape::Disc {
                 n: c3(n),
                 dist: c1(dist),
@@ -357,9 +364,9 @@ pub struct Frame<S: Scalar = Q> {
     /// `x̂_d` of column 0 and its step per column, I64F64 raw.
     x0: i128,
     dx: i128,
-    /// `o_y / f_y` and `1 / f_y` as wide values, for `ŷ_d` per line.
-    oy: Wide,
-    fy: Wide,
+    /// `ŷ_d` of line 0 and its step per line, I64F64 raw.
+    y0: i128,
+    dy: i128,
     /// `g` at the table's nodes, i32 entries converted per lookup (a shift
     /// in fixed point): one table serves every scalar type.
     lut: Option<Lut>,
@@ -421,6 +428,9 @@ impl<S: Scalar> Frame<S> {
         let inv_fx = one.checked_div(Wide::of(fx)).ok_or(RenderError::Degenerate)?;
         let x0 = Wide::of(ox).mul(inv_fx).narrow::<I64F64>().value.to_bits();
         let dx = inv_fx.narrow::<I64F64>().value.to_bits();
+        let inv_fy = one.checked_div(Wide::of(fy)).ok_or(RenderError::Degenerate)?;
+        let y0 = Wide::of(oy).mul(inv_fy).narrow::<I64F64>().value.to_bits();
+        let dy = inv_fy.narrow::<I64F64>().value.to_bits();
         let mut frame = Frame {
             width: w,
             height: h,
@@ -435,8 +445,8 @@ impl<S: Scalar> Frame<S> {
             },
             x0,
             dx,
-            oy: Wide::of(oy),
-            fy: Wide::of(fy),
+            y0,
+            dy,
             lut: None,
             lut_scale: S::ZERO,
             lut_frac: 0,
@@ -565,8 +575,9 @@ impl<S: Scalar> Frame<S> {
         xd_of(self.x0 - self.dx * i as i128)
     }
 
+    #[inline(always)]
     fn yd_q(&self, j: u16) -> Q {
-        quotient::<Q>(self.oy.sub(Wide::int(j as i64)), self.fy).value
+        xd_of(self.y0 - self.dy * j as i128)
     }
 
     /// The undistorted normalized point `(x̂, ŷ)` the renderer uses for
@@ -728,8 +739,9 @@ impl<S: Scalar> Frame<S> {
     fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3<S>, d: V3<S>) -> V3<S> {
         let mut best = S::MAX;
         let mut hit: Option<(usize, V3<S>, V3<S>)> = None; // (material, point, normal)
+        let a = if PERSP { dot(d, d) } else { S::ONE };
         for p in &self.prims {
-            if let Some((t, n)) = intersect::<S, PERSP>(&p.shape, o, d) {
+            if let Some((t, n)) = intersect::<S, PERSP>(&p.shape, o, d, a) {
                 if t < best {
                     best = t;
                     let point = axpy(t, d, o);
@@ -760,7 +772,7 @@ impl<S: Scalar> Frame<S> {
         };
         let view = if SPEC {
             if PERSP {
-                let len = dot(d, d).sqrt().unwrap_or(S::ONE);
+                let len = a.sqrt().unwrap_or(S::ONE);
                 let inv = S::ONE.div(len).unwrap_or(S::ZERO);
                 scale3(inv.neg(), d)
             } else {
@@ -769,7 +781,7 @@ impl<S: Scalar> Frame<S> {
         } else {
             [S::ZERO; 3]
         };
-        crate::shading::radiance::<S, SPEC>(mat, &self.lights, point, normal, view)
+        crate::shading::radiance::<S, SPEC>(mat, &self.lights, point, normal, view, self.format.channels())
     }
 }
 
@@ -781,7 +793,8 @@ fn xd_of(acc: i128) -> Q {
 
 /// Nearest hit `t > 0` of the ray with a shape, and the (unit) normal there.
 #[inline]
-fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>) -> Option<(S, V3<S>)> {
+/// `a = d·d` (1 for parallel rays), computed once per ray.
+fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) -> Option<(S, V3<S>)> {
     match *s {
         CamShape::Plane { n, dist } => plane_t::<S, PERSP>(n, dist, o, d).map(|t| (t, n)),
         CamShape::Disc { n, dist, c, r2 } => {
@@ -802,12 +815,15 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>) 
             let rel = sub3(axpy(t, d, o), c);
             (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then_some((t, n))
         }
-        CamShape::Sphere { c, r2, inv_r } => {
-            // |o + t d − c|² = r²: a t² − 2 b t + cc = 0
-            let oc = sub3(c, o);
-            let a = if PERSP { dot(d, d) } else { S::ONE };
-            let b = dot(d, oc);
-            let cc = dot(oc, oc).sub(r2);
+        CamShape::Sphere { c, r2, inv_r, cc } => {
+            // |o + t d − c|² = r²: a t² − 2 b t + cc = 0; from the origin
+            // (perspective) oc = c and cc is the frame's constant.
+            let (b, cc) = if PERSP {
+                (dot(d, c), cc)
+            } else {
+                let oc = sub3(c, o);
+                (dot(d, oc), dot(oc, oc).sub(r2))
+            };
             let disc = b.mul(b).sub(a.mul(cc));
             if disc < S::ZERO {
                 return None;
@@ -854,6 +870,7 @@ fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim<Q> {
                     c,
                     r2: q(Wide::of(radius).mul(Wide::of(radius))),
                     inv_r: Q::ONE.checked_div(r).unwrap_or(Q::MAX),
+                    cc: Q::ZERO, // set by `to`
                 },
                 c,
             )

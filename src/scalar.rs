@@ -120,10 +120,20 @@ pub fn powi63(x: I32F32, mut n: u16) -> u64 {
 }
 
 macro_rules! fixed_scalar {
-    ($t:ty, $name:literal, $mul:expr, $bits:ty, $frac:literal) => {
-        fixed_scalar!($t, $name, $mul, $bits, $frac, $t, powi_clamped, Scalar::mul);
+    ($t:ty, $name:literal, $mul:expr, $div:expr, $bits:ty, $frac:literal) => {
+        fixed_scalar!(
+            $t,
+            $name,
+            $mul,
+            $div,
+            $bits,
+            $frac,
+            $t,
+            powi_clamped,
+            Scalar::mul
+        );
     };
-    ($t:ty, $name:literal, $mul:expr, $bits:ty, $frac:literal, $lobe_t:ty, $lobe:expr, $scale:expr) => {
+    ($t:ty, $name:literal, $mul:expr, $div:expr, $bits:ty, $frac:literal, $lobe_t:ty, $lobe:expr, $scale:expr) => {
         impl Scalar for $t {
             const NAME: &'static str = $name;
             const ZERO: Self = <$t>::ZERO;
@@ -176,7 +186,7 @@ macro_rules! fixed_scalar {
             }
             #[inline(always)]
             fn div(self, o: Self) -> Option<Self> {
-                self.checked_div(o)
+                $div(self, o)
             }
             #[inline(always)]
             fn sqrt(self) -> Option<Self> {
@@ -207,9 +217,88 @@ macro_rules! fixed_scalar {
     };
 }
 
-fixed_scalar!(I32F32, "i32f32", mul_q, i64, 32, u64, powi63, scale63);
-fixed_scalar!(I16F16, "i16f16", I16F16::saturating_mul, i32, 16);
-fixed_scalar!(I12F20, "i12f20", I12F20::saturating_mul, i32, 20);
+fixed_scalar!(
+    I32F32,
+    "i32f32",
+    mul_q,
+    I32F32::checked_div,
+    i64,
+    32,
+    u64,
+    powi63,
+    scale63
+);
+fixed_scalar!(
+    I16F16,
+    "i16f16",
+    |a: I16F16, b: I16F16| I16F16::from_bits(mul32::<16>(a.to_bits(), b.to_bits())),
+    |a: I16F16, b: I16F16| div32::<16>(a.to_bits(), b.to_bits()).map(I16F16::from_bits),
+    i32,
+    16
+);
+fixed_scalar!(
+    I12F20,
+    "i12f20",
+    |a: I12F20, b: I12F20| I12F20::from_bits(mul32::<20>(a.to_bits(), b.to_bits())),
+    |a: I12F20, b: I12F20| div32::<20>(a.to_bits(), b.to_bits()).map(I12F20::from_bits),
+    i32,
+    20
+);
+
+/// The saturating product of raw 32-bit fixed-point values with `F`
+/// fractional bits, rounded down (as `saturating_mul`): one `SMULL` and a
+/// check that the high word is the sign extension of the result.
+#[inline(always)]
+fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
+    let p = a as i64 * b as i64;
+    let hi = (p >> 32) as i32;
+    if hi >> (F - 1) == hi >> 31 {
+        (p >> F) as i32
+    } else if hi < 0 {
+        i32::MIN
+    } else {
+        i32::MAX
+    }
+}
+
+/// `a · 2^F / b` for raw 32-bit fixed-point values, truncated toward zero
+/// (as `checked_div`); `None` for `b = 0` or a quotient beyond i32.
+///
+/// Long division in steps of as many bits as the divisor leaves free in a
+/// `u32`, each step one hardware 32-bit division on Cortex-M3/M4, where a
+/// 64-bit division is a library routine several times as long.
+#[inline(never)]
+fn div32<const F: u32>(a: i32, b: i32) -> Option<i32> {
+    if b == 0 {
+        return None;
+    }
+    let (n, d) = (a.unsigned_abs(), b.unsigned_abs());
+    let free = d.leading_zeros();
+    if free == 0 {
+        // |b| = 2^31: rare enough for the library division.
+        let q = ((a as i64) << F) / b as i64;
+        return i32::try_from(q).ok();
+    }
+    let q1 = n / d;
+    if q1 >> (32 - F) != 0 {
+        return None;
+    }
+    let (mut q, mut r, mut bits) = (q1 << F, n - q1 * d, F);
+    while bits > 0 {
+        // r < d < 2^(32 − free), so r << k fits for k ≤ free.
+        let k = free.min(bits);
+        let t = r << k;
+        bits -= k;
+        q |= (t / d) << bits;
+        r = t % d;
+    }
+    // q < 2^32 because q1 < 2^(32 − F); i32 holds −2^31 … 2^31 − 1.
+    if (a < 0) != (b < 0) {
+        (q <= 1 << 31).then(|| (q as i32).wrapping_neg())
+    } else {
+        i32::try_from(q).ok()
+    }
+}
 
 /// `k · f` for a fraction `f` with 63 fractional bits, rounded: the I32F32
 /// lobe keeps 63 fractional bits through the power ([`powi63`]).
@@ -300,6 +389,72 @@ mod tests {
 
     fn roundtrip<S: Scalar>(v: f64) -> f64 {
         S::from_q(I32F32::from_num(v)).to_q().to_num()
+    }
+
+    #[test]
+    fn mul32_and_div32_equal_the_fixed_crate() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Magnitudes spread over every bit length.
+            let v = (x as u32) >> (x >> 59);
+            if x & (1 << 40) != 0 {
+                (v as i32).wrapping_neg()
+            } else {
+                v as i32
+            }
+        };
+        for _ in 0..200_000 {
+            let (a, b) = (next(), next());
+            assert_eq!(
+                div32::<16>(a, b),
+                I16F16::from_bits(a)
+                    .checked_div(I16F16::from_bits(b))
+                    .map(I16F16::to_bits),
+                "{a} / {b}"
+            );
+            assert_eq!(
+                mul32::<16>(a, b),
+                I16F16::from_bits(a)
+                    .saturating_mul(I16F16::from_bits(b))
+                    .to_bits()
+            );
+            assert_eq!(
+                mul32::<20>(a, b),
+                I12F20::from_bits(a)
+                    .saturating_mul(I12F20::from_bits(b))
+                    .to_bits()
+            );
+            assert_eq!(
+                div32::<20>(a, b),
+                I12F20::from_bits(a)
+                    .checked_div(I12F20::from_bits(b))
+                    .map(I12F20::to_bits),
+                "{a} / {b}"
+            );
+        }
+        for (a, b) in [
+            (i32::MIN, -1),
+            (i32::MIN, i32::MIN),
+            (1, i32::MIN),
+            (i32::MAX, 1),
+            (5, 0),
+            (i32::MIN, 1 << 16),
+            (i32::MIN, -(1 << 16)),
+            (-(1 << 15), 1),
+            (1 << 15, -1),
+            ((1 << 15) - 1, 1),
+        ] {
+            assert_eq!(
+                div32::<16>(a, b),
+                I16F16::from_bits(a)
+                    .checked_div(I16F16::from_bits(b))
+                    .map(I16F16::to_bits),
+                "{a} / {b}"
+            );
+        }
     }
 
     #[test]

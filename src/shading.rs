@@ -127,8 +127,9 @@ impl Brdf {
 }
 
 /// Radiance per channel leaving `point` (unit `normal`, facing the viewer)
-/// towards the viewer (unit `view`). With `SPEC = false` the specular lobe
-/// is left out (the scene has none).
+/// towards the viewer (unit `view`), for the first `channels` channels (the
+/// others are left at the ambient term). With `SPEC = false` the specular
+/// lobe is left out (the scene has none).
 ///
 /// In I32F32 the relative error is ≤ 10⁻⁶ + (s + 2)·10⁻⁹ / r², `r`
 /// (metres) the distance to the nearest point light: the Phong lobe turns
@@ -141,6 +142,7 @@ pub fn radiance<S: Scalar, const SPEC: bool>(
     point: V3<S>,
     normal: V3<S>,
     view: V3<S>,
+    channels: usize,
 ) -> V3<S> {
     let mut l = mat.ka;
     for light in lights {
@@ -175,7 +177,7 @@ pub fn radiance<S: Scalar, const SPEC: bool>(
         } else {
             None
         };
-        for c in 0..3 {
+        for c in 0..channels.min(3) {
             let (Some(kd), Some(ks), Some(ec), Some(lc)) =
                 (mat.kd.get(c), mat.ks.get(c), e.get(c), l.get_mut(c))
             else {

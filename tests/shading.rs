@@ -106,7 +106,7 @@ fn shading_matches_reference() {
                     },
                 })
                 .collect();
-            let got = radiance::<Q, true>(&brdf, &core_lights, [Q::ZERO; 3], q3(n), q3(v));
+            let got = radiance::<Q, true>(&brdf, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
             let want = rs::radiance(
                 &rs::Material {
                     albedo,
@@ -143,7 +143,7 @@ fn shading_matches_reference() {
             }
             // Without a specular lobe the specular-free path gives the same.
             if m.specular.iter().all(|s| *s == Q::ZERO) || m.mix == Q::ONE {
-                let lean = radiance::<Q, false>(&brdf, &core_lights, [Q::ZERO; 3], q3(n), q3(v));
+                let lean = radiance::<Q, false>(&brdf, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
                 prop_assert_eq!(lean, got);
             }
             Ok(())
