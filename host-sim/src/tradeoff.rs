@@ -224,11 +224,17 @@ pub struct Report {
     pub pruning: Vec<Pruning>,
     /// Recommendations.
     pub recommendations: Vec<Recommendation>,
-    /// On the M3: f32 soft-float instructions per pixel divided by the
-    /// recommended fixed-point variant's, standard scene (target ≥ 10).
+    /// The fixed-point variant with the fewest M3 instructions per pixel of
+    /// those within 1 LSB on smooth pixels on every sweep scene.
+    pub best_fixed_m3: Option<String>,
+    /// On the M3, first sweep scene: the cheapest f32 (soft-float) variant's
+    /// instructions per pixel divided by `best_fixed_m3`'s (target ≥ 10).
     pub m3_fixed_speedup_over_f32: Option<f64>,
     /// The same ratio on the M4F (hardware f32).
     pub m4f_fixed_speedup_over_f32: Option<f64>,
+    /// The same ratio on the M3 for the cheapest fixed-point variant
+    /// whatever its error.
+    pub m3_fastest_fixed_speedup_over_f32: Option<f64>,
 }
 
 struct Discard;
@@ -548,31 +554,36 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
     }
 
     let recommendations = recommend(&rows, &resolved);
-    let rec_m3 = recommendations
-        .iter()
-        .find(|r| r.target == "M3")
-        .map(|r| r.variant.clone());
-    let speedup = |m3: bool| -> Option<f64> {
-        let rec = rec_m3.as_ref()?;
-        let get = |name: &str| {
-            rows.iter()
-                .find(|r| r.variant == name && r.scene == resolved.first().map_or("", |r| &r.desc.name))
-                .and_then(|r| {
-                    if m3 {
-                        r.instructions_per_pixel_m3
-                    } else {
-                        r.instructions_per_pixel_m4f
-                    }
-                })
+    let first = resolved.first().map(|r| r.desc.name.clone()).unwrap_or_default();
+    let is_fixed = |r: &Row| r.scalar != "f32" && r.scalar != "f64";
+    let fixed_rows: Vec<Row> = rows.iter().filter(|r| is_fixed(r)).cloned().collect();
+    let best_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, false);
+    let fastest_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, true);
+    let ratio = |fixed: Option<&String>, m3: bool| -> Option<f64> {
+        let ipp = |r: &Row| {
+            if m3 {
+                r.instructions_per_pixel_m3
+            } else {
+                r.instructions_per_pixel_m4f
+            }
         };
         let f32_best = rows
             .iter()
-            .filter(|r| r.scalar == "f32")
-            .filter_map(|r| get(&r.variant))
+            .filter(|r| r.scalar == "f32" && r.scene == first)
+            .filter_map(ipp)
             .fold(f64::INFINITY, f64::min);
-        let fixed = get(rec)?;
+        let fixed = rows
+            .iter()
+            .find(|r| Some(&r.variant) == fixed && r.scene == first)
+            .and_then(ipp)?;
         f32_best.is_finite().then(|| f32_best / fixed)
     };
+    let speedups = (
+        ratio(best_fixed_m3.as_ref(), true),
+        ratio(best_fixed_m3.as_ref(), false),
+        ratio(fastest_fixed_m3.as_ref(), true),
+    );
+    let rec_m3 = best_fixed_m3.clone();
 
     // Growth and pruning.
     let mut growth = Vec::new();
@@ -695,16 +706,16 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
             let (a, b) = (planned.stages(), full.stages());
             let mut dropped = Vec::new();
             for s in b.names() {
-                if !a.names().contains(&s) {
+                if !s.starts_with("rays:") && !a.names().contains(&s) {
                     dropped.push(s.to_string());
                 }
             }
             if a.model != b.model {
-                dropped.push(format!("{} (instead of {})", a.model.name(), b.model.name()));
+                dropped.push(format!("{} instead of {}", a.model.name(), b.model.name()));
             }
             if a.distortion_lut != b.distortion_lut && a.distortion.is_some() {
                 dropped.push(format!(
-                    "table of {} entries (instead of {MAX_LUT})",
+                    "distortion table of {} entries instead of {MAX_LUT}",
                     a.distortion_lut.unwrap_or(0)
                 ));
             }
@@ -734,8 +745,10 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
     pb.finish_and_clear();
 
     let report = Report {
-        m3_fixed_speedup_over_f32: speedup(true),
-        m4f_fixed_speedup_over_f32: speedup(false),
+        best_fixed_m3,
+        m3_fixed_speedup_over_f32: speedups.0,
+        m4f_fixed_speedup_over_f32: speedups.1,
+        m3_fastest_fixed_speedup_over_f32: speedups.2,
         variants: rows,
         growth,
         pruning,
@@ -755,13 +768,14 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
     Ok(md)
 }
 
-/// The cheapest variant (by `cost`) whose smooth pixels are within 1 LSB of
-/// the reference on every sweep scene.
+/// The cheapest variant (by `cost` on the first sweep scene) whose smooth
+/// pixels are within 1 LSB of the reference on every sweep scene (any
+/// variant with `any_error`).
 fn cheapest(
     rows: &[Row],
     scenes: &[Resolved],
     cost: impl Fn(&Row) -> Option<f64>,
-    scalar: Option<&str>,
+    any_error: bool,
 ) -> Option<String> {
     let mut names: Vec<&str> = rows.iter().map(|r| r.variant.as_str()).collect();
     names.dedup();
@@ -772,7 +786,7 @@ fn cheapest(
         .filter(|n| {
             rows.iter()
                 .filter(|r| r.variant == *n)
-                .all(|r| r.max_abs_lsb_smooth <= 1 && scalar.is_none_or(|s| r.scalar == s))
+                .all(|r| any_error || r.max_abs_lsb_smooth <= 1)
         })
         .filter_map(|n| {
             let row = rows.iter().find(|r| r.variant == n && r.scene == first)?;
@@ -783,58 +797,71 @@ fn cheapest(
 }
 
 fn recommend(rows: &[Row], scenes: &[Resolved]) -> Vec<Recommendation> {
-    let mut out = Vec::new();
-    let fixed_m3 = rows
+    let first = scenes.first().map(|s| s.desc.name.as_str()).unwrap_or("");
+    let row = |name: &str| rows.iter().find(|r| r.variant == name && r.scene == first);
+    let fixed: Vec<Row> = rows
         .iter()
         .filter(|r| r.scalar != "f32" && r.scalar != "f64")
         .cloned()
-        .collect::<Vec<_>>();
-    let find = |name: &str| {
-        rows.iter().find(|r| {
-            r.variant == name && Some(r.scene.as_str()) == scenes.first().map(|s| s.desc.name.as_str())
-        })
-    };
-    if let Some(v) = cheapest(&fixed_m3, scenes, |r| r.instructions_per_pixel_m3, None) {
-        let r = find(&v);
+        .collect();
+    let fmt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0}"));
+    let mut out = Vec::new();
+    let best_fixed = cheapest(&fixed, scenes, |r| r.instructions_per_pixel_m3, false);
+    let fastest_fixed = cheapest(&fixed, scenes, |r| r.instructions_per_pixel_m3, true);
+    let fixed_note = format!(
+        "the cheapest fixed-point variant within 1 LSB is {} ({} instructions/pixel); the cheapest fixed-point \
+         variant of all is {} ({} instructions/pixel, max {} LSB on smooth pixels)",
+        best_fixed.as_deref().unwrap_or("-"),
+        fmt(best_fixed.as_deref().and_then(row).and_then(|r| r.instructions_per_pixel_m3)),
+        fastest_fixed.as_deref().unwrap_or("-"),
+        fmt(fastest_fixed.as_deref().and_then(row).and_then(|r| r.instructions_per_pixel_m3)),
+        fastest_fixed
+            .as_deref()
+            .map(|n| rows.iter().filter(|r| r.variant == n).map(|r| r.max_abs_lsb_smooth).max().unwrap_or(0))
+            .unwrap_or(0),
+    );
+    if let Some(v) = cheapest(rows, scenes, |r| r.instructions_per_pixel_m3, false) {
         out.push(Recommendation {
             target: "M3".into(),
             reason: format!(
-                "fewest M3 instructions per pixel ({}) of the variants within 1 LSB on smooth pixels on every sweep scene; \
-                 no FPU, so f32 is soft-float",
-                r.and_then(|r| r.instructions_per_pixel_m3).map_or("-".into(), |v| format!("{v:.0}"))
+                "fewest M3 instructions per pixel ({}) of all variants within 1 LSB on smooth pixels on every sweep \
+                 scene; {fixed_note}",
+                fmt(row(&v).and_then(|r| r.instructions_per_pixel_m3))
             ),
             variant: v.clone(),
         });
         out.push(Recommendation {
             target: "M0".into(),
-            reason: "not run (no QEMU M0 board with a UART the firmware drives); the M0 has neither an FPU nor \
-                     64-bit multiply results or a divide instruction, so the M3's choice, a 32-bit fixed-point \
-                     variant if it is the M3's, is the better bet there"
-                .into(),
+            reason:
+                "not measured (no QEMU M0 board with a UART the firmware drives): the M3's choice, since the \
+                     M0 has no FPU either, and without SMULL/UMULL or a divide instruction the fixed-point \
+                     variants' 64-bit products and quotients cost it more than they cost the M3"
+                    .into(),
             variant: v,
         });
     }
-    if let Some(v) = cheapest(rows, scenes, |r| r.instructions_per_pixel_m4f, None) {
-        let r = find(&v);
+    if let Some(v) = cheapest(rows, scenes, |r| r.instructions_per_pixel_m4f, false) {
         out.push(Recommendation {
             target: "M4F".into(),
             reason: format!(
                 "fewest M4F instructions per pixel ({}) of all variants within 1 LSB on smooth pixels on every \
-                 sweep scene, f32 on the FPU included",
-                r.and_then(|r| r.instructions_per_pixel_m4f).map_or("-".into(), |v| format!("{v:.0}"))
+                 sweep scene: hardware f32 wins there",
+                fmt(row(&v).and_then(|r| r.instructions_per_pixel_m4f))
             ),
             variant: v,
         });
     }
+    let host_fast = cheapest(rows, scenes, |r| Some(r.host_ns_per_pixel), false);
     out.push(Recommendation {
         target: "host".into(),
         variant: Variant::PLANNED.name(),
         reason: format!(
-            "the planned I32F32 renderer: it meets the planner's 1/256 px and 1 LSB budget and is byte-identical \
-             with the firmware's default; its host cost ({} ns/px) is small next to any link (the fastest variant \
-             within 1 LSB is {})",
-            find(&Variant::PLANNED.name()).map_or("-".into(), |r| format!("{:.0}", r.host_ns_per_pixel)),
-            cheapest(rows, scenes, |r| Some(r.host_ns_per_pixel), None).unwrap_or_else(|| "-".into())
+            "the planned I32F32 renderer ({} ns/pixel): the only one whose error the planner predicts and bounds \
+             (1/256 px, 1 LSB), and byte-identical with the firmware's default; {} is faster ({} ns/pixel) and \
+             within 1 LSB on the sweep scenes, without that guarantee",
+            fmt(row(&Variant::PLANNED.name()).map(|r| r.host_ns_per_pixel)),
+            host_fast.as_deref().unwrap_or("-"),
+            fmt(host_fast.as_deref().and_then(row).map(|r| r.host_ns_per_pixel)),
         ),
     });
     out
@@ -877,18 +904,24 @@ pub fn markdown(r: &Report) -> String {
         ));
     }
     s.push_str(&format!(
-        "\nM3: f32 soft-float / recommended fixed point instructions per pixel = {}; M4F (hardware f32): {}\n",
+        "\nCheapest f32 variant's instructions per pixel / {}'s (the cheapest fixed-point variant within 1 LSB on \
+         smooth pixels): M3 (soft-float) {}, M4F (hardware f32) {}. The same on the M3 for the cheapest fixed-point \
+         variant whatever its error: {}.\n",
+        r.best_fixed_m3.as_deref().unwrap_or("-"),
         opt(r.m3_fixed_speedup_over_f32, 2),
-        opt(r.m4f_fixed_speedup_over_f32, 2)
+        opt(r.m4f_fixed_speedup_over_f32, 2),
+        opt(r.m3_fastest_fixed_speedup_over_f32, 2)
     ));
     for g in &r.growth {
         s.push_str(&format!(
-            "\n**Growth, {}**: {} instructions per extra pixel (M3), {} (M4F); {} per extra primitive per frame \
-             (M3), {} (M4F)\n\n| scene | pixels | primitives | M3 instructions | M4F instructions |\n|---|---|---|---|---|\n",
+            "\n**Growth, {}** (least-squares slopes): {} instructions per extra pixel on the M3, {} on the M4F; {} \
+             per extra primitive per 160x120 frame on the M3 ({} per pixel), {} on the M4F\n\n| scene | pixels | \
+             primitives | M3 instructions | M4F instructions |\n|---|---|---|---|---|\n",
             g.variant,
             opt(g.per_pixel_slope_m3, 0),
             opt(g.per_pixel_slope_m4f, 0),
             opt(g.per_primitive_slope_m3, 0),
+            opt(g.per_primitive_slope_m3.map(|v| v / 19200.0), 0),
             opt(g.per_primitive_slope_m4f, 0)
         ));
         for p in g.resolution.iter().chain(&g.primitives) {
