@@ -34,4 +34,13 @@ else
   echo "Everything above ran on the host only."
 fi
 echo
+# The speed/accuracy trade: every variant against the reference, on the M3
+# and the M4F when QEMU is here (the host only otherwise).
+if ensure_qemu; then
+  ./target/release/host-sim tradeoff --out out/tradeoff | sed -n '/^Cheapest/,$p' | grep -v '^| standard-'
+else
+  ./target/release/host-sim tradeoff --boards none --out out/tradeoff | sed -n '/^Cheapest/,$p'
+fi
+echo "the whole table and the plot: out/tradeoff/tradeoff.md, out/tradeoff/tradeoff.png"
+echo
 ./target/release/host-sim demo

@@ -50,6 +50,11 @@ sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 
     -e 's/^tolerable_blur = 12e-6/tolerable_blur = 3e-6/' scenes/standard.toml > target/scenes640/standard-640.toml
 ./target/release/host-sim hil --board lm3s6965evb --scene target/scenes640/standard-640.toml --out target/hil/lm3s6965evb-640
 
+echo "== speed/accuracy sweep on a tiny configuration: three variants, both boards in QEMU"
+./target/release/host-sim tradeoff --tiny --repeats 1 --out target/tradeoff-tiny > /dev/null
+grep -q '"bit_exact_m3": false\|"bit_exact_m4f": false' target/tradeoff-tiny/tradeoff.json && { echo "a variant was not bit-exact on a board"; exit 1; }
+echo "tradeoff.json, tradeoff.md, tradeoff.png: target/tradeoff-tiny/"
+
 echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
 ./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
 if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
