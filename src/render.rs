@@ -420,6 +420,57 @@ impl Frame<Q> {
 impl<S: Scalar> Frame<S> {
     /// Prepares `scene` for rendering with `opts`, per-pixel values in `S`.
     pub fn build(scene: &Scene, opts: &Options) -> Result<Frame<S>, RenderError> {
+        let mut f = Frame::empty();
+        f.prepare(scene, opts)?;
+        Ok(f)
+    }
+
+    /// A frame of no pixels, to be prepared in place by [`Frame::prepare`].
+    pub fn empty() -> Frame<S> {
+        Frame {
+            width: 0,
+            height: 0,
+            format: PixelFormat::Gray8,
+            stages: Stages {
+                model: RenderModel::Perspective,
+                distortion: None,
+                distortion_lut: None,
+                vignetting: false,
+                specular: false,
+                format: PixelFormat::Gray8,
+            },
+            x0: 0,
+            dx: 0,
+            y0: 0,
+            dy: 0,
+            lut: None,
+            lut_scale: S::ZERO,
+            lut_frac: 0,
+            poly: [S::ZERO; 2],
+            limit: S::MAX,
+            k_origin: S::ZERO,
+            prims: heapless::Vec::new(),
+            lights: heapless::Vec::new(),
+            materials: [Brdf::<Q>::default().to(); crate::scene::MAX_MATERIALS],
+            background: [S::ZERO; 3],
+            gain: [S::ZERO; 3],
+        }
+    }
+
+    /// [`Frame::build`] in place: on a small stack (firmware) this keeps one
+    /// frame where building one and returning it would hold two or three.
+    /// On error the frame is left with no pixels.
+    pub fn prepare(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+        let r = self.prepare_inner(scene, opts);
+        if r.is_err() {
+            self.width = 0;
+            self.height = 0;
+        }
+        r
+    }
+
+    #[inline(never)]
+    fn prepare_inner(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
         let intr = &scene.camera.intrinsics;
         let (w, h) = intr.size();
         let (fx, fy) = intr.focal_px();
@@ -431,34 +482,29 @@ impl<S: Scalar> Frame<S> {
         let inv_fy = one.checked_div(Wide::of(fy)).ok_or(RenderError::Degenerate)?;
         let y0 = Wide::of(oy).mul(inv_fy).narrow::<I64F64>().value.to_bits();
         let dy = inv_fy.narrow::<I64F64>().value.to_bits();
-        let mut frame = Frame {
-            width: w,
-            height: h,
+        self.width = w;
+        self.height = h;
+        self.format = scene.format;
+        self.stages = Stages {
+            model: opts.model,
+            distortion: None,
+            distortion_lut: None,
+            vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
+            specular: scene.has_specular() || opts.keep_all_stages,
             format: scene.format,
-            stages: Stages {
-                model: opts.model,
-                distortion: None,
-                distortion_lut: None,
-                vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
-                specular: scene.has_specular() || opts.keep_all_stages,
-                format: scene.format,
-            },
-            x0,
-            dx,
-            y0,
-            dy,
-            lut: None,
-            lut_scale: S::ZERO,
-            lut_frac: 0,
-            poly: [S::ZERO; 2],
-            limit: S::MAX,
-            k_origin: S::ZERO,
-            prims: heapless::Vec::new(),
-            lights: heapless::Vec::new(),
-            materials: [Brdf::<Q>::default().to(); crate::scene::MAX_MATERIALS],
-            background: c3(scene.background),
-            gain: [S::ZERO; 3],
         };
+        (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
+        self.lut = None;
+        self.lut_scale = S::ZERO;
+        self.lut_frac = 0;
+        self.poly = [S::ZERO; 2];
+        self.limit = S::MAX;
+        self.k_origin = S::ZERO;
+        self.prims.clear();
+        self.lights.clear();
+        self.materials = [Brdf::<Q>::default().to(); crate::scene::MAX_MATERIALS];
+        self.background = c3(scene.background);
+        self.gain = [S::ZERO; 3];
         // Distortion over [0, u_max], u_max = min(fold, corner maximum).
         let distortion = if scene.distortion.is_none() && opts.keep_all_stages {
             Some(Distortion::NONE)
@@ -470,7 +516,7 @@ impl<S: Scalar> Frame<S> {
         if let Some(dist) = distortion {
             let mut u_corner = Q::ZERO;
             for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
-                let (xd, yd) = (frame.xd_q(i), frame.yd_q(j));
+                let (xd, yd) = (self.xd_q(i), self.yd_q(j));
                 u_corner = u_corner.max(Scalar::add(Scalar::mul(xd, xd), Scalar::mul(yd, yd)));
             }
             let fold = dist.fold_u().map(Q::saturating_from_num);
@@ -478,33 +524,33 @@ impl<S: Scalar> Frame<S> {
                 Some(f) if f < u_corner => (f, f),
                 _ => (u_corner, Q::MAX),
             };
-            frame.limit = if limit == Q::MAX { S::MAX } else { S::from_q(limit) };
-            frame.stages.distortion = Some(opts.distortion_eval);
+            self.limit = if limit == Q::MAX { S::MAX } else { S::from_q(limit) };
+            self.stages.distortion = Some(opts.distortion_eval);
             if opts.distortion_eval == DistortionEval::Polynomial {
                 let (k1, k2) = dist.coefficients();
-                frame.poly = [k1, k2].map(|k| S::from_q(Q::saturating_from_num(k)));
+                self.poly = [k1, k2].map(|k| S::from_q(Q::saturating_from_num(k)));
             } else {
                 let lut = dist.lut(u_max, opts.lut_entries);
                 if lut.saturated {
                     return Err(RenderError::DistortionOutOfRange);
                 }
                 let lut = lut.value;
-                frame.lut_frac = lut.entry_frac_bits();
-                frame.lut_scale = S::from_q(lut.scale());
-                frame.stages.distortion_lut = Some(lut.len());
-                frame.lut = Some(lut);
+                self.lut_frac = lut.entry_frac_bits();
+                self.lut_scale = S::from_q(lut.scale());
+                self.stages.distortion_lut = Some(lut.len());
+                self.lut = Some(lut);
             }
         }
         // The widest undistorted corner must stay within MAX_SLOPE.
         for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
-            if let Some((x, y)) = frame.undistorted(i, j) {
+            if let Some((x, y)) = self.undistorted(i, j) {
                 let lim = S::from_int(MAX_SLOPE);
                 if x.abs() > lim || y.abs() > lim {
                     return Err(RenderError::FieldTooWide);
                 }
             }
         }
-        frame.k_origin = match opts.model {
+        self.k_origin = match opts.model {
             RenderModel::Perspective => S::ZERO,
             RenderModel::WeakPerspective { mean_depth } => S::from_q(Q::saturating_from_num(mean_depth)),
             RenderModel::Orthographic { scale } => S::from_q(q(Wide::of(intr.focal_length())
@@ -516,18 +562,18 @@ impl<S: Scalar> Frame<S> {
         let dof = Wide::of(lens.diameter())
             .checked_div(Wide::of(lens.focal_length()))
             .ok_or(RenderError::Degenerate)?;
-        for (c, g) in frame.gain.iter_mut().enumerate() {
+        for (c, g) in self.gain.iter_mut().enumerate() {
             *g = S::from_q(vignetting::gain(
                 scene.exposure,
                 dof,
                 scene.format.channel_scale(c),
             ));
         }
-        for (m, dst) in scene.materials.iter().zip(frame.materials.iter_mut()) {
+        for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
             *dst = Brdf::new(m, scene.ambient).to();
         }
         for p in &scene.primitives {
-            let _ = frame.prims.push(cam_prim(scene, p).to());
+            let _ = self.prims.push(cam_prim(scene, p).to());
         }
         for l in &scene.lights {
             let light: ShadingLight = match *l {
@@ -540,9 +586,9 @@ impl<S: Scalar> Frame<S> {
                     e: irradiance,
                 },
             };
-            let _ = frame.lights.push(light.to());
+            let _ = self.lights.push(light.to());
         }
-        Ok(frame)
+        Ok(())
     }
 
     /// The stages this frame runs.

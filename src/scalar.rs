@@ -214,7 +214,7 @@ macro_rules! fixed_scalar {
             fn div(self, o: Self) -> Option<Self> {
                 $div(self, o)
             }
-            #[inline(always)]
+            #[inline(never)]
             fn sqrt(self) -> Option<Self> {
                 self.checked_sqrt()
             }

@@ -180,7 +180,8 @@ impl Runner for Run<'_> {
     fn run<S: Scalar>(&mut self, opts: &Options) -> Result<u64, &'static str> {
         let scene = self.scene;
         let t0 = ticks();
-        let frame = Frame::<S>::build(scene, opts).map_err(|_| "frame")?;
+        let mut frame = Frame::<S>::empty();
+        frame.prepare(scene, opts).map_err(|_| "frame")?;
         let mut cost = ticks() - t0;
         let (w, h) = frame.size();
         let start = FrameStart {
