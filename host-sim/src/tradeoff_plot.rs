@@ -70,6 +70,7 @@ fn panel(
         .configure_mesh()
         .x_desc(cost_label)
         .y_desc(err_label)
+        .x_labels(8)
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .x_label_formatter(&|v| format!("{v:.0}"))
         .draw()
@@ -103,6 +104,7 @@ fn panel(
     }
     chart
         .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .draw()
@@ -161,7 +163,7 @@ pub fn plot(r: &Report) -> Result<Vec<u8>, String> {
             &cost,
             label,
             &|r| r.rms_lsb,
-            "RMS error, LSB",
+            "RMS error, LSB (0 drawn at 1e-4)",
             1e-4,
         )?;
         root.present().map_err(|e| e.to_string())?;
