@@ -68,6 +68,18 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
 }
 
+/// The shipped scene files (`scenes/*.toml`), sorted by name: what the
+/// firmware embeds by default, in its scene-id order.
+pub fn shipped_scenes() -> Result<Vec<PathBuf>, String> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(repo_root().join("scenes"))
+        .map_err(|e| format!("scenes/: {e}"))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
 /// Builds the firmware for `board` with `scenes` embedded (all of
 /// `scenes/` when empty), rendering each with every one of `variants` (the
 /// planned renderer when empty); returns the ELF path.
@@ -266,13 +278,7 @@ pub fn hil_variants(
         variants.to_vec()
     };
     let list: Vec<PathBuf> = if scenes.is_empty() {
-        let mut v: Vec<PathBuf> = std::fs::read_dir(repo_root().join("scenes"))
-            .map_err(|e| format!("scenes/: {e}"))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-            .collect();
-        v.sort();
-        v
+        shipped_scenes()?
     } else {
         scenes.to_vec()
     };

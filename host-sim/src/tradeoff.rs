@@ -10,7 +10,7 @@
 //! what the planner's pruning saves on every shipped scene. Writes
 //! `tradeoff.json`, `tradeoff.md` and `tradeoff.png`.
 
-use crate::hil_cmd::{elf_sizes, hil_variants, repo_root, Board};
+use crate::hil_cmd::{hil_variants, repo_root, shipped_scenes, Board, HilReport};
 use crate::reference::render::RefScene;
 use crate::render_cmd::{compare, Collect, Metrics};
 use crate::scene_file::{load, Resolved};
@@ -382,6 +382,51 @@ fn write_scene(dir: &Path, name: &str, text: &str) -> Result<PathBuf, String> {
 /// instructions, bit_exact) and scalar → flash, per board.
 type Runs = HashMap<(String, String), (f64, u64, bool)>;
 
+/// A hil report's frames as [`Runs`].
+fn runs_of(report: HilReport) -> Runs {
+    let mut runs = Runs::new();
+    for f in report.frames {
+        let px = f.width as f64 * f.height as f64;
+        if let Some(ins) = f.instructions {
+            runs.insert((f.scene, f.variant), (ins as f64 / px, ins, f.bit_exact));
+        }
+    }
+    runs
+}
+
+/// Runs `scenes` × `variants` in one firmware on every board; `label` names
+/// the output folder `hil/<board>-<label>`.
+fn runs_per_board(
+    boards: &[Board],
+    label: &str,
+    scenes: &[PathBuf],
+    variants: &[Variant],
+    out: &Path,
+    pb: &ProgressBar,
+) -> Result<Vec<(Board, Runs)>, String> {
+    let mut per_board = Vec::new();
+    for &board in boards {
+        pb.set_message(format!("{} firmware, {label}", board.machine()));
+        let dir = out.join("hil").join(format!("{}-{label}", board.machine()));
+        per_board.push((board, runs_of(hil_variants(board, None, scenes, variants, &dir)?)));
+        pb.inc(1);
+    }
+    Ok(per_board)
+}
+
+/// What `per_board` measured for `scene` and `variant` on `board`.
+fn lookup<'a>(
+    per_board: &'a [(Board, Runs)],
+    board: Board,
+    scene: &str,
+    variant: &str,
+) -> Option<&'a (f64, u64, bool)> {
+    per_board
+        .iter()
+        .find(|(b, _)| *b == board)
+        .and_then(|(_, r)| r.get(&(scene.to_string(), variant.to_string())))
+}
+
 fn firmware_runs(
     board: Board,
     scenes: &[PathBuf],
@@ -402,17 +447,8 @@ fn firmware_runs(
         pb.set_message(format!("{} firmware, {}", board.machine(), k.name()));
         let dir = out.join("hil").join(format!("{}-{}", board.machine(), k.name()));
         let report = hil_variants(board, None, scenes, &group, &dir)?;
-        let elf = repo_root()
-            .join("firmware/target")
-            .join(board.target())
-            .join("release/hilcam-firmware");
-        flash.insert(k, elf_sizes(&elf)?.0);
-        for f in report.frames {
-            let px = f.width as f64 * f.height as f64;
-            if let Some(ins) = f.instructions {
-                runs.insert((f.scene, f.variant), (ins as f64 / px, ins, f.bit_exact));
-            }
-        }
+        flash.insert(k, report.flash_bytes);
+        runs.extend(runs_of(report));
         pb.inc(1);
     }
     Ok((runs, flash))
@@ -608,28 +644,8 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
                 gvariants.push(rec);
             }
         }
-        let mut per_board: Vec<(Board, Runs)> = Vec::new();
-        for &board in &cfg.boards {
-            pb.set_message(format!("{} firmware, growth", board.machine()));
-            let dir = out.join("hil").join(format!("{}-growth", board.machine()));
-            let rep = hil_variants(board, None, &all, &gvariants, &dir)?;
-            let mut runs = Runs::new();
-            for f in rep.frames {
-                let px = f.width as f64 * f.height as f64;
-                if let Some(ins) = f.instructions {
-                    runs.insert((f.scene, f.variant), (ins as f64 / px, ins, f.bit_exact));
-                }
-            }
-            per_board.push((board, runs));
-            pb.inc(1);
-        }
-        let ins = |board: Board, scene: &str, v: &str| {
-            per_board
-                .iter()
-                .find(|(b, _)| *b == board)
-                .and_then(|(_, r)| r.get(&(scene.to_string(), v.to_string())))
-                .map(|r| r.1)
-        };
+        let per_board = runs_per_board(&cfg.boards, "growth", &all, &gvariants, out, &pb)?;
+        let ins = |board: Board, scene: &str, v: &str| lookup(&per_board, board, scene, v).map(|r| r.1);
         for v in &gvariants {
             let point = |r: &Resolved| GrowthPoint {
                 scene: r.desc.name.clone(),
@@ -662,40 +678,16 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         }
 
         // Pruning: every shipped scene, planned vs every stage.
-        let mut shipped: Vec<PathBuf> = std::fs::read_dir(repo_root().join("scenes"))
-            .map_err(|e| format!("scenes/: {e}"))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-            .collect();
-        shipped.sort();
+        let shipped = shipped_scenes()?;
         let shipped_r: Vec<Resolved> = shipped.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
         let all_stages = Variant {
             scalar: ScalarKind::I32F32,
             over: Override::AllStages,
         };
         let pv = [Variant::PLANNED, all_stages];
-        let mut per_board: Vec<(Board, Runs)> = Vec::new();
-        for &board in &cfg.boards {
-            pb.set_message(format!("{} firmware, pruning", board.machine()));
-            let dir = out.join("hil").join(format!("{}-pruning", board.machine()));
-            let rep = hil_variants(board, None, &shipped, &pv, &dir)?;
-            let mut runs = Runs::new();
-            for f in rep.frames {
-                let px = f.width as f64 * f.height as f64;
-                if let Some(ins) = f.instructions {
-                    runs.insert((f.scene, f.variant), (ins as f64 / px, ins, f.bit_exact));
-                }
-            }
-            per_board.push((board, runs));
-            pb.inc(1);
-        }
-        let ipp = |board: Board, scene: &str, v: &Variant| {
-            per_board
-                .iter()
-                .find(|(b, _)| *b == board)
-                .and_then(|(_, r)| r.get(&(scene.to_string(), v.name())))
-                .map(|r| r.0)
-        };
+        let per_board = runs_per_board(&cfg.boards, "pruning", &shipped, &pv, out, &pb)?;
+        let ipp =
+            |board: Board, scene: &str, v: &Variant| lookup(&per_board, board, scene, &v.name()).map(|r| r.0);
         for r in &shipped_r {
             let name = r.desc.name.clone();
             let scene = r.core_scene()?;
