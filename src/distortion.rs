@@ -17,6 +17,7 @@
 use crate::error::{Error, Field};
 use crate::frame::NormPoint;
 use crate::num::{quotient, Norm, Sat, Wide};
+use crate::scalar::Scalar;
 use core::ops::{Add as _, Mul as _};
 use fixed::types::{I32F0, I32F32};
 
@@ -300,27 +301,43 @@ impl Lut {
         self.scale
     }
 
-    /// The raw entries: `g` at `u = i · u_max / (entries − 1)`, as i32 with
-    /// [`Lut::entry_frac_bits`] fractional bits.
-    pub fn entries(&self) -> &[i32] {
-        &self.table
-    }
-
-    /// `g(u)` by linear interpolation; `u` beyond the table is clamped to its
-    /// last interval (extrapolated linearly).
+    /// `g(u)` by linear interpolation, in I32F32; `u` beyond the table is
+    /// clamped to its last interval (extrapolated linearly).
     #[inline]
     pub fn g(&self, u: I32F32) -> I32F32 {
-        let pos = u.saturating_mul(self.scale);
-        let last = self.table.len().saturating_sub(2);
-        let i = (pos.to_num::<i64>().max(0) as usize).min(last);
-        let frac = pos - I32F32::from_num(i);
-        let (a, b) = match (self.table.get(i), self.table.get(i + 1)) {
-            (Some(a), Some(b)) => (
-                I32F32::from_bits((*a as i64) << self.shift),
-                I32F32::from_bits((*b as i64) << self.shift),
-            ),
-            _ => return I32F32::ONE,
-        };
-        a + (b - a).saturating_mul(frac)
+        self.linear(u, self.scale)
+    }
+
+    /// `g(u)` by linear interpolation, in any [`Scalar`]; `scale` is
+    /// [`Lut::scale`] converted to `S` (once per frame, by the caller). `u`
+    /// beyond the table is clamped to its last interval (extrapolated
+    /// linearly).
+    #[inline(always)]
+    pub fn linear<S: Scalar>(&self, u: S, scale: S) -> S {
+        let pos = u.mul(scale);
+        let i = (pos.floor_int().max(0) as usize).min(self.table.len().saturating_sub(2));
+        let t = pos.sub(S::from_int(i as i32));
+        match (self.table.get(i), self.table.get(i + 1)) {
+            (Some(a), Some(b)) => {
+                let (a, b): (S, S) = (self.entry(*a), self.entry(*b));
+                a.add(b.sub(a).mul(t))
+            }
+            _ => S::ONE,
+        }
+    }
+
+    /// `g(u)` from the entry nearest to `u` (no interpolation), in any
+    /// [`Scalar`]; `scale` as for [`Lut::linear`].
+    #[inline(always)]
+    pub fn nearest<S: Scalar>(&self, u: S, scale: S) -> S {
+        let pos = u.mul(scale).add(S::HALF);
+        let i = (pos.floor_int().max(0) as usize).min(self.table.len().saturating_sub(1));
+        self.table.get(i).map_or(S::ONE, |e| self.entry(*e))
+    }
+
+    /// One entry in `S` (a shift in fixed point).
+    #[inline(always)]
+    fn entry<S: Scalar>(&self, bits: i32) -> S {
+        S::from_fixed_bits(bits, self.entry_frac_bits())
     }
 }

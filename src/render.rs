@@ -21,11 +21,11 @@
 //! (over-exposure); the narrower types have narrower ranges
 //! ([`crate::scalar`]).
 
-use crate::distortion::{Distortion, Lut, MAX_LUT};
+use crate::distortion::{Lut, MAX_LUT};
 use crate::num::{quotient, Len, Norm, Wide};
 use crate::scalar::Scalar;
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
-use crate::shading::{axpy, dot, scale3, sub3, Brdf, ShadingLight, V3};
+use crate::shading::{axpy, dot, from_q3, scale3, sub3, Brdf, ShadingLight, V3};
 use crate::vignetting;
 use core::ops::{Add as _, Mul as _};
 use fixed::types::I64F64;
@@ -291,37 +291,30 @@ struct CamPrim<S> {
     checker: Option<CamChecker<S>>,
 }
 
-fn c1<S: Scalar>(v: Q) -> S {
-    S::from_q(v)
-}
-fn c3<S: Scalar>(v: V3) -> V3<S> {
-    v.map(S::from_q)
-}
-
 impl CamPrim<Q> {
     /// The primitive in another scalar type (prepared in I32F32, converted
     /// once).
     fn to<S: Scalar>(&self) -> CamPrim<S> {
         let shape = match self.shape {
             CamShape::Plane { n, dist } => CamShape::Plane {
-                n: c3(n),
-                dist: c1(dist),
+                n: from_q3(n),
+                dist: S::from_q(dist),
             },
             CamShape::Sphere { c, r2, inv_r, .. } => {
-                let (c, r2) = (c3::<S>(c), c1::<S>(r2));
+                let (c, r2) = (from_q3::<S>(c), S::from_q(r2));
                 CamShape::Sphere {
                     c,
                     r2,
-                    inv_r: c1(inv_r),
+                    inv_r: S::from_q(inv_r),
                     // In S, as the per-pixel path would compute it.
                     cc: dot(c, c).sub(r2),
                 }
             }
             CamShape::Disc { n, dist, c, r2 } => CamShape::Disc {
-                n: c3(n),
-                dist: c1(dist),
-                c: c3(c),
-                r2: c1(r2),
+                n: from_q3(n),
+                dist: S::from_q(dist),
+                c: from_q3(c),
+                r2: S::from_q(r2),
             },
             CamShape::Rect {
                 n,
@@ -332,23 +325,23 @@ impl CamPrim<Q> {
                 hu,
                 hv,
             } => CamShape::Rect {
-                n: c3(n),
-                dist: c1(dist),
-                c: c3(c),
-                u: c3(u),
-                v: c3(v),
-                hu: c1(hu),
-                hv: c1(hv),
+                n: from_q3(n),
+                dist: S::from_q(dist),
+                c: from_q3(c),
+                u: from_q3(u),
+                v: from_q3(v),
+                hu: S::from_q(hu),
+                hv: S::from_q(hv),
             },
         };
         CamPrim {
             shape,
             material: self.material,
             checker: self.checker.map(|k| CamChecker {
-                origin: c3(k.origin),
-                u: c3(k.u),
-                v: c3(k.v),
-                inv_cell: c1(k.inv_cell),
+                origin: from_q3(k.origin),
+                u: from_q3(k.u),
+                v: from_q3(k.v),
+                inv_cell: S::from_q(k.inv_cell),
                 material: k.material,
             }),
         }
@@ -371,10 +364,8 @@ pub struct Frame<S: Scalar = Q> {
     /// `g` at the table's nodes, i32 entries converted per lookup (a shift
     /// in fixed point): one table serves every scalar type.
     lut: Option<Lut>,
-    /// Table positions per unit of `u`.
+    /// [`Lut::scale`] in `S`.
     lut_scale: S,
-    /// Fractional bits of the table's entries.
-    lut_frac: u32,
     /// `k1`, `k2` for [`DistortionEval::Polynomial`].
     poly: [S; 2],
     /// `u = r_d²` beyond which a pixel is outside the lens field.
@@ -446,13 +437,12 @@ impl<S: Scalar> Frame<S> {
             dy: 0,
             lut: None,
             lut_scale: S::ZERO,
-            lut_frac: 0,
             poly: [S::ZERO; 2],
             limit: S::MAX,
             k_origin: S::ZERO,
             prims: heapless::Vec::new(),
             lights: heapless::Vec::new(),
-            materials: [Brdf::<Q>::default().to(); crate::scene::MAX_MATERIALS],
+            materials: [Brdf::default().to(); crate::scene::MAX_MATERIALS],
             background: [S::ZERO; 3],
             gain: [S::ZERO; 3],
         }
@@ -495,26 +485,21 @@ impl<S: Scalar> Frame<S> {
             format: scene.format,
         };
         (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
+        self.background = from_q3(scene.background);
+        // What only some frames set, reset from the previous frame; every
+        // other field is set below for every frame.
         self.lut = None;
         self.lut_scale = S::ZERO;
-        self.lut_frac = 0;
         self.poly = [S::ZERO; 2];
         self.limit = S::MAX;
-        self.k_origin = S::ZERO;
         self.prims.clear();
         self.lights.clear();
-        self.materials = [Brdf::<Q>::default().to(); crate::scene::MAX_MATERIALS];
-        self.background = c3(scene.background);
-        self.gain = [S::ZERO; 3];
-        // Distortion over [0, u_max], u_max = min(fold, corner maximum).
-        let distortion = if scene.distortion.is_none() && opts.keep_all_stages {
-            Some(Distortion::NONE)
-        } else if scene.distortion.is_none() {
-            None
-        } else {
-            Some(scene.distortion)
-        };
-        if let Some(dist) = distortion {
+        self.materials = [Brdf::default().to(); crate::scene::MAX_MATERIALS];
+        // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
+        // every stage kept, a lens without distortion runs the identity
+        // (`k1 = k2 = 0`, g = 1).
+        if !scene.distortion.is_none() || opts.keep_all_stages {
+            let dist = scene.distortion;
             let mut u_corner = Q::ZERO;
             for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
                 let (xd, yd) = (self.xd_q(i), self.yd_q(j));
@@ -525,7 +510,7 @@ impl<S: Scalar> Frame<S> {
                 Some(f) if f < u_corner => (f, f),
                 _ => (u_corner, Q::MAX),
             };
-            self.limit = if limit == Q::MAX { S::MAX } else { S::from_q(limit) };
+            self.limit = S::from_q(limit);
             self.stages.distortion = Some(opts.distortion_eval);
             if opts.distortion_eval == DistortionEval::Polynomial {
                 let (k1, k2) = dist.coefficients();
@@ -536,7 +521,6 @@ impl<S: Scalar> Frame<S> {
                     return Err(RenderError::DistortionOutOfRange);
                 }
                 let lut = lut.value;
-                self.lut_frac = lut.entry_frac_bits();
                 self.lut_scale = S::from_q(lut.scale());
                 self.stages.distortion_lut = Some(lut.len());
                 self.lut = Some(lut);
@@ -609,7 +593,7 @@ impl<S: Scalar> Frame<S> {
 
     /// Fractional bits of the distortion table's i32 entries, if any.
     pub fn table_frac_bits(&self) -> Option<u32> {
-        self.stages.distortion_lut.map(|_| self.lut_frac)
+        self.lut.as_ref().map(Lut::entry_frac_bits)
     }
 
     /// Distortion table bytes (0 without a table).
@@ -619,12 +603,12 @@ impl<S: Scalar> Frame<S> {
 
     #[inline(always)]
     fn xd_q(&self, i: u16) -> Q {
-        xd_of(self.x0 - self.dx * i as i128)
+        from_acc(self.x0 - self.dx * i as i128)
     }
 
     #[inline(always)]
     fn yd_q(&self, j: u16) -> Q {
-        xd_of(self.y0 - self.dy * j as i128)
+        from_acc(self.y0 - self.dy * j as i128)
     }
 
     /// The undistorted normalized point `(x̂, ŷ)` the renderer uses for
@@ -648,29 +632,9 @@ impl<S: Scalar> Frame<S> {
         let g = match self.stages.distortion {
             Some(DistortionEval::Polynomial) => S::ONE.add(u.mul(self.poly[0].add(u.mul(self.poly[1])))),
             Some(DistortionEval::Nearest) => {
-                let table = self.lut.as_ref().map_or(&[][..], Lut::entries);
-                let pos = u.mul(self.lut_scale).add(S::HALF);
-                let i = (pos.floor_int().max(0) as usize).min(table.len().saturating_sub(1));
-                table
-                    .get(i)
-                    .map_or(S::ONE, |e| S::from_fixed_bits(*e, self.lut_frac))
+                self.lut.as_ref().map_or(S::ONE, |l| l.nearest(u, self.lut_scale))
             }
-            _ => {
-                let table = self.lut.as_ref().map_or(&[][..], Lut::entries);
-                let pos = u.mul(self.lut_scale);
-                let i = (pos.floor_int().max(0) as usize).min(table.len().saturating_sub(2));
-                let frac = pos.sub(S::from_int(i as i32));
-                match (table.get(i), table.get(i + 1)) {
-                    (Some(a), Some(b)) => {
-                        let (a, b) = (
-                            S::from_fixed_bits(*a, self.lut_frac),
-                            S::from_fixed_bits(*b, self.lut_frac),
-                        );
-                        a.add(b.sub(a).mul(frac))
-                    }
-                    _ => S::ONE,
-                }
-            }
+            _ => self.lut.as_ref().map_or(S::ONE, |l| l.linear(u, self.lut_scale)),
         };
         Some((xd.mul(g), yd.mul(g)))
     }
@@ -725,7 +689,7 @@ impl<S: Scalar> Frame<S> {
             .zip(flags.iter_mut())
             .take(self.width as usize)
         {
-            let xd = S::from_q(xd_of(acc));
+            let xd = S::from_q(from_acc(acc));
             acc -= self.dx;
             let (x, y) = if dist {
                 match self.undistort(xd, yd) {
@@ -819,9 +783,9 @@ impl<S: Scalar> Frame<S> {
     }
 }
 
-/// `x̂_d` from its I64F64 accumulator.
+/// `x̂_d` or `ŷ_d` from its I64F64 accumulator.
 #[inline(always)]
-fn xd_of(acc: i128) -> Q {
+fn from_acc(acc: i128) -> Q {
     Q::from_bits((acc >> 32) as i64)
 }
 

@@ -214,6 +214,8 @@ macro_rules! fixed_scalar {
             fn div(self, o: Self) -> Option<Self> {
                 $div(self, o)
             }
+            // Out of line: the bit-by-bit root is long, and inlined at each
+            // use it grew every pixel loop.
             #[inline(never)]
             fn sqrt(self) -> Option<Self> {
                 self.checked_sqrt()
@@ -254,22 +256,23 @@ fixed_scalar!(
     powi63,
     scale63
 );
-fixed_scalar!(
-    I16F16,
-    "i16f16",
-    |a: I16F16, b: I16F16| I16F16::from_bits(mul32::<16>(a.to_bits(), b.to_bits())),
-    |a: I16F16, b: I16F16| div32::<16>(a.to_bits(), b.to_bits()).map(I16F16::from_bits),
-    i32,
-    16
-);
-fixed_scalar!(
-    I12F20,
-    "i12f20",
-    |a: I12F20, b: I12F20| I12F20::from_bits(mul32::<20>(a.to_bits(), b.to_bits())),
-    |a: I12F20, b: I12F20| div32::<20>(a.to_bits(), b.to_bits()).map(I12F20::from_bits),
-    i32,
-    20
-);
+/// A 32-bit type with `F` fractional bits: products by [`mul32`],
+/// quotients by [`div32`].
+macro_rules! fixed32_scalar {
+    ($t:ident, $name:literal, $frac:literal) => {
+        fixed_scalar!(
+            $t,
+            $name,
+            |a: $t, b: $t| $t::from_bits(mul32::<$frac>(a.to_bits(), b.to_bits())),
+            |a: $t, b: $t| div32::<$frac>(a.to_bits(), b.to_bits()).map($t::from_bits),
+            i32,
+            $frac
+        );
+    };
+}
+
+fixed32_scalar!(I16F16, "i16f16", 16);
+fixed32_scalar!(I12F20, "i12f20", 20);
 
 /// The saturating product of raw 32-bit fixed-point values with `F`
 /// fractional bits, rounded down (as `saturating_mul`): one `SMULL` and a

@@ -71,30 +71,36 @@ pub struct Brdf<S: Scalar = Q> {
     pub exponent: u16,
 }
 
-impl<S: Scalar> ShadingLight<S> {
-    /// The same light with values in another scalar type.
-    pub fn to<T: Scalar>(&self) -> ShadingLight<T> {
+/// An I32F32 vector in another scalar type (saturating).
+#[inline(always)]
+pub(crate) fn from_q3<S: Scalar>(v: V3) -> V3<S> {
+    v.map(S::from_q)
+}
+
+impl ShadingLight {
+    /// The same light with values in `S` (prepared in I32F32, converted
+    /// once a frame).
+    pub fn to<S: Scalar>(&self) -> ShadingLight<S> {
         match *self {
             ShadingLight::Point { p, i } => ShadingLight::Point {
-                p: p.map(|v| T::from_q(v.to_q())),
-                i: i.map(|v| T::from_q(v.to_q())),
+                p: from_q3(p),
+                i: from_q3(i),
             },
             ShadingLight::Directional { l, e } => ShadingLight::Directional {
-                l: l.map(|v| T::from_q(v.to_q())),
-                e: e.map(|v| T::from_q(v.to_q())),
+                l: from_q3(l),
+                e: from_q3(e),
             },
         }
     }
 }
 
-impl<S: Scalar> Brdf<S> {
-    /// The same constants in another scalar type.
-    pub fn to<T: Scalar>(&self) -> Brdf<T> {
-        let c = |v: V3<S>| v.map(|x| T::from_q(x.to_q()));
+impl Brdf {
+    /// The same constants in `S` (folded in I32F32, converted once a frame).
+    pub fn to<S: Scalar>(&self) -> Brdf<S> {
         Brdf {
-            kd: c(self.kd),
-            ks: c(self.ks),
-            ka: c(self.ka),
+            kd: from_q3(self.kd),
+            ks: from_q3(self.ks),
+            ka: from_q3(self.ka),
             exponent: self.exponent,
         }
     }

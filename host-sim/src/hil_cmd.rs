@@ -6,7 +6,7 @@
 
 use crate::link::decoder::Decoder;
 use crate::reference::render::{RefFrame, RefScene};
-use crate::render_cmd::{decode, encode_png, Collect};
+use crate::render_cmd::{decode_all, encode_png, Collect};
 use crate::scene_file::{load, Resolved};
 use crate::variant::{FrameUser, Variant};
 use hilcam::planner::{Budget, Plan};
@@ -324,12 +324,12 @@ pub fn hil_variants(
             && r.desc.camera.height == f.start.height;
         all_exact &= exact;
         let reference = cached.get_or_insert_with(|| RefScene::new(r).render());
-        let bpp = r.format.bytes_per_pixel();
         let (mut max, mut same) = (0u32, 0usize);
-        for (k, px) in f.pixels.chunks_exact(bpp).enumerate() {
-            let dn = decode(r.format, px);
+        // Zipped, so a frame of the wrong size cannot index past the
+        // reference (it is already not bit-exact).
+        for (dn, rf) in decode_all(r.format, &f.pixels).iter().zip(&reference.dn) {
             let d = (0..r.format.channels())
-                .map(|c| dn[c].abs_diff(reference.dn[k][c]))
+                .map(|c| dn[c].abs_diff(rf[c]))
                 .max()
                 .unwrap_or(0);
             max = max.max(d);

@@ -19,6 +19,13 @@ pub struct Collect {
     pub flags: Vec<u8>,
 }
 
+impl Collect {
+    /// Channel values of every pixel.
+    pub fn dn(&self, format: PixelFormat) -> Vec<[u32; 3]> {
+        decode_all(format, &self.pixels)
+    }
+}
+
 impl LineSink for Collect {
     type Error = std::convert::Infallible;
     fn line(&mut self, _y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
@@ -134,6 +141,14 @@ pub fn decode(format: PixelFormat, b: &[u8]) -> [u32; 3] {
     }
 }
 
+/// Decodes frame bytes into channel values, a pixel at a time.
+pub fn decode_all(format: PixelFormat, bytes: &[u8]) -> Vec<[u32; 3]> {
+    bytes
+        .chunks_exact(format.bytes_per_pixel())
+        .map(|b| decode(format, b))
+        .collect()
+}
+
 /// The core's scene, its plan for `budget`, the prepared frame, and the
 /// frame rendered line by line (bytes and flags).
 pub fn core_render(
@@ -179,8 +194,7 @@ pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
     let rs = RefScene::new(r);
     let reference = rs.render();
     let format = scene.format;
-    let bpp = format.bytes_per_pixel();
-    let core_dn: Vec<[u32; 3]> = core.pixels.chunks_exact(bpp).map(|b| decode(format, b)).collect();
+    let core_dn = core.dn(format);
     let metrics = compare(r, &rs, &reference, &plan, budget, &frame, &core);
     Ok(RenderOutput {
         core,
@@ -208,8 +222,7 @@ pub fn compare<S: Scalar>(
     let (w, h) = frame.size();
     let (w, h) = (w as usize, h as usize);
     let format = r.format;
-    let bpp = format.bytes_per_pixel();
-    let core_dn: Vec<[u32; 3]> = core.pixels.chunks_exact(bpp).map(|b| decode(format, b)).collect();
+    let core_dn = core.dn(format);
 
     // Geometry: the core's pixel → undistorted mapping against the reference.
     let (fx, fy) = (rs.sensor.f / rs.sensor.sx, rs.sensor.f / rs.sensor.sy);
@@ -325,7 +338,7 @@ pub fn encode_png(format: PixelFormat, w: usize, h: usize, bytes: &[u8]) -> Resu
             format.name()
         ));
     }
-    let dn: Vec<[u32; 3]> = bytes.chunks_exact(bpp).map(|b| decode(format, b)).collect();
+    let dn = decode_all(format, bytes);
     png(format, w, h, &dn)
 }
 

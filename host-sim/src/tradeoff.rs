@@ -237,6 +237,59 @@ pub struct Report {
     pub m3_fastest_fixed_speedup_over_f32: Option<f64>,
 }
 
+impl Row {
+    /// A row with the metrics `m` of `variant` against the reference (`None`:
+    /// the reference itself, exact by definition); device figures are filled
+    /// in after the firmware runs.
+    fn new(
+        variant: String,
+        scalar: &str,
+        scene: &str,
+        m: Option<&Metrics>,
+        host_ns: f64,
+        table_bytes: usize,
+    ) -> Row {
+        Row {
+            variant,
+            scalar: scalar.into(),
+            scene: scene.into(),
+            max_geom_err_px: m.map_or(0.0, |m| m.max_geom_err_px),
+            rms_geom_err_px: m.map_or(0.0, |m| m.rms_geom_err_px),
+            max_abs_lsb: m.map_or(0, |m| m.max_abs_lsb),
+            rms_lsb: m.map_or(0.0, |m| m.rms_lsb),
+            psnr_db: m.and_then(|m| m.psnr_db),
+            max_abs_lsb_smooth: m.map_or(0, |m| m.max_abs_lsb_smooth),
+            rms_lsb_smooth: m.map_or(0.0, |m| m.rms_lsb_smooth),
+            psnr_db_smooth: m.and_then(|m| m.psnr_db_smooth),
+            exact_fraction: m.map_or(1.0, |m| m.exact_fraction),
+            edge_pixels_differing: m.map_or(0, |m| m.edge_pixels_differing),
+            instructions_per_pixel_m3: None,
+            instructions_per_pixel_m4f: None,
+            bit_exact_m3: None,
+            bit_exact_m4f: None,
+            host_ns_per_pixel: host_ns,
+            table_bytes,
+            flash_bytes_m3: None,
+            flash_bytes_m4f: None,
+        }
+    }
+
+    fn is_fixed_point(&self) -> bool {
+        self.scalar != "f32" && self.scalar != "f64"
+    }
+}
+
+/// The distinct number types of `variants`, in order.
+fn scalar_kinds(variants: &[Variant]) -> Vec<ScalarKind> {
+    let mut kinds: Vec<ScalarKind> = Vec::new();
+    for v in variants {
+        if !kinds.contains(&v.scalar) {
+            kinds.push(v.scalar);
+        }
+    }
+    kinds
+}
+
 struct Discard;
 impl LineSink for Discard {
     type Error = std::convert::Infallible;
@@ -436,13 +489,7 @@ fn firmware_runs(
 ) -> Result<(Runs, HashMap<ScalarKind, u64>), String> {
     let mut runs = Runs::new();
     let mut flash = HashMap::new();
-    let mut kinds: Vec<ScalarKind> = Vec::new();
-    for v in variants {
-        if !kinds.contains(&v.scalar) {
-            kinds.push(v.scalar);
-        }
-    }
-    for k in kinds {
+    for k in scalar_kinds(variants) {
         let group: Vec<Variant> = variants.iter().filter(|v| v.scalar == k).copied().collect();
         pb.set_message(format!("{} firmware, {}", board.machine(), k.name()));
         let dir = out.join("hil").join(format!("{}-{}", board.machine(), k.name()));
@@ -482,15 +529,7 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         )?],
     };
     let resolved: Vec<Resolved> = scenes.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
-    let kinds = {
-        let mut k: Vec<ScalarKind> = Vec::new();
-        for v in &cfg.variants {
-            if !k.contains(&v.scalar) {
-                k.push(v.scalar);
-            }
-        }
-        k.len()
-    };
+    let kinds = scalar_kinds(&cfg.variants).len();
     let extra = if cfg.growth_and_pruning { 3 } else { 0 };
     let steps = resolved.len() * (cfg.variants.len() + 1) + cfg.boards.len() * (kinds + extra);
     let pb = ProgressBar::new(steps as u64);
@@ -505,29 +544,8 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         pb.set_message(format!("host, {}: reference", r.desc.name));
         let rs = RefScene::new(r);
         let reference = rs.render();
-        rows.push(Row {
-            variant: "f64-reference".into(),
-            scalar: "f64".into(),
-            scene: r.desc.name.clone(),
-            max_geom_err_px: 0.0,
-            rms_geom_err_px: 0.0,
-            max_abs_lsb: 0,
-            rms_lsb: 0.0,
-            psnr_db: None,
-            max_abs_lsb_smooth: 0,
-            rms_lsb_smooth: 0.0,
-            psnr_db_smooth: None,
-            exact_fraction: 1.0,
-            edge_pixels_differing: 0,
-            instructions_per_pixel_m3: None,
-            instructions_per_pixel_m4f: None,
-            bit_exact_m3: None,
-            bit_exact_m4f: None,
-            host_ns_per_pixel: reference_ns_per_pixel(r, cfg.repeats),
-            table_bytes: 0,
-            flash_bytes_m3: None,
-            flash_bytes_m4f: None,
-        });
+        let ns = reference_ns_per_pixel(r, cfg.repeats);
+        rows.push(Row::new("f64-reference".into(), "f64", &r.desc.name, None, ns, 0));
         pb.inc(1);
         for v in &cfg.variants {
             pb.set_message(format!("host, {}: {}", r.desc.name, v.name()));
@@ -540,29 +558,15 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
                     reference: &reference,
                 },
             )?;
-            rows.push(Row {
-                variant: v.name(),
-                scalar: v.scalar.name().into(),
-                scene: r.desc.name.clone(),
-                max_geom_err_px: m.max_geom_err_px,
-                rms_geom_err_px: m.rms_geom_err_px,
-                max_abs_lsb: m.max_abs_lsb,
-                rms_lsb: m.rms_lsb,
-                psnr_db: m.psnr_db,
-                max_abs_lsb_smooth: m.max_abs_lsb_smooth,
-                rms_lsb_smooth: m.rms_lsb_smooth,
-                psnr_db_smooth: m.psnr_db_smooth,
-                exact_fraction: m.exact_fraction,
-                edge_pixels_differing: m.edge_pixels_differing,
-                instructions_per_pixel_m3: None,
-                instructions_per_pixel_m4f: None,
-                bit_exact_m3: None,
-                bit_exact_m4f: None,
-                host_ns_per_pixel: host_ns_per_pixel(v, r, cfg.repeats)?,
+            let ns = host_ns_per_pixel(v, r, cfg.repeats)?;
+            rows.push(Row::new(
+                v.name(),
+                v.scalar.name(),
+                &r.desc.name,
+                Some(&m),
+                ns,
                 table_bytes,
-                flash_bytes_m3: None,
-                flash_bytes_m4f: None,
-            });
+            ));
             pb.inc(1);
         }
     }
@@ -589,12 +593,16 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         }
     }
 
-    let recommendations = recommend(&rows, &resolved);
     let first = resolved.first().map(|r| r.desc.name.clone()).unwrap_or_default();
-    let is_fixed = |r: &Row| r.scalar != "f32" && r.scalar != "f64";
-    let fixed_rows: Vec<Row> = rows.iter().filter(|r| is_fixed(r)).cloned().collect();
+    let fixed_rows: Vec<Row> = rows.iter().filter(|r| r.is_fixed_point()).cloned().collect();
     let best_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, false);
     let fastest_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, true);
+    let recommendations = recommend(
+        &rows,
+        &resolved,
+        best_fixed_m3.as_deref(),
+        fastest_fixed_m3.as_deref(),
+    );
     let ratio = |fixed: Option<&String>, m3: bool| -> Option<f64> {
         let ipp = |r: &Row| {
             if m3 {
@@ -788,27 +796,26 @@ fn cheapest(
         .map(|(n, _)| n.to_string())
 }
 
-fn recommend(rows: &[Row], scenes: &[Resolved]) -> Vec<Recommendation> {
+/// The recommendations, given the cheapest fixed-point variant on the M3
+/// within 1 LSB (`best_fixed`) and of all (`fastest_fixed`).
+fn recommend(
+    rows: &[Row],
+    scenes: &[Resolved],
+    best_fixed: Option<&str>,
+    fastest_fixed: Option<&str>,
+) -> Vec<Recommendation> {
     let first = scenes.first().map(|s| s.desc.name.as_str()).unwrap_or("");
     let row = |name: &str| rows.iter().find(|r| r.variant == name && r.scene == first);
-    let fixed: Vec<Row> = rows
-        .iter()
-        .filter(|r| r.scalar != "f32" && r.scalar != "f64")
-        .cloned()
-        .collect();
     let fmt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0}"));
     let mut out = Vec::new();
-    let best_fixed = cheapest(&fixed, scenes, |r| r.instructions_per_pixel_m3, false);
-    let fastest_fixed = cheapest(&fixed, scenes, |r| r.instructions_per_pixel_m3, true);
     let fixed_note = format!(
         "the cheapest fixed-point variant within 1 LSB is {} ({} instructions/pixel); the cheapest fixed-point \
          variant of all is {} ({} instructions/pixel, max {} LSB on smooth pixels)",
-        best_fixed.as_deref().unwrap_or("-"),
-        fmt(best_fixed.as_deref().and_then(row).and_then(|r| r.instructions_per_pixel_m3)),
-        fastest_fixed.as_deref().unwrap_or("-"),
-        fmt(fastest_fixed.as_deref().and_then(row).and_then(|r| r.instructions_per_pixel_m3)),
+        best_fixed.unwrap_or("-"),
+        fmt(best_fixed.and_then(row).and_then(|r| r.instructions_per_pixel_m3)),
+        fastest_fixed.unwrap_or("-"),
+        fmt(fastest_fixed.and_then(row).and_then(|r| r.instructions_per_pixel_m3)),
         fastest_fixed
-            .as_deref()
             .map(|n| rows.iter().filter(|r| r.variant == n).map(|r| r.max_abs_lsb_smooth).max().unwrap_or(0))
             .unwrap_or(0),
     );
