@@ -195,9 +195,9 @@ fn main() {
     for (i, v) in variants.iter().enumerate() {
         let _ = writeln!(
             code,
-            "        {i} => r.run::<{}>(&planned.with({})),",
+            "        {i} => r.run::<{}>(&{}),",
             v.scalar.type_path(),
-            v.override_expr()
+            v.options_expr("planned")
         );
     }
     let _ = writeln!(code, "        _ => Err(\"no such variant\"),\n    }}\n}}");

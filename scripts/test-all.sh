@@ -58,7 +58,7 @@ echo "== firmware built for size (opt-level z, no status): the M3 image within 6
 awk -F': ' '/"flash_bytes"/ { gsub(",", "", $2); if ($2 + 0 > 65536) { print "flash " $2 " B > 64 KiB"; bad = 1 } } END { exit bad }' \
   target/hil/lm3s6965evb-small/hil.json
 
-echo "== speed/accuracy sweep on a tiny configuration: three variants, both boards in QEMU"
+echo "== speed/accuracy sweep on a tiny configuration: four variants, both boards in QEMU"
 ./target/release/host-sim tradeoff --tiny --repeats 1 --out target/tradeoff-tiny > /dev/null
 grep -q '"bit_exact_m3": false\|"bit_exact_m4f": false' target/tradeoff-tiny/tradeoff.json && { echo "a variant was not bit-exact on a board"; exit 1; }
 echo "tradeoff.json, tradeoff.md, tradeoff.png: target/tradeoff-tiny/"

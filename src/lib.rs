@@ -37,6 +37,7 @@ pub mod frame;
 pub mod intrinsics;
 pub mod lens;
 pub mod link;
+pub mod mix32;
 pub mod num;
 pub mod planner;
 pub mod projection;

@@ -113,6 +113,9 @@ pub struct Options {
     /// them identities (`k1 = k2 = 0`, no specular material): the renderer
     /// without the planner's pruning, for measuring what the pruning saves.
     pub keep_all_stages: bool,
+    /// Renders with the 32-bit per-quantity-format path
+    /// ([`crate::mix32`]) instead of the generic one.
+    pub mix32: bool,
 }
 
 impl Options {
@@ -124,7 +127,13 @@ impl Options {
             lut_entries,
             distortion_eval: DistortionEval::Linear,
             keep_all_stages: false,
+            mix32: false,
         }
+    }
+
+    /// These options on the [`crate::mix32`] path.
+    pub const fn mix32(self) -> Options {
+        Options { mix32: true, ..self }
     }
 }
 
@@ -171,6 +180,7 @@ impl Options {
                 lut_entries: MAX_LUT,
                 distortion_eval: DistortionEval::Linear,
                 keep_all_stages: true,
+                mix32: self.mix32,
             },
         }
     }
@@ -189,6 +199,10 @@ pub enum RenderError {
     Degenerate,
     /// The distortion factor `g` exceeds ±32 768 over the sensor.
     DistortionOutOfRange,
+    /// The [`crate::mix32`] path cannot render the frame: it needs a stage
+    /// that path leaves out (parallel rays, a distortion table, the
+    /// specular lobe) or values beyond its formats.
+    OutsideFormat,
 }
 
 /// The error of [`Frame::render`]: the renderer's or the sink's.
@@ -244,8 +258,13 @@ impl Stages {
 }
 
 /// A primitive in the camera frame.
+/// A primitive in the camera frame, I32F32 (what [`crate::mix32`] converts).
+pub(crate) type CamPrimQ = CamPrim<Q>;
+/// Its shape.
+pub(crate) type CamShapeQ = CamShape<Q>;
+
 #[derive(Clone, Copy, Debug)]
-enum CamShape<S> {
+pub(crate) enum CamShape<S> {
     /// `n̂·P = dist`.
     Plane {
         n: V3<S>,
@@ -276,19 +295,19 @@ enum CamShape<S> {
 }
 
 #[derive(Clone, Copy, Debug)]
-struct CamChecker<S> {
-    origin: V3<S>,
-    u: V3<S>,
-    v: V3<S>,
-    inv_cell: S,
-    material: u8,
+pub(crate) struct CamChecker<S> {
+    pub(crate) origin: V3<S>,
+    pub(crate) u: V3<S>,
+    pub(crate) v: V3<S>,
+    pub(crate) inv_cell: S,
+    pub(crate) material: u8,
 }
 
 #[derive(Clone, Copy, Debug)]
-struct CamPrim<S> {
-    shape: CamShape<S>,
-    material: u8,
-    checker: Option<CamChecker<S>>,
+pub(crate) struct CamPrim<S> {
+    pub(crate) shape: CamShape<S>,
+    pub(crate) material: u8,
+    pub(crate) checker: Option<CamChecker<S>>,
 }
 
 impl CamPrim<Q> {
@@ -379,6 +398,8 @@ pub struct Frame<S: Scalar = Q> {
     /// `K π/4 (d/f)²` per channel (with the channel's full-scale factor):
     /// DN per unit radiance on the axis.
     gain: V3<S>,
+    /// The [`crate::mix32`] path, when the options ask for it.
+    mix: Option<crate::mix32::Mix32>,
 }
 
 fn q(w: Wide) -> Q {
@@ -445,6 +466,7 @@ impl<S: Scalar> Frame<S> {
             materials: [Brdf::default().to(); crate::scene::MAX_MATERIALS],
             background: [S::ZERO; 3],
             gain: [S::ZERO; 3],
+            mix: None,
         }
     }
 
@@ -495,6 +517,8 @@ impl<S: Scalar> Frame<S> {
         self.prims.clear();
         self.lights.clear();
         self.materials = [Brdf::default().to(); crate::scene::MAX_MATERIALS];
+        self.mix = None;
+        let mut poly_q = None;
         // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
         // every stage kept, a lens without distortion runs the identity
         // (`k1 = k2 = 0`, g = 1).
@@ -514,7 +538,9 @@ impl<S: Scalar> Frame<S> {
             self.stages.distortion = Some(opts.distortion_eval);
             if opts.distortion_eval == DistortionEval::Polynomial {
                 let (k1, k2) = dist.coefficients();
-                self.poly = [k1, k2].map(|k| S::from_q(Q::saturating_from_num(k)));
+                let k = [k1, k2].map(Q::saturating_from_num);
+                poly_q = Some((k, limit));
+                self.poly = k.map(S::from_q);
             } else {
                 let lut = dist.lut(u_max, opts.lut_entries);
                 if lut.saturated {
@@ -547,19 +573,22 @@ impl<S: Scalar> Frame<S> {
         let dof = Wide::of(lens.diameter())
             .checked_div(Wide::of(lens.focal_length()))
             .ok_or(RenderError::Degenerate)?;
-        for (c, g) in self.gain.iter_mut().enumerate() {
-            *g = S::from_q(vignetting::gain(
-                scene.exposure,
-                dof,
-                scene.format.channel_scale(c),
-            ));
+        let gain = [0, 1, 2].map(|c| vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c)));
+        self.gain = from_q3(gain);
+        let mut materials = [Brdf::default(); crate::scene::MAX_MATERIALS];
+        for (m, dst) in scene.materials.iter().zip(materials.iter_mut()) {
+            *dst = Brdf::new(m, scene.ambient);
         }
-        for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
-            *dst = Brdf::new(m, scene.ambient).to();
+        for (dst, m) in self.materials.iter_mut().zip(&materials) {
+            *dst = m.to();
         }
+        let mut prims: heapless::Vec<CamPrimQ, { crate::scene::MAX_PRIMITIVES }> = heapless::Vec::new();
         for p in &scene.primitives {
-            let _ = self.prims.push(cam_prim(scene, p).to());
+            let p = cam_prim(scene, p);
+            let _ = prims.push(p);
+            let _ = self.prims.push(p.to());
         }
+        let mut lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }> = heapless::Vec::new();
         for l in &scene.lights {
             let light: ShadingLight = match *l {
                 Light::Point { position, intensity } => ShadingLight::Point {
@@ -571,7 +600,31 @@ impl<S: Scalar> Frame<S> {
                     e: irradiance,
                 },
             };
+            let _ = lights.push(light);
             let _ = self.lights.push(light.to());
+        }
+        if opts.mix32 {
+            let table =
+                self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
+            if !matches!(opts.model, RenderModel::Perspective) || self.stages.specular || table {
+                return Err(RenderError::OutsideFormat);
+            }
+            self.mix = Some(crate::mix32::Mix32::new(&crate::mix32::Input {
+                width: w,
+                height: h,
+                format: scene.format,
+                x0,
+                dx,
+                y0,
+                dy,
+                distortion: poly_q,
+                vignetting: self.stages.vignetting,
+                prims: &prims,
+                lights: &lights,
+                materials: &materials,
+                background: scene.background,
+                gain,
+            })?);
         }
         Ok(())
     }
@@ -615,6 +668,9 @@ impl<S: Scalar> Frame<S> {
     /// pixel `(i, j)`, or `None` outside the lens field — the same code path
     /// as the pixel loop.
     pub fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
+        if let Some(m) = &self.mix {
+            return m.undistorted(i, j).map(|(x, y)| (S::from_q(x), S::from_q(y)));
+        }
         let (xd, yd) = (S::from_q(self.xd_q(i)), S::from_q(self.yd_q(j)));
         match self.stages.distortion {
             Some(_) => self.undistort(xd, yd),
@@ -645,8 +701,10 @@ impl<S: Scalar> Frame<S> {
         if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
             return Err(RenderError::BufferTooSmall);
         }
-        // Per-frame dispatch to one of the two loops.
-        if matches!(self.stages.model, RenderModel::Perspective) {
+        // Per-frame dispatch to one of the three loops.
+        if let Some(m) = &self.mix {
+            m.line(j, pixels, flags);
+        } else if matches!(self.stages.model, RenderModel::Perspective) {
             self.line::<true>(j, pixels, flags);
         } else {
             self.line::<false>(j, pixels, flags);

@@ -6,45 +6,9 @@ use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, RenderError, FLAG_OUTSIDE_FIELD};
 use host_sim::reference::render::RefScene;
 use host_sim::render_cmd::{decode, render, Metrics, RenderOutput};
-use host_sim::scene_file::parse;
+mod common;
 
-const BASE: &str = r#"
-name = "extreme"
-[output]
-format = "gray8"
-exposure = 800.0
-[camera]
-width = 96
-height = 64
-focal_length = 2.4e-3
-pitch = 12e-6
-f_number = 2.0
-focus_distance = 3.0
-tolerable_blur = 12e-6
-pose = { eye = [0.0123, 1.2, -3.0], target = [0.0, 0.4, 0.0], up = [0.0, 1.0, 0.0] }
-[environment]
-ambient = 0.2
-background = 1.0
-[[materials]]
-name = "a"
-albedo = 0.7
-[[materials]]
-name = "b"
-albedo = 0.2
-[[lights]]
-kind = "directional"
-direction = [0.3, 1.0, -0.5]
-irradiance = 6.0
-"#;
-
-fn scene(extra: &str, replace: &[(&str, &str)]) -> host_sim::scene_file::Resolved {
-    let mut text = format!("{BASE}{extra}");
-    for (a, b) in replace {
-        assert!(text.contains(a), "fixture lacks {a:?}");
-        text = text.replacen(a, b, 1);
-    }
-    parse(&text).unwrap_or_else(|e| panic!("{e}"))
-}
+use common::fixture::{scene, CHECKER_FLOOR};
 
 fn run(r: &host_sim::scene_file::Resolved) -> RenderOutput {
     render(r, &Budget::default()).expect("renders")
@@ -73,15 +37,6 @@ fn agrees_off_edges(m: &Metrics) {
     );
     assert_eq!(m.field_flags_differing, 0, "{}", m.scene);
 }
-
-const CHECKER_FLOOR: &str = r#"
-[[primitives]]
-kind = "plane"
-material = "a"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 1.0, 0.0]
-checker = { cell = 0.5, material = "b", u_axis = [1.0, 0.0, 0.0] }
-"#;
 
 /// Grazing rays: the camera 5 cm above an infinite checkered floor, looking
 /// along it, so the horizon crosses the frame and rays near it meet the

@@ -115,7 +115,7 @@ enum Cmd {
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
-        /// A tiny sweep (a 40x30 scene, three variants, no growth or
+        /// A tiny sweep (a 40x30 scene, four variants, no growth or
         /// pruning runs): checks that the sweep works.
         #[arg(long)]
         tiny: bool,

@@ -5,7 +5,7 @@
 use crate::reference::render::{RefFrame, RefScene};
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{Frame, LineSink, Override, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, LineSink, FLAG_OUTSIDE_FIELD};
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
@@ -155,19 +155,19 @@ pub fn core_render(
     r: &Resolved,
     budget: &Budget,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame, Collect), String> {
-    core_render_variant(r, budget, Override::Planned)
+    core_render_variant(r, budget, &crate::variant::Variant::PLANNED)
 }
 
-/// [`core_render`] with per-pixel values in `S` and the plan overridden by
-/// `over`.
+/// [`core_render`] with per-pixel values in `S` and the options of
+/// `variant`.
 pub fn core_render_variant<S: Scalar>(
     r: &Resolved,
     budget: &Budget,
-    over: Override,
+    variant: &crate::variant::Variant,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame<S>, Collect), String> {
     let scene = r.core_scene()?;
     let plan = planner::plan(&scene, budget);
-    let frame = Frame::<S>::build(&scene, &plan.options.with(over))
+    let frame = Frame::<S>::build(&scene, &variant.options(plan.options))
         .map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
     let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
     Ok((scene, plan, frame, core))

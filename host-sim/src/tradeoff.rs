@@ -61,6 +61,11 @@ impl Config {
                 variants.push(Variant { scalar, over });
             }
         }
+        // The per-quantity format set evaluates the polynomial (no table).
+        variants.push(Variant {
+            scalar: ScalarKind::Mix32,
+            over: Override::Polynomial,
+        });
         let root = repo_root().join("scenes");
         Config {
             scenes: Some(vec![
@@ -74,7 +79,7 @@ impl Config {
         }
     }
 
-    /// A tiny sweep: a 40×30 standard scene, three variants, no growth or
+    /// A tiny sweep: a 40×30 standard scene, four variants, no growth or
     /// pruning runs.
     pub fn tiny(boards: Vec<Board>, repeats: usize) -> Config {
         Config {
@@ -87,6 +92,10 @@ impl Config {
                 },
                 Variant {
                     scalar: ScalarKind::F32,
+                    over: Override::Polynomial,
+                },
+                Variant {
+                    scalar: ScalarKind::Mix32,
                     over: Override::Polynomial,
                 },
             ],
@@ -330,7 +339,7 @@ fn host_ns_per_pixel(v: &Variant, r: &Resolved, repeats: usize) -> Result<f64, S
         }
     }
     let scene = r.core_scene()?;
-    let opts = plan(&scene, &Budget::default()).options.with(v.over);
+    let opts = v.options(plan(&scene, &Budget::default()).options);
     v.scalar.dispatch(Time {
         scene: &scene,
         opts,

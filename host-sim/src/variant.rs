@@ -6,7 +6,7 @@
 use crate::render_cmd::{core_render_variant, Collect};
 use crate::scene_file::Resolved;
 use hilcam::planner::{Budget, Plan};
-use hilcam::render::{DistortionEval, Frame, Override};
+use hilcam::render::{DistortionEval, Frame, Options, Override};
 use hilcam::scalar::{Scalar, I12F20, I16F16, I32F32};
 
 /// The per-pixel number type.
@@ -20,15 +20,19 @@ pub enum ScalarKind {
     I12F20,
     /// IEEE single precision.
     F32,
+    /// 32-bit fixed point, a format per quantity ([`hilcam::mix32`]; the
+    /// frame is prepared as for I32F32).
+    Mix32,
 }
 
 impl ScalarKind {
     /// All of them.
-    pub const ALL: [ScalarKind; 4] = [
+    pub const ALL: [ScalarKind; 5] = [
         ScalarKind::I32F32,
         ScalarKind::I16F16,
         ScalarKind::I12F20,
         ScalarKind::F32,
+        ScalarKind::Mix32,
     ];
 
     /// Name as in variant names.
@@ -38,13 +42,14 @@ impl ScalarKind {
             ScalarKind::I16F16 => I16F16::NAME,
             ScalarKind::I12F20 => I12F20::NAME,
             ScalarKind::F32 => f32::NAME,
+            ScalarKind::Mix32 => "mix32",
         }
     }
 
     /// The Rust type, as firmware code names it.
     pub fn type_path(self) -> &'static str {
         match self {
-            ScalarKind::I32F32 => "hilcam::scalar::I32F32",
+            ScalarKind::I32F32 | ScalarKind::Mix32 => "hilcam::scalar::I32F32",
             ScalarKind::I16F16 => "hilcam::scalar::I16F16",
             ScalarKind::I12F20 => "hilcam::scalar::I12F20",
             ScalarKind::F32 => "f32",
@@ -64,7 +69,7 @@ impl ScalarKind {
     /// Runs `w` with this type.
     pub fn dispatch<W: WithScalar>(self, w: W) -> W::Out {
         match self {
-            ScalarKind::I32F32 => w.run::<I32F32>(),
+            ScalarKind::I32F32 | ScalarKind::Mix32 => w.run::<I32F32>(),
             ScalarKind::I16F16 => w.run::<I16F16>(),
             ScalarKind::I12F20 => w.run::<I12F20>(),
             ScalarKind::F32 => w.run::<f32>(),
@@ -112,7 +117,7 @@ impl Variant {
         let bad = || {
             format!(
                 "variant {name:?}: expected SCALAR-planned, SCALAR-lutN-linear, SCALAR-lutN-nearest, \
-                 SCALAR-poly or SCALAR-all-stages, SCALAR one of i32f32, i16f16, i12f20, f32"
+                 SCALAR-poly or SCALAR-all-stages, SCALAR one of i32f32, i16f16, i12f20, f32, mix32"
             )
         };
         let (s, rest) = name.split_once('-').ok_or_else(bad)?;
@@ -147,16 +152,33 @@ impl Variant {
         Ok(Variant { scalar, over })
     }
 
-    /// The override as a Rust expression (for generated firmware code).
-    pub fn override_expr(&self) -> String {
-        match self.over {
+    /// The options this variant renders with, from the planned ones.
+    pub fn options(&self, planned: Options) -> Options {
+        let o = planned.with(self.over);
+        if self.scalar == ScalarKind::Mix32 {
+            o.mix32()
+        } else {
+            o
+        }
+    }
+
+    /// [`Variant::options`] as a Rust expression of `planned` (for
+    /// generated firmware code).
+    pub fn options_expr(&self, planned: &str) -> String {
+        let over = match self.over {
             Override::Planned => "Override::Planned".into(),
             Override::Polynomial => "Override::Polynomial".into(),
             Override::AllStages => "Override::AllStages".into(),
             Override::Table { entries, eval } => {
                 format!("Override::Table {{ entries: {entries}, eval: DistortionEval::{eval:?} }}")
             }
-        }
+        };
+        let mix = if self.scalar == ScalarKind::Mix32 {
+            ".mix32()"
+        } else {
+            ""
+        };
+        format!("{planned}.with({over}){mix}")
     }
 
     /// Renders `r` on the host with this variant: the frame's bytes and
@@ -165,20 +187,20 @@ impl Variant {
         struct Go<'a, W> {
             r: &'a Resolved,
             budget: &'a Budget,
-            over: Override,
+            variant: Variant,
             user: W,
         }
         impl<W: FrameUser> WithScalar for Go<'_, W> {
             type Out = Result<W::Out, String>;
             fn run<S: Scalar>(self) -> Self::Out {
-                let (_, plan, frame, core) = core_render_variant::<S>(self.r, self.budget, self.over)?;
+                let (_, plan, frame, core) = core_render_variant::<S>(self.r, self.budget, &self.variant)?;
                 Ok(self.user.use_frame(&plan, &frame, core))
             }
         }
         self.scalar.dispatch(Go {
             r,
             budget,
-            over: self.over,
+            variant: *self,
             user,
         })
     }
@@ -204,6 +226,7 @@ mod tests {
             "i12f20-lut16-nearest",
             "f32-poly",
             "i32f32-all-stages",
+            "mix32-poly",
         ] {
             assert_eq!(Variant::parse(n).map(|v| v.name()), Ok(n.to_string()));
         }

@@ -2,6 +2,8 @@
 //! ranges, and a recorder of the largest error each test saw.
 #![allow(dead_code)]
 
+pub mod fixture;
+
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
 use std::sync::atomic::{AtomicU64, Ordering};

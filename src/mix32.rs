@@ -1,0 +1,1038 @@
+//! The renderer's pixel path in 32-bit fixed point with one format per
+//! quantity (`mix32`): the speed/accuracy variant for cores without an FPU.
+//!
+//! The generic path ([`crate::render`] over a [`crate::scalar::Scalar`])
+//! runs every quantity in one type; 32 bits of one format cannot hold both a
+//! ray slope to 10⁻⁸ and a far hit point, and 64 bits cost a library call a
+//! product on Cortex-M3. Here every quantity has the format its range needs,
+//! products are one `SMULL`/`SMLAL` into 64 bits, shifts are constants, and
+//! what has no bounded range (irradiance, `1/r³`) is a normalized mantissa
+//! with an exponent ([`Pf`]). Same formulas (camera-model.md §3, §5, §6) as
+//! the generic path, written with fewer divisions: `cos⁴α = (1/a)²` with
+//! `a = d·d`, `E = I (n̂·l)/r³` from one reciprocal square root.
+//!
+//! Lengths are in a unit `U = 2^e` m chosen per frame: the smallest power of
+//! two with the frame's content (primitives, point lights, in the camera
+//! frame) within 8 U. Formats (`Sn`: `n` fractional bits):
+//!
+//! | quantity | format | range |
+//! |---|---|---|
+//! | `x̂_d`, `ŷ_d`, `x̂`, `ŷ` (slopes) | i32 S26 | ±32; `|x̂|, |ŷ| ≤ 16` checked per frame |
+//! | `u = r_d²`, `a = 1 + x̂² + ŷ²` | i32 S20 | ≤ 2 048 |
+//! | `k1`, `k2`, `g` | i32 S28 | `|g| < 8` checked per frame |
+//! | unit vectors (normals, light directions, checker axes) | i32 S30 | ±2 |
+//! | prepared lengths (centres, plane distances) | i32 S24 (U) | ±128 U; content ≤ 8 U |
+//! | `t`, hit points, vectors to lights | i32 S18 (U) | ±8 192 U, saturating |
+//! | sphere `b = d·c` / discriminant | i32 S22 / i64 S44 | ≤ 189 U / 3.6·10⁴ U² |
+//! | `r²` to a point light | u64 S36 (U²) | exact |
+//! | `cos⁴α` | [`Pf`] from u32 S31 | (0, 1] |
+//! | gains, albedos, irradiance, `1/r³` | [`Pf`] | any |
+//! | pixel sum | u32 S15 DN | 0 … 131 072 DN, saturating |
+//!
+//! Every product of positive radiometric terms is saturated only on the way
+//! into the pixel sum, after `cos⁴α` is applied, so a saturated sum means a
+//! saturated pixel. `t` beyond 8 192 U (1 024 times the content) saturates:
+//! the hit point then lies short of the surface along the ray.
+//!
+//! What the path does not do — parallel rays, a distortion table, the
+//! specular lobe — and scenes outside the formats are refused when the frame
+//! is prepared ([`crate::render::RenderError::OutsideFormat`]); the generic
+//! path renders them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
+
+use crate::render::{RenderError, FLAG_OUTSIDE_FIELD};
+use crate::scene::{PixelFormat, Q};
+use crate::shading::{Brdf, ShadingLight, V3};
+use core::num::NonZeroU32;
+
+/// `m · 2^e`: a normalized mantissa (top bit set) or zero, for the
+/// radiometric products, whose range no fixed format covers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Pf {
+    m: u32,
+    e: i32,
+}
+
+impl Pf {
+    /// `v · 2^e`, normalized.
+    #[inline(always)]
+    pub fn new(v: u64, e: i32) -> Pf {
+        if v == 0 {
+            return Pf::default();
+        }
+        let z = v.leading_zeros();
+        Pf {
+            m: ((v << z) >> 32) as u32,
+            e: e + 32 - z as i32,
+        }
+    }
+
+    /// `v · 2^e`, normalized (one 32-bit count of leading zeros).
+    #[inline(always)]
+    pub fn new32(v: u32, e: i32) -> Pf {
+        if v == 0 {
+            return Pf::default();
+        }
+        let z = v.leading_zeros();
+        Pf {
+            m: v << z,
+            e: e - z as i32,
+        }
+    }
+
+    /// An I32F32 value (negative values as 0).
+    pub fn of_q(q: Q) -> Pf {
+        Pf::new(q.to_bits().max(0) as u64, -32)
+    }
+
+    /// `floor(value · 2^frac)`, saturated to u32.
+    #[inline(always)]
+    pub fn to_fixed(self, frac: i32) -> u32 {
+        let s = self.e + frac;
+        if self.m == 0 || s <= -32 {
+            0
+        } else if s < 0 {
+            self.m >> -s
+        } else if s == 0 {
+            self.m
+        } else {
+            u32::MAX
+        }
+    }
+
+    /// `floor(value · 2^frac)` for `frac` ≤ 15, capped at [`SUM_CAP`].
+    #[inline(always)]
+    pub fn to_sum(self, frac: i32) -> u64 {
+        let s = self.e + frac;
+        if self.m == 0 || s <= -32 {
+            0
+        } else if s < 0 {
+            (self.m >> -s) as u64
+        } else if s <= 15 {
+            (self.m as u64) << s
+        } else {
+            SUM_CAP
+        }
+    }
+
+    /// The value as f64 (exact), for tests.
+    pub fn to_f64(self) -> f64 {
+        libm::ldexp(self.m as f64, self.e)
+    }
+}
+
+/// The cap of a pixel's sum before vignetting (S15 DN): 2³² DN, so that a
+/// capped sum times any `cos⁴α` (≥ 2⁻¹⁸) still saturates the pixel.
+pub const SUM_CAP: u64 = 1 << 47;
+
+/// `DN = floor(sum · cos⁴α + ½)` for a sum in S15 DN (≤ [`SUM_CAP`]) and
+/// `cos⁴α` in S31.
+#[inline(always)]
+fn vignette_dn(sum: u64, c4: u32) -> u64 {
+    if sum >> 32 == 0 {
+        (sum * c4 as u64 + (1 << 45)) >> 46
+    } else {
+        ((sum >> 16) * c4 as u64 + (1 << 29)) >> 30
+    }
+}
+
+impl core::ops::Mul for Pf {
+    type Output = Pf;
+
+    /// The product (mantissa truncated to 32 bits: ≤ 2⁻³¹ relative).
+    #[inline(always)]
+    fn mul(self, o: Pf) -> Pf {
+        // Two normalized mantissas: the product is in [2^62, 2^64), one
+        // shift from normalized (or 0).
+        let p = self.m as u64 * o.m as u64;
+        let (hi, lo) = ((p >> 32) as u32, p as u32);
+        let n = (hi >> 31) ^ 1; // 1: one shift left
+        Pf {
+            m: (hi << n) | ((lo >> 31) & n),
+            e: self.e + o.e + 32 - n as i32,
+        }
+    }
+}
+
+/// Seeds for [`recip`]: `1/v` in Q2.14 at the middle of each of 256
+/// intervals of `v` in `[½, 1)` (within 2⁻¹⁰).
+// Indexing in a constant: an index out of range fails the build.
+#[allow(clippy::indexing_slicing)]
+const RECIP_SEED: [u16; 256] = {
+    let mut t = [0u16; 256];
+    let mut i = 0;
+    while i < 256 {
+        // 2^14 / ((256 + i + ½)/512) = 2^24 / (513 + 2i), rounded.
+        let d = 513 + 2 * i as u32;
+        t[i] = ((1u32 << 24) + d / 2).wrapping_div(d) as u16;
+        i += 1;
+    }
+    t
+};
+
+/// `1/d` for `d > 0` as `(r, z)` with `1/d ≈ r · 2^(z − 62)`, `r` in
+/// `(2³⁰, 2³¹]`, relative error < 2⁻²⁹: two Newton steps from a 256-entry
+/// seed, four 32 × 32 products, no division.
+#[inline(always)]
+pub fn recip(d: NonZeroU32) -> (u32, u32) {
+    let z = d.leading_zeros();
+    let dn = d.get() << z; // v = dn / 2^32 in [½, 1)
+    let idx = ((dn >> 23) as usize).wrapping_sub(256);
+    let mut r = (RECIP_SEED.get(idx).copied().unwrap_or(1 << 15) as u32) << 16;
+    for _ in 0..2 {
+        // r (2 − v r), Q2.30.
+        let vr = ((dn as u64 * r as u64) >> 32) as u32;
+        r = ((r as u64 * (1u32 << 31).wrapping_sub(vr) as u64) >> 30) as u32;
+    }
+    (r, z)
+}
+
+/// `(v · r) · 2^-sh` for `r` ≤ 2³¹, saturated to i32: the product over
+/// 2³¹ fits 32 bits, then a 32-bit shift.
+#[inline(always)]
+fn mul_shr_var(v: i32, r: u32, sh: u32) -> i32 {
+    // |v r| ≤ 2^62: the quotient by 2^31 always fits.
+    let q = ((v as i64 * r as i64) >> 31) as i32;
+    if sh >= 31 {
+        q >> (sh - 31).min(31)
+    } else {
+        // Left by 31 − sh, saturating.
+        let l = 31 - sh;
+        if q.unsigned_abs().leading_zeros() > l {
+            q << l
+        } else if q < 0 {
+            i32::MIN
+        } else {
+            i32::MAX
+        }
+    }
+}
+
+/// Seeds for [`rsqrt_norm`]: `1/√((i + ½)/1024)` in Q2.14 for `i` in
+/// 256..1024 (within 2⁻¹⁰, so that one Newton step reaches 2⁻¹⁹).
+#[allow(clippy::indexing_slicing)]
+const SEED: [u16; 768] = {
+    let mut t = [0u16; 768];
+    let mut i = 0;
+    while i < 768 {
+        // y² (2(i+256)+1)/2048 = 1 in Q2.14: y = √(2^39 / (2i + 513)).
+        let target = (1u128 << 39) / (2 * i as u128 + 513);
+        let (mut lo, mut hi) = (0u128, 1u128 << 32);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if mid * mid <= target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        t[i] = lo as u16;
+        i += 1;
+    }
+    t
+};
+
+/// For `x ≠ 0`: `(m, y, z)` with `m = x << z` in `[2⁶², 2⁶⁴)`, `z` even, and
+/// `y ≈ 1/√(m/2⁶⁴)` in Q2.30 (in `(1, 2]`; relative error < 2⁻¹⁹): one
+/// Newton step from a 768-entry seed, three products.
+#[inline]
+fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
+    let z = x.leading_zeros() & !1;
+    let m = x << z;
+    let idx = ((m >> 54) as usize).saturating_sub(256);
+    let mut y = (SEED.get(idx).copied().unwrap_or(1 << 14) as u32) << 16;
+    let m32 = (m >> 32) as u32;
+    {
+        // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
+        let y2 = ((y as u64 * y as u64) >> 31) as u32;
+        let my2 = ((m32 as u64 * y2 as u64) >> 31) as u32;
+        y = ((y as u64 * (3u32 << 30).saturating_sub(my2) as u64) >> 31) as u32;
+    }
+    (m, y, z)
+}
+
+/// `1/√(x · 2^e)` for `x > 0`, `e` even.
+#[inline]
+pub fn rsqrt(x: u64, e: i32) -> Pf {
+    if x == 0 {
+        return Pf::default();
+    }
+    let (_, y, z) = rsqrt_norm(x);
+    // x 2^e = (m/2^64) 2^(64 − z + e); y ≈ (m/2^64)^(−½) · 2^30.
+    Pf::new32(y, -30 - (64 - z as i32 + e) / 2)
+}
+
+/// `⌊√x⌋` within one unit, as `√(x · 2⁻⁴⁴)` in S22 (`x < 2⁶²`).
+#[inline]
+fn sqrt_s44_to_s22(x: u64) -> i32 {
+    if x == 0 {
+        return 0;
+    }
+    let (m, y, z) = rsqrt_norm(x);
+    // √(m/2^64) = (m/2^64) · y in Q0.32; √x_real = that · 2^((20 − z)/2).
+    let s = (((m >> 32) * y as u64) >> 30).min(u32::MAX as u64);
+    (s >> (z / 2)).min(i32::MAX as u64) as i32
+}
+
+/// `[f(a₀, b₀), f(a₁, b₁), f(a₂, b₂)]`.
+#[inline(always)]
+fn zip3<A: Copy, B: Copy, R>(a: [A; 3], b: [B; 3], f: impl Fn(A, B) -> R) -> [R; 3] {
+    [f(a[0], b[0]), f(a[1], b[1]), f(a[2], b[2])]
+}
+
+#[inline(always)]
+fn sat32(v: i64) -> i32 {
+    v.clamp(i32::MIN as i64, i32::MAX as i64) as i32
+}
+
+/// `(a · b) >> SH`, saturated to i32: the 64-bit product's high word says
+/// whether it fits (a few instructions, no 64-bit compare).
+#[inline(always)]
+fn mul_shr_sat<const SH: u32>(a: i32, b: i32) -> i32 {
+    let p = a as i64 * b as i64;
+    let hi = (p >> 32) as i32;
+    if hi >> (SH - 1) == hi >> 31 {
+        (p >> SH) as i32
+    } else if hi < 0 {
+        i32::MIN
+    } else {
+        i32::MAX
+    }
+}
+
+/// A length in U, S24 / S18, from metres (I32F32), saturating.
+fn len_s(q: Q, unit_exp: i32, frac: i32) -> i32 {
+    // q_bits 2^-32 m = q_bits 2^(-32 - e) U → S(frac): shift by frac - 32 - e.
+    let sh = frac - 32 - unit_exp;
+    let b = q.to_bits() as i128;
+    let v = if sh >= 0 {
+        b << sh.min(64)
+    } else {
+        b >> (-sh).min(127)
+    };
+    v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
+}
+
+/// A unit-vector component (I32F32) in S30.
+fn unit_s30(q: Q) -> i32 {
+    sat32(q.to_bits() >> 2)
+}
+
+/// `1/v` for a positive length `v` (I32F32 m) in U⁻¹ as a mantissa and the
+/// right shift that turns `w · m` (w in S18) into S30 — or `None` if the
+/// length is below `2^-10 U`.
+fn recip_len(v: Q, unit_exp: i32) -> Option<(u32, u32)> {
+    // v in U, S24 (v ≥ 2^-10 U ⇒ ≥ 2^14).
+    let s = len_s(v, unit_exp, 24);
+    if s < 1 << 14 {
+        return None;
+    }
+    // 1/v = 2^54 / s (U⁻¹, S30) as Pf; w S18 · (1/v) → S30: Pf exponent e
+    // gives w·m·2^(e+30−18)... with e < −12 the shift is −(e + 12).
+    let p = Pf::new((1u64 << 54) / s as u64, -30);
+    let sh = -(p.e + 12);
+    (0..64).contains(&sh).then_some((p.m, sh as u32))
+}
+
+#[derive(Clone, Copy, Debug)]
+enum MixShape {
+    Plane {
+        n: [i32; 3],
+        dist: i32,
+    },
+    Sphere {
+        /// Centre, S24 (for `b`) and S18 (for the normal); `c_z` in S50.
+        c: [i32; 3],
+        cz50: i64,
+        c18: [i32; 3],
+        /// `|c|² − r²`, S24 U².
+        cc: i32,
+        inv_r: (u32, u32),
+    },
+    Disc {
+        n: [i32; 3],
+        dist: i32,
+        c18: [i32; 3],
+        /// r², S36 U².
+        r2: u64,
+    },
+    Rect {
+        n: [i32; 3],
+        dist: i32,
+        c18: [i32; 3],
+        u: [i32; 3],
+        v: [i32; 3],
+        /// Half sizes, S48 U.
+        hu: i64,
+        hv: i64,
+    },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct MixChecker {
+    u: [i32; 3],
+    v: [i32; 3],
+    /// `origin·u`, `origin·v`, S48 U.
+    ou: i64,
+    ov: i64,
+    /// `1/cell` as a mantissa and the right shift that floors
+    /// `w (S18) · mantissa` to a cell index.
+    inv_cell: (u32, u32),
+    material: u8,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct MixPrim {
+    shape: MixShape,
+    material: u8,
+    checker: Option<MixChecker>,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum MixLight {
+    /// Position S18 U; intensity per channel / U² (so that `I/r²` takes `r`
+    /// in U).
+    Point { p: [i32; 3], i: [Pf; 3] },
+    /// Unit direction S30; irradiance per channel.
+    Directional { l: [i32; 3], e: [Pf; 3] },
+}
+
+/// `kd · E` (or `kd · I/U²`) per light and channel for one material.
+struct KCache {
+    material: usize,
+    k: [[Pf; 3]; crate::scene::MAX_LIGHTS],
+}
+
+/// The per-frame state of the `mix32` path.
+#[derive(Clone, Debug)]
+pub struct Mix32 {
+    width: u16,
+    format: PixelFormat,
+    /// `x̂_d` of column 0 and its step, S58.
+    x0: i64,
+    dx: i64,
+    /// `ŷ_d` of line 0 and its step, I64F64 raw (as the generic path).
+    y0: i128,
+    dy: i128,
+    /// `k1`, `k2` (S28) if distortion is modelled; `u` limit (S20).
+    k: Option<[i32; 2]>,
+    limit: i32,
+    vignetting: bool,
+    prims: heapless::Vec<MixPrim, { crate::scene::MAX_PRIMITIVES }>,
+    lights: heapless::Vec<MixLight, { crate::scene::MAX_LIGHTS }>,
+    /// Per material and channel, times the gain: diffuse (DN per W/m²) and
+    /// ambient (S15 DN, capped at [`SUM_CAP`]).
+    kd: [[Pf; 3]; crate::scene::MAX_MATERIALS],
+    ka: [[u64; 3]; crate::scene::MAX_MATERIALS],
+    /// Background, S15 DN (capped).
+    bg: [u64; 3],
+}
+
+/// What [`Mix32::new`] takes from the frame the generic path prepared (all
+/// in I32F32, camera frame).
+pub(crate) struct Input<'a> {
+    pub width: u16,
+    pub height: u16,
+    pub format: PixelFormat,
+    pub x0: i128,
+    pub dx: i128,
+    pub y0: i128,
+    pub dy: i128,
+    /// `k1`, `k2` and the `u` limit, if distortion is modelled (polynomial).
+    pub distortion: Option<([Q; 2], Q)>,
+    pub vignetting: bool,
+    pub prims: &'a [crate::render::CamPrimQ],
+    pub lights: &'a [ShadingLight],
+    pub materials: &'a [Brdf],
+    pub background: V3,
+    pub gain: V3,
+}
+
+fn v_len(v: V3) -> Q {
+    // |v| ≤ 8.4·10⁶ m for scene content: √ of the I32F32 square sum in f64-free
+    // integer form (one-off, per frame).
+    let s: u128 = v
+        .iter()
+        .map(|c| (c.to_bits() as i128 * c.to_bits() as i128) as u128)
+        .sum();
+    // isqrt of s (2^-64 m²) → 2^-32 m.
+    let (mut lo, mut hi) = (0u128, 1u128 << 64);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if mid * mid <= s {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Q::from_bits(lo.min(i64::MAX as u128) as i64)
+}
+
+impl Mix32 {
+    /// Converts a prepared frame; refuses what the formats cannot hold.
+    pub(crate) fn new(f: &Input) -> Result<Mix32, RenderError> {
+        use crate::render::CamShapeQ as S;
+        let bad = RenderError::OutsideFormat;
+        // The unit: content within 8 U.
+        let mut extent = Q::ZERO;
+        let mut grow = |v: Q| extent = extent.max(v.abs());
+        for p in f.prims {
+            match p.shape {
+                S::Plane { dist, .. } => grow(dist),
+                S::Sphere { c, r2, .. } => grow(v_len(c).saturating_add(isqrt_q(r2))),
+                S::Disc { c, r2, .. } => grow(v_len(c).saturating_add(isqrt_q(r2))),
+                S::Rect { c, hu, hv, .. } => grow(v_len(c).saturating_add(hu).saturating_add(hv)),
+            }
+            if let Some(k) = &p.checker {
+                grow(v_len(k.origin));
+            }
+        }
+        for l in f.lights {
+            if let ShadingLight::Point { p, .. } = l {
+                grow(v_len(*p));
+            }
+        }
+        // U = 2^e with extent ≤ 8 U, e in [−20, 20].
+        let mut e: i32 = -20;
+        while e < 20 && extent > shl_q(8, e) {
+            e += 1;
+        }
+        if extent > shl_q(8, e) {
+            return Err(bad);
+        }
+        let l24 = |q: Q| len_s(q, e, 24);
+        let l18 = |q: Q| len_s(q, e, 18);
+        let u3 = |v: V3| v.map(unit_s30);
+        let dot48 =
+            |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| *x as i64 * y as i64).sum() };
+
+        let mut prims = heapless::Vec::new();
+        for p in f.prims {
+            let shape = match p.shape {
+                S::Plane { n, dist } => MixShape::Plane {
+                    n: u3(n),
+                    dist: l24(dist),
+                },
+                S::Sphere { c, r2, .. } => {
+                    let r = isqrt_q(r2);
+                    let c24 = c.map(l24);
+                    // |c|² − r² in S24 U², from S24 components (exact in i128).
+                    let cc = c24.iter().map(|v| *v as i128 * *v as i128).sum::<i128>()
+                        - (l24(r) as i128 * l24(r) as i128);
+                    MixShape::Sphere {
+                        cz50: (c24[2] as i64) << 26,
+                        c: c24,
+                        c18: c.map(l18),
+                        cc: (cc >> 24).clamp(i32::MIN as i128, i32::MAX as i128) as i32,
+                        inv_r: recip_len(r, e).ok_or(bad)?,
+                    }
+                }
+                S::Disc { n, dist, c, r2 } => {
+                    let r = l18(isqrt_q(r2)) as u64;
+                    MixShape::Disc {
+                        n: u3(n),
+                        dist: l24(dist),
+                        c18: c.map(l18),
+                        r2: r * r,
+                    }
+                }
+                S::Rect {
+                    n,
+                    dist,
+                    c,
+                    u,
+                    v,
+                    hu,
+                    hv,
+                } => MixShape::Rect {
+                    n: u3(n),
+                    dist: l24(dist),
+                    c18: c.map(l18),
+                    u: u3(u),
+                    v: u3(v),
+                    hu: (l18(hu) as i64) << 30,
+                    hv: (l18(hv) as i64) << 30,
+                },
+            };
+            let checker = match &p.checker {
+                Some(k) => {
+                    let o = k.origin.map(l18);
+                    let (u, v) = (u3(k.u), u3(k.v));
+                    let cell = Q::ONE.checked_div(k.inv_cell).ok_or(bad)?;
+                    Some(MixChecker {
+                        u,
+                        v,
+                        ou: dot48(o, u),
+                        ov: dot48(o, v),
+                        inv_cell: recip_len(cell, e)
+                            .map(|(m, sh)| (m, (sh + 30).min(63)))
+                            .ok_or(bad)?,
+                        material: k.material,
+                    })
+                }
+                None => None,
+            };
+            let _ = prims.push(MixPrim {
+                shape,
+                material: p.material,
+                checker,
+            });
+        }
+        // I/r² with r in U: I / U² = I 2^(−2e).
+        let mut lights = heapless::Vec::new();
+        for l in f.lights {
+            let m = match *l {
+                ShadingLight::Point { p, i } => MixLight::Point {
+                    p: p.map(l18),
+                    i: i.map(|v| {
+                        let p = Pf::of_q(v);
+                        Pf { e: p.e - 2 * e, ..p }
+                    }),
+                },
+                ShadingLight::Directional { l, e: irr } => MixLight::Directional {
+                    l: u3(l),
+                    e: irr.map(Pf::of_q),
+                },
+            };
+            let _ = lights.push(m);
+        }
+        let gain = f.gain.map(Pf::of_q);
+        let mut kd = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
+        let mut ka = [[0u64; 3]; crate::scene::MAX_MATERIALS];
+        for ((m, kd), ka) in f.materials.iter().zip(kd.iter_mut()).zip(ka.iter_mut()) {
+            *kd = zip3(m.kd, gain, |k, g| Pf::of_q(k) * g);
+            *ka = zip3(m.ka, gain, |k, g| (Pf::of_q(k) * g).to_sum(15));
+        }
+        let bg = zip3(f.background, gain, |b, g| (Pf::of_q(b) * g).to_sum(15));
+
+        // Slopes: |x̂_d|, |ŷ_d| < 32 at the corners (they are monotonic in
+        // the pixel index), |g| < 8 and |x̂|, |ŷ| ≤ 16.
+        let corner = |a: i128, d: i128, n: u16| -> Q {
+            let s = |i: i128| Q::from_bits(((a - d * i) >> 32) as i64).abs();
+            s(0).max(s(n as i128 - 1))
+        };
+        let (xm, ym) = (corner(f.x0, f.dx, f.width), corner(f.y0, f.dy, f.height));
+        if xm >= Q::from_num(32) || ym >= Q::from_num(32) {
+            return Err(bad);
+        }
+        let (k, limit, gmax) = match f.distortion {
+            Some(([k1, k2], limit)) => {
+                let u_corner = xm.saturating_mul(xm).saturating_add(ym.saturating_mul(ym));
+                let u_max = u_corner.min(limit);
+                let s = k1.abs().saturating_add(k2.abs().saturating_mul(u_max));
+                let g = Q::ONE.saturating_add(s.saturating_mul(u_max));
+                if s >= Q::from_num(8) || g >= Q::from_num(8) {
+                    return Err(bad);
+                }
+                let s28 = |q: Q| sat32(q.to_bits() >> 4);
+                (Some([s28(k1), s28(k2)]), sat32(limit.to_bits() >> 12), g)
+            }
+            None => (None, i32::MAX, Q::ONE),
+        };
+        if xm.max(ym).saturating_mul(gmax) > Q::from_num(16) {
+            return Err(bad);
+        }
+        Ok(Mix32 {
+            width: f.width,
+            format: f.format,
+            x0: (f.x0 >> 6) as i64,
+            dx: (f.dx >> 6) as i64,
+            y0: f.y0,
+            dy: f.dy,
+            k,
+            limit,
+            vignetting: f.vignetting,
+            prims,
+            lights,
+            kd,
+            ka,
+            bg,
+        })
+    }
+
+    /// `ŷ_d` of line `j`, S26.
+    #[inline(always)]
+    fn yd(&self, j: u16) -> i32 {
+        ((self.y0 - self.dy * j as i128) >> 38) as i32
+    }
+
+    /// `(x̂, ŷ)` (S26) of a distorted point, or `None` beyond the fold.
+    #[inline(always)]
+    fn undistort(&self, xd: i32, yd: i32, yd2: i64) -> Option<(i32, i32)> {
+        let Some([k1, k2]) = self.k else {
+            return Some((xd, yd));
+        };
+        // u S20 = (xd² + yd²) S52 >> 32.
+        let u = ((xd as i64 * xd as i64 + yd2) >> 32) as i32;
+        if u > self.limit {
+            return None;
+        }
+        // g − 1 = u (k1 + k2 u), S28; bounded per frame.
+        let s = k1 + ((k2 as i64 * u as i64) >> 20) as i32;
+        let g = (1 << 28) + ((s as i64 * u as i64) >> 20) as i32;
+        Some((
+            ((xd as i64 * g as i64) >> 28) as i32,
+            ((yd as i64 * g as i64) >> 28) as i32,
+        ))
+    }
+
+    /// The undistorted point of pixel `(i, j)` in I32F32, or `None` outside
+    /// the lens field — the pixel loop's own arithmetic.
+    pub fn undistorted(&self, i: u16, j: u16) -> Option<(Q, Q)> {
+        let xd = ((self.x0 - self.dx * i as i64) >> 32) as i32;
+        let yd = self.yd(j);
+        let (x, y) = self.undistort(xd, yd, yd as i64 * yd as i64)?;
+        Some((Q::from_bits((x as i64) << 6), Q::from_bits((y as i64) << 6)))
+    }
+
+    /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
+    pub fn line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+        if self.format.channels() == 1 {
+            self.line_c::<1>(j, pixels, flags);
+        } else {
+            self.line_c::<3>(j, pixels, flags);
+        }
+    }
+
+    /// [`Mix32::line`] for `C` channels.
+    #[inline(never)]
+    fn line_c<const C: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+        let bpp = self.format.bytes_per_pixel();
+        let channels = C;
+        let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c));
+        let yd = self.yd(j);
+        let yd2 = yd as i64 * yd as i64;
+        let mut acc = self.x0;
+        // kd · E per light for the material of the last shaded pixel.
+        let mut k = KCache {
+            material: usize::MAX,
+            k: [[Pf::default(); 3]; crate::scene::MAX_LIGHTS],
+        };
+        for (out, flag) in pixels
+            .chunks_exact_mut(bpp)
+            .zip(flags.iter_mut())
+            .take(self.width as usize)
+        {
+            let xd = (acc >> 32) as i32;
+            acc -= self.dx;
+            let Some((x, y)) = self.undistort(xd, yd, yd2) else {
+                *flag = FLAG_OUTSIDE_FIELD;
+                out.iter_mut().for_each(|b| *b = 0);
+                continue;
+            };
+            *flag = 0;
+            // a = d·d, S20.
+            let a = (1 << 20) + ((x as i64 * x as i64 + y as i64 * y as i64) >> 32) as i32;
+            // 1/a (a ≥ 1 in S20: 1/a_real = r 2^(z − 42), z ≤ 11), in S31;
+            // cos⁴α = (1/a)², S31.
+            let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
+            let c4 = if self.vignetting {
+                let inv = ra.0 >> (11u32.saturating_sub(ra.1));
+                ((inv as u64 * inv as u64) >> 31) as u32
+            } else {
+                1 << 31
+            };
+            let sum = match self.trace(x, y, a, ra) {
+                Some((m, pt, n, away)) => self.shade::<C>(m, pt, n, away, &mut k),
+                None => self.bg,
+            };
+            let mut dn = [0u32; 3];
+            for ((d, s), max) in dn.iter_mut().zip(sum).zip(dn_max).take(channels) {
+                *d = vignette_dn(s, c4).min(max as u64) as u32;
+            }
+            self.format.pack(dn, out);
+        }
+    }
+
+    /// The nearest hit along `(x, y, 1)`: material, point (S18 U) and the
+    /// unit normal facing the viewer (S30).
+    #[inline(always)]
+    /// `ra = (r, z)`: `1/a = r 2^(z − 62)`.
+    /// `away`: the normal faces away from the viewer (surfaces are
+    /// two-sided: shading turns it).
+    fn trace(&self, x: i32, y: i32, a: i32, ra: (u32, u32)) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+        // Hits have t < i32::MAX (a saturated t is i32::MAX − 1).
+        const T_MAX: i32 = i32::MAX - 1;
+        let mut best = i32::MAX;
+        // The primitive hit, its normal, and whether the normal faces away
+        // from the viewer (to be turned: surfaces are two-sided).
+        // (and the hit point, where the intersection test computed it).
+        let mut hit: Option<(&MixPrim, [i32; 3], bool, Option<[i32; 3]>)> = None;
+        let plane_t = |n: [i32; 3], dist: i32| -> Option<(i32, bool)> {
+            // n·d S56 → S24; t = dist / (n·d) in S18.
+            let den =
+                ((n[0] as i64 * x as i64 + n[1] as i64 * y as i64 + ((n[2] as i64) << 26)) >> 32) as i32;
+            // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
+            let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
+            let t = mul_shr_var(dist, r, 44 - z);
+            let t = if den < 0 { t.saturating_neg() } else { t };
+            (t > 0).then_some((t.min(T_MAX), den > 0))
+        };
+        let point = |t: i32| -> [i32; 3] { [mul_shr_sat::<26>(t, x), mul_shr_sat::<26>(t, y), t] };
+        for p in &self.prims {
+            // By reference: the fields are loaded where they are used, not
+            // copied out of the shape for every pixel.
+            let (t, n, away, pt) = match &p.shape {
+                MixShape::Plane { n, dist } => match plane_t(*n, *dist) {
+                    Some((t, away)) if t < best => (t, *n, away, None),
+                    _ => continue,
+                },
+                MixShape::Sphere {
+                    c,
+                    cz50,
+                    c18,
+                    cc,
+                    inv_r,
+                } => {
+                    // b = d·c S22; disc = b² − a cc, S44.
+                    let b = ((x as i64 * c[0] as i64 + y as i64 * c[1] as i64 + *cz50) >> 28) as i32;
+                    let disc = b as i64 * b as i64 - a as i64 * *cc as i64;
+                    if disc < 0 {
+                        continue;
+                    }
+                    let sq = sqrt_s44_to_s22(disc as u64);
+                    // t = (b ∓ √disc) 2^16 / a (S22 / S20 → S18).
+                    let over_a = |v: i32| mul_shr_var(v, ra.0, 46 - ra.1);
+                    let mut t = over_a(b - sq);
+                    // The far root: the ray starts inside, the outward
+                    // normal faces away.
+                    let inside = t <= 0;
+                    if inside {
+                        t = over_a(b + sq);
+                        if t <= 0 {
+                            continue;
+                        }
+                    }
+                    let t = t.min(T_MAX);
+                    if t >= best {
+                        continue;
+                    }
+                    let pt = point(t);
+                    let n = zip3(pt, *c18, |p, c| {
+                        let rel = p.saturating_sub(c);
+                        sat32((rel as i64 * inv_r.0 as i64) >> inv_r.1)
+                    });
+                    (t, n, inside, Some(pt))
+                }
+                MixShape::Disc { n, dist, c18, r2 } => match plane_t(*n, *dist) {
+                    Some((t, away)) if t < best => {
+                        let pt = point(t);
+                        let d2: u64 = zip3(pt, *c18, |p, c| {
+                            let r = p.saturating_sub(c) as i64;
+                            (r * r) as u64
+                        })
+                        .iter()
+                        .sum();
+                        if d2 > *r2 {
+                            continue;
+                        }
+                        (t, *n, away, Some(pt))
+                    }
+                    _ => continue,
+                },
+                MixShape::Rect {
+                    n,
+                    dist,
+                    c18,
+                    u,
+                    v,
+                    hu,
+                    hv,
+                } => match plane_t(*n, *dist) {
+                    Some((t, away)) if t < best => {
+                        let pt = point(t);
+                        let rel = zip3(pt, *c18, i32::saturating_sub);
+                        let dot = |a: [i32; 3]| {
+                            rel[0] as i64 * a[0] as i64
+                                + rel[1] as i64 * a[1] as i64
+                                + rel[2] as i64 * a[2] as i64
+                        };
+                        let (du, dv) = (dot(*u), dot(*v));
+                        if du.abs() > *hu || dv.abs() > *hv {
+                            continue;
+                        }
+                        (t, *n, away, Some(pt))
+                    }
+                    _ => continue,
+                },
+            };
+            best = t;
+            hit = Some((p, n, away, pt));
+        }
+        let (p, n, away, pt) = hit?;
+        let pt = pt.unwrap_or_else(|| point(best));
+        let mut m = p.material as usize;
+        if let Some(k) = &p.checker {
+            let cell = |axis: [i32; 3], o: i64| -> i64 {
+                let w = pt[0] as i64 * axis[0] as i64
+                    + pt[1] as i64 * axis[1] as i64
+                    + pt[2] as i64 * axis[2] as i64
+                    - o;
+                // S48 → S18 (saturating), times 1/cell → floor.
+                let hi = (w >> 32) as i32;
+                let w18 = if hi >> 29 == hi >> 31 {
+                    (w >> 30) as i32
+                } else if hi < 0 {
+                    i32::MIN
+                } else {
+                    i32::MAX
+                };
+                (w18 as i64 * k.inv_cell.0 as i64) >> k.inv_cell.1
+            };
+            if (cell(k.u, k.ou) + cell(k.v, k.ov)) & 1 != 0 {
+                m = k.material as usize;
+            }
+        }
+        Some((m, pt, n, away))
+    }
+
+    /// The ambient and Lambertian terms of every light, before vignetting:
+    /// S15 DN, capped at [`SUM_CAP`].
+    #[inline(always)]
+    fn shade<const C: usize>(
+        &self,
+        m: usize,
+        pt: [i32; 3],
+        n: [i32; 3],
+        away: bool,
+        k: &mut KCache,
+    ) -> [u64; 3] {
+        let channels = C;
+        let (Some(kd), Some(&ka)) = (self.kd.get(m), self.ka.get(m)) else {
+            return [0; 3];
+        };
+        if k.material != m {
+            k.material = m;
+            for (kl, l) in k.k.iter_mut().zip(&self.lights) {
+                let e = match l {
+                    MixLight::Point { i, .. } => i,
+                    MixLight::Directional { e, .. } => e,
+                };
+                for ((kc, d), e) in kl.iter_mut().zip(kd).zip(e).take(channels) {
+                    *kc = *d * *e;
+                }
+            }
+        }
+        let mut sum = ka;
+        for (l, kl) in self.lights.iter().zip(&k.k) {
+            let w = match l {
+                MixLight::Point { p, .. } => {
+                    let lv = zip3(*p, pt, i32::saturating_sub);
+                    // n·l, S48 U.
+                    let nl =
+                        n[0] as i64 * lv[0] as i64 + n[1] as i64 * lv[1] as i64 + n[2] as i64 * lv[2] as i64;
+                    let nl = if away { -nl } else { nl };
+                    if nl <= 0 {
+                        continue;
+                    }
+                    // r², S36 U², exact; (n·l)/r³ = (n·l) (1/√r²)³.
+                    let sq = |v: i32| (v as i64 * v as i64) as u64;
+                    let r2 = sq(lv[0]) + sq(lv[1]) + sq(lv[2]);
+                    let ir = rsqrt(r2, -36);
+                    Pf::new(nl as u64, -48) * (ir * ir * ir)
+                }
+                MixLight::Directional { l, .. } => {
+                    let nl =
+                        (n[0] as i64 * l[0] as i64 + n[1] as i64 * l[1] as i64 + n[2] as i64 * l[2] as i64)
+                            >> 30;
+                    let nl = if away { -nl } else { nl };
+                    if nl <= 0 {
+                        continue;
+                    }
+                    Pf::new32(nl as u32, -30)
+                }
+            };
+            for (s, k) in sum.iter_mut().zip(kl).take(channels) {
+                *s = (*s + (*k * w).to_sum(15)).min(SUM_CAP);
+            }
+        }
+        sum
+    }
+}
+
+/// `8 · 2^e` metres in I32F32 (saturating).
+fn shl_q(v: i64, e: i32) -> Q {
+    let b = v << 32;
+    Q::from_bits(if e >= 0 {
+        b.checked_shl(e as u32)
+            .filter(|x| x >> e == b)
+            .unwrap_or(i64::MAX)
+    } else {
+        b >> (-e).min(63)
+    })
+}
+
+/// `√v` for an I32F32 area (m²) in metres.
+fn isqrt_q(v: Q) -> Q {
+    let s = (v.to_bits().max(0) as u128) << 32;
+    let (mut lo, mut hi) = (0u128, 1u128 << 64);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if mid * mid <= s {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Q::from_bits(lo.min(i64::MAX as u128) as i64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (xorshift).
+    fn rng(seed: &mut u64) -> u64 {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 7;
+        *seed ^= *seed << 17;
+        *seed
+    }
+
+    #[test]
+    fn reciprocal_square_root_and_square_root_within_2_pow_minus_19() {
+        let mut s = 0x0123_4567_89AB_CDEF;
+        let mut worst: f64 = 0.0;
+        for _ in 0..200_000 {
+            let x = rng(&mut s) >> (rng(&mut s) % 64);
+            if x == 0 {
+                continue;
+            }
+            let e = 2 * (rng(&mut s) % 40) as i32 - 40;
+            let got = rsqrt(x, e).to_f64();
+            let want = 1.0 / ((x as f64) * 2f64.powi(e)).sqrt();
+            worst = worst.max((got / want - 1.0).abs());
+            let r = sqrt_s44_to_s22(x >> 2) as f64;
+            let w = ((x >> 2) as f64 * 2f64.powi(-44)).sqrt() * 2f64.powi(22);
+            assert!((r - w).abs() <= 1.0 + w * 2f64.powi(-19), "sqrt {x}: {r} vs {w}");
+        }
+        assert!(worst < 2f64.powi(-19), "rsqrt relative error {worst:e}");
+    }
+
+    #[test]
+    fn reciprocal_within_2_pow_minus_29() {
+        let mut s = 0x5555_1234_9876_ABCD;
+        let mut worst: f64 = 0.0;
+        for i in 0..300_000u32 {
+            let d = if i < 1000 {
+                i + 1
+            } else {
+                (rng(&mut s) >> (rng(&mut s) % 64)) as u32 | 1
+            };
+            let (r, z) = recip(NonZeroU32::new(d).unwrap());
+            let got = r as f64 * 2f64.powi(z as i32 - 62);
+            worst = worst.max((got * d as f64 - 1.0).abs());
+        }
+        assert!(worst < 2f64.powi(-29), "relative error {worst:e}");
+    }
+
+    #[test]
+    fn pseudo_float_products_and_saturation() {
+        let a = Pf::new(3, 0);
+        let b = Pf::new(5, -1);
+        assert_eq!((a * b).to_f64(), 7.5);
+        assert_eq!((a * b).to_fixed(1), 15);
+        assert_eq!(Pf::new(1, 40).to_fixed(0), u32::MAX);
+        assert_eq!(Pf::new(1, -40).to_fixed(0), 0);
+        assert_eq!((Pf::default() * a).to_fixed(30), 0);
+    }
+}

@@ -1,0 +1,252 @@
+//! The 32-bit per-quantity-format path (`mix32`): the rendering targets on
+//! every shipped scene it renders, a typed refusal of the others, and the
+//! extremes (far grazing hits, tangent rays, the inside of a sphere, wide
+//! angles, saturation, a light at the surface, the lens fold, every shape
+//! and pixel format) against the f64 reference.
+
+mod common;
+
+use common::fixture::{scene, CHECKER_FLOOR};
+use hilcam::planner::Budget;
+use hilcam::render::FLAG_OUTSIDE_FIELD;
+use hilcam::scalar::I32F32;
+use host_sim::reference::render::RefScene;
+use host_sim::render_cmd::{core_render_variant, Collect, Metrics};
+use host_sim::scene_file::{load, Resolved};
+use host_sim::variant::Variant;
+
+/// The frame rendered on the mix32 path and its metrics against the
+/// reference; `Err` with the renderer's refusal.
+fn mix(r: &Resolved) -> Result<(Metrics, Collect), String> {
+    let v = Variant::parse("mix32-poly").expect("variant");
+    let budget = Budget::default();
+    let (_, plan, frame, core) = core_render_variant::<I32F32>(r, &budget, &v)?;
+    let rs = RefScene::new(r);
+    let reference = rs.render();
+    let m = host_sim::render_cmd::compare(r, &rs, &reference, &plan, &budget, &frame, &core);
+    Ok((m, core))
+}
+
+/// Geometry within 1/256 px; smooth pixels within 1 LSB; flags agree; edge
+/// pixels that differ within 0.05 %.
+fn meets_targets(m: &Metrics) {
+    let name = &m.scene;
+    assert!(
+        m.max_geom_err_px <= 1.0 / 256.0,
+        "{name}: geometry {} px",
+        m.max_geom_err_px
+    );
+    assert!(
+        m.max_abs_lsb_smooth <= 1,
+        "{name}: smooth max {} LSB",
+        m.max_abs_lsb_smooth
+    );
+    assert_eq!(m.field_flags_differing, 0, "{name}: lens-field flags differ");
+    assert!(
+        m.edge_pixels_differing_fraction <= 0.0005,
+        "{name}: {} edge pixels differ",
+        m.edge_pixels_differing
+    );
+}
+
+#[test]
+fn shipped_scenes_meet_the_targets_or_are_refused() {
+    let dir = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
+    let mut rendered = Vec::new();
+    for name in [
+        "standard",
+        "checkerboard-barrel",
+        "wide-vignetting",
+        "spheres-specular",
+        "shallow-target",
+    ] {
+        let r = load(&dir.join(format!("{name}.toml"))).expect("loads");
+        match mix(&r) {
+            Ok((m, _)) => {
+                meets_targets(&m);
+                assert!(m.exact_fraction >= 0.99, "{name}: exact {}", m.exact_fraction);
+                rendered.push(name);
+            }
+            // The specular lobe and parallel rays are not on this path.
+            Err(e) => assert!(
+                e.contains("OutsideFormat") && ["spheres-specular", "shallow-target"].contains(&name),
+                "{name}: {e}"
+            ),
+        }
+    }
+    assert_eq!(rendered, ["standard", "checkerboard-barrel", "wide-vignetting"]);
+}
+
+/// Grazing rays to the horizon of a checkered floor: `t` saturates at
+/// 8 192 U, far beyond where the floor's cells alias into edge pixels.
+#[test]
+fn far_grazing_hits_saturate_without_wrapping() {
+    let r = scene(
+        CHECKER_FLOOR,
+        &[(
+            "eye = [0.0123, 1.2, -3.0], target = [0.0, 0.4, 0.0]",
+            "eye = [0.0123, 0.0537, -3.0], target = [0.0, 0.0537, 10.0]",
+        )],
+    );
+    let (m, _) = mix(&r).expect("renders");
+    meets_targets(&m);
+}
+
+#[test]
+fn tangent_rays_and_the_inside_of_a_sphere() {
+    let tangent = scene(
+        "[[primitives]]\nkind = \"sphere\"\nmaterial = \"a\"\ncentre = [0.0, 0.4, 0.0]\nradius = 1.0\n",
+        &[],
+    );
+    let (m, _) = mix(&tangent).expect("renders");
+    meets_targets(&m);
+    let inside = scene(
+        "[[primitives]]\nkind = \"sphere\"\nmaterial = \"a\"\ncentre = [0.0123, 1.2, -3.0]\nradius = 2.0\n",
+        &[("[environment]\nambient = 0.2", "[environment]\nambient = 0.5")],
+    );
+    let (m, core) = mix(&inside).expect("renders");
+    meets_targets(&m);
+    assert!(core.pixels.iter().all(|p| *p > 0), "every ray hits the inside");
+}
+
+/// Corner slopes of 15: cos⁴α ≈ 2·10⁻⁵ goes to 0 as the reference's does.
+#[test]
+fn wide_angle_vignetting_to_zero() {
+    let r = scene(
+        CHECKER_FLOOR,
+        &[
+            ("focal_length = 2.4e-3", "focal_length = 3.2e-3"),
+            ("pitch = 12e-6", "pitch = 1e-3"),
+        ],
+    );
+    let (m, core) = mix(&r).expect("renders");
+    meets_targets(&m);
+    assert_eq!(core.pixels[0], 0, "corner fully vignetted");
+}
+
+/// K = 10⁹ saturates every lit pixel at DN_max in every format (the sum
+/// is capped before vignetting, never wrapped); K = 0 gives 0.
+#[test]
+fn exposure_saturation_in_every_format() {
+    for (fmt, bytes) in [
+        ("format = \"gray8\"", vec![255u8]),
+        ("format = \"gray16\"\nbits = 12", 4095u16.to_le_bytes().to_vec()),
+        ("format = \"rgb565\"", 0xFFFFu16.to_le_bytes().to_vec()),
+    ] {
+        let bright = scene(
+            CHECKER_FLOOR,
+            &[
+                ("exposure = 800.0", "exposure = 1e9"),
+                ("format = \"gray8\"", fmt),
+            ],
+        );
+        let (m, core) = mix(&bright).expect("renders");
+        assert_eq!(m.max_abs_lsb, 0, "{fmt}");
+        assert!(
+            core.pixels.chunks(bytes.len()).all(|p| p == bytes),
+            "{fmt}: not all saturated"
+        );
+        let dark = scene(
+            CHECKER_FLOOR,
+            &[
+                ("exposure = 800.0", "exposure = 0.0"),
+                ("format = \"gray8\"", fmt),
+            ],
+        );
+        let (_, core) = mix(&dark).expect("renders");
+        assert!(core.pixels.iter().all(|p| *p == 0), "{fmt}");
+    }
+}
+
+/// A point light 1 mm above a lit floor: `1/r³` of 10⁹ m⁻³ saturates the
+/// pixels under it, as the reference's irradiance does; elsewhere within
+/// 1 LSB.
+#[test]
+fn point_light_at_the_surface() {
+    let r = scene(
+        &format!(
+            "{CHECKER_FLOOR}[[lights]]\nkind = \"point\"\nposition = [0.1, 0.001, 0.2]\nintensity = 5.0\n"
+        ),
+        &[],
+    );
+    let (m, _) = mix(&r).expect("renders");
+    meets_targets(&m);
+}
+
+/// A fold inside the sensor: the pixels beyond it are flagged and black,
+/// the flags agree with the reference's.
+#[test]
+fn lens_fold_inside_the_sensor() {
+    let r = scene(
+        CHECKER_FLOOR,
+        &[(
+            "tolerable_blur = 12e-6",
+            "tolerable_blur = 12e-6\ndistortion = [-6.0, 0.0]",
+        )],
+    );
+    let (m, core) = mix(&r).expect("renders");
+    assert!(m.outside_field_pixels > 100, "{}", m.outside_field_pixels);
+    meets_targets(&m);
+    for (p, f) in core.pixels.iter().zip(&core.flags) {
+        if f & FLAG_OUTSIDE_FIELD != 0 {
+            assert_eq!(*p, 0);
+        }
+    }
+}
+
+/// Discs and rectangles (with a checker), a point and a directional light,
+/// in colour.
+#[test]
+fn discs_rectangles_and_colour() {
+    let r = scene(
+        r#"
+[[primitives]]
+kind = "disc"
+material = "a"
+centre = [-0.4, 0.3, 0.2]
+normal = [0.2, 1.0, -0.3]
+radius = 0.35
+[[primitives]]
+kind = "rectangle"
+material = "a"
+centre = [0.5, 0.5, 0.4]
+normal = [0.0, 0.3, -1.0]
+u_axis = [1.0, 0.0, 0.0]
+size = [0.6, 0.5]
+checker = { cell = 0.07, material = "b", u_axis = [1.0, 0.0, 0.0] }
+[[lights]]
+kind = "point"
+position = [1.0, 2.0, -1.5]
+intensity = 20.0
+"#,
+        &[("format = \"gray8\"", "format = \"rgb565\"")],
+    );
+    let (m, _) = mix(&r).expect("renders");
+    meets_targets(&m);
+    assert!(m.exact_fraction >= 0.99, "exact {}", m.exact_fraction);
+}
+
+/// What the formats cannot hold is refused when the frame is prepared, with
+/// a typed error: a distortion whose factor `g` leaves ±8, and a sphere
+/// smaller than 2⁻¹⁰ of the frame's length unit (set by a light 900 m away).
+#[test]
+fn outside_the_formats_is_a_typed_error() {
+    let strong = scene(
+        CHECKER_FLOOR,
+        &[(
+            "tolerable_blur = 12e-6",
+            "tolerable_blur = 12e-6\ndistortion = [10.0, 100.0]",
+        )],
+    );
+    let tiny = scene(
+        "[[primitives]]\nkind = \"sphere\"\nmaterial = \"a\"\ncentre = [0.0, 0.4, 0.0]\nradius = 1e-3\n\
+         [[lights]]\nkind = \"point\"\nposition = [900.0, 0.0, 0.0]\nintensity = 5.0\n",
+        &[],
+    );
+    for r in [strong, tiny] {
+        let e = mix(&r).err().expect("refused");
+        assert!(e.contains("OutsideFormat"), "{e}");
+        // The generic path renders it.
+        assert!(host_sim::render_cmd::render(&r, &Budget::default()).is_ok());
+    }
+}
