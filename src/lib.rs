@@ -37,6 +37,7 @@ pub mod frame;
 pub mod intrinsics;
 pub mod lens;
 pub mod link;
+#[cfg(feature = "mix32")]
 pub mod mix32;
 pub mod num;
 pub mod planner;

@@ -5,11 +5,12 @@
 //! runs every quantity in one type; 32 bits of one format cannot hold both a
 //! ray slope to 10⁻⁸ and a far hit point, and 64 bits cost a library call a
 //! product on Cortex-M3. Here every quantity has the format its range needs,
-//! products are one `SMULL`/`SMLAL` into 64 bits, shifts are constants, and
+//! products are one `SMULL`/`SMLAL` into 64 bits with constant shifts, and
 //! what has no bounded range (irradiance, `1/r³`) is a normalized mantissa
-//! with an exponent ([`Pf`]). Same formulas (camera-model.md §3, §5, §6) as
-//! the generic path, written with fewer divisions: `cos⁴α = (1/a)²` with
-//! `a = d·d`, `E = I (n̂·l)/r³` from one reciprocal square root.
+//! with an exponent ([`Pf`]). There is no division: `1/x` ([`recip`]) and
+//! `1/√x` ([`rsqrt`]) are a table seed and a Newton step or two, products
+//! only. The formulas are the generic path's (camera-model.md §3, §5, §6):
+//! `cos⁴α = (1/a)²` with `a = d·d`, `E = I (n̂·l)(1/r)³`.
 //!
 //! Lengths are in a unit `U = 2^e` m chosen per frame: the smallest power of
 //! two with the frame's content (primitives, point lights, in the camera
@@ -25,14 +26,15 @@
 //! | `t`, hit points, vectors to lights | i32 S18 (U) | ±8 192 U, saturating |
 //! | sphere `b = d·c` / discriminant | i32 S22 / i64 S44 | ≤ 189 U / 3.6·10⁴ U² |
 //! | `r²` to a point light | u64 S36 (U²) | exact |
-//! | `cos⁴α` | [`Pf`] from u32 S31 | (0, 1] |
-//! | gains, albedos, irradiance, `1/r³` | [`Pf`] | any |
-//! | pixel sum | u32 S15 DN | 0 … 131 072 DN, saturating |
+//! | `cos⁴α` | u32 S31 | (0, 1] |
+//! | albedos × gain, irradiance, `1/r³` | [`Pf`] | any |
+//! | pixel sum before `cos⁴α` | u64 S15 DN | capped at 2³² DN ([`SUM_CAP`]) |
 //!
-//! Every product of positive radiometric terms is saturated only on the way
-//! into the pixel sum, after `cos⁴α` is applied, so a saturated sum means a
-//! saturated pixel. `t` beyond 8 192 U (1 024 times the content) saturates:
-//! the hit point then lies short of the surface along the ray.
+//! The terms of a pixel's sum are positive, and the cap times the smallest
+//! `cos⁴α` (2⁻¹⁸) still saturates the pixel, so capping never changes a
+//! pixel. `t` beyond 8 192 U (1 024 times the content) saturates: the hit
+//! point then lies short of the surface along the ray. `1/r` is good to
+//! 2⁻¹⁹, so `E` to 3·2⁻¹⁹ (6·10⁻⁶): 0.4 DN at the top of a 16-bit scale.
 //!
 //! What the path does not do — parallel rays, a distortion table, the
 //! specular lobe — and scenes outside the formats are refused when the frame
@@ -328,7 +330,7 @@ fn recip_len(v: Q, unit_exp: i32) -> Option<(u32, u32)> {
     }
     // 1/v = 2^54 / s (U⁻¹, S30) as Pf; w S18 · (1/v) → S30: Pf exponent e
     // gives w·m·2^(e+30−18)... with e < −12 the shift is −(e + 12).
-    let p = Pf::new((1u64 << 54) / s as u64, -30);
+    let p = Pf::new((1u64 << 54).checked_div(s as u64)?, -30);
     let sh = -(p.e + 12);
     (0..64).contains(&sh).then_some((p.m, sh as u32))
 }
@@ -394,6 +396,15 @@ enum MixLight {
     Point { p: [i32; 3], i: [Pf; 3] },
     /// Unit direction S30; irradiance per channel.
     Directional { l: [i32; 3], e: [Pf; 3] },
+}
+
+/// The nearest hit so far: primitive, normal (S30), whether it faces away,
+/// and the hit point (S18) if the test computed it.
+struct MixHit<'a> {
+    prim: &'a MixPrim,
+    n: [i32; 3],
+    away: bool,
+    pt: Option<[i32; 3]>,
 }
 
 /// `kd · E` (or `kd · I/U²`) per light and channel for one material.
@@ -611,7 +622,9 @@ impl Mix32 {
             s(0).max(s(n as i128 - 1))
         };
         let (xm, ym) = (corner(f.x0, f.dx, f.width), corner(f.y0, f.dy, f.height));
-        if xm >= Q::from_num(32) || ym >= Q::from_num(32) {
+        // (and one step past the last column: the accumulator takes it).
+        let step = Q::from_bits((f.dx >> 32) as i64).abs();
+        if xm.saturating_add(step) >= Q::from_num(32) || ym >= Q::from_num(32) {
             return Err(bad);
         }
         let (k, limit, gmax) = match f.distortion {
@@ -756,7 +769,7 @@ impl Mix32 {
         // The primitive hit, its normal, and whether the normal faces away
         // from the viewer (to be turned: surfaces are two-sided).
         // (and the hit point, where the intersection test computed it).
-        let mut hit: Option<(&MixPrim, [i32; 3], bool, Option<[i32; 3]>)> = None;
+        let mut hit: Option<MixHit> = None;
         let plane_t = |n: [i32; 3], dist: i32| -> Option<(i32, bool)> {
             // n·d S56 → S24; t = dist / (n·d) in S18.
             let den =
@@ -856,9 +869,9 @@ impl Mix32 {
                 },
             };
             best = t;
-            hit = Some((p, n, away, pt));
+            hit = Some(MixHit { prim: p, n, away, pt });
         }
-        let (p, n, away, pt) = hit?;
+        let MixHit { prim: p, n, away, pt } = hit?;
         let pt = pt.unwrap_or_else(|| point(best));
         let mut m = p.material as usize;
         if let Some(k) = &p.checker {

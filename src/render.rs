@@ -259,8 +259,10 @@ impl Stages {
 
 /// A primitive in the camera frame.
 /// A primitive in the camera frame, I32F32 (what [`crate::mix32`] converts).
+#[cfg(feature = "mix32")]
 pub(crate) type CamPrimQ = CamPrim<Q>;
 /// Its shape.
+#[cfg(feature = "mix32")]
 pub(crate) type CamShapeQ = CamShape<Q>;
 
 #[derive(Clone, Copy, Debug)]
@@ -399,6 +401,7 @@ pub struct Frame<S: Scalar = Q> {
     /// DN per unit radiance on the axis.
     gain: V3<S>,
     /// The [`crate::mix32`] path, when the options ask for it.
+    #[cfg(feature = "mix32")]
     mix: Option<crate::mix32::Mix32>,
 }
 
@@ -466,6 +469,7 @@ impl<S: Scalar> Frame<S> {
             materials: [Brdf::default().to(); crate::scene::MAX_MATERIALS],
             background: [S::ZERO; 3],
             gain: [S::ZERO; 3],
+            #[cfg(feature = "mix32")]
             mix: None,
         }
     }
@@ -517,7 +521,10 @@ impl<S: Scalar> Frame<S> {
         self.prims.clear();
         self.lights.clear();
         self.materials = [Brdf::default().to(); crate::scene::MAX_MATERIALS];
-        self.mix = None;
+        #[cfg(feature = "mix32")]
+        {
+            self.mix = None;
+        }
         let mut poly_q = None;
         // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
         // every stage kept, a lens without distortion runs the identity
@@ -575,33 +582,14 @@ impl<S: Scalar> Frame<S> {
             .ok_or(RenderError::Degenerate)?;
         let gain = [0, 1, 2].map(|c| vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c)));
         self.gain = from_q3(gain);
-        let mut materials = [Brdf::default(); crate::scene::MAX_MATERIALS];
-        for (m, dst) in scene.materials.iter().zip(materials.iter_mut()) {
-            *dst = Brdf::new(m, scene.ambient);
+        for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
+            *dst = Brdf::new(m, scene.ambient).to();
         }
-        for (dst, m) in self.materials.iter_mut().zip(&materials) {
-            *dst = m.to();
-        }
-        let mut prims: heapless::Vec<CamPrimQ, { crate::scene::MAX_PRIMITIVES }> = heapless::Vec::new();
         for p in &scene.primitives {
-            let p = cam_prim(scene, p);
-            let _ = prims.push(p);
-            let _ = self.prims.push(p.to());
+            let _ = self.prims.push(cam_prim(scene, p).to());
         }
-        let mut lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }> = heapless::Vec::new();
         for l in &scene.lights {
-            let light: ShadingLight = match *l {
-                Light::Point { position, intensity } => ShadingLight::Point {
-                    p: v3_world_to_cam(scene, position),
-                    i: intensity,
-                },
-                Light::Directional { towards, irradiance } => ShadingLight::Directional {
-                    l: dir_to_cam(scene, towards),
-                    e: irradiance,
-                },
-            };
-            let _ = lights.push(light);
-            let _ = self.lights.push(light.to());
+            let _ = self.lights.push(shading_light(scene, l).to());
         }
         if opts.mix32 {
             let table =
@@ -609,24 +597,55 @@ impl<S: Scalar> Frame<S> {
             if !matches!(opts.model, RenderModel::Perspective) || self.stages.specular || table {
                 return Err(RenderError::OutsideFormat);
             }
-            self.mix = Some(crate::mix32::Mix32::new(&crate::mix32::Input {
-                width: w,
-                height: h,
-                format: scene.format,
-                x0,
-                dx,
-                y0,
-                dy,
-                distortion: poly_q,
-                vignetting: self.stages.vignetting,
-                prims: &prims,
-                lights: &lights,
-                materials: &materials,
-                background: scene.background,
-                gain,
-            })?);
+            self.prepare_mix32(scene, poly_q, gain)?;
         }
         Ok(())
+    }
+
+    /// Prepares the [`crate::mix32`] path from the scene's I32F32 values.
+    #[cfg(feature = "mix32")]
+    #[inline(never)]
+    fn prepare_mix32(
+        &mut self,
+        scene: &Scene,
+        distortion: Option<([Q; 2], Q)>,
+        gain: V3,
+    ) -> Result<(), RenderError> {
+        let mut materials = [Brdf::default(); crate::scene::MAX_MATERIALS];
+        for (m, dst) in scene.materials.iter().zip(materials.iter_mut()) {
+            *dst = Brdf::new(m, scene.ambient);
+        }
+        let mut prims: heapless::Vec<CamPrimQ, { crate::scene::MAX_PRIMITIVES }> = heapless::Vec::new();
+        for p in &scene.primitives {
+            let _ = prims.push(cam_prim(scene, p));
+        }
+        let mut lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }> = heapless::Vec::new();
+        for l in &scene.lights {
+            let _ = lights.push(shading_light(scene, l));
+        }
+        self.mix = Some(crate::mix32::Mix32::new(&crate::mix32::Input {
+            width: self.width,
+            height: self.height,
+            format: scene.format,
+            x0: self.x0,
+            dx: self.dx,
+            y0: self.y0,
+            dy: self.dy,
+            distortion,
+            vignetting: self.stages.vignetting,
+            prims: &prims,
+            lights: &lights,
+            materials: &materials,
+            background: scene.background,
+            gain,
+        })?);
+        Ok(())
+    }
+
+    /// Without the `mix32` feature the path is not built in.
+    #[cfg(not(feature = "mix32"))]
+    fn prepare_mix32(&mut self, _: &Scene, _: Option<([Q; 2], Q)>, _: V3) -> Result<(), RenderError> {
+        Err(RenderError::OutsideFormat)
     }
 
     /// The stages this frame runs.
@@ -668,6 +687,7 @@ impl<S: Scalar> Frame<S> {
     /// pixel `(i, j)`, or `None` outside the lens field — the same code path
     /// as the pixel loop.
     pub fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
+        #[cfg(feature = "mix32")]
         if let Some(m) = &self.mix {
             return m.undistorted(i, j).map(|(x, y)| (S::from_q(x), S::from_q(y)));
         }
@@ -702,9 +722,12 @@ impl<S: Scalar> Frame<S> {
             return Err(RenderError::BufferTooSmall);
         }
         // Per-frame dispatch to one of the three loops.
+        #[cfg(feature = "mix32")]
         if let Some(m) = &self.mix {
             m.line(j, pixels, flags);
-        } else if matches!(self.stages.model, RenderModel::Perspective) {
+            return Ok(());
+        }
+        if matches!(self.stages.model, RenderModel::Perspective) {
             self.line::<true>(j, pixels, flags);
         } else {
             self.line::<false>(j, pixels, flags);
@@ -770,12 +793,19 @@ impl<S: Scalar> Frame<S> {
                     [S::ZERO, S::ZERO, S::ONE],
                 )
             };
+            // d·d (1 for parallel rays); for perspective rays also the
+            // 1 + x̂² + ŷ² of cos⁴α (equal in fixed point, where sums are exact).
+            let a = if PERSP { dot(d, d) } else { S::ONE };
             let radiance = if spec {
-                self.trace::<true, PERSP>(o, d)
+                self.trace::<true, PERSP>(o, d, a)
             } else {
-                self.trace::<false, PERSP>(o, d)
+                self.trace::<false, PERSP>(o, d, a)
             };
-            let cos4 = if vig { vignetting::cos4(x, y) } else { S::ONE };
+            let cos4 = match (vig, PERSP) {
+                (false, _) => S::ONE,
+                (true, true) => vignetting::cos4_of(a),
+                (true, false) => vignetting::cos4(x, y),
+            };
             let mut dn = [0u32; 3];
             for (((dst, l), g), max) in dn
                 .iter_mut()
@@ -790,42 +820,36 @@ impl<S: Scalar> Frame<S> {
         }
     }
 
-    /// Radiance (per channel) seen along the ray `o + t d`.
+    /// Radiance (per channel) seen along the ray `o + t d`, `a = d·d`.
     #[inline]
-    fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3<S>, d: V3<S>) -> V3<S> {
-        let mut best = S::MAX;
-        let mut hit: Option<(usize, V3<S>, V3<S>)> = None; // (material, point, normal)
-        let a = if PERSP { dot(d, d) } else { S::ONE };
+    fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3<S>, d: V3<S>, a: S) -> V3<S> {
+        let mut nearest: Option<(&CamPrim<S>, Hit<S>)> = None;
         for p in &self.prims {
-            if let Some((t, n)) = intersect::<S, PERSP>(&p.shape, o, d, a) {
-                if t < best {
-                    best = t;
-                    let point = axpy(t, d, o);
-                    let mut m = p.material as usize;
-                    if let Some(ch) = &p.checker {
-                        let rel = sub3(point, ch.origin);
-                        let cu = dot(rel, ch.u).mul(ch.inv_cell).floor_int();
-                        let cv = dot(rel, ch.v).mul(ch.inv_cell).floor_int();
-                        if (cu + cv) & 1 != 0 {
-                            m = ch.material as usize;
-                        }
-                    }
-                    hit = Some((m, point, n));
+            if let Some(h) = intersect::<S, PERSP>(&p.shape, o, d, a) {
+                if h.t < nearest.as_ref().map_or(S::MAX, |(_, b)| b.t) {
+                    nearest = Some((p, h));
                 }
             }
         }
-        let Some((m, point, normal)) = hit else {
+        let Some((p, hit)) = nearest else {
             return self.background;
         };
+        // The point and the texture of the nearest hit only.
+        let point = hit.point.unwrap_or_else(|| axpy(hit.t, d, o));
+        let mut m = p.material as usize;
+        if let Some(ch) = &p.checker {
+            let rel = sub3(point, ch.origin);
+            let cu = dot(rel, ch.u).mul(ch.inv_cell).floor_int();
+            let cv = dot(rel, ch.v).mul(ch.inv_cell).floor_int();
+            if (cu + cv) & 1 != 0 {
+                m = ch.material as usize;
+            }
+        }
         let Some(mat) = self.materials.get(m) else {
             return self.background;
         };
         // Two-sided surfaces: the normal faces the viewer.
-        let normal = if dot(normal, d) > S::ZERO {
-            normal.map(S::neg)
-        } else {
-            normal
-        };
+        let normal = if hit.away { hit.n.map(S::neg) } else { hit.n };
         let view = if SPEC {
             if PERSP {
                 let len = a.sqrt().unwrap_or(S::ONE);
@@ -847,16 +871,39 @@ fn from_acc(acc: i128) -> Q {
     Q::from_bits((acc >> 32) as i64)
 }
 
-/// Nearest hit `t > 0` of the ray with a shape, and the (unit) normal there.
+/// A ray's hit on a shape.
+struct Hit<S> {
+    /// Ray parameter, > 0.
+    t: S,
+    /// Unit normal.
+    n: V3<S>,
+    /// The normal faces away from the viewer (`n̂·d > 0`).
+    away: bool,
+    /// `o + t d`, if the test computed it.
+    point: Option<V3<S>>,
+}
+
+/// Nearest hit `t > 0` of the ray with a shape. `a = d·d` (1 for parallel
+/// rays), computed once per ray.
 #[inline]
-/// `a = d·d` (1 for parallel rays), computed once per ray.
-fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) -> Option<(S, V3<S>)> {
+fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) -> Option<Hit<S>> {
+    let flat = |(t, denom): (S, S), point| Hit {
+        t,
+        n: match *s {
+            CamShape::Plane { n, .. } | CamShape::Disc { n, .. } | CamShape::Rect { n, .. } => n,
+            CamShape::Sphere { .. } => [S::ZERO; 3],
+        },
+        // n̂·d is the plane's denominator.
+        away: denom > S::ZERO,
+        point,
+    };
     match *s {
-        CamShape::Plane { n, dist } => plane_t::<S, PERSP>(n, dist, o, d).map(|t| (t, n)),
+        CamShape::Plane { n, dist } => plane_t::<S, PERSP>(n, dist, o, d).map(|td| flat(td, None)),
         CamShape::Disc { n, dist, c, r2 } => {
-            let t = plane_t::<S, PERSP>(n, dist, o, d)?;
-            let rel = sub3(axpy(t, d, o), c);
-            (dot(rel, rel) <= r2).then_some((t, n))
+            let td = plane_t::<S, PERSP>(n, dist, o, d)?;
+            let p = axpy(td.0, d, o);
+            let rel = sub3(p, c);
+            (dot(rel, rel) <= r2).then(|| flat(td, Some(p)))
         }
         CamShape::Rect {
             n,
@@ -867,9 +914,10 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
             hu,
             hv,
         } => {
-            let t = plane_t::<S, PERSP>(n, dist, o, d)?;
-            let rel = sub3(axpy(t, d, o), c);
-            (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then_some((t, n))
+            let td = plane_t::<S, PERSP>(n, dist, o, d)?;
+            let p = axpy(td.0, d, o);
+            let rel = sub3(p, c);
+            (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then(|| flat(td, Some(p)))
         }
         CamShape::Sphere { c, r2, inv_r, cc } => {
             // |o + t d − c|² = r²: a t² − 2 b t + cc = 0; from the origin
@@ -893,13 +941,20 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
                 }
             }
             let p = axpy(t, d, o);
-            Some((t, scale3(inv_r, sub3(p, c))))
+            let n = scale3(inv_r, sub3(p, c));
+            Some(Hit {
+                t,
+                n,
+                away: dot(n, d) > S::ZERO,
+                point: Some(p),
+            })
         }
     }
 }
 
 #[inline]
-fn plane_t<S: Scalar, const PERSP: bool>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Option<S> {
+/// `t > 0` and `n̂·d` where the ray meets the plane `n̂·P = dist`.
+fn plane_t<S: Scalar, const PERSP: bool>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Option<(S, S)> {
     let denom = if PERSP { dot(n, d) } else { n[2] };
     let num = if PERSP {
         dist
@@ -907,7 +962,21 @@ fn plane_t<S: Scalar, const PERSP: bool>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) 
         dist.sub(n[0].mul(o[0]).add(n[1].mul(o[1])))
     };
     let t = num.div(denom)?;
-    (t > S::ZERO).then_some(t)
+    (t > S::ZERO).then_some((t, denom))
+}
+
+/// A light in the camera frame, I32F32.
+fn shading_light(scene: &Scene, l: &Light) -> ShadingLight {
+    match *l {
+        Light::Point { position, intensity } => ShadingLight::Point {
+            p: v3_world_to_cam(scene, position),
+            i: intensity,
+        },
+        Light::Directional { towards, irradiance } => ShadingLight::Directional {
+            l: dir_to_cam(scene, towards),
+            e: irradiance,
+        },
+    }
 }
 
 fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim<Q> {

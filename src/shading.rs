@@ -152,7 +152,9 @@ pub fn radiance<S: Scalar, const SPEC: bool>(
 ) -> V3<S> {
     let mut l = mat.ka;
     for light in lights {
-        let (ldir, e) = match *light {
+        // The light's direction, a factor k and its per-channel strength:
+        // irradiance E_c = k · strength_c (computed per rendered channel).
+        let (ldir, k, strength) = match *light {
             ShadingLight::Point { p, i } => {
                 let lv = sub3(p, point);
                 let r2 = dot(lv, lv);
@@ -160,20 +162,31 @@ pub fn radiance<S: Scalar, const SPEC: bool>(
                 let Some(inv_r) = S::ONE.div(r) else {
                     continue;
                 };
-                let ldir = scale3(inv_r, lv);
-                let cos = dot(normal, ldir);
-                if cos <= S::ZERO {
-                    continue;
+                if SPEC {
+                    let ldir = scale3(inv_r, lv);
+                    let cos = dot(normal, ldir);
+                    if cos <= S::ZERO {
+                        continue;
+                    }
+                    let k = cos.div(r2).unwrap_or(S::MAX);
+                    (ldir, k, i)
+                } else {
+                    // Without the lobe the direction itself is not needed:
+                    // cos/r² = (n̂·l) (1/r)³, one division fewer.
+                    let nl = dot(normal, lv);
+                    if nl <= S::ZERO {
+                        continue;
+                    }
+                    let k = nl.mul(inv_r).mul(inv_r).mul(inv_r);
+                    (lv, k, i)
                 }
-                let k = cos.div(r2).unwrap_or(S::MAX);
-                (ldir, scale3(k, i))
             }
             ShadingLight::Directional { l, e } => {
                 let cos = dot(normal, l);
                 if cos <= S::ZERO {
                     continue;
                 }
-                (l, scale3(cos, e))
+                (l, cos, e)
             }
         };
         let lobe = if SPEC {
@@ -184,14 +197,15 @@ pub fn radiance<S: Scalar, const SPEC: bool>(
             None
         };
         for c in 0..channels.min(3) {
-            let (Some(kd), Some(ks), Some(ec), Some(lc)) =
-                (mat.kd.get(c), mat.ks.get(c), e.get(c), l.get_mut(c))
+            let (Some(kd), Some(ks), Some(sc), Some(lc)) =
+                (mat.kd.get(c), mat.ks.get(c), strength.get(c), l.get_mut(c))
             else {
                 continue;
             };
-            let mut v = kd.mul(*ec);
+            let ec = k.mul(*sc);
+            let mut v = kd.mul(ec);
             if let Some(f) = lobe {
-                v = v.add(S::scale_lobe(ks.mul(*ec), f));
+                v = v.add(S::scale_lobe(ks.mul(ec), f));
             }
             *lc = lc.add(v);
         }

@@ -15,8 +15,14 @@ use core::ops::Mul as _;
 /// renderer's range).
 #[inline(always)]
 pub fn cos4<S: Scalar>(x: S, y: S) -> S {
-    let w = S::ONE.add(x.mul(x)).add(y.mul(y));
-    S::ONE.div(w.mul(w)).unwrap_or(S::ZERO)
+    cos4_of(S::ONE.add(x.mul(x)).add(y.mul(y)))
+}
+
+/// `cos⁴α = 1/a²` from `a = 1 + x̂² + ŷ²` (the perspective ray's `d·d`,
+/// which the renderer has computed already).
+#[inline(always)]
+pub fn cos4_of<S: Scalar>(a: S) -> S {
+    S::ONE.div(a.mul(a)).unwrap_or(S::ZERO)
 }
 
 /// The per-frame gain `K π/4 (d/f)² · num/den`: DN per unit radiance on the

@@ -41,6 +41,7 @@ fn light() -> impl Strategy<Value = L> {
 }
 
 static SHADE: Max = Max::new("shading_radiance_over_bound", "of the documented bound");
+static LEAN: Max = Max::new("shading_lambertian_path_over_bound", "of the documented bound");
 
 /// Radiance of a random material under 1–3 random lights (point lights 0.1
 /// to 10 m away), at a point at the origin with a random normal and view
@@ -141,15 +142,28 @@ fn shading_matches_reference() {
                     want[c]
                 );
             }
-            // Without a specular lobe the specular-free path gives the same.
-            if m.specular.iter().all(|s| *s == Q::ZERO) || m.mix == Q::ONE {
-                let lean = radiance::<Q, false>(&brdf, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
-                prop_assert_eq!(lean, got);
+            // The specular-free path computes cos/r² as (n̂·l)(1/r)³, one
+            // division fewer: for the same material made Lambertian it agrees
+            // with the general path (checked against the reference above)
+            // within the same documented bound.
+            let lambertian = Brdf::new(&Material { mix: Q::ONE, ..m }, q3(ambient));
+            let general = radiance::<Q, true>(&lambertian, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
+            let lean = radiance::<Q, false>(&lambertian, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
+            for c in 0..3 {
+                let e = rel(lean[c].to_num(), general[c].to_num(), 1e-3);
+                LEAN.record(e / tol);
+                prop_assert!(
+                    e <= tol,
+                    "Lambertian channel {c}: {} vs {} (rel {e})",
+                    lean[c],
+                    general[c]
+                );
             }
             Ok(())
         },
     );
     SHADE.report();
+    LEAN.report();
 }
 
 static COS4: Max = Max::new("vignetting_cos4_abs", "absolute");

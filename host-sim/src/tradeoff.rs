@@ -849,12 +849,32 @@ fn recommend(
         });
     }
     if let Some(v) = cheapest(rows, scenes, |r| r.instructions_per_pixel_m4f, false) {
+        let m4f = |n: &str| row(n).and_then(|r| r.instructions_per_pixel_m4f);
+        let f32_best = cheapest(
+            &rows
+                .iter()
+                .filter(|r| r.scalar == "f32")
+                .cloned()
+                .collect::<Vec<_>>(),
+            scenes,
+            |r| r.instructions_per_pixel_m4f,
+            false,
+        );
+        let verdict = if row(&v).is_some_and(|r| r.scalar == "f32") {
+            "hardware f32 wins there".to_string()
+        } else {
+            format!(
+                "fixed point beats the FPU there: the best f32 variant, {}, needs {}",
+                f32_best.as_deref().unwrap_or("-"),
+                fmt(f32_best.as_deref().and_then(m4f))
+            )
+        };
         out.push(Recommendation {
             target: "M4F".into(),
             reason: format!(
                 "fewest M4F instructions per pixel ({}) of all variants within 1 LSB on smooth pixels on every \
-                 sweep scene: hardware f32 wins there",
-                fmt(row(&v).and_then(|r| r.instructions_per_pixel_m4f))
+                 sweep scene; {verdict}",
+                fmt(m4f(&v))
             ),
             variant: v,
         });

@@ -64,8 +64,8 @@ fn tradeoff_sweep_runs_on_a_tiny_configuration() {
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("tradeoff.json")).expect("json")).expect("parses");
     let rows = json["variants"].as_array().expect("variants");
-    // The reference and the three tiny variants.
-    assert_eq!(rows.len(), 4);
+    // The reference and the four tiny variants.
+    assert_eq!(rows.len(), 5);
     for r in rows {
         for key in [
             "variant",
@@ -101,6 +101,9 @@ fn tradeoff_sweep_runs_on_a_tiny_configuration() {
         planned["max_abs_lsb_smooth"].as_u64().is_some_and(|v| v <= 1),
         "{planned}"
     );
+    // So does the per-quantity 32-bit format set.
+    let mix = rows.iter().find(|r| r["variant"] == "mix32-poly").expect("mix32");
+    assert!(mix["max_abs_lsb_smooth"].as_u64().is_some_and(|v| v <= 1), "{mix}");
     let md = std::fs::read_to_string(dir.join("tradeoff.md")).expect("md");
     assert!(md.contains("| tiny | f32-poly |"), "{md}");
     let png = std::fs::read(dir.join("tradeoff.png")).expect("png");
