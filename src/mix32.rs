@@ -116,6 +116,21 @@ impl Pf {
         }
     }
 
+    /// `(self · o).to_sum(frac)` without normalizing the product first.
+    #[inline(always)]
+    pub fn mul_to_sum(self, o: Pf, frac: i32) -> u64 {
+        // p in [2^62, 2^64) (or 0); value · 2^frac = p · 2^s.
+        let p = self.m as u64 * o.m as u64;
+        let s = self.e + o.e + frac;
+        if p == 0 || s <= -64 {
+            0
+        } else if s < 0 {
+            (p >> -s).min(SUM_CAP)
+        } else {
+            SUM_CAP
+        }
+    }
+
     /// The value as f64 (exact), for tests.
     pub fn to_f64(self) -> f64 {
         libm::ldexp(self.m as f64, self.e)
@@ -155,36 +170,34 @@ impl core::ops::Mul for Pf {
     }
 }
 
-/// Seeds for [`recip`]: `1/v` in Q2.14 at the middle of each of 256
-/// intervals of `v` in `[½, 1)` (within 2⁻¹⁰).
+/// Seeds for [`recip`]: `1/v` in Q2.14 at the middle of each of 1 024
+/// intervals of `v` in `[½, 1)` (within 2⁻¹¹).
 // Indexing in a constant: an index out of range fails the build.
 #[allow(clippy::indexing_slicing)]
-const RECIP_SEED: [u16; 256] = {
-    let mut t = [0u16; 256];
+const RECIP_SEED: [u16; 1024] = {
+    let mut t = [0u16; 1024];
     let mut i = 0;
-    while i < 256 {
-        // 2^14 / ((256 + i + ½)/512) = 2^24 / (513 + 2i), rounded.
-        let d = 513 + 2 * i as u32;
-        t[i] = ((1u32 << 24) + d / 2).wrapping_div(d) as u16;
+    while i < 1024 {
+        // 2^14 / ((1024 + i + ½)/2048) = 2^26 / (2049 + 2i), rounded.
+        let d = 2049 + 2 * i as u32;
+        t[i] = ((1u32 << 26) + d / 2).wrapping_div(d) as u16;
         i += 1;
     }
     t
 };
 
 /// `1/d` for `d > 0` as `(r, z)` with `1/d ≈ r · 2^(z − 62)`, `r` in
-/// `(2³⁰, 2³¹]`, relative error < 2⁻²⁹: two Newton steps from a 256-entry
-/// seed, four 32 × 32 products, no division.
+/// `(2³⁰, 2³¹]`, relative error < 2⁻²¹: one Newton step from a 1 024-entry
+/// seed, two 32 × 32 products, no division.
 #[inline(always)]
 pub fn recip(d: NonZeroU32) -> (u32, u32) {
     let z = d.leading_zeros();
     let dn = d.get() << z; // v = dn / 2^32 in [½, 1)
-    let idx = ((dn >> 23) as usize).wrapping_sub(256);
-    let mut r = (RECIP_SEED.get(idx).copied().unwrap_or(1 << 15) as u32) << 16;
-    for _ in 0..2 {
-        // r (2 − v r), Q2.30.
-        let vr = ((dn as u64 * r as u64) >> 32) as u32;
-        r = ((r as u64 * (1u32 << 31).wrapping_sub(vr) as u64) >> 30) as u32;
-    }
+    let idx = ((dn >> 21) as usize).wrapping_sub(1024);
+    let r = (RECIP_SEED.get(idx).copied().unwrap_or(1 << 15) as u32) << 16;
+    // r (2 − v r), Q2.30.
+    let vr = ((dn as u64 * r as u64) >> 32) as u32;
+    let r = ((r as u64 * (1u32 << 31).wrapping_sub(vr) as u64) >> 30) as u32;
     (r, z)
 }
 
@@ -252,15 +265,18 @@ fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
     (m, y, z)
 }
 
-/// `1/√(x · 2^e)` for `x > 0`, `e` even.
+/// `(1/√(x · 2^e))³` for `x > 0`, `e` even: the cube in fixed point (two
+/// products), one normalization.
 #[inline]
-pub fn rsqrt(x: u64, e: i32) -> Pf {
+pub fn rsqrt_cubed(x: u64, e: i32) -> Pf {
     if x == 0 {
         return Pf::default();
     }
     let (_, y, z) = rsqrt_norm(x);
-    // x 2^e = (m/2^64) 2^(64 − z + e); y ≈ (m/2^64)^(−½) · 2^30.
-    Pf::new32(y, -30 - (64 - z as i32 + e) / 2)
+    // y in Q2.30 (≤ 2^31); y² in Q3.29; y³ in Q5.28.
+    let y2 = ((y as u64 * y as u64) >> 31) as u32;
+    let y3 = ((y2 as u64 * y as u64) >> 31) as u32;
+    Pf::new32(y3, -28 - 3 * (64 - z as i32 + e) / 2)
 }
 
 /// `⌊√x⌋` within one unit, as `√(x · 2⁻⁴⁴)` in S22 (`x < 2⁶²`).
@@ -756,12 +772,10 @@ impl Mix32 {
         }
     }
 
-    /// The nearest hit along `(x, y, 1)`: material, point (S18 U) and the
-    /// unit normal facing the viewer (S30).
+    /// The nearest hit along `(x, y, 1)`: material, point (S18 U), unit
+    /// normal (S30) and whether it faces away from the viewer (surfaces are
+    /// two-sided: shading turns it). `ra = (r, z)`: `1/a = r 2^(z − 62)`.
     #[inline(always)]
-    /// `ra = (r, z)`: `1/a = r 2^(z − 62)`.
-    /// `away`: the normal faces away from the viewer (surfaces are
-    /// two-sided: shading turns it).
     fn trace(&self, x: i32, y: i32, a: i32, ra: (u32, u32)) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
         // Hits have t < i32::MAX (a saturated t is i32::MAX − 1).
         const T_MAX: i32 = i32::MAX - 1;
@@ -940,8 +954,7 @@ impl Mix32 {
                     // r², S36 U², exact; (n·l)/r³ = (n·l) (1/√r²)³.
                     let sq = |v: i32| (v as i64 * v as i64) as u64;
                     let r2 = sq(lv[0]) + sq(lv[1]) + sq(lv[2]);
-                    let ir = rsqrt(r2, -36);
-                    Pf::new(nl as u64, -48) * (ir * ir * ir)
+                    Pf::new(nl as u64, -48) * rsqrt_cubed(r2, -36)
                 }
                 MixLight::Directional { l, .. } => {
                     let nl =
@@ -955,7 +968,7 @@ impl Mix32 {
                 }
             };
             for (s, k) in sum.iter_mut().zip(kl).take(channels) {
-                *s = (*s + (*k * w).to_sum(15)).min(SUM_CAP);
+                *s = (*s + k.mul_to_sum(w, 15)).min(SUM_CAP);
             }
         }
         sum
@@ -993,6 +1006,16 @@ fn isqrt_q(v: Q) -> Q {
 mod tests {
     use super::*;
 
+    /// `1/√(x · 2^e)` for `x > 0`, `e` even.
+    fn rsqrt(x: u64, e: i32) -> Pf {
+        if x == 0 {
+            return Pf::default();
+        }
+        let (_, y, z) = rsqrt_norm(x);
+        // x 2^e = (m/2^64) 2^(64 − z + e); y ≈ (m/2^64)^(−½) · 2^30.
+        Pf::new32(y, -30 - (64 - z as i32 + e) / 2)
+    }
+
     /// A small deterministic generator (xorshift).
     fn rng(seed: &mut u64) -> u64 {
         *seed ^= *seed << 13;
@@ -1019,10 +1042,21 @@ mod tests {
             assert!((r - w).abs() <= 1.0 + w * 2f64.powi(-19), "sqrt {x}: {r} vs {w}");
         }
         assert!(worst < 2f64.powi(-19), "rsqrt relative error {worst:e}");
+        let mut worst3: f64 = 0.0;
+        for _ in 0..100_000 {
+            let x = rng(&mut s) >> (rng(&mut s) % 64);
+            let e = 2 * (rng(&mut s) % 40) as i32 - 40;
+            if x == 0 {
+                continue;
+            }
+            let want = ((x as f64) * 2f64.powi(e)).powf(-1.5);
+            worst3 = worst3.max((rsqrt_cubed(x, e).to_f64() / want - 1.0).abs());
+        }
+        assert!(worst3 < 3.0 * 2f64.powi(-19), "cube relative error {worst3:e}");
     }
 
     #[test]
-    fn reciprocal_within_2_pow_minus_29() {
+    fn reciprocal_within_2_pow_minus_21() {
         let mut s = 0x5555_1234_9876_ABCD;
         let mut worst: f64 = 0.0;
         for i in 0..300_000u32 {
@@ -1035,7 +1069,7 @@ mod tests {
             let got = r as f64 * 2f64.powi(z as i32 - 62);
             worst = worst.max((got * d as f64 - 1.0).abs());
         }
-        assert!(worst < 2f64.powi(-29), "relative error {worst:e}");
+        assert!(worst < 2f64.powi(-21), "relative error {worst:e}");
     }
 
     #[test]
@@ -1045,6 +1079,9 @@ mod tests {
         assert_eq!((a * b).to_f64(), 7.5);
         assert_eq!((a * b).to_fixed(1), 15);
         assert_eq!(Pf::new(1, 40).to_fixed(0), u32::MAX);
+        assert_eq!(a.mul_to_sum(b, 2), 30);
+        assert_eq!(a.mul_to_sum(Pf::new(1, 60), 0), SUM_CAP);
+        assert_eq!(a.mul_to_sum(Pf::new(1, -80), 0), 0);
         assert_eq!(Pf::new(1, -40).to_fixed(0), 0);
         assert_eq!((Pf::default() * a).to_fixed(30), 0);
     }
