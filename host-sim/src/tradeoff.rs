@@ -842,8 +842,8 @@ fn recommend(
             target: "M0".into(),
             reason:
                 "not measured (no QEMU M0 board with a UART the firmware drives): the M3's choice, since the \
-                     M0 has no FPU either, and without SMULL/UMULL or a divide instruction the fixed-point \
-                     variants' 64-bit products and quotients cost it more than they cost the M3"
+                     M0 has no FPU either; without a 32 × 32 → 64-bit multiply each of the fixed-point \
+                     products takes several 32-bit multiplies there, and soft-float costs it more as well"
                     .into(),
             variant: v,
         });

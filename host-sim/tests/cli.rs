@@ -103,7 +103,10 @@ fn tradeoff_sweep_runs_on_a_tiny_configuration() {
     );
     // So does the per-quantity 32-bit format set.
     let mix = rows.iter().find(|r| r["variant"] == "mix32-poly").expect("mix32");
-    assert!(mix["max_abs_lsb_smooth"].as_u64().is_some_and(|v| v <= 1), "{mix}");
+    assert!(
+        mix["max_abs_lsb_smooth"].as_u64().is_some_and(|v| v <= 1),
+        "{mix}"
+    );
     let md = std::fs::read_to_string(dir.join("tradeoff.md")).expect("md");
     assert!(md.contains("| tiny | f32-poly |"), "{md}");
     let png = std::fs::read(dir.join("tradeoff.png")).expect("png");
