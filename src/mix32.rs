@@ -42,6 +42,7 @@
 //! path renders them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
 use crate::render::{RenderError, FLAG_OUTSIDE_FIELD};
+use crate::scalar::mul32;
 use crate::scene::{PixelFormat, Q};
 use crate::shading::{Brdf, ShadingLight, V3};
 use core::num::NonZeroU32;
@@ -302,21 +303,6 @@ fn sat32(v: i64) -> i32 {
     v.clamp(i32::MIN as i64, i32::MAX as i64) as i32
 }
 
-/// `(a · b) >> SH`, saturated to i32: the 64-bit product's high word says
-/// whether it fits (a few instructions, no 64-bit compare).
-#[inline(always)]
-fn mul_shr_sat<const SH: u32>(a: i32, b: i32) -> i32 {
-    let p = a as i64 * b as i64;
-    let hi = (p >> 32) as i32;
-    if hi >> (SH - 1) == hi >> 31 {
-        (p >> SH) as i32
-    } else if hi < 0 {
-        i32::MIN
-    } else {
-        i32::MAX
-    }
-}
-
 /// A length in U, S24 / S18, from metres (I32F32), saturating.
 fn len_s(q: Q, unit_exp: i32, frac: i32) -> i32 {
     // q_bits 2^-32 m = q_bits 2^(-32 - e) U → S(frac): shift by frac - 32 - e.
@@ -481,17 +467,8 @@ fn v_len(v: V3) -> Q {
         .iter()
         .map(|c| (c.to_bits() as i128 * c.to_bits() as i128) as u128)
         .sum();
-    // isqrt of s (2^-64 m²) → 2^-32 m.
-    let (mut lo, mut hi) = (0u128, 1u128 << 64);
-    while hi - lo > 1 {
-        let mid = (lo + hi) / 2;
-        if mid * mid <= s {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    Q::from_bits(lo.min(i64::MAX as u128) as i64)
+    // √ of 2^-64 m² → 2^-32 m.
+    Q::from_bits(isqrt_u128(s).min(i64::MAX as u128) as i64)
 }
 
 impl Mix32 {
@@ -794,7 +771,7 @@ impl Mix32 {
             let t = if den < 0 { t.saturating_neg() } else { t };
             (t > 0).then_some((t.min(T_MAX), den > 0))
         };
-        let point = |t: i32| -> [i32; 3] { [mul_shr_sat::<26>(t, x), mul_shr_sat::<26>(t, y), t] };
+        let point = |t: i32| -> [i32; 3] { [mul32::<26>(t, x), mul32::<26>(t, y), t] };
         for p in &self.prims {
             // By reference: the fields are loaded where they are used, not
             // copied out of the shape for every pixel.
@@ -990,6 +967,11 @@ fn shl_q(v: i64, e: i32) -> Q {
 /// `√v` for an I32F32 area (m²) in metres.
 fn isqrt_q(v: Q) -> Q {
     let s = (v.to_bits().max(0) as u128) << 32;
+    Q::from_bits(isqrt_u128(s).min(i64::MAX as u128) as i64)
+}
+
+/// `⌊√s⌋` for `s < 2¹²⁸` by bisection (per frame, not per pixel).
+fn isqrt_u128(s: u128) -> u128 {
     let (mut lo, mut hi) = (0u128, 1u128 << 64);
     while hi - lo > 1 {
         let mid = (lo + hi) / 2;
@@ -999,7 +981,7 @@ fn isqrt_q(v: Q) -> Q {
             hi = mid;
         }
     }
-    Q::from_bits(lo.min(i64::MAX as u128) as i64)
+    lo
 }
 
 #[cfg(test)]

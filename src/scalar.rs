@@ -278,7 +278,7 @@ fixed32_scalar!(I12F20, "i12f20", 20);
 /// fractional bits, rounded down (as `saturating_mul`): one `SMULL` and a
 /// check that the high word is the sign extension of the result.
 #[inline(always)]
-fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
+pub(crate) fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
     let p = a as i64 * b as i64;
     let hi = (p >> 32) as i32;
     if hi >> (F - 1) == hi >> 31 {
