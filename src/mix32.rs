@@ -41,8 +41,9 @@
 //! is prepared ([`crate::render::RenderError::OutsideFormat`]); the generic
 //! path renders them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
+use crate::render::from_acc;
 use crate::render::{RenderError, FLAG_OUTSIDE_FIELD};
-use crate::scalar::mul32;
+use crate::scalar::{mul32, shr_sat};
 use crate::scene::{PixelFormat, Q};
 use crate::shading::{Brdf, ShadingLight, V3};
 use core::num::NonZeroU32;
@@ -85,21 +86,6 @@ impl Pf {
     /// An I32F32 value (negative values as 0).
     pub fn of_q(q: Q) -> Pf {
         Pf::new(q.to_bits().max(0) as u64, -32)
-    }
-
-    /// `floor(value · 2^frac)`, saturated to u32.
-    #[inline(always)]
-    pub fn to_fixed(self, frac: i32) -> u32 {
-        let s = self.e + frac;
-        if self.m == 0 || s <= -32 {
-            0
-        } else if s < 0 {
-            self.m >> -s
-        } else if s == 0 {
-            self.m
-        } else {
-            u32::MAX
-        }
     }
 
     /// `floor(value · 2^frac)` for `frac` ≤ 15, capped at [`SUM_CAP`].
@@ -231,17 +217,7 @@ const SEED: [u16; 768] = {
     let mut i = 0;
     while i < 768 {
         // y² (2(i+256)+1)/2048 = 1 in Q2.14: y = √(2^39 / (2i + 513)).
-        let target = (1u128 << 39) / (2 * i as u128 + 513);
-        let (mut lo, mut hi) = (0u128, 1u128 << 32);
-        while hi - lo > 1 {
-            let mid = (lo + hi) / 2;
-            if mid * mid <= target {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        t[i] = lo as u16;
+        t[i] = ((1u128 << 39) / (2 * i as u128 + 513)).isqrt() as u16;
         i += 1;
     }
     t
@@ -255,14 +231,12 @@ fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
     let z = x.leading_zeros() & !1;
     let m = x << z;
     let idx = ((m >> 54) as usize).saturating_sub(256);
-    let mut y = (SEED.get(idx).copied().unwrap_or(1 << 14) as u32) << 16;
+    let y = (SEED.get(idx).copied().unwrap_or(1 << 14) as u32) << 16;
     let m32 = (m >> 32) as u32;
-    {
-        // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
-        let y2 = ((y as u64 * y as u64) >> 31) as u32;
-        let my2 = ((m32 as u64 * y2 as u64) >> 31) as u32;
-        y = ((y as u64 * (3u32 << 30).saturating_sub(my2) as u64) >> 31) as u32;
-    }
+    // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
+    let y2 = ((y as u64 * y as u64) >> 31) as u32;
+    let my2 = ((m32 as u64 * y2 as u64) >> 31) as u32;
+    let y = ((y as u64 * (3u32 << 30).saturating_sub(my2) as u64) >> 31) as u32;
     (m, y, z)
 }
 
@@ -280,7 +254,7 @@ pub fn rsqrt_cubed(x: u64, e: i32) -> Pf {
     Pf::new32(y3, -28 - 3 * (64 - z as i32 + e) / 2)
 }
 
-/// `⌊√x⌋` within one unit, as `√(x · 2⁻⁴⁴)` in S22 (`x < 2⁶²`).
+/// `√(x · 2⁻⁴⁴)` in S22 for `x < 2⁶²`, within 2⁻¹⁹ relative and one unit.
 #[inline]
 fn sqrt_s44_to_s22(x: u64) -> i32 {
     if x == 0 {
@@ -330,8 +304,8 @@ fn recip_len(v: Q, unit_exp: i32) -> Option<(u32, u32)> {
     if s < 1 << 14 {
         return None;
     }
-    // 1/v = 2^54 / s (U⁻¹, S30) as Pf; w S18 · (1/v) → S30: Pf exponent e
-    // gives w·m·2^(e+30−18)... with e < −12 the shift is −(e + 12).
+    // 1/v = 2^54 / s in S30, as m 2^e; w (S18) · m 2^e in S30 is
+    // w · m · 2^(e + 12): a right shift by −(e + 12).
     let p = Pf::new((1u64 << 54).checked_div(s as u64)?, -30);
     let sh = -(p.e + 12);
     (0..64).contains(&sh).then_some((p.m, sh as u32))
@@ -468,7 +442,7 @@ fn v_len(v: V3) -> Q {
         .map(|c| (c.to_bits() as i128 * c.to_bits() as i128) as u128)
         .sum();
     // √ of 2^-64 m² → 2^-32 m.
-    Q::from_bits(isqrt_u128(s).min(i64::MAX as u128) as i64)
+    Q::from_bits(s.isqrt().min(i64::MAX as u128) as i64)
 }
 
 impl Mix32 {
@@ -611,12 +585,12 @@ impl Mix32 {
         // Slopes: |x̂_d|, |ŷ_d| < 32 at the corners (they are monotonic in
         // the pixel index), |g| < 8 and |x̂|, |ŷ| ≤ 16.
         let corner = |a: i128, d: i128, n: u16| -> Q {
-            let s = |i: i128| Q::from_bits(((a - d * i) >> 32) as i64).abs();
+            let s = |i: i128| from_acc(a - d * i).abs();
             s(0).max(s(n as i128 - 1))
         };
         let (xm, ym) = (corner(f.x0, f.dx, f.width), corner(f.y0, f.dy, f.height));
         // (and one step past the last column: the accumulator takes it).
-        let step = Q::from_bits((f.dx >> 32) as i64).abs();
+        let step = from_acc(f.dx).abs();
         if xm.saturating_add(step) >= Q::from_num(32) || ym >= Q::from_num(32) {
             return Err(bad);
         }
@@ -757,9 +731,6 @@ impl Mix32 {
         // Hits have t < i32::MAX (a saturated t is i32::MAX − 1).
         const T_MAX: i32 = i32::MAX - 1;
         let mut best = i32::MAX;
-        // The primitive hit, its normal, and whether the normal faces away
-        // from the viewer (to be turned: surfaces are two-sided).
-        // (and the hit point, where the intersection test computed it).
         let mut hit: Option<MixHit> = None;
         let plane_t = |n: [i32; 3], dist: i32| -> Option<(i32, bool)> {
             // n·d S56 → S24; t = dist / (n·d) in S18.
@@ -872,15 +843,7 @@ impl Mix32 {
                     + pt[2] as i64 * axis[2] as i64
                     - o;
                 // S48 → S18 (saturating), times 1/cell → floor.
-                let hi = (w >> 32) as i32;
-                let w18 = if hi >> 29 == hi >> 31 {
-                    (w >> 30) as i32
-                } else if hi < 0 {
-                    i32::MIN
-                } else {
-                    i32::MAX
-                };
-                (w18 as i64 * k.inv_cell.0 as i64) >> k.inv_cell.1
+                (shr_sat::<30>(w) as i64 * k.inv_cell.0 as i64) >> k.inv_cell.1
             };
             if (cell(k.u, k.ou) + cell(k.v, k.ov)) & 1 != 0 {
                 m = k.material as usize;
@@ -952,7 +915,7 @@ impl Mix32 {
     }
 }
 
-/// `8 · 2^e` metres in I32F32 (saturating).
+/// `v · 2^e` metres in I32F32 (saturating).
 fn shl_q(v: i64, e: i32) -> Q {
     let b = v << 32;
     Q::from_bits(if e >= 0 {
@@ -967,21 +930,7 @@ fn shl_q(v: i64, e: i32) -> Q {
 /// `√v` for an I32F32 area (m²) in metres.
 fn isqrt_q(v: Q) -> Q {
     let s = (v.to_bits().max(0) as u128) << 32;
-    Q::from_bits(isqrt_u128(s).min(i64::MAX as u128) as i64)
-}
-
-/// `⌊√s⌋` for `s < 2¹²⁸` by bisection (per frame, not per pixel).
-fn isqrt_u128(s: u128) -> u128 {
-    let (mut lo, mut hi) = (0u128, 1u128 << 64);
-    while hi - lo > 1 {
-        let mid = (lo + hi) / 2;
-        if mid * mid <= s {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    lo
+    Q::from_bits(s.isqrt().min(i64::MAX as u128) as i64)
 }
 
 #[cfg(test)]
@@ -1059,12 +1008,13 @@ mod tests {
         let a = Pf::new(3, 0);
         let b = Pf::new(5, -1);
         assert_eq!((a * b).to_f64(), 7.5);
-        assert_eq!((a * b).to_fixed(1), 15);
-        assert_eq!(Pf::new(1, 40).to_fixed(0), u32::MAX);
+        assert_eq!((a * b).to_sum(1), 15);
+        assert_eq!(Pf::new(1, 40).to_sum(0), 1 << 40);
+        assert_eq!(Pf::new(1, 50).to_sum(0), SUM_CAP);
         assert_eq!(a.mul_to_sum(b, 2), 30);
         assert_eq!(a.mul_to_sum(Pf::new(1, 60), 0), SUM_CAP);
         assert_eq!(a.mul_to_sum(Pf::new(1, -80), 0), 0);
-        assert_eq!(Pf::new(1, -40).to_fixed(0), 0);
-        assert_eq!((Pf::default() * a).to_fixed(30), 0);
+        assert_eq!(Pf::new(1, -40).to_sum(0), 0);
+        assert_eq!((Pf::default() * a).to_sum(15), 0);
     }
 }

@@ -867,7 +867,7 @@ impl<S: Scalar> Frame<S> {
 
 /// `x̂_d` or `ŷ_d` from its I64F64 accumulator.
 #[inline(always)]
-fn from_acc(acc: i128) -> Q {
+pub(crate) fn from_acc(acc: i128) -> Q {
     Q::from_bits((acc >> 32) as i64)
 }
 
@@ -887,23 +887,20 @@ struct Hit<S> {
 /// rays), computed once per ray.
 #[inline]
 fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) -> Option<Hit<S>> {
-    let flat = |(t, denom): (S, S), point| Hit {
+    // A flat shape's hit: n̂·d is the plane's denominator.
+    let flat = |n, (t, denom): (S, S), point| Hit {
         t,
-        n: match *s {
-            CamShape::Plane { n, .. } | CamShape::Disc { n, .. } | CamShape::Rect { n, .. } => n,
-            CamShape::Sphere { .. } => [S::ZERO; 3],
-        },
-        // n̂·d is the plane's denominator.
+        n,
         away: denom > S::ZERO,
         point,
     };
     match *s {
-        CamShape::Plane { n, dist } => plane_t::<S, PERSP>(n, dist, o, d).map(|td| flat(td, None)),
+        CamShape::Plane { n, dist } => plane_t::<S, PERSP>(n, dist, o, d).map(|td| flat(n, td, None)),
         CamShape::Disc { n, dist, c, r2 } => {
             let td = plane_t::<S, PERSP>(n, dist, o, d)?;
             let p = axpy(td.0, d, o);
             let rel = sub3(p, c);
-            (dot(rel, rel) <= r2).then(|| flat(td, Some(p)))
+            (dot(rel, rel) <= r2).then(|| flat(n, td, Some(p)))
         }
         CamShape::Rect {
             n,
@@ -917,7 +914,7 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
             let td = plane_t::<S, PERSP>(n, dist, o, d)?;
             let p = axpy(td.0, d, o);
             let rel = sub3(p, c);
-            (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then(|| flat(td, Some(p)))
+            (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then(|| flat(n, td, Some(p)))
         }
         CamShape::Sphere { c, r2, inv_r, cc } => {
             // |o + t d − c|² = r²: a t² − 2 b t + cc = 0; from the origin

@@ -279,10 +279,16 @@ fixed32_scalar!(I12F20, "i12f20", 20);
 /// check that the high word is the sign extension of the result.
 #[inline(always)]
 pub(crate) fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
-    let p = a as i64 * b as i64;
+    shr_sat::<F>(a as i64 * b as i64)
+}
+
+/// `p >> SH` saturated to i32 (`SH` in 1..=32): the high word says whether
+/// it fits, without a 64-bit compare.
+#[inline(always)]
+pub(crate) fn shr_sat<const SH: u32>(p: i64) -> i32 {
     let hi = (p >> 32) as i32;
-    if hi >> (F - 1) == hi >> 31 {
-        (p >> F) as i32
+    if hi >> (SH - 1) == hi >> 31 {
+        (p >> SH) as i32
     } else if hi < 0 {
         i32::MIN
     } else {

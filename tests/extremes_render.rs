@@ -5,37 +5,13 @@
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, RenderError, FLAG_OUTSIDE_FIELD};
 use host_sim::reference::render::RefScene;
-use host_sim::render_cmd::{decode, render, Metrics, RenderOutput};
+use host_sim::render_cmd::{decode, render, RenderOutput};
 mod common;
 
-use common::fixture::{scene, CHECKER_FLOOR};
+use common::fixture::{agrees, agrees_off_edges, scene, CHECKER_FLOOR, INSIDE_SPHERE, TANGENT_SPHERE};
 
 fn run(r: &host_sim::scene_file::Resolved) -> RenderOutput {
     render(r, &Budget::default()).expect("renders")
-}
-
-/// Smooth pixels agree within 1 LSB, flags agree, and the edge pixels that
-/// differ stay within the issue's 0.05 %.
-fn agrees(m: &Metrics) {
-    agrees_off_edges(m);
-    assert!(
-        m.edge_pixels_differing_fraction <= 0.0005,
-        "{}: {} edge pixels differ",
-        m.scene,
-        m.edge_pixels_differing
-    );
-}
-
-/// Smooth pixels agree within 1 LSB and flags agree: differences only where
-/// a 1/256 px move changes what the ray sees.
-fn agrees_off_edges(m: &Metrics) {
-    assert!(
-        m.max_abs_lsb_smooth <= 1,
-        "{}: smooth max {} LSB",
-        m.scene,
-        m.max_abs_lsb_smooth
-    );
-    assert_eq!(m.field_flags_differing, 0, "{}", m.scene);
 }
 
 /// Grazing rays: the camera 5 cm above an infinite checkered floor, looking
@@ -66,16 +42,7 @@ fn extreme_grazing_rays_on_a_plane() {
 /// Expected: agreement over smooth pixels; only edge pixels may differ.
 #[test]
 fn extreme_rays_tangent_to_a_sphere() {
-    let r = scene(
-        r#"
-[[primitives]]
-kind = "sphere"
-material = "a"
-centre = [0.0, 0.4, 0.0]
-radius = 1.0
-"#,
-        &[],
-    );
+    let r = scene(TANGENT_SPHERE, &[]);
     let o = run(&r);
     agrees(&o.metrics);
     assert!(o.metrics.exact_fraction >= 0.99);
@@ -86,13 +53,7 @@ radius = 1.0
 #[test]
 fn extreme_camera_inside_a_sphere() {
     let r = scene(
-        r#"
-[[primitives]]
-kind = "sphere"
-material = "a"
-centre = [0.0123, 1.2, -3.0]
-radius = 2.0
-"#,
+        INSIDE_SPHERE,
         &[("[environment]\nambient = 0.2", "[environment]\nambient = 0.5")],
     );
     let o = run(&r);

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::fixture::{scene, CHECKER_FLOOR};
+use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, TANGENT_SPHERE};
 use hilcam::planner::Budget;
 use hilcam::render::FLAG_OUTSIDE_FIELD;
 use hilcam::scalar::I32F32;
@@ -27,26 +27,16 @@ fn mix(r: &Resolved) -> Result<(Metrics, Collect), String> {
     Ok((m, core))
 }
 
-/// Geometry within 1/256 px; smooth pixels within 1 LSB; flags agree; edge
-/// pixels that differ within 0.05 %.
+/// Geometry within 1/256 px, and [`agrees`]: smooth pixels within 1 LSB,
+/// flags agree, edge pixels that differ within 0.05 %.
 fn meets_targets(m: &Metrics) {
-    let name = &m.scene;
     assert!(
         m.max_geom_err_px <= 1.0 / 256.0,
-        "{name}: geometry {} px",
+        "{}: geometry {} px",
+        m.scene,
         m.max_geom_err_px
     );
-    assert!(
-        m.max_abs_lsb_smooth <= 1,
-        "{name}: smooth max {} LSB",
-        m.max_abs_lsb_smooth
-    );
-    assert_eq!(m.field_flags_differing, 0, "{name}: lens-field flags differ");
-    assert!(
-        m.edge_pixels_differing_fraction <= 0.0005,
-        "{name}: {} edge pixels differ",
-        m.edge_pixels_differing
-    );
+    agrees(m);
 }
 
 #[test]
@@ -94,14 +84,11 @@ fn far_grazing_hits_saturate_without_wrapping() {
 
 #[test]
 fn tangent_rays_and_the_inside_of_a_sphere() {
-    let tangent = scene(
-        "[[primitives]]\nkind = \"sphere\"\nmaterial = \"a\"\ncentre = [0.0, 0.4, 0.0]\nradius = 1.0\n",
-        &[],
-    );
+    let tangent = scene(TANGENT_SPHERE, &[]);
     let (m, _) = mix(&tangent).expect("renders");
     meets_targets(&m);
     let inside = scene(
-        "[[primitives]]\nkind = \"sphere\"\nmaterial = \"a\"\ncentre = [0.0123, 1.2, -3.0]\nradius = 2.0\n",
+        INSIDE_SPHERE,
         &[("[environment]\nambient = 0.2", "[environment]\nambient = 0.5")],
     );
     let (m, core) = mix(&inside).expect("renders");

@@ -1,6 +1,7 @@
 //! A small scene every rendering test starts from (96×64 Gray8, two
 //! materials, one directional light, no primitives), and a checkered floor.
 
+use host_sim::render_cmd::Metrics;
 use host_sim::scene_file::{parse, Resolved};
 
 /// The base scene (no primitives).
@@ -52,3 +53,46 @@ point = [0.0, 0.0, 0.0]
 normal = [0.0, 1.0, 0.0]
 checker = { cell = 0.5, material = "b", u_axis = [1.0, 0.0, 0.0] }
 "#;
+
+/// A sphere filling most of the frame: its silhouette crosses many pixels
+/// where the discriminant is near 0.
+pub const TANGENT_SPHERE: &str = r#"
+[[primitives]]
+kind = "sphere"
+material = "a"
+centre = [0.0, 0.4, 0.0]
+radius = 1.0
+"#;
+
+/// A sphere around the camera: every ray meets its inside (the far root).
+pub const INSIDE_SPHERE: &str = r#"
+[[primitives]]
+kind = "sphere"
+material = "a"
+centre = [0.0123, 1.2, -3.0]
+radius = 2.0
+"#;
+
+/// Smooth pixels agree within 1 LSB, flags agree, and the edge pixels that
+/// differ stay within the issue's 0.05 %.
+pub fn agrees(m: &Metrics) {
+    agrees_off_edges(m);
+    assert!(
+        m.edge_pixels_differing_fraction <= 0.0005,
+        "{}: {} edge pixels differ",
+        m.scene,
+        m.edge_pixels_differing
+    );
+}
+
+/// Smooth pixels agree within 1 LSB and flags agree: differences only where
+/// a 1/256 px move changes what the ray sees.
+pub fn agrees_off_edges(m: &Metrics) {
+    assert!(
+        m.max_abs_lsb_smooth <= 1,
+        "{}: smooth max {} LSB",
+        m.scene,
+        m.max_abs_lsb_smooth
+    );
+    assert_eq!(m.field_flags_differing, 0, "{}", m.scene);
+}
