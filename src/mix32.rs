@@ -129,14 +129,25 @@ impl Pf {
 pub const SUM_CAP: u64 = 1 << 47;
 
 /// `DN = floor(sum · cos⁴α + ½)` for a sum in S15 DN (≤ [`SUM_CAP`]) and
-/// `cos⁴α` in S31.
+/// `cos⁴α` in S31, exactly: the sum's two 32-bit halves times `cos⁴α`.
 #[inline(always)]
 fn vignette_dn(sum: u64, c4: u32) -> u64 {
-    if sum >> 32 == 0 {
-        (sum * c4 as u64 + (1 << 45)) >> 46
+    // (hi 2^32 + lo) c4 + 2^45 over 2^46 = (hi c4 + ⌊(lo c4 + 2^45) / 2^32⌋) / 2^14
+    // (nested floors of integers); hi c4 < 2^46.
+    let (hi, lo) = (sum >> 32, sum & 0xFFFF_FFFF);
+    (hi * c4 as u64 + ((lo * c4 as u64 + (1 << 45)) >> 32)) >> 14
+}
+
+/// Packs channel values (each ≤ `dn_max`) as [`PixelFormat::pack`] does,
+/// for `C` channels in `B` bytes: gray 8, gray 16 (little-endian), RGB565.
+#[inline(always)]
+fn pack<const C: usize, const B: usize>(dn: [u32; 3], out: &mut [u8; B]) {
+    let v = if C == 3 {
+        (dn[0] << 11) | (dn[1] << 5) | dn[2]
     } else {
-        ((sum >> 16) * c4 as u64 + (1 << 29)) >> 30
-    }
+        dn[0]
+    };
+    out.iter_mut().zip(v.to_le_bytes()).for_each(|(o, v)| *o = v);
 }
 
 impl core::ops::Mul for Pf {
@@ -180,7 +191,8 @@ const RECIP_SEED: [u16; 1024] = {
 pub fn recip(d: NonZeroU32) -> (u32, u32) {
     let z = d.leading_zeros();
     let dn = d.get() << z; // v = dn / 2^32 in [½, 1)
-    let idx = ((dn >> 21) as usize).wrapping_sub(1024);
+                           // dn >> 21 is in [1024, 2048): its low ten bits index the seed.
+    let idx = (dn >> 21) as usize & 1023;
     let r = (RECIP_SEED.get(idx).copied().unwrap_or(1 << 15) as u32) << 16;
     // r (2 − v r), Q2.30.
     let vr = ((dn as u64 * r as u64) >> 32) as u32;
@@ -374,19 +386,198 @@ enum MixLight {
     Directional { l: [i32; 3], e: [Pf; 3] },
 }
 
-/// The nearest hit so far: primitive, normal (S30), whether it faces away,
-/// and the hit point (S18) if the test computed it.
-struct MixHit<'a> {
-    prim: &'a MixPrim,
-    n: [i32; 3],
-    away: bool,
-    pt: Option<[i32; 3]>,
-}
-
 /// `kd · E` (or `kd · I/U²`) per light and channel for one material.
 struct KCache {
     material: usize,
     k: [[Pf; 3]; crate::scene::MAX_LIGHTS],
+}
+
+/// Pixels a pass handles at once.
+const CHUNK: usize = 32;
+
+/// `Ray::t` of a ray that has hit nothing yet.
+const NO_HIT: i32 = i32::MAX;
+
+/// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
+/// [`NO_HIT`].
+const T_MAX: i32 = i32::MAX - 1;
+
+/// `Ray::hit`'s flag: the surface hit faces away from the viewer.
+const AWAY: u8 = 0x80;
+
+/// One pixel's ray `(x, y, 1)` and its nearest hit so far.
+#[derive(Clone, Copy, Debug)]
+struct Ray {
+    /// `x̂`, `ŷ`, S26.
+    x: i32,
+    y: i32,
+    /// `a = d·d`, S20, and `1/a = r 2^(z − 62)` as `(r, z)`.
+    a: i32,
+    ra: (u32, u32),
+    /// The nearest hit's `t` (S18 U), [`NO_HIT`], or 0 outside the lens
+    /// field (no hit can be nearer).
+    t: i32,
+    /// The nearest hit's primitive, with [`AWAY`].
+    hit: u8,
+}
+
+impl Ray {
+    const OUTSIDE: Ray = Ray {
+        x: 0,
+        y: 0,
+        a: 1 << 20,
+        ra: (1 << 31, 11),
+        t: 0,
+        hit: 0,
+    };
+
+    #[inline(always)]
+    fn new(x: i32, y: i32) -> Ray {
+        // a = 1 + x² + y², S20 (≤ 513: the slopes are below 16).
+        let a = (1 << 20) + ((x as i64 * x as i64 + y as i64 * y as i64) >> 32) as i32;
+        let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
+        Ray {
+            x,
+            y,
+            a,
+            ra,
+            t: NO_HIT,
+            hit: 0,
+        }
+    }
+
+    /// The point at `t` (S18 U) along the ray, S18 U.
+    #[inline(always)]
+    fn point(&self, t: i32) -> [i32; 3] {
+        [mul32::<26>(t, self.x), mul32::<26>(t, self.y), t]
+    }
+
+    /// Keeps a hit at `t` if it is nearer than the nearest so far.
+    #[inline(always)]
+    fn keep(&mut self, t: i32, prim: u8, away: bool) {
+        if t < self.t {
+            self.t = t;
+            self.hit = prim | if away { AWAY } else { 0 };
+        }
+    }
+
+    /// The plane `n·p = dist`'s `t` along the ray (S18 U, saturated to
+    /// `T_MAX`) and whether the plane faces away (`n·d > 0`), if it is
+    /// ahead.
+    #[inline(always)]
+    fn plane_t(&self, n: [i32; 3], dist: i32) -> Option<(i32, bool)> {
+        // n·d S56 → S24; t = dist / (n·d) in S18.
+        let den = ((n[0] as i64 * self.x as i64 + n[1] as i64 * self.y as i64 + ((n[2] as i64) << 26)) >> 32)
+            as i32;
+        // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
+        let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
+        let t = mul_shr_var(dist, r, 44 - z);
+        let t = if den < 0 { t.saturating_neg() } else { t };
+        (t > 0).then_some((t.min(T_MAX), den > 0))
+    }
+}
+
+/// The chunk buffer of rays.
+struct Rays([Ray; CHUNK]);
+
+impl Default for Rays {
+    fn default() -> Rays {
+        Rays([Ray::OUTSIDE; CHUNK])
+    }
+}
+
+impl Rays {
+    /// The first `n` rays.
+    fn first(&mut self, n: usize) -> Option<&mut [Ray]> {
+        self.0.get_mut(..n)
+    }
+}
+
+impl MixPrim {
+    /// One primitive's pass over a chunk: keeps its hits that are nearer
+    /// than each ray's nearest so far (`index` names it in [`Ray::hit`]).
+    #[inline(always)]
+    fn nearest(&self, index: u8, rays: &mut [Ray]) {
+        match &self.shape {
+            MixShape::Plane { n, dist } => {
+                for r in rays.iter_mut() {
+                    if let Some((t, away)) = r.plane_t(*n, *dist) {
+                        r.keep(t, index, away);
+                    }
+                }
+            }
+            MixShape::Sphere { c, cz50, cc, .. } => {
+                for r in rays.iter_mut() {
+                    // b = d·c S22; disc = b² − a cc, S44.
+                    let b = ((r.x as i64 * c[0] as i64 + r.y as i64 * c[1] as i64 + *cz50) >> 28) as i32;
+                    let disc = b as i64 * b as i64 - r.a as i64 * *cc as i64;
+                    if disc < 0 {
+                        continue;
+                    }
+                    let sq = sqrt_s44_to_s22(disc as u64);
+                    // t = (b ∓ √disc) 2^16 / a (S22 / S20 → S18).
+                    let over_a = |v: i32| mul_shr_var(v, r.ra.0, 46 - r.ra.1);
+                    let mut t = over_a(b - sq);
+                    // The far root: the ray starts inside, the outward
+                    // normal faces away.
+                    let inside = t <= 0;
+                    if inside {
+                        t = over_a(b + sq);
+                        if t <= 0 {
+                            continue;
+                        }
+                    }
+                    r.keep(t.min(T_MAX), index, inside);
+                }
+            }
+            MixShape::Disc { n, dist, c18, r2 } => {
+                for r in rays.iter_mut() {
+                    let Some((t, away)) = r.plane_t(*n, *dist) else {
+                        continue;
+                    };
+                    if t >= r.t {
+                        continue;
+                    }
+                    let d2: u64 = zip3(r.point(t), *c18, |p, c| {
+                        let d = p.saturating_sub(c) as i64;
+                        (d * d) as u64
+                    })
+                    .iter()
+                    .sum();
+                    if d2 <= *r2 {
+                        r.keep(t, index, away);
+                    }
+                }
+            }
+            MixShape::Rect {
+                n,
+                dist,
+                c18,
+                u,
+                v,
+                hu,
+                hv,
+            } => {
+                for r in rays.iter_mut() {
+                    let Some((t, away)) = r.plane_t(*n, *dist) else {
+                        continue;
+                    };
+                    if t >= r.t {
+                        continue;
+                    }
+                    let rel = zip3(r.point(t), *c18, i32::saturating_sub);
+                    let dot = |a: [i32; 3]| {
+                        rel[0] as i64 * a[0] as i64
+                            + rel[1] as i64 * a[1] as i64
+                            + rel[2] as i64 * a[2] as i64
+                    };
+                    if dot(*u).abs() <= *hu && dot(*v).abs() <= *hv {
+                        r.keep(t, index, away);
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The per-frame state of the `mix32` path.
@@ -666,19 +857,24 @@ impl Mix32 {
 
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
     pub fn line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
-        if self.format.channels() == 1 {
-            self.line_c::<1>(j, pixels, flags);
-        } else {
-            self.line_c::<3>(j, pixels, flags);
+        match self.format {
+            PixelFormat::Gray8 => self.line_f::<1, 1>(j, pixels, flags),
+            PixelFormat::Gray16 { .. } => self.line_f::<1, 2>(j, pixels, flags),
+            PixelFormat::Rgb565 => self.line_f::<3, 2>(j, pixels, flags),
         }
     }
 
-    /// [`Mix32::line`] for `C` channels.
+    /// [`Mix32::line`] for `C` channels in `B` bytes a pixel: the line in
+    /// chunks of [`CHUNK`] pixels, each in passes — the undistorted rays,
+    /// then one pass a primitive keeping the nearest hit, then shading. A
+    /// pass holds one primitive's constants in registers.
     #[inline(never)]
-    fn line_c<const C: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
-        let bpp = self.format.bytes_per_pixel();
-        let channels = C;
-        let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c));
+    fn line_f<const C: usize, const B: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+        let w = self.width as usize;
+        let (pixels, _) = pixels.as_chunks_mut::<B>();
+        let (Some(pixels), Some(flags)) = (pixels.get_mut(..w), flags.get_mut(..w)) else {
+            return;
+        };
         let yd = self.yd(j);
         let yd2 = yd as i64 * yd as i64;
         let mut acc = self.x0;
@@ -687,154 +883,78 @@ impl Mix32 {
             material: usize::MAX,
             k: [[Pf::default(); 3]; crate::scene::MAX_LIGHTS],
         };
-        for (out, flag) in pixels
-            .chunks_exact_mut(bpp)
-            .zip(flags.iter_mut())
-            .take(self.width as usize)
-        {
-            let xd = (acc >> 32) as i32;
-            acc -= self.dx;
-            let Some((x, y)) = self.undistort(xd, yd, yd2) else {
-                *flag = FLAG_OUTSIDE_FIELD;
-                out.iter_mut().for_each(|b| *b = 0);
-                continue;
+        let mut rays = Rays::default();
+        for (pixels, flags) in pixels.chunks_mut(CHUNK).zip(flags.chunks_mut(CHUNK)) {
+            let Some(rays) = rays.first(pixels.len()) else {
+                return;
             };
-            *flag = 0;
-            // a = d·d, S20.
-            let a = (1 << 20) + ((x as i64 * x as i64 + y as i64 * y as i64) >> 32) as i32;
-            // 1/a (a ≥ 1 in S20: 1/a_real = r 2^(z − 42), z ≤ 11), in S31;
-            // cos⁴α = (1/a)², S31.
-            let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
-            let c4 = if self.vignetting {
-                let inv = ra.0 >> (11u32.saturating_sub(ra.1));
-                ((inv as u64 * inv as u64) >> 31) as u32
-            } else {
-                1 << 31
-            };
-            let sum = match self.trace(x, y, a, ra) {
-                Some((m, pt, n, away)) => self.shade::<C>(m, pt, n, away, &mut k),
-                None => self.bg,
-            };
-            let mut dn = [0u32; 3];
-            for ((d, s), max) in dn.iter_mut().zip(sum).zip(dn_max).take(channels) {
-                *d = vignette_dn(s, c4).min(max as u64) as u32;
+            for r in rays.iter_mut() {
+                let xd = (acc >> 32) as i32;
+                acc -= self.dx;
+                *r = match self.undistort(xd, yd, yd2) {
+                    Some((x, y)) => Ray::new(x, y),
+                    None => Ray::OUTSIDE,
+                };
             }
-            self.format.pack(dn, out);
+            for (i, p) in self.prims.iter().enumerate() {
+                p.nearest(i as u8, rays);
+            }
+            for ((r, out), flag) in rays.iter().zip(pixels.iter_mut()).zip(flags.iter_mut()) {
+                self.pixel::<C, B>(r, out, flag, &mut k);
+            }
         }
     }
 
-    /// The nearest hit along `(x, y, 1)`: material, point (S18 U), unit
-    /// normal (S30) and whether it faces away from the viewer (surfaces are
-    /// two-sided: shading turns it). `ra = (r, z)`: `1/a = r 2^(z − 62)`.
+    /// Shades and packs one pixel of a chunk whose nearest hits are known.
     #[inline(always)]
-    fn trace(&self, x: i32, y: i32, a: i32, ra: (u32, u32)) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
-        // Hits have t < i32::MAX (a saturated t is i32::MAX − 1).
-        const T_MAX: i32 = i32::MAX - 1;
-        let mut best = i32::MAX;
-        let mut hit: Option<MixHit> = None;
-        let plane_t = |n: [i32; 3], dist: i32| -> Option<(i32, bool)> {
-            // n·d S56 → S24; t = dist / (n·d) in S18.
-            let den =
-                ((n[0] as i64 * x as i64 + n[1] as i64 * y as i64 + ((n[2] as i64) << 26)) >> 32) as i32;
-            // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
-            let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
-            let t = mul_shr_var(dist, r, 44 - z);
-            let t = if den < 0 { t.saturating_neg() } else { t };
-            (t > 0).then_some((t.min(T_MAX), den > 0))
-        };
-        let point = |t: i32| -> [i32; 3] { [mul32::<26>(t, x), mul32::<26>(t, y), t] };
-        for p in &self.prims {
-            // By reference: the fields are loaded where they are used, not
-            // copied out of the shape for every pixel.
-            let (t, n, away, pt) = match &p.shape {
-                MixShape::Plane { n, dist } => match plane_t(*n, *dist) {
-                    Some((t, away)) if t < best => (t, *n, away, None),
-                    _ => continue,
-                },
-                MixShape::Sphere {
-                    c,
-                    cz50,
-                    c18,
-                    cc,
-                    inv_r,
-                } => {
-                    // b = d·c S22; disc = b² − a cc, S44.
-                    let b = ((x as i64 * c[0] as i64 + y as i64 * c[1] as i64 + *cz50) >> 28) as i32;
-                    let disc = b as i64 * b as i64 - a as i64 * *cc as i64;
-                    if disc < 0 {
-                        continue;
-                    }
-                    let sq = sqrt_s44_to_s22(disc as u64);
-                    // t = (b ∓ √disc) 2^16 / a (S22 / S20 → S18).
-                    let over_a = |v: i32| mul_shr_var(v, ra.0, 46 - ra.1);
-                    let mut t = over_a(b - sq);
-                    // The far root: the ray starts inside, the outward
-                    // normal faces away.
-                    let inside = t <= 0;
-                    if inside {
-                        t = over_a(b + sq);
-                        if t <= 0 {
-                            continue;
-                        }
-                    }
-                    let t = t.min(T_MAX);
-                    if t >= best {
-                        continue;
-                    }
-                    let pt = point(t);
-                    let n = zip3(pt, *c18, |p, c| {
-                        let rel = p.saturating_sub(c);
-                        sat32((rel as i64 * inv_r.0 as i64) >> inv_r.1)
-                    });
-                    (t, n, inside, Some(pt))
-                }
-                MixShape::Disc { n, dist, c18, r2 } => match plane_t(*n, *dist) {
-                    Some((t, away)) if t < best => {
-                        let pt = point(t);
-                        let d2: u64 = zip3(pt, *c18, |p, c| {
-                            let r = p.saturating_sub(c) as i64;
-                            (r * r) as u64
-                        })
-                        .iter()
-                        .sum();
-                        if d2 > *r2 {
-                            continue;
-                        }
-                        (t, *n, away, Some(pt))
-                    }
-                    _ => continue,
-                },
-                MixShape::Rect {
-                    n,
-                    dist,
-                    c18,
-                    u,
-                    v,
-                    hu,
-                    hv,
-                } => match plane_t(*n, *dist) {
-                    Some((t, away)) if t < best => {
-                        let pt = point(t);
-                        let rel = zip3(pt, *c18, i32::saturating_sub);
-                        let dot = |a: [i32; 3]| {
-                            rel[0] as i64 * a[0] as i64
-                                + rel[1] as i64 * a[1] as i64
-                                + rel[2] as i64 * a[2] as i64
-                        };
-                        let (du, dv) = (dot(*u), dot(*v));
-                        if du.abs() > *hu || dv.abs() > *hv {
-                            continue;
-                        }
-                        (t, *n, away, Some(pt))
-                    }
-                    _ => continue,
-                },
-            };
-            best = t;
-            hit = Some(MixHit { prim: p, n, away, pt });
+    fn pixel<const C: usize, const B: usize>(
+        &self,
+        r: &Ray,
+        out: &mut [u8; B],
+        flag: &mut u8,
+        k: &mut KCache,
+    ) {
+        if r.t == 0 {
+            *flag = FLAG_OUTSIDE_FIELD;
+            *out = [0; B];
+            return;
         }
-        let MixHit { prim: p, n, away, pt } = hit?;
-        let pt = pt.unwrap_or_else(|| point(best));
+        *flag = 0;
+        // cos⁴α = (1/a)², S31 (1/a_real = r 2^(z − 42), z ≤ 11).
+        let c4 = if self.vignetting {
+            let inv = r.ra.0 >> (11u32.saturating_sub(r.ra.1));
+            ((inv as u64 * inv as u64) >> 31) as u32
+        } else {
+            1 << 31
+        };
+        let sum = match self.hit(r) {
+            Some((m, pt, n, away)) => self.shade::<C>(m, pt, n, away, k),
+            None => self.bg,
+        };
+        let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
+        // Channels past C are not packed: the compiler drops them.
+        let dn = zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32);
+        pack::<C, B>(dn, out);
+    }
+
+    /// The nearest hit of a ray after every primitive's pass: material,
+    /// point (S18 U), unit normal (S30) and whether it faces away from the
+    /// viewer (surfaces are two-sided: shading turns it).
+    #[inline(always)]
+    fn hit(&self, r: &Ray) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+        if r.t == NO_HIT {
+            return None;
+        }
+        let p = self.prims.get((r.hit & !AWAY) as usize)?;
+        let away = r.hit & AWAY != 0;
+        let pt = r.point(r.t);
+        let n = match &p.shape {
+            MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
+            MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
+                let rel = p.saturating_sub(c);
+                sat32((rel as i64 * inv_r.0 as i64) >> inv_r.1)
+            }),
+        };
         let mut m = p.material as usize;
         if let Some(k) = &p.checker {
             let cell = |axis: [i32; 3], o: i64| -> i64 {
