@@ -213,6 +213,34 @@ intensity = 20.0
     assert!(m.exact_fraction >= 0.99, "exact {}", m.exact_fraction);
 }
 
+/// The path renders a line in chunks of 32 pixels: widths below one chunk
+/// and with a partial last chunk (in one and in three channels) render
+/// every pixel, the hits of every primitive pass, within the targets.
+#[test]
+fn lines_that_are_not_whole_chunks() {
+    for width in ["7", "45", "71"] {
+        for fmt in ["format = \"gray8\"", "format = \"rgb565\""] {
+            let r = scene(
+                &format!(
+                    "{CHECKER_FLOOR}{TANGENT_SPHERE}[[lights]]\nkind = \"point\"\nposition = [1.0, 2.0, -1.5]\n\
+                     intensity = 20.0\n"
+                ),
+                &[
+                    ("width = 96", &format!("width = {width}")),
+                    ("format = \"gray8\"", fmt),
+                    ("tolerable_blur = 12e-6", "tolerable_blur = 12e-6\ndistortion = [0.15, 0.05]"),
+                ],
+            );
+            let (m, core) = mix(&r).expect("renders");
+            meets_targets(&m);
+            let w: usize = width.parse().expect("width");
+            assert_eq!(core.flags.len(), w * 64, "{width} {fmt}");
+            // Sphere, floor and background all on screen.
+            assert!(m.exact_fraction >= 0.99, "{width} {fmt}: exact {}", m.exact_fraction);
+        }
+    }
+}
+
 /// What the formats cannot hold is refused when the frame is prepared, with
 /// a typed error: a distortion whose factor `g` leaves ±8, and a sphere
 /// smaller than 2⁻¹⁰ of the frame's length unit (set by a light 900 m away).
