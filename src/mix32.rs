@@ -8,9 +8,16 @@
 //! products are one `SMULL`/`SMLAL` into 64 bits with constant shifts, and
 //! what has no bounded range (irradiance, `1/r³`) is a normalized mantissa
 //! with an exponent ([`Pf`]). There is no division: `1/x` ([`recip`]) and
-//! `1/√x` ([`rsqrt`]) are a table seed and a Newton step or two, products
-//! only. The formulas are the generic path's (camera-model.md §3, §5, §6):
-//! `cos⁴α = (1/a)²` with `a = d·d`, `E = I (n̂·l)(1/r)³`.
+//! `1/√x` (in [`cos_over_r2`]) are a table seed and one Newton step,
+//! products only. The formulas are the generic path's (camera-model.md §3,
+//! §5, §6): `cos⁴α = (1/a)²` with `a = d·d`, `E = I (n̂·l)(1/r)³`.
+//!
+//! A line is rendered in chunks of 32 pixels, each in passes: the rays
+//! (undistorted slopes, `a`, `1/a`), then one pass a primitive keeping each
+//! ray's nearest hit (in scene order, so ties go to the first primitive, as
+//! on the generic path), then shading. A pass holds one primitive's
+//! constants in registers: on the Cortex-M3 that saves more than the chunk
+//! buffer's loads and stores cost.
 //!
 //! Lengths are in a unit `U = 2^e` m chosen per frame: the smallest power of
 //! two with the frame's content (primitives, point lights, in the camera
@@ -34,7 +41,8 @@
 //! `cos⁴α` (2⁻¹⁸) still saturates the pixel, so capping never changes a
 //! pixel. `t` beyond 8 192 U (1 024 times the content) saturates: the hit
 //! point then lies short of the surface along the ray. `1/r` is good to
-//! 2⁻¹⁹, so `E` to 3·2⁻¹⁹ (6·10⁻⁶): 0.4 DN at the top of a 16-bit scale.
+//! 2⁻¹⁹, so `E` to 3·2⁻¹⁹ (6·10⁻⁶) of `I/r²`, plus 2⁻²⁹ of it from
+//! truncating `n·l`: 0.4 DN at the top of a 16-bit scale.
 //!
 //! What the path does not do — parallel rays, a distortion table, the
 //! specular lobe — and scenes outside the formats are refused when the frame
@@ -103,16 +111,19 @@ impl Pf {
         }
     }
 
-    /// `(self · o).to_sum(frac)` without normalizing the product first.
+    /// `(self · o).to_sum(frac)` for `frac` ≤ 15, from the product's top 32
+    /// bits (low by under one unit of `2^-frac`), without normalizing it.
     #[inline(always)]
     pub fn mul_to_sum(self, o: Pf, frac: i32) -> u64 {
-        // p in [2^62, 2^64) (or 0); value · 2^frac = p · 2^s.
-        let p = self.m as u64 * o.m as u64;
-        let s = self.e + o.e + frac;
-        if p == 0 || s <= -64 {
-            0
-        } else if s < 0 {
-            (p >> -s).min(SUM_CAP)
+        // p in [2^30, 2^32) (or 0); value · 2^frac = p · 2^s.
+        let p = ((self.m as u64 * o.m as u64) >> 32) as u32;
+        let s = self.e + o.e + frac + 32;
+        if s <= 0 {
+            // 32-bit shifts: the common case.
+            p.checked_shr(s.unsigned_abs()).unwrap_or(0) as u64
+        } else if s <= 15 {
+            // ≤ 2^47 = SUM_CAP.
+            (p as u64) << s
         } else {
             SUM_CAP
         }
@@ -252,18 +263,20 @@ fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
     (m, y, z)
 }
 
-/// `(1/√(x · 2^e))³` for `x > 0`, `e` even: the cube in fixed point (two
-/// products), one normalization.
+/// `(n·l)/r³` in U⁻² for `n·l` in S48 U with `0 < n·l ≤ |n| |l|`
+/// (`n` a unit vector in S30) and `r² = l·l > 0` in S36 U²: one
+/// normalization of `r²` serves both (`(n·l) 2^(z/2)` lies below 2⁶³).
+/// Relative error: `(1/r)³`'s 3 · 2⁻¹⁹ and the truncation of `n·l` to its
+/// top word, 2⁻²¹ where `n̂·l̂ ≥ 2⁻⁸` (`2⁻²⁹ / n̂·l̂`).
 #[inline]
-pub fn rsqrt_cubed(x: u64, e: i32) -> Pf {
-    if x == 0 {
-        return Pf::default();
-    }
-    let (_, y, z) = rsqrt_norm(x);
-    // y in Q2.30 (≤ 2^31); y² in Q3.29; y³ in Q5.28.
+pub fn cos_over_r2(nl: u64, r2: u64) -> Pf {
+    let (_, y, z) = rsqrt_norm(r2);
+    // 1/r³ = y3 2^(3z/2 − 70) with y² in Q3.29, y³ in Q5.28; n·l's top
+    // word q: n·l ≈ q 2^(32 − z/2) 2⁻⁴⁸. Product: q y3 2^(z − 86).
+    let q = ((nl << (z / 2)) >> 32) as u32;
     let y2 = ((y as u64 * y as u64) >> 31) as u32;
     let y3 = ((y2 as u64 * y as u64) >> 31) as u32;
-    Pf::new32(y3, -28 - 3 * (64 - z as i32 + e) / 2)
+    Pf::new(q as u64 * y3 as u64, z as i32 - 86)
 }
 
 /// `√(x · 2⁻⁴⁴)` in S22 for `x < 2⁶²`, within 2⁻¹⁹ relative and one unit.
@@ -1011,10 +1024,10 @@ impl Mix32 {
                     if nl <= 0 {
                         continue;
                     }
-                    // r², S36 U², exact; (n·l)/r³ = (n·l) (1/√r²)³.
+                    // r², S36 U², exact (> 0: n·l is).
                     let sq = |v: i32| (v as i64 * v as i64) as u64;
                     let r2 = sq(lv[0]) + sq(lv[1]) + sq(lv[2]);
-                    Pf::new(nl as u64, -48) * rsqrt_cubed(r2, -36)
+                    cos_over_r2(nl as u64, r2)
                 }
                 MixLight::Directional { l, .. } => {
                     let nl =
@@ -1093,17 +1106,24 @@ mod tests {
             assert!((r - w).abs() <= 1.0 + w * 2f64.powi(-19), "sqrt {x}: {r} vs {w}");
         }
         assert!(worst < 2f64.powi(-19), "rsqrt relative error {worst:e}");
+        // (n·l)/r³ over lengths from 2⁻¹⁸ to 2¹³ U and n̂·l̂ from 2⁻⁸ to 1.
         let mut worst3: f64 = 0.0;
         for _ in 0..100_000 {
-            let x = rng(&mut s) >> (rng(&mut s) % 64);
-            let e = 2 * (rng(&mut s) % 40) as i32 - 40;
-            if x == 0 {
+            let len = rng(&mut s) % 31;
+            let l = [0, 1, 2].map(|_| (rng(&mut s) >> (33 + len)) as i64 - (1i64 << (30 - len)));
+            let r2: u64 = l.iter().map(|v| (v * v) as u64).sum();
+            let cos = 2f64.powf(-8.0 * (rng(&mut s) % 1024) as f64 / 1024.0);
+            let nl = (cos * (r2 as f64).sqrt() * 2f64.powi(30)) as u64;
+            if r2 == 0 || nl == 0 {
                 continue;
             }
-            let want = ((x as f64) * 2f64.powi(e)).powf(-1.5);
-            worst3 = worst3.max((rsqrt_cubed(x, e).to_f64() / want - 1.0).abs());
+            let want = nl as f64 * 2f64.powi(-48) / (r2 as f64 * 2f64.powi(-36)).powf(1.5);
+            worst3 = worst3.max((cos_over_r2(nl, r2).to_f64() / want - 1.0).abs());
         }
-        assert!(worst3 < 3.0 * 2f64.powi(-19), "cube relative error {worst3:e}");
+        assert!(
+            worst3 < 3.0 * 2f64.powi(-19) + 2f64.powi(-21),
+            "(n·l)/r³ relative error {worst3:e}"
+        );
     }
 
     #[test]

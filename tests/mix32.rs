@@ -236,7 +236,11 @@ fn lines_that_are_not_whole_chunks() {
             let w: usize = width.parse().expect("width");
             assert_eq!(core.flags.len(), w * 64, "{width} {fmt}");
             // Sphere, floor and background all on screen.
-            assert!(m.exact_fraction >= 0.99, "{width} {fmt}: exact {}", m.exact_fraction);
+            assert!(
+                m.exact_fraction >= 0.99,
+                "{width} {fmt}: exact {}",
+                m.exact_fraction
+            );
         }
     }
 }
