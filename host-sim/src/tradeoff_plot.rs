@@ -4,14 +4,20 @@
 //! ran, host ns per pixel otherwise.
 
 use crate::tradeoff::{Report, Row};
+use crate::variant::ScalarKind;
 use plotters::prelude::*;
 
-const SCALARS: [(&str, RGBColor); 4] = [
-    ("i32f32", RGBColor(31, 119, 180)),
-    ("i16f16", RGBColor(44, 160, 44)),
-    ("i12f20", RGBColor(148, 103, 189)),
-    ("f32", RGBColor(214, 39, 40)),
-];
+/// A colour for every scalar kind (the match is exhaustive: a new kind
+/// cannot go unplotted).
+fn colour(k: ScalarKind) -> RGBColor {
+    match k {
+        ScalarKind::I32F32 => RGBColor(31, 119, 180),
+        ScalarKind::I16F16 => RGBColor(44, 160, 44),
+        ScalarKind::I12F20 => RGBColor(148, 103, 189),
+        ScalarKind::F32 => RGBColor(214, 39, 40),
+        ScalarKind::Mix32 => RGBColor(255, 127, 14),
+    }
+}
 
 /// Indices of the rows on the Pareto front of (cost, error), by cost.
 fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
@@ -80,7 +86,8 @@ fn panel(
     chart
         .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
         .map_err(|x| e(x.to_string()))?;
-    for (s, c) in SCALARS {
+    for k in ScalarKind::ALL {
+        let (s, c) = (k.name(), colour(k));
         let mine: Vec<&(f64, f64, &Row)> = pts.iter().filter(|p| p.2.scalar == s).collect();
         if mine.is_empty() {
             continue;
