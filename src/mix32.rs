@@ -650,8 +650,28 @@ fn v_len(v: V3) -> Q {
 }
 
 impl Mix32 {
-    /// Converts a prepared frame; refuses what the formats cannot hold.
-    pub(crate) fn new(f: &Input) -> Result<Mix32, RenderError> {
+    /// A path with nothing in it, for [`Mix32::fill`] to fill in place.
+    pub(crate) const EMPTY: Mix32 = Mix32 {
+        width: 0,
+        format: PixelFormat::Gray8,
+        x0: 0,
+        dx: 0,
+        y0: 0,
+        dy: 0,
+        k: None,
+        limit: 0,
+        vignetting: false,
+        prims: heapless::Vec::new(),
+        lights: heapless::Vec::new(),
+        kd: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_MATERIALS],
+        ka: [[0; 3]; crate::scene::MAX_MATERIALS],
+        bg: [0; 3],
+    };
+
+    /// Converts a prepared frame in place (the path's state is kilobytes:
+    /// no copies of it on the stack); refuses what the formats cannot
+    /// hold, leaving `self` partly filled — the caller drops it then.
+    pub(crate) fn fill(&mut self, f: &Input) -> Result<(), RenderError> {
         use crate::render::CamShapeQ as S;
         let bad = RenderError::OutsideFormat;
         // The unit: content within 8 U.
@@ -687,7 +707,8 @@ impl Mix32 {
         let dot48 =
             |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| *x as i64 * y as i64).sum() };
 
-        let mut prims = heapless::Vec::new();
+        let prims = &mut self.prims;
+        prims.clear();
         for p in f.prims {
             let shape = match p.shape {
                 S::Plane { n, dist } => MixShape::Plane {
@@ -760,7 +781,8 @@ impl Mix32 {
             });
         }
         // I/r² with r in U: I / U² = I 2^(−2e).
-        let mut lights = heapless::Vec::new();
+        let lights = &mut self.lights;
+        lights.clear();
         for l in f.lights {
             let m = match *l {
                 ShadingLight::Point { p, i } => MixLight::Point {
@@ -778,9 +800,9 @@ impl Mix32 {
             let _ = lights.push(m);
         }
         let gain = f.gain.map(Pf::of_q);
-        let mut kd = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
-        let mut ka = [[0u64; 3]; crate::scene::MAX_MATERIALS];
-        for ((m, kd), ka) in f.materials.iter().zip(kd.iter_mut()).zip(ka.iter_mut()) {
+        self.kd = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
+        self.ka = [[0u64; 3]; crate::scene::MAX_MATERIALS];
+        for ((m, kd), ka) in f.materials.iter().zip(self.kd.iter_mut()).zip(self.ka.iter_mut()) {
             *kd = zip3(m.kd, gain, |k, g| Pf::of_q(k) * g);
             *ka = zip3(m.ka, gain, |k, g| (Pf::of_q(k) * g).to_sum(15));
         }
@@ -815,22 +837,17 @@ impl Mix32 {
         if xm.max(ym).saturating_mul(gmax) > Q::from_num(16) {
             return Err(bad);
         }
-        Ok(Mix32 {
-            width: f.width,
-            format: f.format,
-            x0: (f.x0 >> 6) as i64,
-            dx: (f.dx >> 6) as i64,
-            y0: f.y0,
-            dy: f.dy,
-            k,
-            limit,
-            vignetting: f.vignetting,
-            prims,
-            lights,
-            kd,
-            ka,
-            bg,
-        })
+        self.width = f.width;
+        self.format = f.format;
+        self.x0 = (f.x0 >> 6) as i64;
+        self.dx = (f.dx >> 6) as i64;
+        self.y0 = f.y0;
+        self.dy = f.dy;
+        self.k = k;
+        self.limit = limit;
+        self.vignetting = f.vignetting;
+        self.bg = bg;
+        Ok(())
     }
 
     /// `ŷ_d` of line `j`, S26.

@@ -623,23 +623,29 @@ impl<S: Scalar> Frame<S> {
         for l in &scene.lights {
             let _ = lights.push(shading_light(scene, l));
         }
-        self.mix = Some(crate::mix32::Mix32::new(&crate::mix32::Input {
-            width: self.width,
-            height: self.height,
-            format: scene.format,
-            x0: self.x0,
-            dx: self.dx,
-            y0: self.y0,
-            dy: self.dy,
-            distortion,
-            vignetting: self.stages.vignetting,
-            prims: &prims,
-            lights: &lights,
-            materials: &materials,
-            background: scene.background,
-            gain,
-        })?);
-        Ok(())
+        let filled = self
+            .mix
+            .insert(crate::mix32::Mix32::EMPTY)
+            .fill(&crate::mix32::Input {
+                width: self.width,
+                height: self.height,
+                format: scene.format,
+                x0: self.x0,
+                dx: self.dx,
+                y0: self.y0,
+                dy: self.dy,
+                distortion,
+                vignetting: self.stages.vignetting,
+                prims: &prims,
+                lights: &lights,
+                materials: &materials,
+                background: scene.background,
+                gain,
+            });
+        if filled.is_err() {
+            self.mix = None;
+        }
+        filled
     }
 
     /// Without the `mix32` feature the path is not built in.
