@@ -4,11 +4,18 @@
 # prints one line of metrics a scene; streams the standard scene through the
 # simulated UART and USB links and runs the fault campaign; runs the firmware
 # in QEMU on both boards (installing QEMU when it can) and checks its frames
-# against the host render; then the demo camera's projections and lens
-# figures, core vs reference.
+# against the host render; the speed/accuracy sweep; then the demo camera's
+# projections and lens figures, core vs reference.
+#
+# Works on a fresh machine with only rustup (it installs the thumb targets).
+# --short: fewer streamed frames and the sweep's tiny configuration (what the
+# test command runs, so that CI exercises this script).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib.sh
+short=0
+[ "${1:-}" = "--short" ] && short=1
+ensure_toolchain
 cargo build -q --release -p host-sim
 for scene in scenes/*.toml; do
   name=$(basename "$scene" .toml)
@@ -18,13 +25,17 @@ echo "frames, diff maps and metrics.json: out/<scene>/"
 echo
 # The link: the standard scene streamed through the simulated links, then the
 # standard fault campaign.
-./target/release/host-sim stream --scene scenes/standard.toml --link uart:921600 --frames 20 --out out/stream-uart
-./target/release/host-sim stream --scene scenes/standard.toml --link usb-fs --frames 200 --out out/stream-usb
+uart_frames=20 usb_frames=200
+[ $short = 1 ] && uart_frames=3 usb_frames=20
+./target/release/host-sim stream --scene scenes/standard.toml --link uart:921600 --frames $uart_frames --out out/stream-uart
+./target/release/host-sim stream --scene scenes/standard.toml --link usb-fs --frames $usb_frames --out out/stream-usb
 ./target/release/host-sim faults --out out/faults 2>/dev/null
 echo
 # The firmware in QEMU: the same scenes rendered on a Cortex-M3 and a
 # Cortex-M4F, streamed over their UARTs, checked byte for byte.
-if ensure_qemu; then
+qemu=0
+ensure_qemu && qemu=1
+if [ $qemu = 1 ]; then
   build_firmware
   ./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
   ./target/release/host-sim hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
@@ -36,10 +47,13 @@ fi
 echo
 # The speed/accuracy trade: every variant against the reference, on the M3
 # and the M4F when QEMU is here (the host only otherwise).
-if ensure_qemu; then
-  ./target/release/host-sim tradeoff --out out/tradeoff | sed -n '/^Cheapest/,$p' | grep -v '^| standard-'
-else
-  ./target/release/host-sim tradeoff --boards none --out out/tradeoff | sed -n '/^Cheapest/,$p'
+sweep=()
+[ $short = 1 ] && sweep=(--tiny --repeats 1)
+[ $qemu = 1 ] || sweep+=(--boards none)
+./target/release/host-sim tradeoff "${sweep[@]}" --out out/tradeoff | { sed -n '/^Cheapest/,$p' | grep -v '^| standard-' || true; }
+if grep -q '"bit_exact_m3": false\|"bit_exact_m4f": false' out/tradeoff/tradeoff.json; then
+  echo "a variant was not bit-exact on a board"
+  exit 1
 fi
 echo "the whole table and the plot: out/tradeoff/tradeoff.md, out/tradeoff/tradeoff.png"
 echo

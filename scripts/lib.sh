@@ -1,5 +1,17 @@
-# Shared by the scripts: installs qemu-system-arm when it is missing and this
-# is root on a Debian-like machine. Returns non-zero if QEMU is unavailable.
+# Shared by the scripts.
+
+# Installs what every entry point builds with: the thumb targets and the
+# components. rust-toolchain.toml alone does not add targets to an installed
+# stable toolchain on a fresh machine (cargo then fails with "can't find crate
+# for core"), so both README commands call this first.
+ensure_toolchain() {
+  rustup component add clippy rustfmt >/dev/null 2>&1 || rustup component add clippy rustfmt
+  rustup target add thumbv6m-none-eabi thumbv7m-none-eabi thumbv7em-none-eabihf >/dev/null 2>&1 ||
+    rustup target add thumbv6m-none-eabi thumbv7m-none-eabi thumbv7em-none-eabihf
+}
+
+# Installs qemu-system-arm when it is missing and this is root on a
+# Debian-like machine. Returns non-zero if QEMU is unavailable.
 ensure_qemu() {
   command -v qemu-system-arm >/dev/null 2>&1 && return 0
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then

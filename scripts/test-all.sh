@@ -5,9 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib.sh
 
-echo "== toolchain (targets and components from rust-toolchain.toml)"
-rustup component add clippy rustfmt >/dev/null
-rustup target add thumbv6m-none-eabi thumbv7m-none-eabi thumbv7em-none-eabihf >/dev/null
+echo "== toolchain: the thumb targets and components (scripts/lib.sh ensure_toolchain)"
+ensure_toolchain
 rustc --version
 
 echo "== format"
@@ -36,12 +35,9 @@ echo "== tests"
 rm -rf target/tmp/accuracy
 cargo test --workspace
 
-echo "== firmware in QEMU: every shipped scene, byte-identical with the host render"
+echo "== the main job, short (README's first command): renders, streams, QEMU on both boards, tiny sweep"
 ensure_qemu || { echo "qemu-system-arm is missing and could not be installed"; exit 1; }
-cargo build -q --release -p host-sim
-for board in lm3s6965evb mps2-an386; do
-  ./target/release/host-sim hil --board "$board" --elf "firmware/target/$( [ $board = lm3s6965evb ] && echo thumbv7m-none-eabi || echo thumbv7em-none-eabihf )/release/hilcam-firmware" --out "target/hil/$board"
-done
+./scripts/emulate.sh --short
 
 echo "== firmware in QEMU at 640x480 (the standard scene, wider): streams by lines, RAM O(width)"
 mkdir -p target/scenes640
@@ -57,11 +53,6 @@ echo "== firmware built for size (opt-level z, no status): the M3 image within 6
   --out target/hil/lm3s6965evb-small | tail -1
 awk -F': ' '/"flash_bytes"/ { gsub(",", "", $2); if ($2 + 0 > 65536) { print "flash " $2 " B > 64 KiB"; bad = 1 } } END { exit bad }' \
   target/hil/lm3s6965evb-small/hil.json
-
-echo "== speed/accuracy sweep on a tiny configuration: four variants, both boards in QEMU"
-./target/release/host-sim tradeoff --tiny --repeats 1 --out target/tradeoff-tiny > /dev/null
-grep -q '"bit_exact_m3": false\|"bit_exact_m4f": false' target/tradeoff-tiny/tradeoff.json && { echo "a variant was not bit-exact on a board"; exit 1; }
-echo "tradeoff.json, tradeoff.md, tradeoff.png: target/tradeoff-tiny/"
 
 echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
 ./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
