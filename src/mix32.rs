@@ -44,9 +44,15 @@
 //! 2⁻¹⁹, so `E` to 3·2⁻¹⁹ (6·10⁻⁶) of `I/r²`, plus 2⁻²⁹ of it from
 //! truncating `n·l`: 0.4 DN at the top of a 16-bit scale.
 //!
-//! What the path does not do — parallel rays, a distortion table, the
-//! specular lobe — and scenes outside the formats are refused when the frame
-//! is prepared ([`crate::render::RenderError::OutsideFormat`]); the generic
+//! Rays are perspective (from the origin along `(x̂, ŷ, 1)`) or parallel
+//! (weak perspective, orthographic: from `(o_x, o_y, 0)` along `(0, 0, 1)`,
+//! origins within 64 U). The normalized Phong lobe `max(0, r̂·v̂)^s` is a
+//! [`Pf`] power by squaring, with `l̂` and `v̂` normalized to 2⁻²⁹
+//! ([`rsqrt_fine`]); its error grows with `s` times the hit point's
+//! 2⁻¹⁸ U rounding (the planner's error model accounts for it).
+//!
+//! A distortion table, and scenes outside the formats, are refused when the
+//! frame is prepared ([`crate::render::RenderError::OutsideFormat`]); the generic
 //! path renders them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
 use crate::render::from_acc;
@@ -124,6 +130,10 @@ impl Pf {
         } else if s <= 15 {
             // ≤ 2^47 = SUM_CAP.
             (p as u64) << s
+        } else if p == 0 {
+            // A zero factor (an albedo of 0, a lobe that vanished) with a
+            // large exponent.
+            0
         } else {
             SUM_CAP
         }
@@ -265,6 +275,20 @@ fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
     (m, y, z)
 }
 
+/// [`rsqrt_norm`] refined by a second Newton step in 64-bit arithmetic:
+/// `(y, z)` with `y ≈ 1/√(m/2⁶⁴)` in Q2.30 within 2⁻²⁹ relative — for the
+/// unit vectors of the specular lobe, whose exponent multiplies their
+/// error (`s` up to 1 000).
+#[inline]
+fn rsqrt_fine(x: u64) -> (u32, u32) {
+    let (m, y, z) = rsqrt_norm(x);
+    // y (3 − m y²) / 2: y² Q4.60, m y² Q4.60 (m/2^64 < 1), then Q2.30.
+    let y2 = y as u64 * y as u64;
+    let my2 = ((m as u128 * y2 as u128) >> 64) as u64;
+    let f = (3u64 << 60).saturating_sub(my2);
+    ((((y as u128) * (f as u128)) >> 61) as u32, z)
+}
+
 /// `(n·l)/r³` in U⁻² for `n·l` in S48 U with `0 < n·l ≤ |n| |l|`
 /// (`n` a unit vector in S30) and `r² = l·l > 0` in S36 U²: one
 /// normalization of `r²` serves both (`(n·l) 2^(z/2)` lies below 2⁶³).
@@ -273,6 +297,13 @@ fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
 #[inline]
 pub fn cos_over_r2(nl: u64, r2: u64) -> Pf {
     let (_, y, z) = rsqrt_norm(r2);
+    cos_over_r3(nl, y, z)
+}
+
+/// [`cos_over_r2`] from [`rsqrt_norm`]`(r²)`'s `y`, `z` (which the lobe
+/// shares).
+#[inline(always)]
+fn cos_over_r3(nl: u64, y: u32, z: u32) -> Pf {
     // 1/r³ = y3 2^(3z/2 − 70) with y² in Q3.29, y³ in Q5.28; n·l's top
     // word q: n·l ≈ q 2^(32 − z/2) 2⁻⁴⁸. Product: q y3 2^(z − 86).
     let q = ((nl << (z / 2)) >> 32) as u32;
@@ -340,22 +371,24 @@ fn recip_len(v: Q, unit_exp: i32) -> Option<(u32, u32)> {
 
 #[derive(Clone, Copy, Debug)]
 enum MixShape {
-    Plane {
-        n: [i32; 3],
-        dist: i32,
-    },
+    /// `n·p = dist`; `rz` is `1/n_z` for parallel rays ([`Ray::plane_t`]).
+    Plane { n: [i32; 3], dist: i32, rz: (u32, u32) },
     Sphere {
-        /// Centre, S24 (for `b`) and S18 (for the normal); `c_z` in S50.
+        /// Centre, S24 (for `b`) and S18 (for the normal and parallel
+        /// rays); `c_z` in S50.
         c: [i32; 3],
         cz50: i64,
         c18: [i32; 3],
         /// `|c|² − r²`, S24 U².
         cc: i32,
+        /// r², S36 U².
+        r2: u64,
         inv_r: (u32, u32),
     },
     Disc {
         n: [i32; 3],
         dist: i32,
+        rz: (u32, u32),
         c18: [i32; 3],
         /// r², S36 U².
         r2: u64,
@@ -363,6 +396,7 @@ enum MixShape {
     Rect {
         n: [i32; 3],
         dist: i32,
+        rz: (u32, u32),
         c18: [i32; 3],
         u: [i32; 3],
         v: [i32; 3],
@@ -401,10 +435,23 @@ enum MixLight {
     Directional { l: [i32; 3], e: [Pf; 3] },
 }
 
-/// `kd · E` (or `kd · I/U²`) per light and channel for one material.
+/// `kd · E` and `ks · E` (or `· I/U²`) per light and channel for one
+/// material, and its lobe.
 struct KCache {
     material: usize,
     k: [[Pf; 3]; crate::scene::MAX_LIGHTS],
+    ks: [[Pf; 3]; crate::scene::MAX_LIGHTS],
+    /// The material's Phong exponent, if its lobe is rendered.
+    lobe: Option<u16>,
+}
+
+impl KCache {
+    const EMPTY: KCache = KCache {
+        material: usize::MAX,
+        k: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_LIGHTS],
+        ks: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_LIGHTS],
+        lobe: None,
+    };
 }
 
 /// Pixels a pass handles at once.
@@ -420,12 +467,17 @@ const T_MAX: i32 = i32::MAX - 1;
 /// `Ray::hit`'s flag: the surface hit faces away from the viewer.
 const AWAY: u8 = 0x80;
 
-/// One pixel's ray `(x, y, 1)` and its nearest hit so far.
+/// One pixel's ray and its nearest hit so far: from the origin along
+/// `(x̂, ŷ, 1)` (perspective), or from `(o_x, o_y, 0)` along `(0, 0, 1)`
+/// (parallel rays).
 #[derive(Clone, Copy, Debug)]
 struct Ray {
     /// `x̂`, `ŷ`, S26.
     x: i32,
     y: i32,
+    /// Parallel rays' origin, S18 U (0 for perspective rays).
+    ox: i32,
+    oy: i32,
     /// `a = d·d`, S20, and `1/a = r 2^(z − 62)` as `(r, z)`.
     a: i32,
     ra: (u32, u32),
@@ -440,20 +492,36 @@ impl Ray {
     const OUTSIDE: Ray = Ray {
         x: 0,
         y: 0,
+        ox: 0,
+        oy: 0,
         a: 1 << 20,
         ra: (1 << 31, 11),
         t: 0,
         hit: 0,
     };
 
+    /// The ray of the undistorted point `(x̂, ŷ)`; `k` is the parallel
+    /// rays' origin scale (`Z̄` or `f/m`, S24 U), unused for perspective.
     #[inline(always)]
-    fn new(x: i32, y: i32) -> Ray {
-        // a = 1 + x² + y², S20 (≤ 513: the slopes are below 16).
+    fn new<const PERSP: bool>(x: i32, y: i32, k: i32) -> Ray {
+        // a = 1 + x² + y², S20 (≤ 513: the slopes are below 16): d·d for
+        // perspective rays, and cos⁴α = 1/a² for both.
         let a = (1 << 20) + ((x as i64 * x as i64 + y as i64 * y as i64) >> 32) as i32;
         let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
+        let (ox, oy) = if PERSP {
+            (0, 0)
+        } else {
+            // S26 · S24 → S18; |o| ≤ 64 U, checked per frame.
+            (
+                ((x as i64 * k as i64) >> 32) as i32,
+                ((y as i64 * k as i64) >> 32) as i32,
+            )
+        };
         Ray {
             x,
             y,
+            ox,
+            oy,
             a,
             ra,
             t: NO_HIT,
@@ -463,8 +531,12 @@ impl Ray {
 
     /// The point at `t` (S18 U) along the ray, S18 U.
     #[inline(always)]
-    fn point(&self, t: i32) -> [i32; 3] {
-        [mul32::<26>(t, self.x), mul32::<26>(t, self.y), t]
+    fn point<const PERSP: bool>(&self, t: i32) -> [i32; 3] {
+        if PERSP {
+            [mul32::<26>(t, self.x), mul32::<26>(t, self.y), t]
+        } else {
+            [self.ox, self.oy, t]
+        }
     }
 
     /// Keeps a hit at `t` if it is nearer than the nearest so far.
@@ -478,17 +550,30 @@ impl Ray {
 
     /// The plane `n·p = dist`'s `t` along the ray (S18 U, saturated to
     /// `T_MAX`) and whether the plane faces away (`n·d > 0`), if it is
-    /// ahead.
+    /// ahead. For parallel rays `rz` is `1/n_z` (from [`recip`] of `n_z`
+    /// in S30), a per-frame constant.
     #[inline(always)]
-    fn plane_t(&self, n: [i32; 3], dist: i32) -> Option<(i32, bool)> {
-        // n·d S56 → S24; t = dist / (n·d) in S18.
-        let den = ((n[0] as i64 * self.x as i64 + n[1] as i64 * self.y as i64 + ((n[2] as i64) << 26)) >> 32)
-            as i32;
-        // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
-        let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
-        let t = mul_shr_var(dist, r, 44 - z);
-        let t = if den < 0 { t.saturating_neg() } else { t };
-        (t > 0).then_some((t.min(T_MAX), den > 0))
+    fn plane_t<const PERSP: bool>(&self, n: [i32; 3], dist: i32, rz: (u32, u32)) -> Option<(i32, bool)> {
+        if PERSP {
+            // n·d S56 → S24; t = dist / (n·d) in S18.
+            let den = ((n[0] as i64 * self.x as i64 + n[1] as i64 * self.y as i64 + ((n[2] as i64) << 26))
+                >> 32) as i32;
+            // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
+            let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
+            let t = mul_shr_var(dist, r, 44 - z);
+            let t = if den < 0 { t.saturating_neg() } else { t };
+            (t > 0).then_some((t.min(T_MAX), den > 0))
+        } else {
+            // t = (dist − n·o) / n_z: n·o S48 → S24 (|o| ≤ 64 U, so the
+            // numerator stays within ±128 U); 1/n_z = r 2^(z − 32).
+            if n[2] == 0 {
+                return None;
+            }
+            let no = ((n[0] as i64 * self.ox as i64 + n[1] as i64 * self.oy as i64) >> 24) as i32;
+            let t = mul_shr_var(dist.saturating_sub(no), rz.0, 38 - rz.1);
+            let t = if n[2] < 0 { t.saturating_neg() } else { t };
+            (t > 0).then_some((t.min(T_MAX), n[2] > 0))
+        }
     }
 }
 
@@ -512,32 +597,52 @@ impl MixPrim {
     /// One primitive's pass over a chunk: keeps its hits that are nearer
     /// than each ray's nearest so far (`index` names it in [`Ray::hit`]).
     #[inline(always)]
-    fn nearest(&self, index: u8, rays: &mut [Ray]) {
+    fn nearest<const PERSP: bool>(&self, index: u8, rays: &mut [Ray]) {
         match &self.shape {
-            MixShape::Plane { n, dist } => {
+            MixShape::Plane { n, dist, rz } => {
                 for r in rays.iter_mut() {
-                    if let Some((t, away)) = r.plane_t(*n, *dist) {
+                    if let Some((t, away)) = r.plane_t::<PERSP>(*n, *dist, *rz) {
                         r.keep(t, index, away);
                     }
                 }
             }
-            MixShape::Sphere { c, cz50, cc, .. } => {
+            MixShape::Sphere {
+                c, cz50, cc, c18, r2, ..
+            } => {
                 for r in rays.iter_mut() {
-                    // b = d·c S22; disc = b² − a cc, S44.
-                    let b = ((r.x as i64 * c[0] as i64 + r.y as i64 * c[1] as i64 + *cz50) >> 28) as i32;
-                    let disc = b as i64 * b as i64 - r.a as i64 * *cc as i64;
-                    if disc < 0 {
-                        continue;
-                    }
-                    let sq = sqrt_s44_to_s22(disc as u64);
-                    // t = (b ∓ √disc) 2^16 / a (S22 / S20 → S18).
-                    let over_a = |v: i32| mul_shr_var(v, r.ra.0, 46 - r.ra.1);
-                    let mut t = over_a(b - sq);
+                    let (b, sq) = if PERSP {
+                        // b = d·c S22; disc = b² − a cc, S44.
+                        let b = ((r.x as i64 * c[0] as i64 + r.y as i64 * c[1] as i64 + *cz50) >> 28) as i32;
+                        let disc = b as i64 * b as i64 - r.a as i64 * *cc as i64;
+                        if disc < 0 {
+                            continue;
+                        }
+                        (b, sqrt_s44_to_s22(disc as u64))
+                    } else {
+                        // b = c_z − o_z = c_z (S18); disc = r² − |(c − o)_xy|²,
+                        // S36 (|c − o| ≤ 72 U).
+                        let (dx, dy) = (c18[0] as i64 - r.ox as i64, c18[1] as i64 - r.oy as i64);
+                        let disc = *r2 as i64 - dx * dx - dy * dy;
+                        if disc < 0 {
+                            continue;
+                        }
+                        (c18[2], sqrt_s44_to_s22((disc as u64) << 8) >> 4)
+                    };
+                    // t = (b ∓ √disc) / a: perspective S22 2^16 / a (S20) →
+                    // S18; parallel a = 1, S18 already.
+                    let over_a = |v: i32| {
+                        if PERSP {
+                            mul_shr_var(v, r.ra.0, 46 - r.ra.1)
+                        } else {
+                            v
+                        }
+                    };
+                    let mut t = over_a(b.saturating_sub(sq));
                     // The far root: the ray starts inside, the outward
                     // normal faces away.
                     let inside = t <= 0;
                     if inside {
-                        t = over_a(b + sq);
+                        t = over_a(b.saturating_add(sq));
                         if t <= 0 {
                             continue;
                         }
@@ -545,15 +650,15 @@ impl MixPrim {
                     r.keep(t.min(T_MAX), index, inside);
                 }
             }
-            MixShape::Disc { n, dist, c18, r2 } => {
+            MixShape::Disc { n, dist, rz, c18, r2 } => {
                 for r in rays.iter_mut() {
-                    let Some((t, away)) = r.plane_t(*n, *dist) else {
+                    let Some((t, away)) = r.plane_t::<PERSP>(*n, *dist, *rz) else {
                         continue;
                     };
                     if t >= r.t {
                         continue;
                     }
-                    let d2: u64 = zip3(r.point(t), *c18, |p, c| {
+                    let d2: u64 = zip3(r.point::<PERSP>(t), *c18, |p, c| {
                         let d = p.saturating_sub(c) as i64;
                         (d * d) as u64
                     })
@@ -567,6 +672,7 @@ impl MixPrim {
             MixShape::Rect {
                 n,
                 dist,
+                rz,
                 c18,
                 u,
                 v,
@@ -574,13 +680,13 @@ impl MixPrim {
                 hv,
             } => {
                 for r in rays.iter_mut() {
-                    let Some((t, away)) = r.plane_t(*n, *dist) else {
+                    let Some((t, away)) = r.plane_t::<PERSP>(*n, *dist, *rz) else {
                         continue;
                     };
                     if t >= r.t {
                         continue;
                     }
-                    let rel = zip3(r.point(t), *c18, i32::saturating_sub);
+                    let rel = zip3(r.point::<PERSP>(t), *c18, i32::saturating_sub);
                     let dot = |a: [i32; 3]| {
                         rel[0] as i64 * a[0] as i64
                             + rel[1] as i64 * a[1] as i64
@@ -610,12 +716,19 @@ pub struct Mix32 {
     k: Option<[i32; 2]>,
     limit: i32,
     vignetting: bool,
+    /// Parallel rays' origin scale (`Z̄` or `f/m`), S24 U; `None`:
+    /// perspective rays.
+    parallel: Option<i32>,
     prims: heapless::Vec<MixPrim, { crate::scene::MAX_PRIMITIVES }>,
     lights: heapless::Vec<MixLight, { crate::scene::MAX_LIGHTS }>,
     /// Per material and channel, times the gain: diffuse (DN per W/m²) and
     /// ambient (S15 DN, capped at [`SUM_CAP`]).
     kd: [[Pf; 3]; crate::scene::MAX_MATERIALS],
     ka: [[u64; 3]; crate::scene::MAX_MATERIALS],
+    /// Specular constant per material and channel, times the gain, and the
+    /// exponent if the material's lobe is rendered.
+    ks: [[Pf; 3]; crate::scene::MAX_MATERIALS],
+    lobe: [Option<u16>; crate::scene::MAX_MATERIALS],
     /// Background, S15 DN (capped).
     bg: [u64; 3],
 }
@@ -633,6 +746,12 @@ pub(crate) struct Input<'a> {
     /// `k1`, `k2` and the `u` limit, if distortion is modelled (polynomial).
     pub distortion: Option<([Q; 2], Q)>,
     pub vignetting: bool,
+    /// Parallel rays' origin scale (`Z̄` or `f/m`, metres), or `None` for
+    /// perspective rays.
+    pub origin_scale: Option<Q>,
+    /// Render the specular lobe of every material (even one whose `ks` is
+    /// 0: every stage kept).
+    pub specular_all: bool,
     pub prims: &'a [crate::render::CamPrimQ],
     pub lights: &'a [ShadingLight],
     pub materials: &'a [Brdf],
@@ -663,10 +782,13 @@ impl Mix32 {
         k: None,
         limit: 0,
         vignetting: false,
+        parallel: None,
         prims: heapless::Vec::new(),
         lights: heapless::Vec::new(),
         kd: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_MATERIALS],
         ka: [[0; 3]; crate::scene::MAX_MATERIALS],
+        ks: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_MATERIALS],
+        lobe: [None; crate::scene::MAX_MATERIALS],
         bg: [0; 3],
     };
 
@@ -716,6 +838,7 @@ impl Mix32 {
                 S::Plane { n, dist } => MixShape::Plane {
                     n: u3(n),
                     dist: l24(dist),
+                    rz: recip_z(u3(n)),
                 },
                 S::Sphere { c, r2, .. } => {
                     let r = isqrt_q(r2);
@@ -723,11 +846,13 @@ impl Mix32 {
                     // |c|² − r² in S24 U², from S24 components (exact in i128).
                     let cc = c24.iter().map(|v| *v as i128 * *v as i128).sum::<i128>()
                         - (l24(r) as i128 * l24(r) as i128);
+                    let r18 = l18(r) as u64;
                     MixShape::Sphere {
                         cz50: (c24[2] as i64) << 26,
                         c: c24,
                         c18: c.map(l18),
                         cc: (cc >> 24).clamp(i32::MIN as i128, i32::MAX as i128) as i32,
+                        r2: r18 * r18,
                         inv_r: recip_len(r, e).ok_or(bad)?,
                     }
                 }
@@ -736,6 +861,7 @@ impl Mix32 {
                     MixShape::Disc {
                         n: u3(n),
                         dist: l24(dist),
+                        rz: recip_z(u3(n)),
                         c18: c.map(l18),
                         r2: r * r,
                     }
@@ -751,6 +877,7 @@ impl Mix32 {
                 } => MixShape::Rect {
                     n: u3(n),
                     dist: l24(dist),
+                    rz: recip_z(u3(n)),
                     c18: c.map(l18),
                     u: u3(u),
                     v: u3(v),
@@ -804,9 +931,22 @@ impl Mix32 {
         let gain = f.gain.map(Pf::of_q);
         self.kd = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
         self.ka = [[0u64; 3]; crate::scene::MAX_MATERIALS];
-        for ((m, kd), ka) in f.materials.iter().zip(self.kd.iter_mut()).zip(self.ka.iter_mut()) {
+        self.ks = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
+        self.lobe = [None; crate::scene::MAX_MATERIALS];
+        for (i, m) in f.materials.iter().enumerate() {
+            let (Some(kd), Some(ka), Some(ks), Some(lobe)) = (
+                self.kd.get_mut(i),
+                self.ka.get_mut(i),
+                self.ks.get_mut(i),
+                self.lobe.get_mut(i),
+            ) else {
+                continue;
+            };
             *kd = zip3(m.kd, gain, |k, g| Pf::of_q(k) * g);
             *ka = zip3(m.ka, gain, |k, g| (Pf::of_q(k) * g).to_sum(15));
+            *ks = zip3(m.ks, gain, |k, g| Pf::of_q(k) * g);
+            let has = m.ks.iter().any(|k| *k > Q::ZERO);
+            *lobe = (has || f.specular_all).then_some(m.exponent);
         }
         let bg = zip3(f.background, gain, |b, g| (Pf::of_q(b) * g).to_sum(15));
 
@@ -836,9 +976,23 @@ impl Mix32 {
             }
             None => (None, i32::MAX, Q::ONE),
         };
-        if xm.max(ym).saturating_mul(gmax) > Q::from_num(16) {
+        let slope = xm.max(ym).saturating_mul(gmax);
+        if slope > Q::from_num(16) {
             return Err(bad);
         }
+        // Parallel rays: origins within 64 U (so that n·o and the sphere's
+        // offsets keep their formats), the scale in S24.
+        let parallel = match f.origin_scale {
+            None => None,
+            Some(k) => {
+                let k24 = len_s(k, e, 24);
+                if k <= Q::ZERO || k24 == i32::MAX || slope.saturating_mul(k) > shl_q(64, e) {
+                    return Err(bad);
+                }
+                Some(k24)
+            }
+        };
+        self.parallel = parallel;
         self.width = f.width;
         self.format = f.format;
         self.x0 = (f.x0 >> 6) as i64;
@@ -889,19 +1043,28 @@ impl Mix32 {
 
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
     pub fn line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
-        match self.format {
-            PixelFormat::Gray8 => self.line_f::<1, 1>(j, pixels, flags),
-            PixelFormat::Gray16 { .. } => self.line_f::<1, 2>(j, pixels, flags),
-            PixelFormat::Rgb565 => self.line_f::<3, 2>(j, pixels, flags),
+        match (self.format, self.parallel.is_none()) {
+            (PixelFormat::Gray8, true) => self.line_f::<1, 1, true>(j, pixels, flags),
+            (PixelFormat::Gray16 { .. }, true) => self.line_f::<1, 2, true>(j, pixels, flags),
+            (PixelFormat::Rgb565, true) => self.line_f::<3, 2, true>(j, pixels, flags),
+            (PixelFormat::Gray8, false) => self.line_f::<1, 1, false>(j, pixels, flags),
+            (PixelFormat::Gray16 { .. }, false) => self.line_f::<1, 2, false>(j, pixels, flags),
+            (PixelFormat::Rgb565, false) => self.line_f::<3, 2, false>(j, pixels, flags),
         }
     }
 
-    /// [`Mix32::line`] for `C` channels in `B` bytes a pixel: the line in
-    /// chunks of [`CHUNK`] pixels, each in passes — the undistorted rays,
-    /// then one pass a primitive keeping the nearest hit, then shading. A
-    /// pass holds one primitive's constants in registers.
+    /// [`Mix32::line`] for `C` channels in `B` bytes a pixel, perspective
+    /// or parallel rays: the line in chunks of [`CHUNK`] pixels, each in
+    /// passes — the undistorted rays, then one pass a primitive keeping the
+    /// nearest hit, then shading. A pass holds one primitive's constants in
+    /// registers.
     #[inline(never)]
-    fn line_f<const C: usize, const B: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    fn line_f<const C: usize, const B: usize, const PERSP: bool>(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+    ) {
         let w = self.width as usize;
         let (pixels, _) = pixels.as_chunks_mut::<B>();
         let (Some(pixels), Some(flags)) = (pixels.get_mut(..w), flags.get_mut(..w)) else {
@@ -910,11 +1073,9 @@ impl Mix32 {
         let yd = self.yd(j);
         let yd2 = yd as i64 * yd as i64;
         let mut acc = self.x0;
+        let korigin = self.parallel.unwrap_or(0);
         // kd · E per light for the material of the last shaded pixel.
-        let mut k = KCache {
-            material: usize::MAX,
-            k: [[Pf::default(); 3]; crate::scene::MAX_LIGHTS],
-        };
+        let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let mut rays = Rays::default();
         for (pixels, flags) in pixels.chunks_mut(CHUNK).zip(flags.chunks_mut(CHUNK)) {
@@ -925,22 +1086,22 @@ impl Mix32 {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
                 *r = match self.undistort(xd, yd, yd2) {
-                    Some((x, y)) => Ray::new(x, y),
+                    Some((x, y)) => Ray::new::<PERSP>(x, y, korigin),
                     None => Ray::OUTSIDE,
                 };
             }
             for (i, p) in self.prims.iter().enumerate() {
-                p.nearest(i as u8, rays);
+                p.nearest::<PERSP>(i as u8, rays);
             }
             for ((r, out), flag) in rays.iter().zip(pixels.iter_mut()).zip(flags.iter_mut()) {
-                self.pixel::<C, B>(r, dn_max, out, flag, &mut k);
+                self.pixel::<C, B, PERSP>(r, dn_max, out, flag, &mut k);
             }
         }
     }
 
     /// Shades and packs one pixel of a chunk whose nearest hits are known.
     #[inline(always)]
-    fn pixel<const C: usize, const B: usize>(
+    fn pixel<const C: usize, const B: usize, const PERSP: bool>(
         &self,
         r: &Ray,
         dn_max: [u64; 3],
@@ -961,8 +1122,8 @@ impl Mix32 {
         } else {
             1 << 31
         };
-        let sum = match self.hit(r) {
-            Some((m, pt, n, away)) => self.shade::<C>(m, pt, n, away, k),
+        let sum = match self.hit::<PERSP>(r) {
+            Some((m, pt, n, away)) => self.shade::<C, PERSP>(r, m, pt, n, away, k),
             None => self.bg,
         };
         // Channels past C are not packed: the compiler drops them.
@@ -974,13 +1135,13 @@ impl Mix32 {
     /// point (S18 U), unit normal (S30) and whether it faces away from the
     /// viewer (surfaces are two-sided: shading turns it).
     #[inline(always)]
-    fn hit(&self, r: &Ray) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+    fn hit<const PERSP: bool>(&self, r: &Ray) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
         if r.t == NO_HIT {
             return None;
         }
         let p = self.prims.get((r.hit & !AWAY) as usize)?;
         let away = r.hit & AWAY != 0;
-        let pt = r.point(r.t);
+        let pt = r.point::<PERSP>(r.t);
         let n = match &p.shape {
             MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
             MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
@@ -1005,11 +1166,30 @@ impl Mix32 {
         Some((m, pt, n, away))
     }
 
-    /// The ambient and Lambertian terms of every light, before vignetting:
-    /// S15 DN, capped at [`SUM_CAP`].
+    /// The unit direction from a ray's hit towards the viewer, S30:
+    /// `−(x̂, ŷ, 1)/√a` (perspective) or `(0, 0, −1)` (parallel rays).
     #[inline(always)]
-    fn shade<const C: usize>(
+    fn view<const PERSP: bool>(r: &Ray) -> [i32; 3] {
+        if !PERSP {
+            return [0, 0, -(1 << 30)];
+        }
+        // a S20 = m 2^-z; 1/√a = y 2^((z − 44)/2) in S30 (z ≤ 42: a ≥ 1).
+        let (y, z) = rsqrt_fine(r.a as u64);
+        let sh = 26 + (44 - z.min(44)) / 2;
+        [
+            -(((r.x as i64 * y as i64) >> sh) as i32),
+            -(((r.y as i64 * y as i64) >> sh) as i32),
+            -((y >> ((44 - z.min(44)) / 2)) as i32),
+        ]
+    }
+
+    /// The ambient, Lambertian and (for a material with a lobe) specular
+    /// terms of every light, before vignetting: S15 DN, capped at
+    /// [`SUM_CAP`].
+    #[inline(always)]
+    fn shade<const C: usize, const PERSP: bool>(
         &self,
+        r: &Ray,
         m: usize,
         pt: [i32; 3],
         n: [i32; 3],
@@ -1017,55 +1197,119 @@ impl Mix32 {
         k: &mut KCache,
     ) -> [u64; 3] {
         let channels = C;
-        let (Some(kd), Some(&ka)) = (self.kd.get(m), self.ka.get(m)) else {
+        let (Some(kd), Some(&ka), Some(ks), Some(&lobe)) =
+            (self.kd.get(m), self.ka.get(m), self.ks.get(m), self.lobe.get(m))
+        else {
             return [0; 3];
         };
         if k.material != m {
             k.material = m;
-            for (kl, l) in k.k.iter_mut().zip(&self.lights) {
+            k.lobe = lobe;
+            for ((kl, ksl), l) in k.k.iter_mut().zip(k.ks.iter_mut()).zip(&self.lights) {
                 let e = match l {
                     MixLight::Point { i, .. } => i,
                     MixLight::Directional { e, .. } => e,
                 };
-                for ((kc, d), e) in kl.iter_mut().zip(kd).zip(e).take(channels) {
+                for (((kc, ksc), (d, s)), e) in kl
+                    .iter_mut()
+                    .zip(ksl.iter_mut())
+                    .zip(kd.iter().zip(ks))
+                    .zip(e)
+                    .take(channels)
+                {
                     *kc = *d * *e;
+                    *ksc = *s * *e;
                 }
             }
         }
+        // The normal turned towards the viewer, and the view direction, for
+        // the lobe.
+        let nt = if away { n.map(i32::saturating_neg) } else { n };
+        let view = k.lobe.map(|_| Self::view::<PERSP>(r));
+        let dot30 = |a: [i32; 3], b: [i32; 3]| -> i32 {
+            ((a[0] as i64 * b[0] as i64 + a[1] as i64 * b[1] as i64 + a[2] as i64 * b[2] as i64) >> 30) as i32
+        };
         let mut sum = ka;
-        for (l, kl) in self.lights.iter().zip(&k.k) {
-            let w = match l {
+        for ((l, kl), ksl) in self.lights.iter().zip(&k.k).zip(&k.ks) {
+            let (w, ldir) = match l {
                 MixLight::Point { p, .. } => {
                     let lv = zip3(*p, pt, i32::saturating_sub);
                     // n·l, S48 U.
-                    let nl =
-                        n[0] as i64 * lv[0] as i64 + n[1] as i64 * lv[1] as i64 + n[2] as i64 * lv[2] as i64;
-                    let nl = if away { -nl } else { nl };
+                    let nl = nt[0] as i64 * lv[0] as i64
+                        + nt[1] as i64 * lv[1] as i64
+                        + nt[2] as i64 * lv[2] as i64;
                     if nl <= 0 {
                         continue;
                     }
                     // r², S36 U², exact (> 0: n·l is).
                     let sq = |v: i32| (v as i64 * v as i64) as u64;
                     let r2 = sq(lv[0]) + sq(lv[1]) + sq(lv[2]);
-                    cos_over_r2(nl as u64, r2)
+                    let (_, y, z) = rsqrt_norm(r2);
+                    // l̂ = l/r in S30 (only for the lobe): 1/r = y 2^((z − 28)/2)
+                    // with lv in S18.
+                    let ldir = view.map(|_| {
+                        let (y, z) = rsqrt_fine(r2);
+                        lv.map(|c| ((c as i64 * y as i64) >> (32 - z / 2)) as i32)
+                    });
+                    (cos_over_r3(nl as u64, y, z), ldir)
                 }
                 MixLight::Directional { l, .. } => {
-                    let nl =
-                        (n[0] as i64 * l[0] as i64 + n[1] as i64 * l[1] as i64 + n[2] as i64 * l[2] as i64)
-                            >> 30;
-                    let nl = if away { -nl } else { nl };
+                    let nl = dot30(nt, *l);
                     if nl <= 0 {
                         continue;
                     }
-                    Pf::new32(nl as u32, -30)
+                    (Pf::new32(nl as u32, -30), Some(*l))
                 }
             };
             for (s, k) in sum.iter_mut().zip(kl).take(channels) {
                 *s = (*s + k.mul_to_sum(w, 15)).min(SUM_CAP);
             }
+            if let (Some(s), Some(v), Some(ld)) = (k.lobe, view, ldir) {
+                // r̂·v̂ = 2 (n̂·l̂)(n̂·v̂) − l̂·v̂, S30.
+                let nl = dot30(nt, ld) as i64;
+                let nv = dot30(nt, v) as i64;
+                let rv = sat32(((2 * nl * nv) >> 30) - dot30(ld, v) as i64);
+                let f = lobe_pf(rv, s);
+                for (s, k) in sum.iter_mut().zip(ksl).take(channels) {
+                    *s = (*s + (*k * f).mul_to_sum(w, 15)).min(SUM_CAP);
+                }
+            }
         }
         sum
     }
+}
+
+/// The Phong lobe `max(0, x)^s` for `x` in S30 (clamped to 1), as a [`Pf`]
+/// by squaring (each product ≤ 2⁻³¹ relative); `0⁰ = 1`, as in the
+/// reference.
+#[inline]
+fn lobe_pf(x: i32, s: u16) -> Pf {
+    let one = Pf::new32(1, 0);
+    if s == 0 {
+        return one;
+    }
+    if x <= 0 {
+        return Pf::default();
+    }
+    let mut base = Pf::new32(x.min(1 << 30) as u32, -30);
+    let mut acc = one;
+    let mut n = s;
+    loop {
+        if n & 1 == 1 {
+            acc = acc * base;
+        }
+        n >>= 1;
+        if n == 0 {
+            return acc;
+        }
+        base = base * base;
+    }
+}
+
+/// `1/n_z` of a unit vector in S30 as [`recip`] gives it (`(0, 0)` for
+/// `n_z = 0`: parallel rays never meet that plane).
+fn recip_z(n: [i32; 3]) -> (u32, u32) {
+    NonZeroU32::new(n[2].unsigned_abs()).map_or((0, 0), recip)
 }
 
 /// `v · 2^e` metres in I32F32 (saturating).

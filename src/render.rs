@@ -594,10 +594,14 @@ impl<S: Scalar> Frame<S> {
         if opts.mix32 {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
-            if !matches!(opts.model, RenderModel::Perspective) || self.stages.specular || table {
+            if table {
                 return Err(RenderError::OutsideFormat);
             }
-            self.prepare_mix32(scene, poly_q, gain)?;
+            let origin_scale = match opts.model {
+                RenderModel::Perspective => None,
+                _ => Some(self.k_origin.to_q()),
+            };
+            self.prepare_mix32(scene, poly_q, gain, origin_scale, opts.keep_all_stages)?;
         }
         Ok(())
     }
@@ -610,6 +614,8 @@ impl<S: Scalar> Frame<S> {
         scene: &Scene,
         distortion: Option<([Q; 2], Q)>,
         gain: V3,
+        origin_scale: Option<Q>,
+        specular_all: bool,
     ) -> Result<(), RenderError> {
         let mut materials = [Brdf::default(); crate::scene::MAX_MATERIALS];
         for (m, dst) in scene.materials.iter().zip(materials.iter_mut()) {
@@ -636,6 +642,8 @@ impl<S: Scalar> Frame<S> {
                 dy: self.dy,
                 distortion,
                 vignetting: self.stages.vignetting,
+                origin_scale,
+                specular_all,
                 prims: &prims,
                 lights: &lights,
                 materials: &materials,
@@ -650,7 +658,14 @@ impl<S: Scalar> Frame<S> {
 
     /// Without the `mix32` feature the path is not built in.
     #[cfg(not(feature = "mix32"))]
-    fn prepare_mix32(&mut self, _: &Scene, _: Option<([Q; 2], Q)>, _: V3) -> Result<(), RenderError> {
+    fn prepare_mix32(
+        &mut self,
+        _: &Scene,
+        _: Option<([Q; 2], Q)>,
+        _: V3,
+        _: Option<Q>,
+        _: bool,
+    ) -> Result<(), RenderError> {
         Err(RenderError::OutsideFormat)
     }
 

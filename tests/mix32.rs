@@ -40,7 +40,7 @@ fn meets_targets(m: &Metrics) {
 }
 
 #[test]
-fn shipped_scenes_meet_the_targets_or_are_refused() {
+fn shipped_scenes_meet_the_targets() {
     let dir = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
     let mut rendered = Vec::new();
     for name in [
@@ -51,20 +51,16 @@ fn shipped_scenes_meet_the_targets_or_are_refused() {
         "shallow-target",
     ] {
         let r = load(&dir.join(format!("{name}.toml"))).expect("loads");
-        match mix(&r) {
-            Ok((m, _)) => {
-                meets_targets(&m);
-                assert!(m.exact_fraction >= 0.99, "{name}: exact {}", m.exact_fraction);
-                rendered.push(name);
-            }
-            // The specular lobe and parallel rays are not on this path.
-            Err(e) => assert!(
-                e.contains("OutsideFormat") && ["spheres-specular", "shallow-target"].contains(&name),
-                "{name}: {e}"
-            ),
-        }
+        let (m, _) = mix(&r).unwrap_or_else(|e| panic!("{name}: {e}"));
+        eprintln!(
+            "{name}: geom {:.2e} px, max {} / smooth {} LSB, exact {:.5}, edge differing {}",
+            m.max_geom_err_px, m.max_abs_lsb, m.max_abs_lsb_smooth, m.exact_fraction, m.edge_pixels_differing
+        );
+        meets_targets(&m);
+        assert!(m.exact_fraction >= 0.99, "{name}: exact {}", m.exact_fraction);
+        rendered.push(name);
     }
-    assert_eq!(rendered, ["standard", "checkerboard-barrel", "wide-vignetting"]);
+    assert_eq!(rendered.len(), 5);
 }
 
 /// Grazing rays to the horizon of a checkered floor: `t` saturates at
@@ -265,4 +261,100 @@ fn outside_the_formats_is_a_typed_error() {
         // The generic path renders it.
         assert!(host_sim::render_cmd::render(&r, &Budget::default()).is_ok());
     }
+}
+
+/// Parallel rays: an orthographic (telecentric) camera over spheres, a
+/// disc and a checkered rectangle, and a weak-perspective one (the
+/// planner's choice for a shallow scene is covered by the shipped
+/// `shallow-target`).
+#[test]
+fn parallel_rays_orthographic() {
+    let prims = r#"
+[[primitives]]
+kind = "sphere"
+material = "a"
+centre = [-0.2, 0.3, 0.1]
+radius = 0.25
+[[primitives]]
+kind = "disc"
+material = "b"
+centre = [0.3, 0.2, 0.2]
+normal = [0.2, 1.0, -0.3]
+radius = 0.2
+[[primitives]]
+kind = "rectangle"
+material = "a"
+centre = [0.1, 0.6, 0.5]
+normal = [0.0, 0.3, -1.0]
+u_axis = [1.0, 0.0, 0.0]
+size = [0.6, 0.5]
+checker = { cell = 0.07, material = "b", u_axis = [1.0, 0.0, 0.0] }
+[[lights]]
+kind = "point"
+position = [1.0, 2.0, -1.5]
+intensity = 20.0
+"#;
+    let r = scene(
+        &format!("{CHECKER_FLOOR}{prims}"),
+        &[(
+            "tolerable_blur = 12e-6",
+            "tolerable_blur = 12e-6\nmodel = \"orthographic\"\northographic_scale = 1.0e-3",
+        )],
+    );
+    let (m, _) = mix(&r).expect("renders");
+    meets_targets(&m);
+    assert!(m.exact_fraction >= 0.99, "exact {}", m.exact_fraction);
+}
+
+/// The normalized Phong lobe under a point and a directional light, for
+/// exponents 0, 1, 40 and 1000, in gray8 and RGB565, a sphere and a
+/// plane. (In 12 bits and more, a sharp lobe magnifies the hit point's
+/// 2⁻¹⁸ U rounding past 1 LSB: s = 40 measured 2 LSB, s = 1 000 18 LSB —
+/// the planner's error model covers that and falls back to the wide path.)
+#[test]
+fn specular_lobes() {
+    for exponent in [0, 1, 40, 1000] {
+        for fmt in ["format = \"gray8\"", "format = \"rgb565\""] {
+            let r = scene(
+                &format!(
+                    "{CHECKER_FLOOR}{TANGENT_SPHERE}[[lights]]\nkind = \"point\"\nposition = [1.0, 2.0, -1.5]\n\
+                     intensity = 20.0\n"
+                ),
+                &[
+                    ("format = \"gray8\"", fmt),
+                    (
+                        "albedo = 0.7",
+                        &format!("albedo = 0.7\nspecular = 0.9\nmix = 0.3\nexponent = {exponent}"),
+                    ),
+                ],
+            );
+            let (m, _) = mix(&r).expect("renders");
+            meets_targets(&m);
+        }
+    }
+}
+
+/// A channel whose albedo is 0 stays dark (a zero factor with a large
+/// exponent once read as saturation).
+#[test]
+fn a_zero_albedo_channel_stays_dark() {
+    let r = scene(
+        &format!(
+            "{CHECKER_FLOOR}[[lights]]\nkind = \"point\"\nposition = [1.0, 2.0, -1.5]\nintensity = 20.0\n"
+        ),
+        &[
+            ("format = \"gray8\"", "format = \"rgb565\""),
+            ("albedo = 0.7", "albedo = [0.7, 0.0, 0.3]"),
+            ("albedo = 0.2", "albedo = [0.2, 0.0, 0.1]"),
+            ("ambient = 0.2", "ambient = 0.0"),
+            ("background = 1.0", "background = 0.0"),
+        ],
+    );
+    let (m, core) = mix(&r).expect("renders");
+    meets_targets(&m);
+    let green = core
+        .pixels
+        .chunks(2)
+        .map(|p| (u16::from_le_bytes([p[0], p[1]]) >> 5) & 63);
+    assert!(green.into_iter().all(|g| g == 0), "green must stay 0");
 }
