@@ -1,25 +1,38 @@
-//! The planner: given a scene and an error budget, picks the cheapest way to
-//! render it that meets the budget, and says what it predicts.
+//! The planner: given a scene and an error budget, predicts for every way of
+//! rendering it considers the error (geometric px, LSB) and the cost (M3
+//! instructions a pixel), and picks the cheapest within the budget.
 //!
 //! - **Ray model.** A telecentric (orthographic) camera is rendered
 //!   orthographically. A perspective camera is rendered with parallel
 //!   (weak-perspective) rays when every primitive is bounded and the §2 error
 //!   bound over the camera-frame box around them, at `Z̄` = the box's mean
 //!   depth, is within half the geometric budget; otherwise in perspective.
-//! - **Distortion table.** None when `k1 = k2 = 0`. Otherwise the smallest
-//!   power-of-two size (2 to 1024 entries) whose predicted error (linear
-//!   interpolation `|k2| h²/4`, plus the entries' rounding), in pixels at the
-//!   widest corner, is within half the geometric budget. The entries' format
-//!   is the finest i32 format that holds `g` over the range
-//!   ([`crate::distortion::Distortion::entry_frac_bits`]).
-//! - **Formats.** Per-pixel values are I32F32; the planner predicts their
-//!   arithmetic error in LSB and checks it against the LSB budget.
+//! - **Candidates.** The arithmetic ([`Arithmetic::Fast`], the 32-bit path
+//!   with a format per quantity, or [`Arithmetic::Wide`], I32F32) times the
+//!   distortion evaluation: the polynomial, or the smallest power-of-two
+//!   table (2 to 1 024 entries, linearly interpolated) whose error
+//!   `|k2| h²/4` plus the entries' rounding is within half the geometric
+//!   budget (the fast arithmetic evaluates the polynomial only).
+//! - **Error** ([`ErrorModel`]): the geometric error of the pixel →
+//!   undistorted mapping, and a bound on `|core − reference|` before the
+//!   final rounding, from the arithmetic's resolution propagated through the
+//!   scene's own magnitudes: relative rounding of the radiometric chain,
+//!   hit points and normals (including the ill-conditioned band next to a
+//!   sphere's silhouette, down to 1/256 px from it, where pixels stop being
+//!   edge pixels), and the specular lobe, whose exponent multiplies the
+//!   error of `r̂·v̂`.
+//! - **Cost** ([`CostModel`]): M3 instructions a pixel, linear in the
+//!   scene's features, with coefficients fitted to QEMU counts
+//!   (`host-sim tradeoff` fits them and reports predicted vs measured).
+//! - **Choice.** The cheapest candidate that the arithmetic's formats hold
+//!   and whose predictions are within the budget; if none is, the most
+//!   accurate, with `meets_budget = false`.
 //!
 //! Planning runs once per scene, like construction, and uses f64.
 
 use crate::projection::{weak_perspective_bound, DepthBox};
-use crate::render::{Options, RenderModel};
-use crate::scene::{Scene, Shape};
+use crate::render::{Arithmetic, DistortionEval, Options, RenderModel};
+use crate::scene::{Light, Scene, Shape};
 use crate::{CameraPoint, Len, Model};
 
 /// What the renderer may get wrong.
@@ -41,8 +54,90 @@ impl Default for Budget {
     }
 }
 
-/// The planner's choice and its predictions.
+/// Why a candidate cannot render a scene on its arithmetic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unfit {
+    /// Content (primitives, point lights) farther than 8·2²⁰ m.
+    TooFar,
+    /// A sphere, disc radius or checker cell below 2⁻¹⁰ of the frame's
+    /// length unit (the content's extent / 8).
+    TooSmall,
+    /// The distortion factor `g` or `k1 + k2 u` leaves ±8 over the sensor.
+    Distortion,
+    /// A distorted slope of 32 or more, or an undistorted one beyond 16.
+    FieldTooWide,
+    /// Parallel rays whose origins leave ±64 units.
+    OriginsTooFar,
+    /// The fast arithmetic evaluates the distortion polynomial only.
+    Table,
+}
+
+impl Unfit {
+    /// Why, in words.
+    pub const fn reason(self) -> &'static str {
+        match self {
+            Unfit::TooFar => "content beyond the 32-bit formats' range",
+            Unfit::TooSmall => "a radius or checker cell below 2^-10 of the frame's length unit",
+            Unfit::Distortion => "the distortion factor leaves +-8",
+            Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
+            Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
+            Unfit::Table => "the fast arithmetic has no distortion table",
+        }
+    }
+}
+
+/// One way of rendering the scene, with its predictions.
 #[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    /// The arithmetic.
+    pub arithmetic: Arithmetic,
+    /// How distortion is evaluated (`None`: the lens has none).
+    pub distortion: Option<DistortionEval>,
+    /// Table entries when a table is used (0 otherwise).
+    pub lut_entries: usize,
+    /// `Err` if the arithmetic's formats cannot hold the scene.
+    pub fits: Result<(), Unfit>,
+    /// Predicted largest pixel → undistorted error, px.
+    pub geom_err_px: f64,
+    /// Predicted largest `|core − reference|` before the final rounding,
+    /// LSB (both round, so the rounded values differ by at most this +½).
+    pub lsb: f64,
+    /// Predicted cost, M3 instructions a pixel.
+    pub m3_instructions_per_pixel: f64,
+}
+
+impl Candidate {
+    /// True if the formats hold the scene and the predictions are within
+    /// `budget` (geometry within half of it, the rest for the ray model).
+    pub fn meets(&self, budget: &Budget) -> bool {
+        self.fits.is_ok()
+            && self.geom_err_px <= budget.max_geom_err_px / 2.0
+            && self.lsb + 0.5 <= budget.max_lsb
+    }
+
+    /// A short name: `fast-poly`, `wide-lut64`, `wide-none`…
+    pub fn name(&self) -> heapless::String<24> {
+        use core::fmt::Write as _;
+        let mut s = heapless::String::new();
+        let a = match self.arithmetic {
+            Arithmetic::Fast => "fast",
+            Arithmetic::Wide => "wide",
+        };
+        let _ = match self.distortion {
+            None => write!(s, "{a}"),
+            Some(DistortionEval::Polynomial) => write!(s, "{a}-poly"),
+            Some(DistortionEval::Linear) => write!(s, "{a}-lut{}", self.lut_entries),
+            Some(DistortionEval::Nearest) => write!(s, "{a}-lut{}-nearest", self.lut_entries),
+        };
+        s
+    }
+}
+
+/// Most candidates a plan lists.
+pub const MAX_CANDIDATES: usize = 4;
+
+/// The planner's choice and its predictions.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Plan {
     /// What the renderer is told.
     pub options: Options,
@@ -52,21 +147,22 @@ pub struct Plan {
     /// bounding box, pixels (`None` if the scene is unbounded or reaches
     /// behind the camera).
     pub weak_perspective_err_px: Option<f64>,
-    /// Predicted arithmetic error of the radiometric chain, LSB (before the
-    /// final rounding, which both core and reference apply).
-    pub predicted_arith_lsb: f64,
+    /// Predicted largest `|core − reference|` before the final rounding,
+    /// LSB, of the chosen candidate.
+    pub predicted_lsb: f64,
+    /// Predicted cost of the chosen candidate, M3 instructions a pixel.
+    pub predicted_m3_instructions_per_pixel: f64,
     /// True if every prediction is within the budget.
     pub meets_budget: bool,
+    /// Every candidate considered, the chosen one at `chosen`.
+    pub candidates: heapless::Vec<Candidate, MAX_CANDIDATES>,
+    /// Index of the chosen candidate.
+    pub chosen: usize,
 }
-
-/// Relative error of the per-pixel radiometric chain: some 40 roundings at
-/// 2⁻³² of quantities below 2⁸, bounded generously by 2⁻²⁰.
-const ARITH_REL: f64 = 1.0 / (1u64 << 20) as f64;
 
 /// Plans `scene` within `budget`.
 pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let cam = &scene.camera;
-    let intr = &cam.intrinsics;
     let half = budget.max_geom_err_px / 2.0;
     let wp = weak_perspective_over_scene(scene);
     let model = match cam.model {
@@ -77,14 +173,183 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             _ => RenderModel::Perspective,
         },
     };
-    let (fx, fy) = intr.focal_px();
-    let f_px = fx.to_num::<f64>().max(fy.to_num::<f64>());
-    // Distortion table size.
-    let (geom, entries) = if scene.distortion.is_none() {
-        (f_px * libm::ldexp(1.0, -31), 0)
-    } else {
+    let g = Geometry::of(scene, model);
+    let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
+    for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
+        let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
+        if scene.distortion.is_none() {
+            let _ = evals.push((None, 0));
+        } else {
+            let _ = evals.push((Some(DistortionEval::Polynomial), 0));
+            if arithmetic == Arithmetic::Wide {
+                let _ = evals.push((Some(DistortionEval::Linear), table_entries(scene, &g, half)));
+            }
+        }
+        for (distortion, entries) in evals {
+            let fits = match arithmetic {
+                Arithmetic::Fast => g.fast_fits(scene),
+                Arithmetic::Wide => Ok(()),
+            };
+            let geom = match distortion {
+                Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
+                    table_geom_err(scene, &g, entries)
+                }
+                _ => g.direct_geom_err(arithmetic, scene),
+            };
+            let lsb = ErrorModel::of(arithmetic, &g).lsb(scene, &g);
+            let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion));
+            let _ = cands.push(Candidate {
+                arithmetic,
+                distortion,
+                lut_entries: entries,
+                fits,
+                geom_err_px: geom,
+                lsb,
+                m3_instructions_per_pixel: cost,
+            });
+        }
+    }
+    let cheapest_within = cands
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.meets(budget))
+        .min_by(|a, b| {
+            a.1.m3_instructions_per_pixel
+                .total_cmp(&b.1.m3_instructions_per_pixel)
+        })
+        .map(|(i, _)| i);
+    let most_accurate = || {
+        cands
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.fits.is_ok())
+            .min_by(|a, b| {
+                let score = |c: &Candidate| c.lsb + c.geom_err_px / budget.max_geom_err_px.max(1e-12);
+                score(a.1).total_cmp(&score(b.1))
+            })
+            .map_or(0, |(i, _)| i)
+    };
+    let chosen = cheapest_within.unwrap_or_else(most_accurate);
+    let c = cands.get(chosen).copied().unwrap_or(Candidate {
+        arithmetic: Arithmetic::Wide,
+        distortion: None,
+        lut_entries: 0,
+        fits: Ok(()),
+        geom_err_px: f64::INFINITY,
+        lsb: f64::INFINITY,
+        m3_instructions_per_pixel: f64::INFINITY,
+    });
+    let wp_used =
+        matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
+    let meets = c.meets(budget) && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
+    let mut options = Options::new(model, c.lut_entries.max(2));
+    options.distortion_eval = c.distortion.unwrap_or(DistortionEval::Polynomial);
+    options.arithmetic = c.arithmetic;
+    Plan {
+        options,
+        predicted_geom_err_px: c.geom_err_px,
+        weak_perspective_err_px: wp.map(|(e, _)| e),
+        predicted_lsb: c.lsb,
+        predicted_m3_instructions_per_pixel: c.m3_instructions_per_pixel,
+        meets_budget: meets,
+        candidates: cands,
+        chosen,
+    }
+}
+
+/// The smallest power-of-two table whose error is within `half` (or the
+/// largest table).
+fn table_entries(scene: &Scene, g: &Geometry, half: f64) -> usize {
+    let mut entries = 2;
+    while table_geom_err(scene, g, entries) > half && entries < crate::distortion::MAX_LUT {
+        entries *= 2;
+    }
+    entries
+}
+
+/// The geometric error of a linearly interpolated table of `entries`, px:
+/// `|k2| h²/4` at the widest corner plus the entries' rounding.
+fn table_geom_err(scene: &Scene, g: &Geometry, entries: usize) -> f64 {
+    let r_max = libm::sqrt(g.u_max);
+    let frac = scene
+        .distortion
+        .entry_frac_bits(crate::scene::Q::saturating_from_num(g.u_max));
+    let rounding = g.f_px * r_max * libm::ldexp(1.0, -(frac as i32 + 1)) + g.f_px * libm::ldexp(1.0, -31);
+    g.f_px * r_max * scene.distortion.lut_interp_error(g.u_max, entries) + rounding
+}
+
+/// What the planner knows of the scene in the camera frame, in f64.
+struct Geometry {
+    /// Largest focal length in pixels.
+    f_px: f64,
+    /// Largest `u = r_d²` over the sensor (clipped to the fold).
+    u_max: f64,
+    /// Largest |distorted slope| at the corners (x, y).
+    slope_d: [f64; 2],
+    /// Largest `g` and `|k1| + |k2| u` over `[0, u_max]`.
+    g_max: f64,
+    s_max: f64,
+    /// Largest |undistorted slope|.
+    slope: f64,
+    /// Parallel rays' origin scale, metres (`None`: perspective).
+    origin_scale: Option<f64>,
+    /// Content extent (primitives, point lights), metres, and the fast
+    /// arithmetic's length unit `U = 2^e`.
+    extent: f64,
+    unit: f64,
+    /// Per primitive: kind, camera-frame centre (or a point), distance of
+    /// its centre, radius (spheres, discs; 0 otherwise), smallest length
+    /// the fast path must resolve (radius, cell).
+    prims: heapless::Vec<PrimGeom, { crate::scene::MAX_PRIMITIVES }>,
+    /// Per light: camera-frame position (point lights) or `None`.
+    lights: heapless::Vec<Option<[f64; 3]>, { crate::scene::MAX_LIGHTS }>,
+    /// Largest per-channel gain: DN per unit radiance on the axis.
+    gain: f64,
+    /// Largest DN of any channel.
+    dn_max: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PrimGeom {
+    shape: Shape,
+    /// A point of the primitive (its centre) in the camera frame.
+    c: [f64; 3],
+    /// Unit normal (flat shapes), camera frame.
+    n: [f64; 3],
+    /// Radius (sphere, disc), half-diagonal (rectangle), 0 (plane).
+    r: f64,
+    /// The smallest length the fast path represents for it.
+    smallest: f64,
+    /// Largest diffuse and specular constants (n ρ/π, (1−n) ρ_s (s+2)/2π)
+    /// over its materials, and the largest exponent of a lobe.
+    kd: f64,
+    ks: f64,
+    exponent: u16,
+}
+
+fn norm3(v: [f64; 3]) -> f64 {
+    libm::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+}
+
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl Geometry {
+    fn of(scene: &Scene, model: RenderModel) -> Geometry {
+        let cam = &scene.camera;
+        let intr = &cam.intrinsics;
+        let ext = &cam.extrinsics;
+        let (fx, fy) = intr.focal_px();
+        let (fx, fy) = (fx.to_num::<f64>(), fy.to_num::<f64>());
         let (w, h) = intr.size();
         let (ox, oy) = intr.principal_point();
+        let (ox, oy) = (ox.to_num::<f64>(), oy.to_num::<f64>());
+        let mut slope_d = [0.0f64; 2];
         let mut u_corner: f64 = 0.0;
         for (i, j) in [
             (0.0, 0.0),
@@ -92,45 +357,490 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             (0.0, h as f64 - 1.0),
             (w as f64 - 1.0, h as f64 - 1.0),
         ] {
-            let xd = (ox.to_num::<f64>() - i) / fx.to_num::<f64>();
-            let yd = (oy.to_num::<f64>() - j) / fy.to_num::<f64>();
+            let xd = (ox - i) / fx;
+            let yd = (oy - j) / fy;
+            slope_d[0] = slope_d[0].max(libm::fabs(xd));
+            slope_d[1] = slope_d[1].max(libm::fabs(yd));
             u_corner = u_corner.max(xd * xd + yd * yd);
         }
+        let (k1, k2) = scene.distortion.coefficients();
+        let (k1, k2) = (k1.to_num::<f64>(), k2.to_num::<f64>());
         let u_max = match scene.distortion.fold_u() {
-            Some(f) => u_corner.min(f.to_num::<f64>()),
-            None => u_corner,
+            Some(f) if !scene.distortion.is_none() => u_corner.min(f.to_num::<f64>()),
+            _ => u_corner,
         };
-        let r_max = libm::sqrt(u_max);
-        let frac = scene
-            .distortion
-            .entry_frac_bits(crate::scene::Q::saturating_from_num(u_max));
-        let rounding = f_px * r_max * libm::ldexp(1.0, -(frac as i32 + 1)) + f_px * libm::ldexp(1.0, -31);
-        let mut entries = 2;
-        loop {
-            let geom = f_px * r_max * scene.distortion.lut_interp_error(u_max, entries) + rounding;
-            if geom <= half || entries >= crate::distortion::MAX_LUT {
-                break (geom, entries);
+        let s_max = libm::fabs(k1) + libm::fabs(k2) * u_max;
+        let g_max = 1.0 + s_max * u_max;
+        let slope = slope_d[0].max(slope_d[1]) * g_max;
+        let origin_scale = match model {
+            RenderModel::Perspective => None,
+            RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.to_num::<f64>()),
+            RenderModel::Orthographic { scale } => {
+                Some(intr.focal_length().to_num::<f64>() / scale.to_num::<f64>().max(1e-300))
             }
-            entries *= 2;
+        };
+        let cam_pt = |p: crate::WorldPoint| ext.world_to_camera(p).value.to_f64();
+        let rot = ext.rotation();
+        let cam_dir = |d: [crate::Norm; 3]| {
+            rot.map(|row| {
+                (0..3)
+                    .map(|k| {
+                        row.get(k)
+                            .zip(d.get(k))
+                            .map_or(0.0, |(a, b)| a.to_num::<f64>() * b.to_num::<f64>())
+                    })
+                    .sum::<f64>()
+            })
+        };
+        let mut extent: f64 = 0.0;
+        let mut prims = heapless::Vec::new();
+        let mat = |i: u8| scene.materials.get(i as usize);
+        for p in &scene.primitives {
+            let (c, n, r, mut smallest, reach) = match p.shape {
+                Shape::Plane { point, normal } => {
+                    let c = cam_pt(point);
+                    let n = cam_dir(normal);
+                    // The fast path holds the plane's distance n·c.
+                    (c, n, 0.0, f64::INFINITY, libm::fabs(dot3(n, c)))
+                }
+                Shape::Sphere { centre, radius } => {
+                    let c = cam_pt(centre);
+                    let r = radius.to_num::<f64>();
+                    (c, [0.0; 3], r, r, norm3(c) + r)
+                }
+                Shape::Disc {
+                    centre,
+                    normal,
+                    radius,
+                } => {
+                    let c = cam_pt(centre);
+                    let r = radius.to_num::<f64>();
+                    (c, cam_dir(normal), r, f64::INFINITY, norm3(c) + r)
+                }
+                Shape::Rectangle {
+                    centre,
+                    u_axis,
+                    v_axis,
+                    half,
+                } => {
+                    let c = cam_pt(centre);
+                    let (a, b) = (half[0].to_num::<f64>(), half[1].to_num::<f64>());
+                    let (u, v) = (cam_dir(u_axis), cam_dir(v_axis));
+                    let n = [
+                        u[1] * v[2] - u[2] * v[1],
+                        u[2] * v[0] - u[0] * v[2],
+                        u[0] * v[1] - u[1] * v[0],
+                    ];
+                    let r = libm::sqrt(a * a + b * b);
+                    (c, n, r, f64::INFINITY, norm3(c) + a + b)
+                }
+            };
+            extent = extent.max(reach);
+            let mut kd: f64 = 0.0;
+            let mut ks: f64 = 0.0;
+            let mut exponent = 0;
+            let mut take = |m: Option<&crate::scene::Material>| {
+                if let Some(m) = m {
+                    let b = crate::shading::Brdf::new(m, [crate::scene::Q::ZERO; 3]);
+                    for c in 0..3 {
+                        kd = kd.max(b.kd.get(c).map_or(0.0, |v| v.to_num::<f64>()));
+                        ks = ks.max(b.ks.get(c).map_or(0.0, |v| v.to_num::<f64>()));
+                    }
+                    if m.has_specular() {
+                        exponent = exponent.max(m.exponent);
+                    }
+                }
+            };
+            take(mat(p.material));
+            if let Some(k) = &p.checker {
+                take(mat(k.material));
+                smallest = smallest.min(k.cell.to_num::<f64>());
+                extent = extent.max(norm3(c));
+            }
+            let _ = prims.push(PrimGeom {
+                shape: p.shape,
+                c,
+                n,
+                r,
+                smallest,
+                kd,
+                ks,
+                exponent,
+            });
         }
-    };
-    let dn_max = (0..scene.format.channels())
-        .map(|c| scene.format.dn_max(c))
-        .max()
-        .unwrap_or(255) as f64;
-    let arith = dn_max * ARITH_REL;
-    let wp_used =
-        matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
-    let meets =
-        geom <= half && arith + 0.5 <= budget.max_lsb && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
-    Plan {
-        options: Options::new(model, entries),
-        predicted_geom_err_px: geom,
-        weak_perspective_err_px: wp.map(|(e, _)| e),
-        predicted_arith_lsb: arith,
-        meets_budget: meets,
+        let mut lights = heapless::Vec::new();
+        for l in &scene.lights {
+            let p = match *l {
+                Light::Point { position, .. } => {
+                    let p = cam_pt(position);
+                    extent = extent.max(norm3(p));
+                    Some(p)
+                }
+                Light::Directional { .. } => None,
+            };
+            let _ = lights.push(p);
+        }
+        // U = 2^e, the smallest with the content within 8 U (e ≥ −20).
+        let mut e = -20;
+        while e < 20 && extent > libm::ldexp(8.0, e) {
+            e += 1;
+        }
+        let lens = &cam.lens;
+        let d_over_f = lens.diameter().to_num::<f64>() / lens.focal_length().to_num::<f64>();
+        let fmt = scene.format;
+        let gain = (0..fmt.channels())
+            .map(|c| {
+                let (n, d) = fmt.channel_scale(c);
+                scene.exposure.to_num::<f64>() * core::f64::consts::PI / 4.0 * d_over_f * d_over_f * n as f64
+                    / d as f64
+            })
+            .fold(0.0, f64::max);
+        let dn_max = (0..fmt.channels()).map(|c| fmt.dn_max(c)).max().unwrap_or(255) as f64;
+        Geometry {
+            f_px: fx.max(fy),
+            u_max,
+            slope_d,
+            g_max,
+            s_max,
+            slope,
+            origin_scale,
+            extent,
+            unit: libm::ldexp(1.0, e),
+            prims,
+            lights,
+            gain,
+            dn_max,
+        }
+    }
+
+    /// The pixel → undistorted error without a table, px: per axis, the
+    /// slopes' rounding and the polynomial's — `u = r_d²` (δu) times
+    /// `g' = k1 + 2 k2 u`, and `g` (δg), times the slope — and √2 of it for
+    /// the distance. Fast: S26 slopes, `u` S20, `k`, `s`, `g` S28, all
+    /// truncated; wide: I32F32, a few roundings of 2⁻³².
+    fn direct_geom_err(&self, a: Arithmetic, scene: &Scene) -> f64 {
+        let (du, dg, dx) = match a {
+            Arithmetic::Fast => (
+                libm::ldexp(1.0, -20) + 2.0 * self.slope * libm::ldexp(1.0, -26),
+                (2.0 + self.u_max) * libm::ldexp(1.0, -28),
+                (1.0 + self.g_max) * libm::ldexp(1.0, -26),
+            ),
+            Arithmetic::Wide => (
+                libm::ldexp(3.0, -32),
+                libm::ldexp(3.0, -32),
+                libm::ldexp(2.0, -32),
+            ),
+        };
+        let dist = if scene.distortion.is_none() {
+            0.0
+        } else {
+            let (k1, k2) = scene.distortion.coefficients();
+            let deriv = libm::fabs(k1.to_num::<f64>()) + 2.0 * libm::fabs(k2.to_num::<f64>()) * self.u_max;
+            self.slope_d[0].max(self.slope_d[1]) * (deriv * du + dg)
+        };
+        core::f64::consts::SQRT_2 * self.f_px * (dist + dx)
+    }
+
+    /// Whether the fast arithmetic's formats hold the scene (the checks
+    /// [`crate::mix32`] makes when a frame is prepared, in f64).
+    fn fast_fits(&self, scene: &Scene) -> Result<(), Unfit> {
+        if self.extent > libm::ldexp(8.0, 20) {
+            return Err(Unfit::TooFar);
+        }
+        // 2^-10 U, with a margin for the rounding of the prepared values.
+        let small = libm::ldexp(self.unit, -10) * 1.01;
+        if self.prims.iter().any(|p| p.smallest < small) {
+            return Err(Unfit::TooSmall);
+        }
+        if self.slope_d[0].max(self.slope_d[1]) >= 31.0 || self.slope > 15.9 {
+            return Err(Unfit::FieldTooWide);
+        }
+        if !scene.distortion.is_none() && (self.s_max >= 7.9 || self.g_max >= 7.9) {
+            return Err(Unfit::Distortion);
+        }
+        if let Some(k) = self.origin_scale {
+            if k <= 0.0 || k >= 127.0 * self.unit || self.slope * k > 63.0 * self.unit {
+                return Err(Unfit::OriginsTooFar);
+            }
+        }
+        Ok(())
     }
 }
+
+/// The resolutions an arithmetic computes with, for [`ErrorModel::lsb`].
+#[derive(Clone, Copy, Debug)]
+pub struct ErrorModel {
+    /// Relative error of the radiometric chain (irradiance, `1/r³`,
+    /// products, `cos⁴α`).
+    pub rel: f64,
+    /// Absolute error of a hit point, metres (rounding of `t` and of the
+    /// point).
+    pub point: f64,
+    /// Absolute error of `b = d·c` in the sphere test: metres, plus this
+    /// much times `|c|`.
+    pub b: f64,
+    /// Of `b`, per metre of `|c|`.
+    pub b_per_c: f64,
+    /// Absolute error of `|c|² − r²`: m², plus this much times `|c|`.
+    pub cc: f64,
+    /// Of `|c|² − r²`, per metre of `|c|`.
+    pub cc_per_c: f64,
+    /// Relative error of `a = d·d`.
+    pub a_rel: f64,
+    /// Absolute error of the discriminant's own roundings, m².
+    pub disc: f64,
+    /// Absolute error of a unit vector's components (normals, `l̂`, `v̂`).
+    pub unit: f64,
+    /// Absolute error per term of the pixel sum, DN (truncations).
+    pub per_term_dn: f64,
+}
+
+impl ErrorModel {
+    /// The model of `a` for the scene's geometry (the fast arithmetic's
+    /// lengths are in the frame's unit `U`).
+    fn of(a: Arithmetic, g: &Geometry) -> ErrorModel {
+        let u = g.unit;
+        let q32 = libm::ldexp(1.0, -32);
+        match a {
+            // S18 U hit points and t, S22 U b (from S24 U centres, S26
+            // slopes), S24 U² cc, S20 a, S30 unit vectors; 1/r to 2⁻¹⁹ (so E
+            // to 3·2⁻¹⁹), n·l truncated 2⁻²¹, cos⁴α from 1/a (2⁻²¹,
+            // squared), Pf products 2⁻³¹ each.
+            Arithmetic::Fast => ErrorModel {
+                rel: 3.0 * libm::ldexp(1.0, -19) + libm::ldexp(1.0, -21) + libm::ldexp(1.0, -20) + 1e-8,
+                point: 4.0 * libm::ldexp(u, -18),
+                b: libm::ldexp(u, -21),
+                b_per_c: 0.0,
+                cc: libm::ldexp(u * u, -24),
+                cc_per_c: 2.0 * libm::ldexp(u, -24),
+                a_rel: libm::ldexp(1.0, -20),
+                disc: 0.0,
+                unit: libm::ldexp(1.0, -28),
+                per_term_dn: libm::ldexp(1.0, -14),
+            },
+            // I32F32 throughout: 2⁻³² m per rounding (each product, the
+            // camera-frame centre's components), some 40 roundings of
+            // quantities below 2⁸ in the radiometric chain (2⁻²⁰ relative).
+            Arithmetic::Wide => ErrorModel {
+                rel: libm::ldexp(1.0, -20),
+                point: (8.0 + 2.0 * g.extent) * q32,
+                b: 4.0 * q32,
+                b_per_c: 1.5 * q32,
+                cc: 4.0 * q32,
+                cc_per_c: 3.5 * q32,
+                a_rel: 2.0 * q32,
+                disc: 2.0 * q32,
+                unit: 4.0 * q32,
+                per_term_dn: q32,
+            },
+        }
+    }
+
+    /// Predicted largest `|core − reference|` before the final rounding,
+    /// LSB, over smooth pixels.
+    fn lsb(&self, scene: &Scene, g: &Geometry) -> f64 {
+        let gain = g.gain;
+        // The radiometric chain: relative to the value, which matters only
+        // up to DN_max (a value far above it saturates in both).
+        let terms = (2 + 2 * scene.lights.len()) as f64;
+        let base = self.rel * g.dn_max * 1.01 + terms * self.per_term_dn;
+        let mut worst: f64 = base;
+        // An angle of 1/256 px: a pixel that far inside a silhouette is
+        // not an edge pixel.
+        let dtheta = 1.0 / (256.0 * g.f_px);
+        for p in &g.prims {
+            // Normal error, and the hit point's.
+            let (dn, dp) = match p.shape {
+                Shape::Sphere { .. } => {
+                    // a t² − 2 b t + cc = 0 with b ≈ |c| √a, cc = |c|² − r²
+                    // (a ≥ 1; the worst case is a = 1).
+                    let c = norm3(p.c).max(p.r);
+                    let cc = libm::fabs(c * c - p.r * p.r);
+                    let db = self.b + self.b_per_c * c;
+                    let ddisc = 2.0 * c * db + self.cc + self.cc_per_c * c + cc * self.a_rel + self.disc;
+                    // The discriminant a (r² − h²) at 1/256 px inside the
+                    // silhouette: 2 r |c| δθ. Its error moves the hit point
+                    // along the ray by δdisc / (2 √disc) (at most √δdisc).
+                    let disc_min = (2.0 * p.r * c * dtheta).max(1e-300);
+                    let along = (ddisc / (2.0 * libm::sqrt(disc_min))).min(libm::sqrt(ddisc));
+                    let dp = self.point + db + along;
+                    (dp / p.r + self.unit, dp)
+                }
+                _ => (self.unit, self.point),
+            };
+            // Per light: the largest unclipped DN of the term, and its
+            // error from the normal, the point and the lobe.
+            let mut e = 0.0;
+            for (l, lp) in scene.lights.iter().zip(&g.lights) {
+                let (strength, r_min) = match (*l, lp) {
+                    (Light::Point { intensity, .. }, Some(pos)) => {
+                        let i = intensity.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max);
+                        let r = prim_light_distance(p, *pos).max(1e-9);
+                        (i / (r * r), r)
+                    }
+                    (Light::Directional { irradiance, .. }, _) => (
+                        irradiance.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max),
+                        f64::INFINITY,
+                    ),
+                    _ => (0.0, f64::INFINITY),
+                };
+                // cos and 1/r² move by the normal's and the point's error.
+                let geo = dn + 3.0 * dp / r_min + self.rel;
+                e += gain * p.kd * strength * geo;
+                let d_spec = gain * p.ks * strength;
+                if d_spec > 0.0 {
+                    // r̂·v̂ = x moves by 4 δn + 3 δl̂ + 3 δv̂; x^s by s x^(s−1)
+                    // δx. Where the term exceeds DN_max the pixel saturates
+                    // in both: x^s ≤ DN_max / D, so the error is at most
+                    // s δx DN_max / x with x = min(1, (DN_max / D)^(1/s)).
+                    let dx = 4.0 * dn + 3.0 * (dp / r_min + self.unit) + 3.0 * self.unit;
+                    let s = p.exponent.max(1) as f64;
+                    let x = libm::pow((g.dn_max / d_spec).min(1.0), 1.0 / s).max(1e-9);
+                    e += (d_spec * geo).min(g.dn_max * geo) + s * dx * g.dn_max.min(d_spec) / x;
+                }
+            }
+            worst = worst.max(base + e.min(g.dn_max * 2.0));
+        }
+        worst
+    }
+}
+
+/// The distance from a point light to the nearest point of a primitive
+/// (a lower bound), metres.
+fn prim_light_distance(p: &PrimGeom, l: [f64; 3]) -> f64 {
+    match p.shape {
+        Shape::Plane { .. } => libm::fabs(dot3(sub3(l, p.c), p.n)),
+        Shape::Sphere { .. } => (norm3(sub3(l, p.c)) - p.r).max(0.0),
+        Shape::Disc { .. } | Shape::Rectangle { .. } => {
+            let d = sub3(l, p.c);
+            let h = libm::fabs(dot3(d, p.n));
+            let lateral = (norm3(d) * norm3(d) - h * h).max(0.0);
+            let out = (libm::sqrt(lateral) - p.r).max(0.0);
+            libm::sqrt(h * h + out * out)
+        }
+    }
+}
+
+/// The scene's features a cost prediction is linear in.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Features {
+    /// Primitives by kind: planes, spheres, discs, rectangles.
+    pub planes: f64,
+    /// Spheres.
+    pub spheres: f64,
+    /// Discs.
+    pub discs: f64,
+    /// Rectangles.
+    pub rects: f64,
+    /// Textured (checkered) primitives.
+    pub checkers: f64,
+    /// Point lights.
+    pub point_lights: f64,
+    /// Directional lights.
+    pub dir_lights: f64,
+    /// 1 if distortion is evaluated by the polynomial.
+    pub poly: f64,
+    /// 1 if by a table.
+    pub table: f64,
+    /// 1 if any material has a specular lobe.
+    pub specular: f64,
+    /// Colour channels beyond the first (2 for RGB565).
+    pub extra_channels: f64,
+    /// 1 for parallel rays.
+    pub parallel: f64,
+}
+
+impl Features {
+    /// The features of `scene` rendered with `distortion`.
+    fn of(scene: &Scene, g: &Geometry, distortion: Option<DistortionEval>) -> Features {
+        let mut f = Features::default();
+        for p in &scene.primitives {
+            match p.shape {
+                Shape::Plane { .. } => f.planes += 1.0,
+                Shape::Sphere { .. } => f.spheres += 1.0,
+                Shape::Disc { .. } => f.discs += 1.0,
+                Shape::Rectangle { .. } => f.rects += 1.0,
+            }
+            if p.checker.is_some() {
+                f.checkers += 1.0;
+            }
+        }
+        for l in &scene.lights {
+            match l {
+                Light::Point { .. } => f.point_lights += 1.0,
+                Light::Directional { .. } => f.dir_lights += 1.0,
+            }
+        }
+        match distortion {
+            Some(DistortionEval::Polynomial) => f.poly = 1.0,
+            Some(_) => f.table = 1.0,
+            None => {}
+        }
+        f.specular = if scene.has_specular() { 1.0 } else { 0.0 };
+        f.extra_channels = (scene.format.channels() - 1) as f64;
+        f.parallel = if g.origin_scale.is_some() { 1.0 } else { 0.0 };
+        f
+    }
+
+    /// As a vector, in [`CostModel::coef`]'s order (the constant first).
+    pub fn to_array(&self) -> [f64; COST_TERMS] {
+        [
+            1.0,
+            self.planes,
+            self.spheres,
+            self.discs,
+            self.rects,
+            self.checkers,
+            self.point_lights,
+            self.dir_lights,
+            self.poly,
+            self.table,
+            self.specular,
+            self.extra_channels,
+            self.parallel,
+        ]
+    }
+}
+
+/// Terms of the cost model.
+pub const COST_TERMS: usize = 13;
+
+/// M3 instructions a pixel as a linear function of [`Features`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CostModel {
+    /// Coefficients, in [`Features::to_array`]'s order.
+    pub coef: [f64; COST_TERMS],
+}
+
+impl CostModel {
+    /// The fitted model of an arithmetic (`host-sim tradeoff` fits these to
+    /// QEMU counts and reports the fit).
+    pub const fn of(a: Arithmetic) -> CostModel {
+        match a {
+            Arithmetic::Fast => FAST_COST,
+            Arithmetic::Wide => WIDE_COST,
+        }
+    }
+
+    /// Predicted M3 instructions a pixel.
+    pub fn predict(&self, f: &Features) -> f64 {
+        self.coef.iter().zip(f.to_array()).map(|(c, x)| c * x).sum()
+    }
+}
+
+/// The fast arithmetic's cost model (M3 instructions a pixel).
+pub const FAST_COST: CostModel = CostModel {
+    coef: [
+        150.0, 60.0, 90.0, 80.0, 90.0, 30.0, 90.0, 40.0, 20.0, 30.0, 150.0, 60.0, 10.0,
+    ],
+};
+
+/// The wide (I32F32) arithmetic's cost model (M3 instructions a pixel).
+pub const WIDE_COST: CostModel = CostModel {
+    coef: [
+        3000.0, 1500.0, 2500.0, 2000.0, 2500.0, 800.0, 2500.0, 1000.0, 200.0, 400.0, 3000.0, 1500.0, 100.0,
+    ],
+};
 
 /// The weak-perspective bound (pixels) over the camera-frame box around the
 /// scene's primitives, and the box's mean depth; `None` if a primitive is

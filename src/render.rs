@@ -113,9 +113,30 @@ pub struct Options {
     /// them identities (`k1 = k2 = 0`, no specular material): the renderer
     /// without the planner's pruning, for measuring what the pruning saves.
     pub keep_all_stages: bool,
-    /// Renders with the 32-bit per-quantity-format path
-    /// ([`crate::mix32`]) instead of the generic one.
-    pub mix32: bool,
+    /// The per-pixel arithmetic.
+    pub arithmetic: Arithmetic,
+}
+
+/// The per-pixel arithmetic (the planner's choice).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Arithmetic {
+    /// 32-bit fixed point with a format per quantity ([`crate::mix32`]):
+    /// the fast default, for every scene its formats hold.
+    Fast,
+    /// Every quantity in the frame's [`Scalar`] (I32F32 for the planner's
+    /// fallback; `f32` for comparison).
+    Wide,
+}
+
+impl Arithmetic {
+    /// Name as reports spell it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Arithmetic::Fast => "fast",
+            Arithmetic::Wide => "wide",
+        }
+    }
 }
 
 impl Options {
@@ -127,13 +148,16 @@ impl Options {
             lut_entries,
             distortion_eval: DistortionEval::Linear,
             keep_all_stages: false,
-            mix32: false,
+            arithmetic: Arithmetic::Wide,
         }
     }
 
-    /// These options on the [`crate::mix32`] path.
-    pub const fn mix32(self) -> Options {
-        Options { mix32: true, ..self }
+    /// These options with arithmetic `a`.
+    pub const fn with_arithmetic(self, a: Arithmetic) -> Options {
+        Options {
+            arithmetic: a,
+            ..self
+        }
     }
 }
 
@@ -180,7 +204,7 @@ impl Options {
                 lut_entries: MAX_LUT,
                 distortion_eval: DistortionEval::Linear,
                 keep_all_stages: true,
-                mix32: self.mix32,
+                arithmetic: self.arithmetic,
             },
         }
     }
@@ -229,12 +253,18 @@ pub struct Stages {
     pub specular: bool,
     /// Output format.
     pub format: PixelFormat,
+    /// The per-pixel arithmetic.
+    pub arithmetic: Arithmetic,
 }
 
 impl Stages {
     /// Stage names, in pipeline order.
-    pub fn names(&self) -> heapless::Vec<&'static str, 8> {
+    pub fn names(&self) -> heapless::Vec<&'static str, 9> {
         let mut v = heapless::Vec::new();
+        let _ = v.push(match self.arithmetic {
+            Arithmetic::Fast => "arithmetic:fast",
+            Arithmetic::Wide => "arithmetic:wide",
+        });
         let _ = v.push("pixel-to-normalized");
         if let Some(d) = self.distortion {
             let _ = v.push(d.name());
@@ -454,6 +484,7 @@ impl<S: Scalar> Frame<S> {
                 vignetting: false,
                 specular: false,
                 format: PixelFormat::Gray8,
+                arithmetic: Arithmetic::Wide,
             },
             x0: 0,
             dx: 0,
@@ -509,6 +540,7 @@ impl<S: Scalar> Frame<S> {
             vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
             specular: scene.has_specular() || opts.keep_all_stages,
             format: scene.format,
+            arithmetic: opts.arithmetic,
         };
         (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
         self.background = from_q3(scene.background);
@@ -591,7 +623,7 @@ impl<S: Scalar> Frame<S> {
         for l in &scene.lights {
             let _ = self.lights.push(shading_light(scene, l).to());
         }
-        if opts.mix32 {
+        if opts.arithmetic == Arithmetic::Fast {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
             if table {

@@ -9,19 +9,19 @@
 //!
 //! | type | bits | range | resolution | note |
 //! |---|---|---|---|---|
-//! | [`I32F32`] | 64 | ±2.1·10⁹ | 2.3·10⁻¹⁰ | the planned default: meets 1/256 px and 1 LSB on every shipped scene |
-//! | [`I16F16`] | 32 | ±32 768 | 1.5·10⁻⁵ | one `SMULL` a product on Cortex-M3 |
-//! | [`I12F20`] | 32 | ±2 048 | 9.5·10⁻⁷ | finer, but values beyond 2 048 (a 12-bit DN, `t` to a far horizon) saturate |
+//! | [`I32F32`] | 64 | ±2.1·10⁹ | 2.3·10⁻¹⁰ | the wide arithmetic: the planner's fallback where the fast one's formats do not hold a scene |
 //! | `f32` | 32 | ±3.4·10³⁸ | 24-bit mantissa | soft-float on M0/M3, the FPU on M4F; `sqrt` through `libm` |
 //!
-//! The fixed types saturate (never wrap); `f32` overflows to infinity, and
+//! (The 32-bit single-format types I16F16 and I12F20 were measured and
+//! dropped: dominated by the fast arithmetic, [`crate::mix32`], on every
+//! scene.) The fixed type saturates (never wraps); `f32` overflows to infinity, and
 //! a non-finite value quantizes to a clamped DN (NaN to 0) — nothing panics.
 
-pub use fixed::types::{I12F20, I16F16, I32F32};
+pub use fixed::types::I32F32;
 
 /// A number the per-pixel pipeline runs in.
 pub trait Scalar: Copy + PartialOrd + core::fmt::Debug {
-    /// Name used in variant names (`"i32f32"`, `"i16f16"`, `"i12f20"`, `"f32"`).
+    /// Name used in variant names (`"i32f32"`, `"f32"`).
     const NAME: &'static str;
     /// Zero.
     const ZERO: Self;
@@ -256,24 +256,6 @@ fixed_scalar!(
     powi63,
     scale63
 );
-/// A 32-bit type with `F` fractional bits: products by [`mul32`],
-/// quotients by [`div32`].
-macro_rules! fixed32_scalar {
-    ($t:ident, $name:literal, $frac:literal) => {
-        fixed_scalar!(
-            $t,
-            $name,
-            |a: $t, b: $t| $t::from_bits(mul32::<$frac>(a.to_bits(), b.to_bits())),
-            |a: $t, b: $t| div32::<$frac>(a.to_bits(), b.to_bits()).map($t::from_bits),
-            i32,
-            $frac
-        );
-    };
-}
-
-fixed32_scalar!(I16F16, "i16f16", 16);
-fixed32_scalar!(I12F20, "i12f20", 20);
-
 /// The saturating product of raw 32-bit fixed-point values with `F`
 /// fractional bits, rounded down (as `saturating_mul`): one `SMULL` and a
 /// check that the high word is the sign extension of the result.
@@ -293,45 +275,6 @@ pub(crate) fn shr_sat<const SH: u32>(p: i64) -> i32 {
         i32::MIN
     } else {
         i32::MAX
-    }
-}
-
-/// `a · 2^F / b` for raw 32-bit fixed-point values, truncated toward zero
-/// (as `checked_div`); `None` for `b = 0` or a quotient beyond i32.
-///
-/// Long division in steps of as many bits as the divisor leaves free in a
-/// `u32`, each step one hardware 32-bit division on Cortex-M3/M4, where a
-/// 64-bit division is a library routine several times as long.
-#[inline(never)]
-fn div32<const F: u32>(a: i32, b: i32) -> Option<i32> {
-    if b == 0 {
-        return None;
-    }
-    let (n, d) = (a.unsigned_abs(), b.unsigned_abs());
-    let free = d.leading_zeros();
-    if free == 0 {
-        // |b| = 2^31: rare enough for the library division.
-        let q = ((a as i64) << F) / b as i64;
-        return i32::try_from(q).ok();
-    }
-    let q1 = n / d;
-    if q1 >> (32 - F) != 0 {
-        return None;
-    }
-    let (mut q, mut r, mut bits) = (q1 << F, n - q1 * d, F);
-    while bits > 0 {
-        // r < d < 2^(32 − free), so r << k fits for k ≤ free.
-        let k = free.min(bits);
-        let t = r << k;
-        bits -= k;
-        q |= (t / d) << bits;
-        r = t % d;
-    }
-    // q < 2^32 because q1 < 2^(32 − F); i32 holds −2^31 … 2^31 − 1.
-    if (a < 0) != (b < 0) {
-        (q <= 1 << 31).then(|| (q as i32).wrapping_neg())
-    } else {
-        i32::try_from(q).ok()
     }
 }
 
@@ -427,7 +370,8 @@ mod tests {
     }
 
     #[test]
-    fn mul32_and_div32_equal_the_fixed_crate() {
+    fn mul32_equals_the_fixed_crate() {
+        use fixed::types::{I16F16, I6F26};
         let mut x = 0x2545_f491_4f6c_dd1du64;
         let mut next = || {
             x ^= x << 13;
@@ -457,60 +401,23 @@ mod tests {
                 assert_eq!(mul_q(p, q), p.saturating_mul(q), "{p:?} * {q:?}");
             }
             assert_eq!(
-                div32::<16>(a, b),
-                I16F16::from_bits(a)
-                    .checked_div(I16F16::from_bits(b))
-                    .map(I16F16::to_bits),
-                "{a} / {b}"
-            );
-            assert_eq!(
                 mul32::<16>(a, b),
                 I16F16::from_bits(a)
                     .saturating_mul(I16F16::from_bits(b))
                     .to_bits()
             );
             assert_eq!(
-                mul32::<20>(a, b),
-                I12F20::from_bits(a)
-                    .saturating_mul(I12F20::from_bits(b))
-                    .to_bits()
-            );
-            assert_eq!(
-                div32::<20>(a, b),
-                I12F20::from_bits(a)
-                    .checked_div(I12F20::from_bits(b))
-                    .map(I12F20::to_bits),
-                "{a} / {b}"
-            );
-        }
-        for (a, b) in [
-            (i32::MIN, -1),
-            (i32::MIN, i32::MIN),
-            (1, i32::MIN),
-            (i32::MAX, 1),
-            (5, 0),
-            (i32::MIN, 1 << 16),
-            (i32::MIN, -(1 << 16)),
-            (-(1 << 15), 1),
-            (1 << 15, -1),
-            ((1 << 15) - 1, 1),
-        ] {
-            assert_eq!(
-                div32::<16>(a, b),
-                I16F16::from_bits(a)
-                    .checked_div(I16F16::from_bits(b))
-                    .map(I16F16::to_bits),
-                "{a} / {b}"
+                mul32::<26>(a, b),
+                I6F26::from_bits(a).saturating_mul(I6F26::from_bits(b)).to_bits()
             );
         }
     }
 
     #[test]
     fn conversions_saturate_and_lobes_agree() {
-        assert_eq!(roundtrip::<I16F16>(1e5), 32768.0 - 1.0 / 65536.0);
-        assert_eq!(roundtrip::<I12F20>(-1e4), -2048.0);
+        assert_eq!(f32::from_q(I32F32::MAX), 2147483648.0);
         assert_eq!(roundtrip::<f32>(0.5), 0.5);
-        assert_eq!(I16F16::from_fixed_bits(3 << 29, 30), I16F16::from_num(1.5));
+        assert_eq!(I32F32::from_fixed_bits(3 << 29, 30), I32F32::from_num(1.5));
         assert_eq!(f32::from_fixed_bits(-(1 << 28), 28), -1.0);
         assert_eq!(f32::NAN.floor_int(), 0);
         let x = I32F32::from_num(0.9);
@@ -520,7 +427,6 @@ mod tests {
         for got in [
             lobe(k, x).to_num::<f64>(),
             f32::scale_lobe(2.0, f32::lobe(0.9, 37)) as f64,
-            I16F16::scale_lobe(I16F16::from_num(2), I16F16::lobe(I16F16::from_num(0.9), 37)).to_num::<f64>(),
         ] {
             assert!((got - want).abs() < 2e-3 * want, "{got} vs {want}");
         }

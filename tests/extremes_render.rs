@@ -222,13 +222,33 @@ fn extreme_strong_distortion_coarser_table_format() {
             "tolerable_blur = 12e-6\ndistortion = [10.0, 100.0]",
         )],
     );
+    // The fast arithmetic's formats do not hold g = 30: the planner falls
+    // back to the wide one, with the polynomial or a table.
     let o = run(&r);
+    assert_eq!(o.metrics.plan.arithmetic, "wide");
     assert!(
         o.metrics.max_geom_err_px <= 1.0 / 256.0,
         "{}",
         o.metrics.max_geom_err_px
     );
-    let fmt = o.metrics.plan.lut_format.clone().expect("a table");
-    assert!(fmt != "I2F30", "format {fmt} should be coarser");
     agrees_off_edges(&o.metrics);
+    // The planner's table candidate, rendered: its entries take a coarser
+    // format than I2F30, and it stays within the budget.
+    let table = o
+        .plan
+        .candidates
+        .iter()
+        .find(|c| c.lut_entries > 0)
+        .expect("a table candidate");
+    let v = host_sim::variant::Variant::parse(&format!("i32f32-lut{}-linear", table.lut_entries))
+        .expect("variant");
+    let (_, plan, frame, core) =
+        host_sim::render_cmd::core_render_variant::<hilcam::scalar::I32F32>(&r, &Budget::default(), &v)
+            .expect("renders");
+    let rs = host_sim::reference::render::RefScene::new(&r);
+    let m = host_sim::render_cmd::compare(&r, &rs, &rs.render(), &plan, &Budget::default(), &frame, &core);
+    let fmt = m.plan.lut_format.clone().expect("a table");
+    assert!(fmt != "I2F30", "format {fmt} should be coarser");
+    assert!(m.max_geom_err_px <= 1.0 / 256.0, "{}", m.max_geom_err_px);
+    agrees_off_edges(&m);
 }

@@ -17,8 +17,15 @@ use host_sim::variant::{FrameUser, Variant};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-/// The arithmetics pinned: the default, and each one the sweep keeps.
-const VARIANTS: [&str; 4] = ["i32f32-planned", "mix32-poly", "f32-poly", "i32f32-poly"];
+/// The arithmetics pinned: the default (the planner's choice), and each one
+/// the sweep keeps, with the polynomial and with a table.
+const VARIANTS: [&str; 5] = [
+    "planned",
+    "mix32-poly",
+    "f32-poly",
+    "i32f32-poly",
+    "i32f32-lut64-linear",
+];
 
 /// Every output format, with the scene's own exposure.
 const FORMATS: [(&str, PixelFormat); 3] = [

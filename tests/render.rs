@@ -92,7 +92,8 @@ fn standard_scene_is_as_specified() {
 fn stages_follow_what_the_scene_needs() {
     let names = |n: &str| metrics(&scene(n)).stages;
     let std = names("standard");
-    assert!(std.contains(&"distortion-lut".to_string()));
+    assert!(std.contains(&"distortion-polynomial".to_string()));
+    assert!(std.contains(&"arithmetic:fast".to_string()));
     assert!(!std.contains(&"shade:specular".to_string()));
     assert!(std.contains(&"rays:perspective".to_string()));
     let spec = names("spheres-specular");
@@ -118,7 +119,8 @@ fn stages_follow_what_the_scene_needs() {
 }
 
 /// The planner's predicted geometric error bounds the measured one, and a
-/// tighter budget buys a larger table.
+/// tighter budget buys a larger table (the wide arithmetic's table
+/// candidate).
 #[test]
 fn planner_prediction_bounds_measurement_and_budget_sets_table_size() {
     for name in ["standard", "checkerboard-barrel"] {
@@ -145,8 +147,15 @@ fn planner_prediction_bounds_measurement_and_budget_sets_table_size() {
                 max_lsb: 1.0,
             },
         );
-        assert!(loose.options.lut_entries < tight.options.lut_entries, "{name}");
-        assert!(loose.predicted_geom_err_px <= 0.05 && tight.predicted_geom_err_px <= 5e-5);
+        let table = |p: &hilcam::planner::Plan| {
+            *p.candidates
+                .iter()
+                .find(|c| c.lut_entries > 0)
+                .expect("a table candidate")
+        };
+        let (loose, tight) = (table(&loose), table(&tight));
+        assert!(loose.lut_entries < tight.lut_entries, "{name}");
+        assert!(loose.geom_err_px <= 0.05 && tight.geom_err_px <= 5e-5);
     }
     // Weak perspective is refused when the budget is below its error.
     let s = scene("standard").core_scene().expect("valid");

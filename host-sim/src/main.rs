@@ -180,7 +180,11 @@ fn main() -> ExitCode {
                 let resolved = host_sim::scene_file::load(&scene)?;
                 let o = host_sim::render_cmd::render(&resolved, &budget)?;
                 host_sim::render_cmd::write(&out, &o)?;
-                Ok(host_sim::render_cmd::summary(&o.metrics))
+                Ok(format!(
+                    "{}\n{}",
+                    host_sim::render_cmd::summary(&o.metrics),
+                    host_sim::render_cmd::plan_text(&o.metrics.plan).trim_end()
+                ))
             };
             finish(run())
         }

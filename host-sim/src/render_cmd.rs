@@ -35,9 +35,36 @@ impl LineSink for Collect {
     }
 }
 
+/// One candidate the planner considered, as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct CandidateReport {
+    /// `fast-poly`, `wide-lut64`, …
+    pub name: String,
+    /// Why the arithmetic's formats cannot hold the scene (null: they can).
+    pub unfit: Option<String>,
+    /// Predicted pixel → undistorted error, px.
+    pub geom_err_px: f64,
+    /// Predicted largest |core − reference| before rounding, LSB.
+    pub lsb: f64,
+    /// Predicted cost, M3 instructions a pixel (the fitted cost model).
+    pub m3_instructions_per_pixel: f64,
+    /// Fits and within the budget.
+    pub meets_budget: bool,
+}
+
 /// The planner's choice, as reported.
 #[derive(Clone, Debug, Serialize)]
 pub struct PlanReport {
+    /// The arithmetic the core rendered with (`fast`, `wide`).
+    pub arithmetic: String,
+    /// The candidate the planner chose (the frame may be a variant of it).
+    pub chosen: String,
+    /// Why it was chosen.
+    pub why: String,
+    /// Every candidate considered.
+    pub candidates: Vec<CandidateReport>,
+    /// Predicted cost of the chosen candidate, M3 instructions a pixel.
+    pub predicted_m3_instructions_per_pixel: f64,
     /// Ray model the core rendered with.
     pub model: String,
     /// Mean depth if weak perspective was chosen, metres.
@@ -50,8 +77,8 @@ pub struct PlanReport {
     pub predicted_geom_err_px: f64,
     /// §2 weak-perspective bound over the scene, px (null: unbounded scene).
     pub weak_perspective_err_px: Option<f64>,
-    /// Predicted arithmetic error before rounding, LSB.
-    pub predicted_arith_lsb: f64,
+    /// Predicted largest |core − reference| before rounding, LSB.
+    pub predicted_lsb: f64,
     /// All predictions within the budget.
     pub meets_budget: bool,
     /// The budget.
@@ -295,6 +322,25 @@ pub fn compare<S: Scalar>(
         bits,
         stages: stages.names().iter().map(|s| s.to_string()).collect(),
         plan: PlanReport {
+            arithmetic: stages.arithmetic.name().into(),
+            chosen: plan
+                .candidates
+                .get(plan.chosen)
+                .map_or_else(String::new, |c| c.name().to_string()),
+            why: plan_why(plan, budget),
+            candidates: plan
+                .candidates
+                .iter()
+                .map(|c| CandidateReport {
+                    name: c.name().to_string(),
+                    unfit: c.fits.err().map(|u| u.reason().to_string()),
+                    geom_err_px: c.geom_err_px,
+                    lsb: c.lsb,
+                    m3_instructions_per_pixel: c.m3_instructions_per_pixel,
+                    meets_budget: c.meets(budget),
+                })
+                .collect(),
+            predicted_m3_instructions_per_pixel: plan.predicted_m3_instructions_per_pixel,
             model: stages.model.name().trim_start_matches("rays:").into(),
             mean_depth_m: match stages.model {
                 hilcam::render::RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.to_num()),
@@ -304,7 +350,7 @@ pub fn compare<S: Scalar>(
             lut_format: frame.table_frac_bits().map(|f| format!("I{}F{}", 32 - f, f)),
             predicted_geom_err_px: plan.predicted_geom_err_px,
             weak_perspective_err_px: plan.weak_perspective_err_px,
-            predicted_arith_lsb: plan.predicted_arith_lsb,
+            predicted_lsb: plan.predicted_lsb,
             meets_budget: plan.meets_budget,
             budget_geom_px: budget.max_geom_err_px,
             budget_lsb: budget.max_lsb,
@@ -427,16 +473,65 @@ pub fn write(dir: &Path, o: &RenderOutput) -> Result<(), String> {
     Ok(())
 }
 
+/// Why the planner chose what it chose, in a sentence.
+pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
+    let Some(c) = plan.candidates.get(plan.chosen) else {
+        return "no candidate".into();
+    };
+    let within = plan.candidates.iter().filter(|c| c.meets(budget)).count();
+    if c.meets(budget) {
+        format!(
+            "{} is the cheapest of {within} candidate(s) within the budget ({:.0} predicted M3 \
+             instructions/pixel; {:.2e} px, {:.3} LSB before rounding)",
+            c.name(),
+            c.m3_instructions_per_pixel,
+            c.geom_err_px,
+            c.lsb
+        )
+    } else {
+        format!(
+            "no candidate meets the budget ({} px, {} LSB): {} is the most accurate that fits \
+             ({:.2e} px, {:.3} LSB before rounding)",
+            budget.max_geom_err_px,
+            budget.max_lsb,
+            c.name(),
+            c.geom_err_px,
+            c.lsb
+        )
+    }
+}
+
+/// The plan as text: the choice, why, and every candidate.
+pub fn plan_text(p: &PlanReport) -> String {
+    let mut s = format!("  plan: {} — {}\n", p.chosen, p.why);
+    for c in &p.candidates {
+        s.push_str(&format!(
+            "    {:<18} geom {:.2e} px  {:>9.4} LSB  {:>7.0} M3 instr/px  {}\n",
+            c.name,
+            c.geom_err_px,
+            c.lsb,
+            c.m3_instructions_per_pixel,
+            match (&c.unfit, c.meets_budget) {
+                (Some(why), _) => format!("unfit: {why}"),
+                (None, true) => "within budget".to_string(),
+                (None, false) => "over budget".to_string(),
+            }
+        ));
+    }
+    s
+}
+
 /// A one-line summary.
 pub fn summary(m: &Metrics) -> String {
     let psnr = |p: Option<f64>| p.map_or("identical".to_string(), |p| format!("{p:.1} dB"));
     format!(
-        "{:<18} {}x{} {:<7} model={:<16} lut={:<4} geom={:.2e}px max_lsb={} smooth: max_lsb={} psnr={} \
+        "{:<18} {}x{} {:<7} {:<4} model={:<16} lut={:<4} geom={:.2e}px max_lsb={} smooth: max_lsb={} psnr={} \
          exact={:.4} edges={} differing={} ({:.3}%)",
         m.scene,
         m.width,
         m.height,
         m.format,
+        m.plan.arithmetic,
         m.plan.model,
         m.plan.lut_entries,
         m.max_geom_err_px,

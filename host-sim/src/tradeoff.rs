@@ -48,20 +48,22 @@ impl Config {
     /// The full sweep on the standard and checkerboard scenes.
     pub fn full(boards: Vec<Board>, repeats: usize) -> Config {
         use DistortionEval::{Linear, Nearest};
-        let mut variants = Vec::new();
-        for scalar in [ScalarKind::I32F32, ScalarKind::I16F16] {
-            let mut overs = vec![Override::Planned];
-            overs.extend([16, 64, 256, 1024].map(|n| table(n, Linear)));
-            overs.extend([16, 256, 1024].map(|n| table(n, Nearest)));
-            overs.push(Override::Polynomial);
-            variants.extend(overs.into_iter().map(|over| Variant { scalar, over }));
+        let mut variants = vec![Variant::PLANNED];
+        let mut overs = vec![];
+        overs.extend([16, 64, 256, 1024].map(|n| table(n, Linear)));
+        overs.extend([16, 256, 1024].map(|n| table(n, Nearest)));
+        overs.push(Override::Polynomial);
+        variants.extend(overs.into_iter().map(|over| Variant {
+            scalar: ScalarKind::I32F32,
+            over,
+        }));
+        for over in [table(256, Linear), Override::Polynomial] {
+            variants.push(Variant {
+                scalar: ScalarKind::F32,
+                over,
+            });
         }
-        for scalar in [ScalarKind::I12F20, ScalarKind::F32] {
-            for over in [Override::Planned, table(256, Linear), Override::Polynomial] {
-                variants.push(Variant { scalar, over });
-            }
-        }
-        // The per-quantity format set evaluates the polynomial (no table).
+        // The fast arithmetic evaluates the polynomial (no table).
         variants.push(Variant {
             scalar: ScalarKind::Mix32,
             over: Override::Polynomial,
@@ -87,8 +89,8 @@ impl Config {
             variants: vec![
                 Variant::PLANNED,
                 Variant {
-                    scalar: ScalarKind::I16F16,
-                    over: table(16, DistortionEval::Nearest),
+                    scalar: ScalarKind::I32F32,
+                    over: Override::Polynomial,
                 },
                 Variant {
                     scalar: ScalarKind::F32,

@@ -11,9 +11,8 @@ use plotters::prelude::*;
 /// cannot go unplotted).
 fn colour(k: ScalarKind) -> RGBColor {
     match k {
+        ScalarKind::Planned => RGBColor(44, 160, 44),
         ScalarKind::I32F32 => RGBColor(31, 119, 180),
-        ScalarKind::I16F16 => RGBColor(44, 160, 44),
-        ScalarKind::I12F20 => RGBColor(148, 103, 189),
         ScalarKind::F32 => RGBColor(214, 39, 40),
         ScalarKind::Mix32 => RGBColor(255, 127, 14),
     }

@@ -1,36 +1,37 @@
-//! Rendering variants for the speed/accuracy trade: a per-pixel scalar type
-//! and a departure from the plan. Named as `host-sim tradeoff` reports them
-//! and as the firmware's `HILCAM_VARIANTS` takes them, e.g.
-//! `i16f16-lut256-linear`, `f32-poly`, `i32f32-planned`.
+//! Rendering variants for the speed/accuracy trade: an arithmetic and a
+//! departure from the plan. Named as `host-sim tradeoff` reports them and
+//! as the firmware's `HILCAM_VARIANTS` takes them, e.g. `planned` (what
+//! the planner picks: the default), `mix32-poly`, `i32f32-lut256-linear`,
+//! `f32-poly`.
 
 use crate::render_cmd::{core_render_variant, Collect};
 use crate::scene_file::Resolved;
 use hilcam::planner::{Budget, Plan};
-use hilcam::render::{DistortionEval, Frame, Options, Override};
-use hilcam::scalar::{Scalar, I12F20, I16F16, I32F32};
+use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override};
+use hilcam::scalar::{Scalar, I32F32};
 
-/// The per-pixel number type.
+/// The per-pixel arithmetic of a variant. (I16F16 and I12F20, measured in
+/// earlier sweeps, were dominated on every scene — slower than `mix32` and
+/// 42–240 LSB off — and are gone.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ScalarKind {
-    /// I32F32 (the planned default).
+    /// Whatever the planner picks (the default: the fast arithmetic where
+    /// its formats hold the scene within budget, else I32F32).
+    Planned,
+    /// The wide arithmetic in I32F32.
     I32F32,
-    /// I16F16.
-    I16F16,
-    /// I12F20.
-    I12F20,
-    /// IEEE single precision.
+    /// The wide arithmetic in IEEE single precision.
     F32,
-    /// 32-bit fixed point, a format per quantity ([`hilcam::mix32`]; the
-    /// frame is prepared as for I32F32).
+    /// The fast arithmetic: 32-bit fixed point, a format per quantity
+    /// ([`hilcam::mix32`]).
     Mix32,
 }
 
 impl ScalarKind {
     /// All of them.
-    pub const ALL: [ScalarKind; 5] = [
+    pub const ALL: [ScalarKind; 4] = [
+        ScalarKind::Planned,
         ScalarKind::I32F32,
-        ScalarKind::I16F16,
-        ScalarKind::I12F20,
         ScalarKind::F32,
         ScalarKind::Mix32,
     ];
@@ -38,21 +39,27 @@ impl ScalarKind {
     /// Name as in variant names.
     pub fn name(self) -> &'static str {
         match self {
+            ScalarKind::Planned => "planned",
             ScalarKind::I32F32 => I32F32::NAME,
-            ScalarKind::I16F16 => I16F16::NAME,
-            ScalarKind::I12F20 => I12F20::NAME,
             ScalarKind::F32 => f32::NAME,
             ScalarKind::Mix32 => "mix32",
         }
     }
 
-    /// The Rust type, as firmware code names it.
+    /// The Rust type of the frame's wide scalar, as firmware code names it.
     pub fn type_path(self) -> &'static str {
         match self {
-            ScalarKind::I32F32 | ScalarKind::Mix32 => "hilcam::scalar::I32F32",
-            ScalarKind::I16F16 => "hilcam::scalar::I16F16",
-            ScalarKind::I12F20 => "hilcam::scalar::I12F20",
+            ScalarKind::Planned | ScalarKind::I32F32 | ScalarKind::Mix32 => "hilcam::scalar::I32F32",
             ScalarKind::F32 => "f32",
+        }
+    }
+
+    /// The arithmetic it forces (`None`: the plan's).
+    pub fn arithmetic(self) -> Option<Arithmetic> {
+        match self {
+            ScalarKind::Planned => None,
+            ScalarKind::I32F32 | ScalarKind::F32 => Some(Arithmetic::Wide),
+            ScalarKind::Mix32 => Some(Arithmetic::Fast),
         }
     }
 }
@@ -69,9 +76,7 @@ impl ScalarKind {
     /// Runs `w` with this type.
     pub fn dispatch<W: WithScalar>(self, w: W) -> W::Out {
         match self {
-            ScalarKind::I32F32 | ScalarKind::Mix32 => w.run::<I32F32>(),
-            ScalarKind::I16F16 => w.run::<I16F16>(),
-            ScalarKind::I12F20 => w.run::<I12F20>(),
+            ScalarKind::Planned | ScalarKind::I32F32 | ScalarKind::Mix32 => w.run::<I32F32>(),
             ScalarKind::F32 => w.run::<f32>(),
         }
     }
@@ -87,17 +92,18 @@ pub struct Variant {
 }
 
 impl Variant {
-    /// The planned renderer (I32F32, the plan as it is).
+    /// The planned renderer: the plan as it is (the default everywhere).
     pub const PLANNED: Variant = Variant {
-        scalar: ScalarKind::I32F32,
+        scalar: ScalarKind::Planned,
         over: Override::Planned,
     };
 
-    /// `scalar-planned`, `scalar-lutN-linear`, `scalar-lutN-nearest`,
-    /// `scalar-poly` or `scalar-all-stages`.
+    /// `planned`, or `ARITH-planned`, `ARITH-lutN-linear`,
+    /// `ARITH-lutN-nearest`, `ARITH-poly`, `ARITH-all-stages`.
     pub fn name(&self) -> String {
         let s = self.scalar.name();
         match self.over {
+            Override::Planned if self.scalar == ScalarKind::Planned => s.to_string(),
             Override::Planned => format!("{s}-planned"),
             Override::Table { entries, eval } => format!(
                 "{s}-lut{entries}-{}",
@@ -116,10 +122,14 @@ impl Variant {
     pub fn parse(name: &str) -> Result<Variant, String> {
         let bad = || {
             format!(
-                "variant {name:?}: expected SCALAR-planned, SCALAR-lutN-linear, SCALAR-lutN-nearest, \
-                 SCALAR-poly or SCALAR-all-stages, SCALAR one of i32f32, i16f16, i12f20, f32, mix32"
+                "variant {name:?}: expected planned, or ARITH-planned, ARITH-lutN-linear, \
+                 ARITH-lutN-nearest, ARITH-poly or ARITH-all-stages, ARITH one of planned, mix32, \
+                 i32f32, f32"
             )
         };
+        if name == "planned" {
+            return Ok(Variant::PLANNED);
+        }
         let (s, rest) = name.split_once('-').ok_or_else(bad)?;
         let scalar = ScalarKind::ALL
             .into_iter()
@@ -155,10 +165,9 @@ impl Variant {
     /// The options this variant renders with, from the planned ones.
     pub fn options(&self, planned: Options) -> Options {
         let o = planned.with(self.over);
-        if self.scalar == ScalarKind::Mix32 {
-            o.mix32()
-        } else {
-            o
+        match self.scalar.arithmetic() {
+            Some(a) => o.with_arithmetic(a),
+            None => o,
         }
     }
 
@@ -173,12 +182,11 @@ impl Variant {
                 format!("Override::Table {{ entries: {entries}, eval: DistortionEval::{eval:?} }}")
             }
         };
-        let mix = if self.scalar == ScalarKind::Mix32 {
-            ".mix32()"
-        } else {
-            ""
+        let arith = match self.scalar.arithmetic() {
+            Some(a) => format!(".with_arithmetic(hilcam::render::Arithmetic::{a:?})"),
+            None => String::new(),
         };
-        format!("{planned}.with({over}){mix}")
+        format!("{planned}.with({over}){arith}")
     }
 
     /// Renders `r` on the host with this variant: the frame's bytes and
@@ -221,17 +229,20 @@ mod tests {
     #[test]
     fn names_round_trip_and_bad_names_are_refused() {
         for n in [
+            "planned",
             "i32f32-planned",
-            "i16f16-lut256-linear",
-            "i12f20-lut16-nearest",
+            "i32f32-lut256-linear",
+            "mix32-lut16-nearest",
             "f32-poly",
             "i32f32-all-stages",
             "mix32-poly",
+            "planned-poly",
         ] {
             assert_eq!(Variant::parse(n).map(|v| v.name()), Ok(n.to_string()));
         }
         for n in [
             "i64f64-poly",
+            "i16f16-poly",
             "f32",
             "f32-lut1-linear",
             "f32-lut2048-linear",
