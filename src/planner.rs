@@ -662,11 +662,34 @@ impl ErrorModel {
                     // silhouette: 2 r |c| δθ. Its error moves the hit point
                     // along the ray by δdisc / (2 √disc) (at most √δdisc).
                     let disc_min = (2.0 * p.r * c * dtheta).max(1e-300);
-                    let along = (ddisc / (2.0 * libm::sqrt(disc_min))).min(libm::sqrt(ddisc));
+                    if ddisc >= disc_min {
+                        // The rounding can flip hit and miss farther than
+                        // 1/256 px inside the silhouette: a smooth pixel may
+                        // see what lies behind the sphere instead.
+                        return g.dn_max * 2.0;
+                    }
+                    let along = ddisc / (2.0 * libm::sqrt(disc_min));
                     let dp = self.point + db + along;
                     (dp / p.r + self.unit, dp)
                 }
-                _ => (self.unit, self.point),
+                Shape::Disc { .. } | Shape::Rectangle { .. } => {
+                    // The boundary test moves with the hit point: by more
+                    // than 1/256 px where the boundary is nearest.
+                    // Its distance from the lens is at least that of the
+                    // plane, h, and of the circle around it in the plane.
+                    let h = libm::fabs(dot3(p.c, p.n));
+                    let c_in = libm::sqrt((dot3(p.c, p.c) - h * h).max(0.0));
+                    let out = match p.shape {
+                        Shape::Disc { .. } => libm::fabs(c_in - p.r),
+                        _ => (c_in - p.r).max(0.0),
+                    };
+                    let nearest = libm::sqrt(h * h + out * out).max(1e-300);
+                    if self.point / nearest >= dtheta {
+                        return g.dn_max * 2.0;
+                    }
+                    (self.unit, self.point)
+                }
+                Shape::Plane { .. } => (self.unit, self.point),
             };
             // Per light: the largest unclipped DN of the term, and its
             // error from the normal, the point and the lobe.
@@ -684,9 +707,12 @@ impl ErrorModel {
                     ),
                     _ => (0.0, f64::INFINITY),
                 };
-                // cos and 1/r² move by the normal's and the point's error.
-                let geo = dn + 3.0 * dp / r_min + self.rel;
-                e += gain * p.kd * strength * geo;
+                // cos moves by the normal's error (absolute: D δn, also
+                // where a grazing pixel is dim), 1/r² by 3 δp / r relative
+                // (of a value that matters only up to DN_max).
+                let d = gain * p.kd * strength;
+                let rel = 3.0 * dp / r_min + self.rel;
+                e += d * dn + d.min(g.dn_max * 1.01) * rel;
                 let d_spec = gain * p.ks * strength;
                 if d_spec > 0.0 {
                     // r̂·v̂ = x moves by 4 δn + 3 δl̂ + 3 δv̂; x^s by s x^(s−1)
@@ -696,7 +722,7 @@ impl ErrorModel {
                     let dx = 4.0 * dn + 3.0 * (dp / r_min + self.unit) + 3.0 * self.unit;
                     let s = p.exponent.max(1) as f64;
                     let x = libm::pow((g.dn_max / d_spec).min(1.0), 1.0 / s).max(1e-9);
-                    e += (d_spec * geo).min(g.dn_max * geo) + s * dx * g.dn_max.min(d_spec) / x;
+                    e += d_spec * dn + d_spec.min(g.dn_max * 1.01) * rel + s * dx * g.dn_max.min(d_spec) / x;
                 }
             }
             worst = worst.max(base + e.min(g.dn_max * 2.0));

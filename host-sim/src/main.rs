@@ -34,6 +34,11 @@ enum Cmd {
         /// Pixel-value error budget for the planner, LSB.
         #[arg(long, default_value_t = 1.0)]
         max_lsb: f64,
+        /// Render even when no way of rendering the scene is predicted to
+        /// meet the budget (by default such a scene is refused, and nothing
+        /// is written).
+        #[arg(long)]
+        allow_over_budget: bool,
     },
     /// Render a scene, encode N frames with the core's encoder, send them
     /// through a simulated link with faults, decode, and report (stream.json,
@@ -165,6 +170,7 @@ fn main() -> ExitCode {
             out,
             max_geom_err_px,
             max_lsb,
+            allow_over_budget,
         } => {
             let run = || -> Result<String, String> {
                 let budget = hilcam::planner::Budget {
@@ -179,6 +185,14 @@ fn main() -> ExitCode {
                 }
                 let resolved = host_sim::scene_file::load(&scene)?;
                 let o = host_sim::render_cmd::render(&resolved, &budget)?;
+                if !o.plan.meets_budget && !allow_over_budget {
+                    return Err(format!(
+                        "{}: refused: {}\n{}nothing written (--allow-over-budget renders it anyway)",
+                        scene.display(),
+                        o.metrics.plan.why,
+                        host_sim::render_cmd::plan_text(&o.metrics.plan)
+                    ));
+                }
                 host_sim::render_cmd::write(&out, &o)?;
                 Ok(format!(
                     "{}\n{}",

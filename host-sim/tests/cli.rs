@@ -110,3 +110,83 @@ fn tradeoff_sweep_runs_on_a_tiny_configuration() {
     assert_eq!(&png[1..4], b"PNG");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A 0.19 mm sphere 0.7 mm in front of the lens: no arithmetic is predicted
+/// to meet 1 LSB (the wide path measured 2 LSB on it, others up to 219), so
+/// `render` refuses it, says why, and writes nothing; `--allow-over-budget`
+/// renders it.
+#[test]
+fn render_refuses_a_scene_no_arithmetic_can_meet_and_writes_nothing() {
+    let dir = std::env::temp_dir().join(format!("hilcam-over-budget-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let scene = dir.join("near-lens.toml");
+    std::fs::write(
+        &scene,
+        r#"name = "near-lens"
+[output]
+format = "rgb565"
+exposure = 20
+[camera]
+width = 48
+height = 36
+focal_length = 0.0018398255879228213
+pitch = 24e-6
+f_number = 2.0
+focus_distance = 3.0
+tolerable_blur = 24e-6
+pose = { eye = [0, 0.3, -2], target = [0.0, 0.4, 0.0], up = [0.0, 1.0, 0.0] }
+[environment]
+ambient = 0.1
+background = 0.3
+[[materials]]
+name = "a"
+albedo = [0.7, 0.5, 0.3]
+[[materials]]
+name = "b"
+albedo = [0.2, 0.3, 0.1]
+[[primitives]]
+kind = "plane"
+material = "b"
+point = [0.0, -0.2, 0.0]
+normal = [0.05, 1.0, 0.1]
+[[primitives]]
+kind = "sphere"
+material = "a"
+centre = [0, 0.30003568466630265, -1.9992863066739466]
+radius = 0.00019373751769190777
+[[lights]]
+kind = "point"
+position = [0, 3.2056543219706, 0]
+intensity = 0.5
+"#,
+    )
+    .expect("write");
+    let out_dir = dir.join("out");
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .args(["render", "--scene"])
+            .arg(&scene)
+            .arg("--out")
+            .arg(&out_dir)
+            .args(extra)
+            .output()
+            .expect("runs")
+    };
+    let refused = run(&[]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(
+        err.contains("near-lens.toml: refused: no candidate meets the budget"),
+        "{err}"
+    );
+    assert!(!out_dir.exists(), "nothing written");
+    let forced = run(&["--allow-over-budget"]);
+    assert!(
+        forced.status.success(),
+        "{}",
+        String::from_utf8_lossy(&forced.stderr)
+    );
+    assert!(out_dir.join("metrics.json").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,256 @@
+//! The planner's guarantee, on random scenes: whatever it chooses, the
+//! frame rendered by default is within the errors it predicted — the
+//! geometric error and, over smooth pixels, the rounded values
+//! (`|Δ before rounding| ≤ e` gives `|Δ after| ≤ ⌊e⌋ + 1`) — and a plan
+//! that says it meets the budget meets it. Scenes include tiny primitives
+//! next to the lens (0.1–0.2 mm spheres 0.3–2 mm in front of it), far
+//! lights, distortion, specular lobes, every format and ray model. A
+//! candidate the planner says fits the fast formats must also prepare.
+
+mod common;
+
+use common::Max;
+use hilcam::planner::{plan, Budget};
+use hilcam::render::{Arithmetic, Frame};
+use host_sim::render_cmd::render;
+use host_sim::scene_file::parse;
+use proptest::prelude::*;
+use proptest::test_runner::{Config, TestRunner};
+use std::cell::Cell;
+
+static FAST_LSB: Max = Max::new("planner_fast_lsb_over_predicted", "(measured / predicted+1)");
+static WIDE_LSB: Max = Max::new("planner_wide_lsb_over_predicted", "(measured / predicted+1)");
+static GEOM: Max = Max::new("planner_geom_over_predicted", "(measured / predicted)");
+
+/// One random scene as scene-file text.
+#[derive(Clone, Debug)]
+struct Spec {
+    format: usize,
+    exposure: f64,
+    focal: f64,
+    distortion: Option<(f64, f64)>,
+    ortho: bool,
+    eye: [f64; 3],
+    prims: Vec<(usize, [f64; 3], f64, bool)>,
+    lights: Vec<(bool, [f64; 3], f64)>,
+    specular: Option<(f64, u16)>,
+    tiny_near_lens: Option<(f64, f64)>,
+}
+
+fn spec() -> impl Strategy<Value = Spec> {
+    let prim = (
+        0usize..4,
+        (-1.5f64..1.5, 0.0f64..1.5, -1.0f64..2.0),
+        common::log_uniform(0.02, 1.0),
+        any::<bool>(),
+    )
+        .prop_map(|(k, (x, y, z), r, ch)| (k, [x, y, z], r, ch));
+    let light = (
+        any::<bool>(),
+        (-4.0f64..4.0, 0.5f64..5.0, -4.0f64..1.0),
+        common::log_uniform(0.5, 200.0),
+    )
+        .prop_map(|(p, (x, y, z), i)| (p, [x, y, z], i));
+    (
+        (0usize..4, common::log_uniform(20.0, 3000.0), 1.5e-3f64..6e-3),
+        prop::option::of((-0.3f64..0.4, -0.1f64..0.1)),
+        prop::bool::weighted(0.1),
+        (-1.0f64..1.0, 0.3f64..2.5, -4.0f64..-2.0),
+        prop::collection::vec(prim, 1..4),
+        prop::collection::vec(light, 1..3),
+        prop::option::weighted(0.3, (0.2f64..0.9, 0u16..300)),
+        prop::option::weighted(0.15, (1e-4f64..2e-4, 3e-4f64..2e-3)),
+    )
+        .prop_map(
+            |((format, exposure, focal), distortion, ortho, (ex, ey, ez), prims, lights, specular, tiny)| {
+                Spec {
+                    format,
+                    exposure,
+                    focal,
+                    distortion,
+                    ortho,
+                    eye: [ex, ey, ez],
+                    prims,
+                    lights,
+                    specular,
+                    tiny_near_lens: tiny,
+                }
+            },
+        )
+}
+
+fn text(s: &Spec) -> String {
+    let format = [
+        "format = \"gray8\"",
+        "format = \"gray16\"\nbits = 12",
+        "format = \"rgb565\"",
+        "format = \"gray16\"\nbits = 16",
+    ][s.format];
+    let mut t = format!(
+        "name = \"random\"\n[output]\n{format}\nexposure = {}\n[camera]\nwidth = 48\nheight = 36\n\
+         focal_length = {}\npitch = 24e-6\nf_number = 2.0\nfocus_distance = 3.0\ntolerable_blur = 24e-6\n",
+        s.exposure, s.focal
+    );
+    if let Some((k1, k2)) = s.distortion {
+        t += &format!("distortion = [{k1}, {k2}]\n");
+    }
+    if s.ortho {
+        t += "model = \"orthographic\"\northographic_scale = 4e-4\n";
+    }
+    let [ex, ey, ez] = s.eye;
+    // Looking at the origin region; a tiny sphere sits just in front of
+    // the lens along the view direction.
+    let target = [0.0, 0.4, 0.0];
+    t += &format!("pose = {{ eye = [{ex}, {ey}, {ez}], target = {target:?}, up = [0.0, 1.0, 0.0] }}\n");
+    t += "[environment]\nambient = 0.1\nbackground = 0.3\n";
+    // Gray formats take single numbers.
+    let (a, b) = if s.format == 2 {
+        ("[0.7, 0.5, 0.3]", "[0.2, 0.3, 0.1]")
+    } else {
+        ("0.7", "0.2")
+    };
+    t += &format!("[[materials]]\nname = \"a\"\nalbedo = {a}\n");
+    t += &format!("[[materials]]\nname = \"b\"\nalbedo = {b}\n");
+    if let Some((mix, e)) = s.specular {
+        t += &format!("specular = 0.8\nmix = {mix}\nexponent = {e}\n");
+    }
+    for (k, c, r, checker) in &s.prims {
+        let c = format!("[{}, {}, {}]", c[0], c[1], c[2]);
+        let ch = if *checker && *k != 1 {
+            "checker = { cell = 0.13, material = \"a\", u_axis = [1.0, 0.0, 0.0] }\n"
+        } else {
+            ""
+        };
+        t += &match k {
+            0 => format!(
+                "[[primitives]]\nkind = \"plane\"\nmaterial = \"b\"\npoint = [0.0, -0.2, 0.0]\nnormal = [0.05, 1.0, 0.1]\n{ch}"
+            ),
+            1 => format!("[[primitives]]\nkind = \"sphere\"\nmaterial = \"b\"\ncentre = {c}\nradius = {r}\n"),
+            2 => format!(
+                "[[primitives]]\nkind = \"disc\"\nmaterial = \"a\"\ncentre = {c}\nnormal = [0.3, 1.0, -0.6]\nradius = {r}\n{ch}"
+            ),
+            _ => format!(
+                "[[primitives]]\nkind = \"rectangle\"\nmaterial = \"a\"\ncentre = {c}\nnormal = [0.1, 0.4, -1.0]\n\
+                 u_axis = [1.0, 0.0, 0.0]\nsize = [{r}, {}]\n{ch}",
+                r * 0.7
+            ),
+        };
+    }
+    if let Some((radius, dist)) = s.tiny_near_lens {
+        let v = [-ex, 0.4 - ey, -ez];
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let c = [ex + v[0] / n * dist, ey + v[1] / n * dist, ez + v[2] / n * dist];
+        t += &format!(
+            "[[primitives]]\nkind = \"sphere\"\nmaterial = \"a\"\ncentre = [{}, {}, {}]\nradius = {radius}\n",
+            c[0], c[1], c[2]
+        );
+    }
+    for (point, p, i) in &s.lights {
+        t += &if *point {
+            format!(
+                "[[lights]]\nkind = \"point\"\nposition = [{}, {}, {}]\nintensity = {i}\n",
+                p[0], p[1], p[2]
+            )
+        } else {
+            format!(
+                "[[lights]]\nkind = \"directional\"\ndirection = [{}, {}, {}]\nirradiance = {}\n",
+                p[0],
+                p[1],
+                p[2],
+                i / 10.0
+            )
+        };
+    }
+    t
+}
+
+#[test]
+fn predicted_bounds_hold_on_random_scenes() {
+    let mut config = Config::with_cases(400);
+    config.failure_persistence = None;
+    let mut runner = TestRunner::new_with_rng(
+        config,
+        proptest::test_runner::TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
+    );
+    let (fast, wide, over, over_normal) = (Cell::new(0), Cell::new(0), Cell::new(0), Cell::new(0));
+    let budget = Budget::default();
+    let result = runner.run(&spec(), |s| {
+        let t = text(&s);
+        let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let p = plan(&scene, &budget);
+        // Every candidate that the planner says fits the fast formats
+        // prepares.
+        for c in p
+            .candidates
+            .iter()
+            .filter(|c| c.arithmetic == Arithmetic::Fast && c.fits.is_ok())
+        {
+            let mut o = p.options;
+            o.arithmetic = Arithmetic::Fast;
+            o.distortion_eval = c.distortion.unwrap_or(o.distortion_eval);
+            prop_assert!(Frame::new(&scene, &o).is_ok(), "fits but does not prepare:\n{t}");
+        }
+        let out = render(&r, &budget).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let m = &out.metrics;
+        let predicted = p.predicted_lsb;
+        let ratio = m.max_abs_lsb_smooth as f64 / (predicted + 1.0);
+        match p.options.arithmetic {
+            Arithmetic::Fast => {
+                fast.set(fast.get() + 1);
+                FAST_LSB.record(ratio)
+            }
+            Arithmetic::Wide => {
+                wide.set(wide.get() + 1);
+                WIDE_LSB.record(ratio)
+            }
+        }
+        if !p.meets_budget {
+            over.set(over.get() + 1);
+            if s.tiny_near_lens.is_none() {
+                over_normal.set(over_normal.get() + 1);
+            }
+        }
+        GEOM.record(m.max_geom_err_px / p.predicted_geom_err_px.max(1e-12));
+        prop_assert!(
+            m.max_abs_lsb_smooth as f64 <= predicted.floor() + 1.0,
+            "smooth {} LSB above the predicted {predicted} (+ rounding), {}:\n{t}",
+            m.max_abs_lsb_smooth,
+            m.plan.why
+        );
+        prop_assert!(
+            m.max_geom_err_px <= p.predicted_geom_err_px * 1.001 + 1e-9,
+            "geometry {} px above the predicted {}:\n{t}",
+            m.max_geom_err_px,
+            p.predicted_geom_err_px
+        );
+        if p.meets_budget {
+            prop_assert!(
+                m.max_abs_lsb_smooth as f64 <= budget.max_lsb,
+                "within budget, yet:\n{t}"
+            );
+        }
+        Ok(())
+    });
+    let (fast, wide, over, over_normal) = (fast.get(), wide.get(), over.get(), over_normal.get());
+    eprintln!(
+        "fast {fast}, wide {wide}, over budget {over} ({over_normal} without a tiny sphere at the lens)"
+    );
+    FAST_LSB.report();
+    WIDE_LSB.report();
+    GEOM.report();
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    assert!(
+        fast > 50 && wide > 10,
+        "both arithmetics exercised: fast {fast}, wide {wide}"
+    );
+    // Over budget: the planner says so (it cannot guarantee 1 LSB), which
+    // the near-lens spheres need (measured up to 219 LSB on the wide path);
+    // ordinary scenes are accepted.
+    assert!(
+        over_normal * 4 < 400 - over,
+        "too many ordinary scenes refused: {over_normal}"
+    );
+}
