@@ -589,6 +589,8 @@ pub struct ErrorModel {
     pub a_rel: f64,
     /// Absolute error of the discriminant's own roundings, m².
     pub disc: f64,
+    /// The discriminant as `a r² − |d × c|²` (else `b² − a cc`).
+    pub lagrange: bool,
     /// Absolute error of a unit vector's components (normals, `l̂`, `v̂`).
     pub unit: f64,
     /// Absolute error per term of the pixel sum, DN (truncations).
@@ -615,21 +617,25 @@ impl ErrorModel {
                 cc_per_c: 2.0 * libm::ldexp(u, -24),
                 a_rel: libm::ldexp(1.0, -20),
                 disc: 0.0,
+                lagrange: false,
                 unit: libm::ldexp(1.0, -28),
                 per_term_dn: libm::ldexp(1.0, -14),
             },
             // I32F32 throughout: 2⁻³² m per rounding (each product, the
             // camera-frame centre's components), some 40 roundings of
-            // quantities below 2⁸ in the radiometric chain (2⁻²⁰ relative).
+            // quantities below 2⁸ in the radiometric chain (2⁻²⁰ relative);
+            // the sphere's discriminant by Lagrange's identity (`r²` rounded
+            // once).
             Arithmetic::Wide => ErrorModel {
                 rel: libm::ldexp(1.0, -20),
                 point: (8.0 + 2.0 * g.extent) * q32,
                 b: 4.0 * q32,
-                b_per_c: 1.5 * q32,
-                cc: 4.0 * q32,
-                cc_per_c: 3.5 * q32,
+                b_per_c: 2.0 * q32,
+                cc: 2.0 * q32,
+                cc_per_c: 0.0,
                 a_rel: 2.0 * q32,
                 disc: 2.0 * q32,
+                lagrange: true,
                 unit: 4.0 * q32,
                 per_term_dn: q32,
             },
@@ -657,7 +663,13 @@ impl ErrorModel {
                     let c = norm3(p.c).max(p.r);
                     let cc = libm::fabs(c * c - p.r * p.r);
                     let db = self.b + self.b_per_c * c;
-                    let ddisc = 2.0 * c * db + self.cc + self.cc_per_c * c + cc * self.a_rel + self.disc;
+                    let ddisc = if self.lagrange {
+                        // a r² − |d × c|², |d × c| = r √a at the silhouette,
+                        // its components as b's.
+                        2.0 * p.r * 1.8 * db + p.r * p.r * self.a_rel + self.cc + self.disc
+                    } else {
+                        2.0 * c * db + self.cc + self.cc_per_c * c + cc * self.a_rel + self.disc
+                    };
                     // The discriminant a (r² − h²) at 1/256 px inside the
                     // silhouette: 2 r |c| δθ. Its error moves the hit point
                     // along the ray by δdisc / (2 √disc) (at most √δdisc).

@@ -306,8 +306,6 @@ pub(crate) enum CamShape<S> {
         c: V3<S>,
         r2: S,
         inv_r: S,
-        /// `|c|² − r²`: the constant term for rays from the origin.
-        cc: S,
     },
     Disc {
         n: V3<S>,
@@ -351,16 +349,11 @@ impl CamPrim<Q> {
                 n: from_q3(n),
                 dist: S::from_q(dist),
             },
-            CamShape::Sphere { c, r2, inv_r, .. } => {
-                let (c, r2) = (from_q3::<S>(c), S::from_q(r2));
-                CamShape::Sphere {
-                    c,
-                    r2,
-                    inv_r: S::from_q(inv_r),
-                    // In S, as the per-pixel path would compute it.
-                    cc: dot(c, c).sub(r2),
-                }
-            }
+            CamShape::Sphere { c, r2, inv_r } => CamShape::Sphere {
+                c: from_q3(c),
+                r2: S::from_q(r2),
+                inv_r: S::from_q(inv_r),
+            },
             CamShape::Disc { n, dist, c, r2 } => CamShape::Disc {
                 n: from_q3(n),
                 dist: S::from_q(dist),
@@ -969,16 +962,24 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
             let rel = sub3(p, c);
             (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then(|| flat(n, td, Some(p)))
         }
-        CamShape::Sphere { c, r2, inv_r, cc } => {
-            // |o + t d − c|² = r²: a t² − 2 b t + cc = 0; from the origin
-            // (perspective) oc = c and cc is the frame's constant.
-            let (b, cc) = if PERSP {
-                (dot(d, c), cc)
+        CamShape::Sphere { c, r2, inv_r } => {
+            // |o + t d − c|² = r²: a t² − 2 b t + cc = 0 with b = d·oc,
+            // cc = |oc|² − r². The discriminant b² − a cc is computed as
+            // a r² − |d × oc|² (Lagrange's identity): without the
+            // cancellation of b² against a |oc|², its rounding next to the
+            // silhouette is r/|c| of the other form's.
+            let (b, disc) = if PERSP {
+                let x = [
+                    d[1].mul(c[2]).sub(d[2].mul(c[1])),
+                    d[2].mul(c[0]).sub(d[0].mul(c[2])),
+                    d[0].mul(c[1]).sub(d[1].mul(c[0])),
+                ];
+                (dot(d, c), a.mul(r2).sub(dot(x, x)))
             } else {
+                // d = (0, 0, 1): b = oc_z, disc = r² − oc_x² − oc_y².
                 let oc = sub3(c, o);
-                (dot(d, oc), dot(oc, oc).sub(r2))
+                (oc[2], r2.sub(oc[0].mul(oc[0])).sub(oc[1].mul(oc[1])))
             };
-            let disc = b.mul(b).sub(a.mul(cc));
             if disc < S::ZERO {
                 return None;
             }
@@ -1045,7 +1046,6 @@ fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim<Q> {
                     c,
                     r2: q(Wide::of(radius).mul(Wide::of(radius))),
                     inv_r: Q::ONE.checked_div(r).unwrap_or(Q::MAX),
-                    cc: Q::ZERO, // set by `to`
                 },
                 c,
             )
