@@ -424,6 +424,9 @@ struct MixPrim {
     shape: MixShape,
     material: u8,
     checker: Option<MixChecker>,
+    /// Undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` (S26) outside which no
+    /// ray meets it: a chunk whose rays all lie outside skips its pass.
+    bounds: Option<[i32; 4]>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -907,6 +910,7 @@ impl Mix32 {
                 shape,
                 material: p.material,
                 checker,
+                bounds: p.bounds.map(|b| b.map(|q| sat32(q.to_bits() >> 6))),
             });
         }
         // I/r² with r in U: I / U² = I 2^(−2e).
@@ -1082,6 +1086,9 @@ impl Mix32 {
             let Some(rays) = rays.first(pixels.len()) else {
                 return;
             };
+            // The chunk's slope box (rays outside the field count as (0, 0):
+            // a larger box, never a skipped hit).
+            let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
             for r in rays.iter_mut() {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
@@ -1089,8 +1096,14 @@ impl Mix32 {
                     Some((x, y)) => Ray::new::<PERSP>(x, y, korigin),
                     None => Ray::OUTSIDE,
                 };
+                (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
             }
             for (i, p) in self.prims.iter().enumerate() {
+                if let Some(b) = p.bounds {
+                    if x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3] {
+                        continue;
+                    }
+                }
                 p.nearest::<PERSP>(i as u8, rays);
             }
             for ((r, out), flag) in rays.iter().zip(pixels.iter_mut()).zip(flags.iter_mut()) {

@@ -576,6 +576,9 @@ pub struct ErrorModel {
     /// Absolute error of a hit point, metres (rounding of `t` and of the
     /// point).
     pub point: f64,
+    /// How far a flat shape's boundary test can move, metres (the hit
+    /// point's components as the test reads them).
+    pub boundary: f64,
     /// Absolute error of `b = d·c` in the sphere test: metres, plus this
     /// much times `|c|`.
     pub b: f64,
@@ -611,6 +614,7 @@ impl ErrorModel {
             Arithmetic::Fast => ErrorModel {
                 rel: 3.0 * libm::ldexp(1.0, -19) + libm::ldexp(1.0, -21) + libm::ldexp(1.0, -20) + 1e-8,
                 point: 4.0 * libm::ldexp(u, -18),
+                boundary: 2.0 * libm::ldexp(u, -18),
                 b: libm::ldexp(u, -21),
                 b_per_c: 0.0,
                 cc: libm::ldexp(u * u, -24),
@@ -629,6 +633,7 @@ impl ErrorModel {
             Arithmetic::Wide => ErrorModel {
                 rel: libm::ldexp(1.0, -20),
                 point: (8.0 + 2.0 * g.extent) * q32,
+                boundary: (4.0 + g.extent) * q32,
                 b: 4.0 * q32,
                 b_per_c: 2.0 * q32,
                 cc: 2.0 * q32,
@@ -673,7 +678,9 @@ impl ErrorModel {
                     // The discriminant a (r² − h²) at 1/256 px inside the
                     // silhouette: 2 r |c| δθ. Its error moves the hit point
                     // along the ray by δdisc / (2 √disc) (at most √δdisc).
-                    let disc_min = (2.0 * p.r * c * dtheta).max(1e-300);
+                    // (Parallel rays: 1/256 px is k δθ sideways.)
+                    let lateral = g.origin_scale.unwrap_or(c);
+                    let disc_min = (2.0 * p.r * lateral * dtheta).max(1e-300);
                     if ddisc >= disc_min {
                         // The rounding can flip hit and miss farther than
                         // 1/256 px inside the silhouette: a smooth pixel may
@@ -696,7 +703,8 @@ impl ErrorModel {
                         _ => (c_in - p.r).max(0.0),
                     };
                     let nearest = libm::sqrt(h * h + out * out).max(1e-300);
-                    if self.point / nearest >= dtheta {
+                    let lateral = g.origin_scale.unwrap_or(nearest);
+                    if self.boundary / lateral >= dtheta {
                         return g.dn_max * 2.0;
                     }
                     (self.unit, self.point)

@@ -338,6 +338,10 @@ pub(crate) struct CamPrim<S> {
     pub(crate) shape: CamShape<S>,
     pub(crate) material: u8,
     pub(crate) checker: Option<CamChecker<S>>,
+    /// The undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` outside which
+    /// no ray meets the primitive (with a margin): rays outside skip its
+    /// test. `None` for planes and what reaches the lens plane.
+    pub(crate) bounds: Option<[S; 4]>,
 }
 
 impl CamPrim<Q> {
@@ -381,6 +385,7 @@ impl CamPrim<Q> {
         CamPrim {
             shape,
             material: self.material,
+            bounds: self.bounds.map(|b| b.map(S::from_q)),
             checker: self.checker.map(|k| CamChecker {
                 origin: from_q3(k.origin),
                 u: from_q3(k.u),
@@ -610,8 +615,18 @@ impl<S: Scalar> Frame<S> {
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
             *dst = Brdf::new(m, scene.ambient).to();
         }
+        let origin_scale = match opts.model {
+            RenderModel::Perspective => None,
+            _ => Some(self.k_origin.to_q()),
+        };
         for p in &scene.primitives {
-            let _ = self.prims.push(cam_prim(scene, p).to());
+            let mut cp = cam_prim(scene, p);
+            cp.bounds = if opts.keep_all_stages {
+                None
+            } else {
+                slope_bounds(&cp.shape, origin_scale)
+            };
+            let _ = self.prims.push(cp.to());
         }
         for l in &scene.lights {
             let _ = self.lights.push(shading_light(scene, l).to());
@@ -648,7 +663,13 @@ impl<S: Scalar> Frame<S> {
         }
         let mut prims: heapless::Vec<CamPrimQ, { crate::scene::MAX_PRIMITIVES }> = heapless::Vec::new();
         for p in &scene.primitives {
-            let _ = prims.push(cam_prim(scene, p));
+            let mut cp = cam_prim(scene, p);
+            cp.bounds = if specular_all {
+                None
+            } else {
+                slope_bounds(&cp.shape, origin_scale)
+            };
+            let _ = prims.push(cp);
         }
         let mut lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }> = heapless::Vec::new();
         for l in &scene.lights {
@@ -843,9 +864,9 @@ impl<S: Scalar> Frame<S> {
             // 1 + x̂² + ŷ² of cos⁴α (equal in fixed point, where sums are exact).
             let a = if PERSP { dot(d, d) } else { S::ONE };
             let radiance = if spec {
-                self.trace::<true, PERSP>(o, d, a)
+                self.trace::<true, PERSP>(o, d, a, (x, y))
             } else {
-                self.trace::<false, PERSP>(o, d, a)
+                self.trace::<false, PERSP>(o, d, a, (x, y))
             };
             let cos4 = match (vig, PERSP) {
                 (false, _) => S::ONE,
@@ -866,11 +887,17 @@ impl<S: Scalar> Frame<S> {
         }
     }
 
-    /// Radiance (per channel) seen along the ray `o + t d`, `a = d·d`.
+    /// Radiance (per channel) seen along the ray `o + t d`, `a = d·d`, of
+    /// the undistorted slopes `(x̂, ŷ)`.
     #[inline]
-    fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3<S>, d: V3<S>, a: S) -> V3<S> {
+    fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3<S>, d: V3<S>, a: S, (x, y): (S, S)) -> V3<S> {
         let mut nearest: Option<(&CamPrim<S>, Hit<S>)> = None;
         for p in &self.prims {
+            if let Some(b) = &p.bounds {
+                if x < b[0] || x > b[1] || y < b[2] || y > b[3] {
+                    continue;
+                }
+            }
             if let Some(h) = intersect::<S, PERSP>(&p.shape, o, d, a) {
                 if h.t < nearest.as_ref().map_or(S::MAX, |(_, b)| b.t) {
                     nearest = Some((p, h));
@@ -1016,6 +1043,50 @@ fn plane_t<S: Scalar, const PERSP: bool>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) 
     (t > S::ZERO).then_some((t, denom))
 }
 
+/// The undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` of the rays that can
+/// meet a bounded primitive (its bounding sphere), widened by 2⁻¹⁰ plus
+/// 2⁻¹⁰ relative — far more than any arithmetic's rounding moves a hit —
+/// or `None` (planes; a bounding sphere that reaches the lens plane).
+/// Perspective rays: the tangents from the centre of projection,
+/// `(c_x c_z ± r √(c_x² + c_z² − r²)) / (c_z² − r²)`; parallel rays of
+/// origin scale `k`: `(c_x ± r) / k`. Computed once a frame, in f64.
+fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>) -> Option<[Q; 4]> {
+    let f = |q: Q| q.to_num::<f64>();
+    let (c, r) = match *shape {
+        CamShape::Plane { .. } => return None,
+        CamShape::Sphere { c, r2, .. } => (c.map(f), libm::sqrt(f(r2))),
+        CamShape::Disc { c, r2, .. } => (c.map(f), libm::sqrt(f(r2))),
+        CamShape::Rect { c, hu, hv, .. } => (c.map(f), libm::sqrt(f(hu) * f(hu) + f(hv) * f(hv))),
+    };
+    let widen = |lo: f64, hi: f64| {
+        let m = libm::ldexp(1.0, -10);
+        (lo - m - m * libm::fabs(lo), hi + m + m * libm::fabs(hi))
+    };
+    let [(x0, x1), (y0, y1)] = match origin_scale {
+        None => {
+            let zz = c[2] * c[2] - r * r;
+            if c[2] <= r || zz <= 1e-3 * c[2] * c[2] {
+                return None;
+            }
+            let range = |cx: f64| {
+                let s = libm::sqrt((cx * cx + zz).max(0.0));
+                ((cx * c[2] - r * s) / zz, (cx * c[2] + r * s) / zz)
+            };
+            [range(c[0]), range(c[1])]
+        }
+        Some(k) => {
+            let k = f(k);
+            if k <= 0.0 {
+                return None;
+            }
+            [((c[0] - r) / k, (c[0] + r) / k), ((c[1] - r) / k, (c[1] + r) / k)]
+        }
+    };
+    let ((x0, x1), (y0, y1)) = (widen(x0, x1), widen(y0, y1));
+    let q = Q::saturating_from_num;
+    Some([q(x0), q(x1), q(y0), q(y1)])
+}
+
 /// A light in the camera frame, I32F32.
 fn shading_light(scene: &Scene, l: &Light) -> ShadingLight {
     match *l {
@@ -1100,6 +1171,7 @@ fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim<Q> {
     CamPrim {
         shape,
         material: p.material,
+        bounds: None,
         checker: p.checker.map(|k| CamChecker {
             origin,
             u: to_q3(k.u_axis),
