@@ -70,6 +70,9 @@ pub enum Unfit {
     OriginsTooFar,
     /// The fast arithmetic evaluates the distortion polynomial only.
     Table,
+    /// The fast arithmetic is not built in (the core's `mix32` feature is
+    /// off).
+    NotBuilt,
 }
 
 impl Unfit {
@@ -82,6 +85,7 @@ impl Unfit {
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::Table => "the fast arithmetic has no distortion table",
+            Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
         }
     }
 }
@@ -160,12 +164,16 @@ pub struct Plan {
     pub chosen: usize,
 }
 
-/// Plans `scene` within `budget`.
-pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
-    let cam = &scene.camera;
+/// The ray model alone (the first step of [`plan`]): what a caller that
+/// forces the arithmetic and the distortion evaluation still needs.
+pub fn ray_model(scene: &Scene, budget: &Budget) -> RenderModel {
+    ray_model_and_bound(scene, budget).0
+}
+
+fn ray_model_and_bound(scene: &Scene, budget: &Budget) -> (RenderModel, Option<(f64, Len)>) {
     let half = budget.max_geom_err_px / 2.0;
     let wp = weak_perspective_over_scene(scene);
-    let model = match cam.model {
+    let model = match scene.camera.model {
         Model::Orthographic { scale } => RenderModel::Orthographic { scale },
         Model::WeakPerspective { mean_depth } => RenderModel::WeakPerspective { mean_depth },
         Model::Perspective => match wp {
@@ -173,6 +181,14 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             _ => RenderModel::Perspective,
         },
     };
+    (model, wp)
+}
+
+/// Plans `scene` within `budget`.
+pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
+    let cam = &scene.camera;
+    let half = budget.max_geom_err_px / 2.0;
+    let (model, wp) = ray_model_and_bound(scene, budget);
     let g = Geometry::of(scene, model);
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
@@ -269,6 +285,8 @@ fn table_entries(scene: &Scene, g: &Geometry, half: f64) -> usize {
 
 /// The geometric error of a linearly interpolated table of `entries`, px:
 /// `|k2| h²/4` at the widest corner plus the entries' rounding.
+// Out of line: planning runs once a frame; keeping it small saves flash.
+#[inline(never)]
 fn table_geom_err(scene: &Scene, g: &Geometry, entries: usize) -> f64 {
     let r_max = libm::sqrt(g.u_max);
     let frac = scene
@@ -340,6 +358,8 @@ fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 impl Geometry {
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
     fn of(scene: &Scene, model: RenderModel) -> Geometry {
         let cam = &scene.camera;
         let intr = &cam.intrinsics;
@@ -518,6 +538,8 @@ impl Geometry {
     /// `g' = k1 + 2 k2 u`, and `g` (δg), times the slope — and √2 of it for
     /// the distance. Fast: S26 slopes, `u` S20, `k`, `s`, `g` S28, all
     /// truncated; wide: I32F32, a few roundings of 2⁻³².
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
     fn direct_geom_err(&self, a: Arithmetic, scene: &Scene) -> f64 {
         let (du, dg, dx) = match a {
             Arithmetic::Fast => (
@@ -543,7 +565,12 @@ impl Geometry {
 
     /// Whether the fast arithmetic's formats hold the scene (the checks
     /// [`crate::mix32`] makes when a frame is prepared, in f64).
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
     fn fast_fits(&self, scene: &Scene) -> Result<(), Unfit> {
+        if !cfg!(feature = "mix32") {
+            return Err(Unfit::NotBuilt);
+        }
         if self.extent > libm::ldexp(8.0, 20) {
             return Err(Unfit::TooFar);
         }
@@ -649,6 +676,8 @@ impl ErrorModel {
 
     /// Predicted largest `|core − reference|` before the final rounding,
     /// LSB, over smooth pixels.
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
     fn lsb(&self, scene: &Scene, g: &Geometry) -> f64 {
         let gain = g.gain;
         // The radiometric chain: relative to the value, which matters only
@@ -753,6 +782,8 @@ impl ErrorModel {
 
 /// The distance from a point light to the nearest point of a primitive
 /// (a lower bound), metres.
+// Out of line: planning runs once a frame; keeping it small saves flash.
+#[inline(never)]
 fn prim_light_distance(p: &PrimGeom, l: [f64; 3]) -> f64 {
     match p.shape {
         Shape::Plane { .. } => libm::fabs(dot3(sub3(l, p.c), p.n)),
@@ -798,6 +829,8 @@ pub struct Features {
 
 impl Features {
     /// The features of `scene` rendered with `distortion`.
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
     fn of(scene: &Scene, g: &Geometry, distortion: Option<DistortionEval>) -> Features {
         let mut f = Features::default();
         for p in &scene.primitives {
@@ -891,6 +924,8 @@ pub const WIDE_COST: CostModel = CostModel {
 /// The weak-perspective bound (pixels) over the camera-frame box around the
 /// scene's primitives, and the box's mean depth; `None` if a primitive is
 /// unbounded or the box reaches the lens plane.
+// Out of line: planning runs once a frame; keeping it small saves flash.
+#[inline(never)]
 fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
     let ext = &scene.camera.extrinsics;
     let mut lo = [f64::INFINITY; 3];

@@ -259,6 +259,7 @@ fixed_scalar!(
 /// The saturating product of raw 32-bit fixed-point values with `F`
 /// fractional bits, rounded down (as `saturating_mul`): one `SMULL` and a
 /// check that the high word is the sign extension of the result.
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 #[inline(always)]
 pub(crate) fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
     shr_sat::<F>(a as i64 * b as i64)
@@ -266,6 +267,7 @@ pub(crate) fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
 
 /// `p >> SH` saturated to i32 (`SH` in 1..=32): the high word says whether
 /// it fits, without a 64-bit compare.
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 #[inline(always)]
 pub(crate) fn shr_sat<const SH: u32>(p: i64) -> i32 {
     let hi = (p >> 32) as i32;
