@@ -31,7 +31,7 @@
 //! | unit vectors (normals, light directions, checker axes) | i32 S30 | ±2 |
 //! | prepared lengths (centres, plane distances) | i32 S24 (U) | ±128 U; content ≤ 8 U |
 //! | `t`, hit points, vectors to lights | i32 S18 (U) | ±8 192 U, saturating |
-//! | sphere `b = d·c` / discriminant | i32 S22 / i64 S44 | ≤ 189 U / 3.6·10⁴ U² |
+//! | sphere `b = d·c`, `d × c` / discriminant `a r² − |d × c|²` | i32 S22 / i64 S44 | ≤ 189 U / 3.6·10⁴ U² |
 //! | `r²` to a point light | u64 S36 (U²) | exact |
 //! | `cos⁴α` | u32 S31 | (0, 1] |
 //! | albedos × gain, irradiance, `1/r³` | [`Pf`] | any |
@@ -379,9 +379,8 @@ enum MixShape {
         c: [i32; 3],
         cz50: i64,
         c18: [i32; 3],
-        /// `|c|² − r²`, S24 U².
-        cc: i32,
-        /// r², S36 U².
+        /// r², S24 U² (perspective rays) and S36 U² (parallel rays).
+        r2_24: i32,
         r2: u64,
         inv_r: (u32, u32),
     },
@@ -610,13 +609,29 @@ impl MixPrim {
                 }
             }
             MixShape::Sphere {
-                c, cz50, cc, c18, r2, ..
+                c,
+                cz50,
+                r2_24,
+                c18,
+                r2,
+                ..
             } => {
                 for r in rays.iter_mut() {
                     let (b, sq) = if PERSP {
-                        // b = d·c S22; disc = b² − a cc, S44.
-                        let b = ((r.x as i64 * c[0] as i64 + r.y as i64 * c[1] as i64 + *cz50) >> 28) as i32;
-                        let disc = b as i64 * b as i64 - r.a as i64 * *cc as i64;
+                        // b = d·c S22; disc = b² − a cc = a r² − |d × c|²
+                        // (Lagrange's identity: no cancellation of b²
+                        // against a |c|² next to the silhouette), S44 from
+                        // the cross product's components in S22.
+                        let (x, y) = (r.x as i64, r.y as i64);
+                        let b = ((x * c[0] as i64 + y * c[1] as i64 + *cz50) >> 28) as i32;
+                        let k = |v: i64| (v >> 28) as i32 as i64;
+                        let (c0, c1) = ((c[0] as i64) << 26, (c[1] as i64) << 26);
+                        let (k0, k1, k2) = (
+                            k(y * c[2] as i64 - c1),
+                            k(c0 - x * c[2] as i64),
+                            k(x * c[1] as i64 - y * c[0] as i64),
+                        );
+                        let disc = r.a as i64 * *r2_24 as i64 - (k0 * k0 + k1 * k1 + k2 * k2);
                         if disc < 0 {
                             continue;
                         }
@@ -846,15 +861,13 @@ impl Mix32 {
                 S::Sphere { c, r2, .. } => {
                     let r = isqrt_q(r2);
                     let c24 = c.map(l24);
-                    // |c|² − r² in S24 U², from S24 components (exact in i128).
-                    let cc = c24.iter().map(|v| *v as i128 * *v as i128).sum::<i128>()
-                        - (l24(r) as i128 * l24(r) as i128);
                     let r18 = l18(r) as u64;
                     MixShape::Sphere {
                         cz50: (c24[2] as i64) << 26,
                         c: c24,
                         c18: c.map(l18),
-                        cc: (cc >> 24).clamp(i32::MIN as i128, i32::MAX as i128) as i32,
+                        // r ≤ 8 U: r² ≤ 64 U², S24.
+                        r2_24: sat32((l24(r) as i64 * l24(r) as i64) >> 24),
                         r2: r18 * r18,
                         inv_r: recip_len(r, e).ok_or(bad)?,
                     }

@@ -611,16 +611,15 @@ pub struct ErrorModel {
     pub b: f64,
     /// Of `b`, per metre of `|c|`.
     pub b_per_c: f64,
-    /// Absolute error of `|c|² − r²`: m², plus this much times `|c|`.
+    /// Absolute error of `a r²` in the discriminant: m², plus this much
+    /// times `r`.
     pub cc: f64,
-    /// Of `|c|² − r²`, per metre of `|c|`.
+    /// Of `a r²`, per metre of `r`.
     pub cc_per_c: f64,
     /// Relative error of `a = d·d`.
     pub a_rel: f64,
     /// Absolute error of the discriminant's own roundings, m².
     pub disc: f64,
-    /// The discriminant as `a r² − |d × c|²` (else `b² − a cc`).
-    pub lagrange: bool,
     /// Absolute error of a unit vector's components (normals, `l̂`, `v̂`).
     pub unit: f64,
     /// Absolute error per term of the pixel sum, DN (truncations).
@@ -634,8 +633,9 @@ impl ErrorModel {
         let u = g.unit;
         let q32 = libm::ldexp(1.0, -32);
         match a {
-            // S18 U hit points and t, S22 U b (from S24 U centres, S26
-            // slopes), S24 U² cc, S20 a, S30 unit vectors; 1/r to 2⁻¹⁹ (so E
+            // S18 U hit points and t, S22 U b and d × c (from S24 U
+            // centres, S26 slopes), the discriminant by Lagrange's identity
+            // with r² in S24 U², S20 a, S30 unit vectors; 1/r to 2⁻¹⁹ (so E
             // to 3·2⁻¹⁹), n·l truncated 2⁻²¹, cos⁴α from 1/a (2⁻²¹,
             // squared), Pf products 2⁻³¹ each.
             Arithmetic::Fast => ErrorModel {
@@ -648,7 +648,6 @@ impl ErrorModel {
                 cc_per_c: 2.0 * libm::ldexp(u, -24),
                 a_rel: libm::ldexp(1.0, -20),
                 disc: 0.0,
-                lagrange: false,
                 unit: libm::ldexp(1.0, -28),
                 per_term_dn: libm::ldexp(1.0, -14),
             },
@@ -667,7 +666,6 @@ impl ErrorModel {
                 cc_per_c: 0.0,
                 a_rel: 2.0 * q32,
                 disc: 2.0 * q32,
-                lagrange: true,
                 unit: 4.0 * q32,
                 per_term_dn: q32,
             },
@@ -695,15 +693,15 @@ impl ErrorModel {
                     // a t² − 2 b t + cc = 0 with b ≈ |c| √a, cc = |c|² − r²
                     // (a ≥ 1; the worst case is a = 1).
                     let c = norm3(p.c).max(p.r);
-                    let cc = libm::fabs(c * c - p.r * p.r);
                     let db = self.b + self.b_per_c * c;
-                    let ddisc = if self.lagrange {
-                        // a r² − |d × c|², |d × c| = r √a at the silhouette,
-                        // its components as b's.
-                        2.0 * p.r * 1.8 * db + p.r * p.r * self.a_rel + self.cc + self.disc
-                    } else {
-                        2.0 * c * db + self.cc + self.cc_per_c * c + cc * self.a_rel + self.disc
-                    };
+                    // a r² − |d × c|² (Lagrange's identity; both
+                    // arithmetics): |d × c| = r √a at the silhouette, its
+                    // components as b's.
+                    let ddisc = 2.0 * p.r * 1.8 * db
+                        + p.r * p.r * self.a_rel
+                        + self.cc
+                        + self.cc_per_c * p.r
+                        + self.disc;
                     // The discriminant a (r² − h²) at 1/256 px inside the
                     // silhouette: 2 r |c| δθ. Its error moves the hit point
                     // along the ray by δdisc / (2 √disc) (at most √δdisc).

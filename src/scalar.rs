@@ -20,7 +20,7 @@
 pub use fixed::types::I32F32;
 
 /// A number the per-pixel pipeline runs in.
-pub trait Scalar: Copy + PartialOrd + core::fmt::Debug {
+pub trait Scalar: Copy + PartialOrd + core::fmt::Debug + Send + Sync {
     /// Name used in variant names (`"i32f32"`, `"f32"`).
     const NAME: &'static str;
     /// Zero.

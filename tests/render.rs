@@ -227,3 +227,25 @@ fn line_buffers_are_o_width_and_output_is_deterministic() {
         .expect("renders");
     assert_eq!(a.1, b.1);
 }
+
+/// The host renders lines in parallel on every core; the bytes and flags
+/// are those of one core rendering line after line, on every shipped scene,
+/// with the default (planned) and the wide arithmetic.
+#[test]
+fn parallel_host_render_is_byte_identical_with_one_core() {
+    for path in scenes() {
+        let r = load(&path).expect("loads");
+        let s = r.core_scene().expect("valid");
+        let p = plan(&s, &Budget::default());
+        for opts in [
+            p.options,
+            p.options.with_arithmetic(hilcam::render::Arithmetic::Wide),
+        ] {
+            let frame = Frame::new(&s, &opts).expect("frame");
+            let par = host_sim::render_cmd::collect(&frame).expect("parallel");
+            let one = host_sim::render_cmd::collect_serial(&frame).expect("serial");
+            assert_eq!(par.pixels, one.pixels, "{}", path.display());
+            assert_eq!(par.flags, one.flags, "{}", path.display());
+        }
+    }
+}

@@ -132,6 +132,17 @@ enum Cmd {
         #[arg(long, default_value_t = 7)]
         repeats: usize,
     },
+    /// Host throughput of the default render (plan, prepare and render
+    /// every frame, lines in parallel on every core, as `render` does),
+    /// and on one core: frames/s and ns/pixel (medians over the frames).
+    Throughput {
+        /// Scene file.
+        #[arg(long)]
+        scene: std::path::PathBuf,
+        /// Frames to time (1 to 10 000).
+        #[arg(long, default_value_t = 20)]
+        frames: u32,
+    },
 }
 
 fn finish(r: Result<String, String>) -> ExitCode {
@@ -333,6 +344,48 @@ fn main() -> ExitCode {
                 host_sim::tradeoff::Config::full(boards, repeats)
             };
             host_sim::tradeoff::run(&cfg, &out)
+        })()),
+        Cmd::Throughput { scene, frames } => finish((|| {
+            if !(1..=10_000).contains(&frames) {
+                return Err("--frames: must be 1 to 10000".into());
+            }
+            let r = host_sim::scene_file::load(&scene)?;
+            let s = r.core_scene()?;
+            let budget = hilcam::planner::Budget::default();
+            let time = |parallel: bool| -> Result<(f64, String), String> {
+                let mut secs = Vec::new();
+                let mut arith = String::new();
+                for _ in 0..frames {
+                    let t = std::time::Instant::now();
+                    let p = hilcam::planner::plan(&s, &budget);
+                    let f = hilcam::render::Frame::new(&s, &p.options)
+                        .map_err(|e| format!("{}: cannot render: {e:?}", scene.display()))?;
+                    let c = if parallel {
+                        host_sim::render_cmd::collect(&f)?
+                    } else {
+                        host_sim::render_cmd::collect_serial(&f)?
+                    };
+                    secs.push(t.elapsed().as_secs_f64());
+                    std::hint::black_box(c);
+                    arith = f.stages().arithmetic.name().to_string();
+                }
+                secs.sort_by(f64::total_cmp);
+                Ok((secs[secs.len() / 2], arith))
+            };
+            let (w, h) = s.camera.intrinsics.size();
+            let px = w as f64 * h as f64;
+            let (par, arith) = time(true)?;
+            let (one, _) = time(false)?;
+            Ok(format!(
+                "{} {w}x{h} ({arith} arithmetic): {:.1} frames/s, {:.1} ns/pixel on {} threads; \
+                 {:.1} frames/s, {:.1} ns/pixel on one (median of {frames} frames; plan + prepare + render)",
+                r.desc.name,
+                1.0 / par,
+                par / px * 1e9,
+                rayon::current_num_threads(),
+                1.0 / one,
+                one / px * 1e9
+            ))
         })()),
         Cmd::Hil {
             board,

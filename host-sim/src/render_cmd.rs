@@ -200,8 +200,32 @@ pub fn core_render_variant<S: Scalar>(
     Ok((scene, plan, frame, core))
 }
 
-/// Renders a prepared frame into memory.
+/// Renders a prepared frame into memory, its lines in parallel on every
+/// core (rayon): each line is rendered straight into its place, so the
+/// bytes are those of [`collect_serial`] (tested).
 pub fn collect<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
+    use rayon::prelude::*;
+    let (w, h) = frame.size();
+    let lb = frame.line_bytes();
+    let mut core = Collect {
+        pixels: vec![0u8; lb * h as usize],
+        flags: vec![0u8; w as usize * h as usize],
+    };
+    if lb == 0 || w == 0 {
+        return Ok(core);
+    }
+    core.pixels
+        .par_chunks_mut(lb)
+        .zip(core.flags.par_chunks_mut(w as usize))
+        .enumerate()
+        .try_for_each(|(j, (p, f))| frame.render_line(j as u16, p, f))
+        .map_err(|e| format!("render failed: {e:?}"))?;
+    Ok(core)
+}
+
+/// Renders a prepared frame into memory a line at a time through the
+/// core's [`LineSink`] (one core).
+pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
     let (w, h) = frame.size();
     let mut line = vec![0u8; frame.line_bytes()];
     let mut flags = vec![0u8; w as usize];
