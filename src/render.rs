@@ -177,8 +177,10 @@ pub enum Override {
     /// The distortion polynomial per pixel: no table.
     Polynomial,
     /// Nothing pruned: perspective rays (unless the camera is telecentric),
-    /// a [`MAX_LUT`]-entry table even without distortion, and the specular
-    /// stage even without a specular material.
+    /// the distortion stage even without distortion (a [`MAX_LUT`]-entry
+    /// table in the wide arithmetic, the polynomial in the fast one), the
+    /// specular stage even without a specular material, no slope-space
+    /// culling.
     AllStages,
 }
 
@@ -202,7 +204,11 @@ impl Options {
                     m => m,
                 },
                 lut_entries: MAX_LUT,
-                distortion_eval: DistortionEval::Linear,
+                // The fast arithmetic evaluates the polynomial (no table).
+                distortion_eval: match self.arithmetic {
+                    Arithmetic::Fast => DistortionEval::Polynomial,
+                    Arithmetic::Wide => DistortionEval::Linear,
+                },
                 keep_all_stages: true,
                 arithmetic: self.arithmetic,
             },
