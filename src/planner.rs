@@ -363,7 +363,6 @@ impl Geometry {
     fn of(scene: &Scene, model: RenderModel) -> Geometry {
         let cam = &scene.camera;
         let intr = &cam.intrinsics;
-        let ext = &cam.extrinsics;
         let (fx, fy) = intr.focal_px();
         let (fx, fy) = (fx.to_num::<f64>(), fy.to_num::<f64>());
         let (w, h) = intr.size();
@@ -399,19 +398,8 @@ impl Geometry {
                 Some(intr.focal_length().to_num::<f64>() / scale.to_num::<f64>().max(1e-300))
             }
         };
-        let cam_pt = |p: crate::WorldPoint| ext.world_to_camera(p).value.to_f64();
-        let rot = ext.rotation();
-        let cam_dir = |d: [crate::Norm; 3]| {
-            rot.map(|row| {
-                (0..3)
-                    .map(|k| {
-                        row.get(k)
-                            .zip(d.get(k))
-                            .map_or(0.0, |(a, b)| a.to_num::<f64>() * b.to_num::<f64>())
-                    })
-                    .sum::<f64>()
-            })
-        };
+        let cam_pt = |p: crate::WorldPoint| cam_point(scene, p);
+        let cam_dir = |d: [crate::Norm; 3]| cam_direction(scene, d);
         let mut extent: f64 = 0.0;
         let mut prims = heapless::Vec::new();
         let mat = |i: u8| scene.materials.get(i as usize);
@@ -919,13 +907,30 @@ pub const WIDE_COST: CostModel = CostModel {
     ],
 };
 
+/// A world point in the camera frame, f64 metres.
+fn cam_point(scene: &Scene, p: crate::WorldPoint) -> [f64; 3] {
+    scene.camera.extrinsics.world_to_camera(p).value.to_f64()
+}
+
+/// A world direction in the camera frame (`R d`), f64.
+fn cam_direction(scene: &Scene, d: [crate::Norm; 3]) -> [f64; 3] {
+    scene.camera.extrinsics.rotation().map(|row| {
+        (0..3)
+            .map(|k| {
+                row.get(k)
+                    .zip(d.get(k))
+                    .map_or(0.0, |(a, b)| a.to_num::<f64>() * b.to_num::<f64>())
+            })
+            .sum::<f64>()
+    })
+}
+
 /// The weak-perspective bound (pixels) over the camera-frame box around the
 /// scene's primitives, and the box's mean depth; `None` if a primitive is
 /// unbounded or the box reaches the lens plane.
 // Out of line: planning runs once a frame; keeping it small saves flash.
 #[inline(never)]
 fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
-    let ext = &scene.camera.extrinsics;
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut grow = |p: [f64; 3]| {
@@ -936,19 +941,8 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
             }
         }
     };
-    let cam_pt = |p: crate::WorldPoint| ext.world_to_camera(p).value.to_f64();
-    let cam_dir = |d: [crate::Norm; 3]| {
-        let r = ext.rotation();
-        r.map(|row| {
-            (0..3)
-                .map(|k| {
-                    row.get(k)
-                        .zip(d.get(k))
-                        .map_or(0.0, |(a, b)| a.to_num::<f64>() * b.to_num::<f64>())
-                })
-                .sum::<f64>()
-        })
-    };
+    let cam_pt = |p: crate::WorldPoint| cam_point(scene, p);
+    let cam_dir = |d: [crate::Norm; 3]| cam_direction(scene, d);
     for prim in &scene.primitives {
         match prim.shape {
             Shape::Plane { .. } => return None,
