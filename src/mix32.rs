@@ -1,5 +1,6 @@
-//! The renderer's pixel path in 32-bit fixed point with one format per
-//! quantity (`mix32`): the speed/accuracy variant for cores without an FPU.
+//! The fast arithmetic: the renderer's pixel path in 32-bit fixed point with
+//! one format per quantity (`mix32`), the default wherever the planner can
+//! bound its error ([`crate::planner`]).
 //!
 //! The generic path ([`crate::render`] over a [`crate::scalar::Scalar`])
 //! runs every quantity in one type; 32 bits of one format cannot hold both a

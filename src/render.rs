@@ -5,21 +5,20 @@
 //! O(width), whatever the height.
 //!
 //! A [`Frame`] is prepared once per frame: the scene is moved into the camera
-//! frame, the distortion table built, constants folded. Then every line runs
-//! one of two pixel loops (perspective or parallel rays), and the stages the
-//! scene may not need (distortion, specular, vignetting) are per-frame flags:
-//! a stage the scene does not need costs a branch that goes the same way for
-//! the whole frame, a few instructions a pixel. (Sixteen loops, one per
-//! combination, saved nothing measurable and cost 20 KB of Cortex-M flash.)
-//!
-//! Per-pixel values are a [`Scalar`]: I32F32 ([`Q`]) for [`Frame::new`],
-//! the planned renderer, which meets the planner's budget; 32-bit fixed
-//! point and `f32` for [`Frame::build`], the variants `host-sim tradeoff`
-//! measures. Arithmetic saturates: nothing wraps, and a value that saturates
-//! ends as a saturated pixel. Scene ranges ([`crate::scene`]) keep valid
-//! scenes clear of saturation in I32F32 except where the physics says so
-//! (over-exposure); the narrower types have narrower ranges
-//! ([`crate::scalar`]).
+//! frame, the distortion table built, constants folded, each bounded
+//! primitive's slope-space bounds computed. The per-pixel arithmetic is the
+//! planner's choice ([`Options::arithmetic`]): the fast one
+//! ([`crate::mix32`], 32-bit with a format per quantity, lines in chunks of
+//! 32 rays), or the wide one here, generic over a [`Scalar`] — I32F32
+//! ([`Q`]) for the planner's fallback, `f32` for comparison
+//! ([`Frame::build`]). The wide one runs one of two pixel loops
+//! (perspective or parallel rays), and the stages the scene may not need
+//! (distortion, specular, vignetting) are per-frame flags: a branch that
+//! goes the same way for the whole frame. Arithmetic saturates: nothing
+//! wraps, and a value that saturates ends as a saturated pixel. Scene
+//! ranges ([`crate::scene`]) keep valid scenes clear of saturation in
+//! I32F32 except where the physics says so (over-exposure); what the fast
+//! formats cannot hold the planner does not send them.
 
 use crate::distortion::{Lut, MAX_LUT};
 use crate::num::{quotient, Len, Norm, Wide};
