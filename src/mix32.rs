@@ -49,7 +49,7 @@
 //! (weak perspective, orthographic: from `(o_x, o_y, 0)` along `(0, 0, 1)`,
 //! origins within 64 U). The normalized Phong lobe `max(0, r̂·v̂)^s` is a
 //! [`Pf`] power by squaring, with `l̂` and `v̂` normalized to 2⁻²⁹
-//! ([`rsqrt_fine`]); its error grows with `s` times the hit point's
+//! (`rsqrt_fine`); its error grows with `s` times the hit point's
 //! 2⁻¹⁸ U rounding (the planner's error model accounts for it).
 //!
 //! A distortion table, and scenes outside the formats, are refused when the

@@ -582,7 +582,8 @@ impl Geometry {
     }
 }
 
-/// The resolutions an arithmetic computes with, for [`ErrorModel::lsb`].
+/// The resolutions an arithmetic computes with, from which the planner
+/// bounds its error in LSB.
 #[derive(Clone, Copy, Debug)]
 pub struct ErrorModel {
     /// Relative error of the radiometric chain (irradiance, `1/r³`,
