@@ -181,9 +181,7 @@ fn main() {
             .collect(),
         _ => vec![Variant::PLANNED],
     };
-    let needs_plan = variants
-        .iter()
-        .any(|v| v.name() == "planned" || v.name().ends_with("-planned") || v.scalar.arithmetic().is_none());
+    let needs_plan = variants.iter().any(Variant::needs_plan);
     let _ = writeln!(
         code,
         "/// Some variant takes the planner's arithmetic or distortion choice.\npub const NEEDS_PLAN: bool = {needs_plan};"

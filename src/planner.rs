@@ -68,8 +68,6 @@ pub enum Unfit {
     FieldTooWide,
     /// Parallel rays whose origins leave ±64 units.
     OriginsTooFar,
-    /// The fast arithmetic evaluates the distortion polynomial only.
-    Table,
     /// The fast arithmetic is not built in (the core's `mix32` feature is
     /// off).
     NotBuilt,
@@ -84,7 +82,6 @@ impl Unfit {
             Unfit::Distortion => "the distortion factor leaves +-8",
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
-            Unfit::Table => "the fast arithmetic has no distortion table",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
         }
     }
@@ -201,18 +198,19 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 let _ = evals.push((Some(DistortionEval::Linear), table_entries(scene, &g, half)));
             }
         }
+        // What the distortion evaluation does not change, once.
+        let fits = match arithmetic {
+            Arithmetic::Fast => g.fast_fits(scene),
+            Arithmetic::Wide => Ok(()),
+        };
+        let lsb = ErrorModel::of(arithmetic, &g).lsb(scene, &g);
         for (distortion, entries) in evals {
-            let fits = match arithmetic {
-                Arithmetic::Fast => g.fast_fits(scene),
-                Arithmetic::Wide => Ok(()),
-            };
             let geom = match distortion {
                 Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
                     table_geom_err(scene, &g, entries)
                 }
                 _ => g.direct_geom_err(arithmetic, scene),
             };
-            let lsb = ErrorModel::of(arithmetic, &g).lsb(scene, &g);
             let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion));
             let _ = cands.push(Candidate {
                 arithmetic,

@@ -620,18 +620,15 @@ impl<S: Scalar> Frame<S> {
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
             *dst = Brdf::new(m, scene.ambient).to();
         }
+        // Parallel rays' origin scale; slope-space culling unless every
+        // stage is kept.
         let origin_scale = match opts.model {
             RenderModel::Perspective => None,
             _ => Some(self.k_origin.to_q()),
         };
+        let cull = !opts.keep_all_stages;
         for p in &scene.primitives {
-            let mut cp = cam_prim(scene, p);
-            cp.bounds = if opts.keep_all_stages {
-                None
-            } else {
-                slope_bounds(&cp.shape, origin_scale)
-            };
-            let _ = self.prims.push(cp.to());
+            let _ = self.prims.push(cam_prim(scene, p, origin_scale, cull).to());
         }
         for l in &scene.lights {
             let _ = self.lights.push(shading_light(scene, l).to());
@@ -642,10 +639,6 @@ impl<S: Scalar> Frame<S> {
             if table {
                 return Err(RenderError::OutsideFormat);
             }
-            let origin_scale = match opts.model {
-                RenderModel::Perspective => None,
-                _ => Some(self.k_origin.to_q()),
-            };
             self.prepare_mix32(scene, poly_q, gain, origin_scale, opts.keep_all_stages)?;
         }
         Ok(())
@@ -668,13 +661,7 @@ impl<S: Scalar> Frame<S> {
         }
         let mut prims: heapless::Vec<CamPrimQ, { crate::scene::MAX_PRIMITIVES }> = heapless::Vec::new();
         for p in &scene.primitives {
-            let mut cp = cam_prim(scene, p);
-            cp.bounds = if specular_all {
-                None
-            } else {
-                slope_bounds(&cp.shape, origin_scale)
-            };
-            let _ = prims.push(cp);
+            let _ = prims.push(cam_prim(scene, p, origin_scale, !specular_all));
         }
         let mut lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }> = heapless::Vec::new();
         for l in &scene.lights {
@@ -1106,7 +1093,10 @@ fn shading_light(scene: &Scene, l: &Light) -> ShadingLight {
     }
 }
 
-fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim<Q> {
+/// A primitive in the camera frame, with its slope-space bounds when
+/// `cull` (for rays of parallel-ray origin scale `origin_scale`, or
+/// perspective rays).
+fn cam_prim(scene: &Scene, p: &Primitive, origin_scale: Option<Q>, cull: bool) -> CamPrim<Q> {
     let to_q3 = |d: [Norm; 3]| dir_to_cam(scene, d);
     let (shape, origin) = match p.shape {
         Shape::Plane { point, normal } => {
@@ -1176,7 +1166,11 @@ fn cam_prim(scene: &Scene, p: &Primitive) -> CamPrim<Q> {
     CamPrim {
         shape,
         material: p.material,
-        bounds: None,
+        bounds: if cull {
+            slope_bounds(&shape, origin_scale)
+        } else {
+            None
+        },
         checker: p.checker.map(|k| CamChecker {
             origin,
             u: to_q3(k.u_axis),

@@ -41,14 +41,7 @@ fn golden_path() -> PathBuf {
 }
 
 fn scenes() -> Vec<PathBuf> {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
-    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .expect("scenes/")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    v.sort();
-    v
+    host_sim::hil_cmd::shipped_scenes().expect("scenes/")
 }
 
 struct Hash;

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, TANGENT_SPHERE};
+use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, POINT_LIGHT, TANGENT_SPHERE};
 use hilcam::planner::Budget;
 use hilcam::render::FLAG_OUTSIDE_FIELD;
 use hilcam::scalar::I32F32;
@@ -217,14 +217,14 @@ fn lines_that_are_not_whole_chunks() {
     for width in ["7", "45", "71"] {
         for fmt in ["format = \"gray8\"", "format = \"rgb565\""] {
             let r = scene(
-                &format!(
-                    "{CHECKER_FLOOR}{TANGENT_SPHERE}[[lights]]\nkind = \"point\"\nposition = [1.0, 2.0, -1.5]\n\
-                     intensity = 20.0\n"
-                ),
+                &format!("{CHECKER_FLOOR}{TANGENT_SPHERE}{POINT_LIGHT}"),
                 &[
                     ("width = 96", &format!("width = {width}")),
                     ("format = \"gray8\"", fmt),
-                    ("tolerable_blur = 12e-6", "tolerable_blur = 12e-6\ndistortion = [0.15, 0.05]"),
+                    (
+                        "tolerable_blur = 12e-6",
+                        "tolerable_blur = 12e-6\ndistortion = [0.15, 0.05]",
+                    ),
                 ],
             );
             let (m, _) = mix(&r).expect("renders");
@@ -289,13 +289,9 @@ normal = [0.0, 0.3, -1.0]
 u_axis = [1.0, 0.0, 0.0]
 size = [0.6, 0.5]
 checker = { cell = 0.07, material = "b", u_axis = [1.0, 0.0, 0.0] }
-[[lights]]
-kind = "point"
-position = [1.0, 2.0, -1.5]
-intensity = 20.0
 "#;
     let r = scene(
-        &format!("{CHECKER_FLOOR}{prims}"),
+        &format!("{CHECKER_FLOOR}{prims}{POINT_LIGHT}"),
         &[(
             "tolerable_blur = 12e-6",
             "tolerable_blur = 12e-6\nmodel = \"orthographic\"\northographic_scale = 1.0e-3",
@@ -316,10 +312,7 @@ fn specular_lobes() {
     for exponent in [0, 1, 40, 1000] {
         for fmt in ["format = \"gray8\"", "format = \"rgb565\""] {
             let r = scene(
-                &format!(
-                    "{CHECKER_FLOOR}{TANGENT_SPHERE}[[lights]]\nkind = \"point\"\nposition = [1.0, 2.0, -1.5]\n\
-                     intensity = 20.0\n"
-                ),
+                &format!("{CHECKER_FLOOR}{TANGENT_SPHERE}{POINT_LIGHT}"),
                 &[
                     ("format = \"gray8\"", fmt),
                     (
@@ -339,9 +332,7 @@ fn specular_lobes() {
 #[test]
 fn a_zero_albedo_channel_stays_dark() {
     let r = scene(
-        &format!(
-            "{CHECKER_FLOOR}[[lights]]\nkind = \"point\"\nposition = [1.0, 2.0, -1.5]\nintensity = 20.0\n"
-        ),
+        &format!("{CHECKER_FLOOR}{POINT_LIGHT}"),
         &[
             ("format = \"gray8\"", "format = \"rgb565\""),
             ("albedo = 0.7", "albedo = [0.7, 0.0, 0.3]"),

@@ -162,6 +162,12 @@ impl Variant {
         Ok(Variant { scalar, over })
     }
 
+    /// Whether it takes anything from the plan beyond the ray model: the
+    /// arithmetic (`planned`) or the distortion evaluation (`-planned`).
+    pub fn needs_plan(&self) -> bool {
+        self.scalar.arithmetic().is_none() || self.over == Override::Planned
+    }
+
     /// The options this variant renders with, from the planned ones.
     pub fn options(&self, planned: Options) -> Options {
         let o = planned.with(self.over);

@@ -54,6 +54,14 @@ normal = [0.0, 1.0, 0.0]
 checker = { cell = 0.5, material = "b", u_axis = [1.0, 0.0, 0.0] }
 "#;
 
+/// A point light up, right of and in front of the origin.
+pub const POINT_LIGHT: &str = r#"
+[[lights]]
+kind = "point"
+position = [1.0, 2.0, -1.5]
+intensity = 20.0
+"#;
+
 /// A sphere filling most of the frame: its silhouette crosses many pixels
 /// where the discriminant is near 0.
 pub const TANGENT_SPHERE: &str = r#"
