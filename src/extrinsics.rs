@@ -127,12 +127,17 @@ impl Extrinsics {
         let target = finite3(target, Field::Target)?;
         let up = finite3(up, Field::Up)?;
         let v = [target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]];
-        let vn = norm(v);
-        // All inputs are finite here, so the norms are finite too.
-        if vn <= 1e-6 {
+        // Scaled by its largest component first, so that a target as far
+        // as f64 reaches (|v|² overflowing) still gives the direction.
+        let m = v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        if !m.is_finite() {
+            return Err(Error::OutOfRange(Field::Target));
+        }
+        if m <= 1e-6 / 2.0 || m * norm(div(v, m)) <= 1e-6 {
             return Err(Error::Degenerate(Field::Target));
         }
-        let z = div(v, vn);
+        let v = div(v, m);
+        let z = div(v, norm(v));
         let un = norm(up);
         let x = cross(up, z);
         let xn = norm(x);

@@ -3,12 +3,14 @@
 //! and asserts it.
 
 use hilcam::planner::{plan, Budget};
-use hilcam::render::{Frame, RenderError, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, FLAG_OUTSIDE_FIELD};
 use host_sim::reference::render::RefScene;
 use host_sim::render_cmd::{decode, render, RenderOutput};
 mod common;
 
-use common::fixture::{agrees, agrees_off_edges, scene, CHECKER_FLOOR, INSIDE_SPHERE, TANGENT_SPHERE};
+use common::fixture::{
+    agrees, agrees_off_edges, scene, try_scene, CHECKER_FLOOR, INSIDE_SPHERE, TANGENT_SPHERE,
+};
 
 fn run(r: &host_sim::scene_file::Resolved) -> RenderOutput {
     render(r, &Budget::default()).expect("renders")
@@ -76,19 +78,17 @@ fn extreme_wide_angle_cos4_to_zero() {
     agrees(&o.metrics);
     assert_eq!(o.core_dn[0][0], 0, "corner fully vignetted");
     assert_eq!(o.reference.dn[0][0], 0);
-    // f/s = 2.4 px: corner slope ≈ 19.8, past 16
-    let too_wide = scene(
+    // f/s = 2.4 px: corner slope ≈ 19.8, past 16: refused when loaded,
+    // naming the fields, not at render.
+    let too_wide = try_scene(
         CHECKER_FLOOR,
         &[
             ("focal_length = 2.4e-3", "focal_length = 2.4e-3"),
             ("pitch = 12e-6", "pitch = 1e-3"),
         ],
     );
-    let s = too_wide.core_scene().expect("valid scene");
-    assert_eq!(
-        Frame::new(&s, &plan(&s, &Budget::default()).options).err(),
-        Some(RenderError::FieldTooWide)
-    );
+    let e = too_wide.expect_err("a field too wide is refused at load");
+    assert!(e.contains("camera.pitch") && e.contains("field too wide"), "{e}");
 }
 
 /// Exposure saturation: at K = 10⁹ every lit pixel saturates at DN_max (in

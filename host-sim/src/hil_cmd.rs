@@ -288,13 +288,13 @@ pub fn hil_variants(
         None => build_firmware(board, scenes, &variants)?,
     };
     let (flash, ram) = elf_sizes(&elf)?;
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut outputs = crate::output::Outputs::prepare(out)?;
     let uart = out.join("uart.bin");
     let _ = std::fs::remove_file(&uart);
     let t = Instant::now();
     let text = run_qemu(board, &elf, &uart, Duration::from_secs(600))?;
     let qemu_seconds = t.elapsed().as_secs_f64();
-    std::fs::write(out.join("semihosting.txt"), &text).map_err(|e| e.to_string())?;
+    outputs.write("semihosting.txt", text.as_bytes())?;
     let bytes = std::fs::read(&uart).map_err(|e| format!("{}: {e}", uart.display()))?;
     let mut dec = Decoder::new(1 << 20, 1 << 24);
     let mut got = Vec::new();
@@ -351,7 +351,7 @@ pub fn hil_variants(
         } else {
             format!("{}-{}.png", r.desc.name, v.name())
         };
-        std::fs::write(out.join(file), png).map_err(|e| e.to_string())?;
+        outputs.write(&file, &png)?;
         frames.push(HilFrame {
             scene: r.desc.name.clone(),
             variant: v.name(),
@@ -382,6 +382,7 @@ pub fn hil_variants(
         frames,
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
-    std::fs::write(out.join("hil.json"), json).map_err(|e| e.to_string())?;
+    outputs.write("hil.json", &json)?;
+    outputs.commit()?;
     Ok(report)
 }

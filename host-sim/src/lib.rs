@@ -9,6 +9,7 @@
 pub mod demo;
 pub mod hil_cmd;
 pub mod link;
+pub mod output;
 pub mod reference;
 pub mod render_cmd;
 pub mod scene_file;

@@ -1,6 +1,7 @@
 //! host-sim command line.
 
 use clap::{Parser, Subcommand};
+use host_sim::output::Outputs;
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -53,7 +54,7 @@ enum Cmd {
         /// Faults, e.g. ber=1e-5,drop=1e-6,dup=0,insert=0,truncate=0.01,cut=0,seed=1 (or none).
         #[arg(long, default_value = "none")]
         faults: String,
-        /// Frames to send.
+        /// Frames to send (1 to 10 000 000; memory does not grow with it).
         #[arg(long, default_value_t = 100)]
         frames: u32,
         /// Output directory.
@@ -66,11 +67,15 @@ enum Cmd {
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
-        /// Scale the campaign's frame counts (1 = 12 000 frames).
+        /// Scale the campaign's frame counts (1 = 12 000 frames; at most 100).
         #[arg(long, default_value_t = 1.0)]
         scale: f64,
+        /// The scene to send (default: the standard scene, built in).
+        #[arg(long)]
+        scene: Option<std::path::PathBuf>,
     },
-    /// Decode frames from a real serial device or pty and write them as PNGs.
+    /// Decode frames from a real serial device or pty and write each as a
+    /// PNG as it arrives, then receive.json.
     Receive {
         /// Device path, e.g. /dev/ttyUSB0.
         #[arg(long)]
@@ -78,12 +83,17 @@ enum Cmd {
         /// Baud rate.
         #[arg(long, default_value_t = 115_200)]
         baud: u32,
-        /// Frames to wait for.
+        /// Frames to wait for (1 to 1 000 000); the exit status says whether
+        /// they all arrived.
         #[arg(long, default_value_t = 1)]
         frames: u64,
-        /// Give up after this many seconds without a byte.
+        /// Give up after this many seconds without a byte (at most 86 400).
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
+        /// Give up after this many seconds in all, whatever arrives (at
+        /// most 604 800).
+        #[arg(long, default_value_t = 300.0)]
+        deadline: f64,
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
@@ -128,7 +138,7 @@ enum Cmd {
         /// or "none" for the host only.
         #[arg(long, default_value = "lm3s6965evb,mps2-an386")]
         boards: String,
-        /// Host timing repeats (the median is reported).
+        /// Host timing repeats (the median is reported; 1 to 1000).
         #[arg(long, default_value_t = 7)]
         repeats: usize,
     },
@@ -143,6 +153,33 @@ enum Cmd {
         #[arg(long, default_value_t = 20)]
         frames: u32,
     },
+}
+
+/// `stream --frames` at most.
+const MAX_STREAM_FRAMES: u32 = 10_000_000;
+
+/// The standard scene, built in so that `faults` works wherever the binary is.
+const STANDARD_SCENE: &str = include_str!("../../scenes/standard.toml");
+
+/// `receive.json`: one entry per frame written.
+#[derive(serde::Serialize)]
+struct ReceivedFrame {
+    file: String,
+    frame_id: u32,
+    width: u16,
+    height: u16,
+    format: String,
+}
+
+/// `receive.json`.
+#[derive(serde::Serialize)]
+struct ReceiveReport {
+    device: String,
+    asked: u64,
+    received: u64,
+    ending: host_sim::link::serial::Ending,
+    frames: Vec<ReceivedFrame>,
+    decoder: host_sim::link::decoder::Stats,
 }
 
 fn finish(r: Result<String, String>) -> ExitCode {
@@ -160,6 +197,10 @@ fn finish(r: Result<String, String>) -> ExitCode {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = host_sim::output::install_signal_handler() {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
     match cli.cmd {
         Cmd::Demo => match host_sim::demo::run() {
             Ok((text, errs)) => {
@@ -188,27 +229,19 @@ fn main() -> ExitCode {
                     max_geom_err_px,
                     max_lsb,
                 };
-                if !(max_geom_err_px > 0.0 && max_geom_err_px.is_finite()) {
-                    return Err("--max-geom-err-px: must be a positive number".into());
+                if !(max_geom_err_px > 0.0 && max_geom_err_px <= 1e3) {
+                    return Err("--max-geom-err-px: must lie in (0, 1000] px".into());
                 }
-                if !(max_lsb > 0.0 && max_lsb.is_finite()) {
-                    return Err("--max-lsb: must be a positive number".into());
+                if !(max_lsb > 0.0 && max_lsb <= 65_535.0) {
+                    return Err("--max-lsb: must lie in (0, 65535]".into());
                 }
                 let resolved = host_sim::scene_file::load(&scene)?;
-                let o = host_sim::render_cmd::render(&resolved, &budget)?;
-                if !o.plan.meets_budget && !allow_over_budget {
-                    return Err(format!(
-                        "{}: refused: {}\n{}nothing written (--allow-over-budget renders it anyway)",
-                        scene.display(),
-                        o.metrics.plan.why,
-                        host_sim::render_cmd::plan_text(&o.metrics.plan)
-                    ));
-                }
-                host_sim::render_cmd::write(&out, &o)?;
+                let m = host_sim::render_cmd::render_to(&out, &resolved, &budget, allow_over_budget)
+                    .map_err(|e| format!("{}: {e}", scene.display()))?;
                 Ok(format!(
                     "{}\n{}",
-                    host_sim::render_cmd::summary(&o.metrics),
-                    host_sim::render_cmd::plan_text(&o.metrics.plan).trim_end()
+                    host_sim::render_cmd::summary(&m),
+                    host_sim::render_cmd::plan_text(&m.plan).trim_end()
                 ))
             };
             finish(run())
@@ -222,11 +255,13 @@ fn main() -> ExitCode {
         } => finish((|| {
             let link = host_sim::link::sim::Link::parse(&link)?;
             let faults = host_sim::link::sim::Faults::parse(&faults)?;
-            if frames == 0 {
-                return Err("--frames: must be at least 1".into());
+            if !(1..=MAX_STREAM_FRAMES).contains(&frames) {
+                return Err(format!("--frames: must be 1 to {MAX_STREAM_FRAMES}"));
             }
             let resolved = host_sim::scene_file::load(&scene)?;
-            let (report, first) = host_sim::stream_cmd::stream(&resolved, link, &faults, frames)?;
+            let mut outputs = Outputs::prepare(&out)?;
+            let (report, first) = host_sim::stream_cmd::stream(&resolved, link, &faults, frames)
+                .map_err(|e| format!("{}: {e}", scene.display()))?;
             let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
             let png = host_sim::render_cmd::encode_png(
                 resolved.format,
@@ -234,9 +269,9 @@ fn main() -> ExitCode {
                 report.height as usize,
                 &first,
             )?;
-            std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-            std::fs::write(out.join("stream.json"), json).map_err(|e| e.to_string())?;
-            std::fs::write(out.join("received.png"), png).map_err(|e| e.to_string())?;
+            outputs.write("stream.json", &json)?;
+            outputs.write("received.png", &png)?;
+            outputs.commit()?;
             let o = &report.outcome.counts;
             Ok(format!(
                 "{} over {}: {} B/frame on the wire, efficiency {:.4}, {:.2} ms/frame = {:.1} fps; \
@@ -254,18 +289,20 @@ fn main() -> ExitCode {
                 o.intact_frames_lost
             ))
         })()),
-        Cmd::Faults { out, scale } => finish((|| {
+        Cmd::Faults { out, scale, scene } => finish((|| {
             if !(scale > 0.0 && scale <= 100.0) {
                 return Err("--scale: must lie in (0, 100]".into());
             }
-            let standard = host_sim::scene_file::load(std::path::Path::new(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../scenes/standard.toml"
-            )))?;
+            let standard = match &scene {
+                Some(p) => host_sim::scene_file::load(p)?,
+                None => host_sim::scene_file::parse(STANDARD_SCENE)
+                    .map_err(|e| format!("the built-in standard scene: {e}"))?,
+            };
+            let mut outputs = Outputs::prepare(&out)?;
             let report = host_sim::stream_cmd::campaign(&standard, scale, &mut |name| eprintln!("  {name}"))?;
             let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
-            std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-            std::fs::write(out.join("faults.json"), json).map_err(|e| e.to_string())?;
+            outputs.write("faults.json", &json)?;
+            outputs.commit()?;
             Ok(format!(
                 "fault campaign: {} frames sent, {} hit by faults, {} delivered intact, \
                  {} corrupted accepted, {} intact lost; {} intact messages, {} of them lost; \
@@ -286,21 +323,32 @@ fn main() -> ExitCode {
             baud,
             frames,
             timeout,
+            deadline,
             out,
         } => finish((|| {
-            if !(timeout > 0.0 && timeout.is_finite()) {
-                return Err("--timeout: must be a positive number of seconds".into());
-            }
-            let mut dec = host_sim::link::decoder::Decoder::new(1 << 20, 1 << 24);
-            let got = host_sim::link::serial::receive(
-                &device,
-                baud,
+            let secs = |flag: &str, v: f64, max: f64| -> Result<std::time::Duration, String> {
+                if !(v > 0.0 && v <= max) {
+                    return Err(format!("{flag}: must lie in (0, {max}] seconds"));
+                }
+                Ok(std::time::Duration::from_secs_f64(v))
+            };
+            let limits = host_sim::link::serial::Limits {
                 frames,
-                std::time::Duration::from_secs_f64(timeout),
-                &mut dec,
-            )?;
-            std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-            for f in &got {
+                idle: secs("--timeout", timeout, 86_400.0)?,
+                deadline: secs("--deadline", deadline, 7.0 * 86_400.0)?,
+            };
+            if !(1..=1_000_000).contains(&frames) {
+                return Err("--frames: must be 1 to 1000000".into());
+            }
+            if !(50..=20_000_000).contains(&baud) {
+                return Err("--baud: must be 50 to 20000000".into());
+            }
+            let outputs = Outputs::prepare(&out)?;
+            host_sim::output::graceful(true);
+            let mut dec = host_sim::link::decoder::Decoder::new(1 << 20, 1 << 24);
+            let mut written: Vec<ReceivedFrame> = Vec::new();
+            let mut seen: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
+            let mut on_frame = |f: host_sim::link::decoder::Frame| -> Result<(), String> {
                 let fmt = match f.start.format {
                     hilcam::link::WireFormat::Gray8 => hilcam::scene::PixelFormat::Gray8,
                     hilcam::link::WireFormat::Gray16 { bits } => hilcam::scene::PixelFormat::Gray16 { bits },
@@ -312,16 +360,50 @@ fn main() -> ExitCode {
                     f.start.height as usize,
                     &f.pixels,
                 )?;
-                std::fs::write(out.join(format!("frame-{:05}.png", f.start.frame_id)), png)
-                    .map_err(|e| e.to_string())?;
-            }
-            let json = serde_json::to_vec_pretty(&dec.stats).map_err(|e| e.to_string())?;
-            std::fs::write(out.join("receive.json"), json).map_err(|e| e.to_string())?;
-            Ok(format!(
-                "{} frames received from {device}; decoder: {:?}",
-                got.len(),
+                // A repeated id (the sender restarted) gets its own file.
+                let n = seen.entry(f.start.frame_id).or_insert(0);
+                *n += 1;
+                let file = match *n {
+                    1 => format!("frame-{:05}.png", f.start.frame_id),
+                    k => format!("frame-{:05}-{k}.png", f.start.frame_id),
+                };
+                outputs.write_now(&file, &png)?;
+                written.push(ReceivedFrame {
+                    file,
+                    frame_id: f.start.frame_id,
+                    width: f.start.width,
+                    height: f.start.height,
+                    format: fmt.name().into(),
+                });
+                Ok(())
+            };
+            let (got, ending) =
+                host_sim::link::serial::receive(&device, baud, limits, &mut dec, &mut on_frame)?;
+            let report = ReceiveReport {
+                device: device.clone(),
+                asked: frames,
+                received: got,
+                ending: ending.clone(),
+                frames: written,
+                decoder: dec.stats,
+            };
+            let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+            let mut outputs = outputs;
+            outputs.write("receive.json", &json)?;
+            outputs.commit()?;
+            let line = format!(
+                "{got} of {frames} frames received from {device} ({}); decoder: {:?}",
+                ending.describe(),
                 dec.stats
-            ))
+            );
+            if got >= frames {
+                Ok(line)
+            } else {
+                Err(format!(
+                    "{line}\nthe frames that did arrive are in {}",
+                    out.display()
+                ))
+            }
         })()),
         Cmd::WireExample => finish(host_sim::stream_cmd::wire_example().map(|s| s.trim_end().to_string())),
         Cmd::Tradeoff {
@@ -330,6 +412,9 @@ fn main() -> ExitCode {
             boards,
             repeats,
         } => finish((|| {
+            if !(1..=1000).contains(&repeats) {
+                return Err("--repeats: must be 1 to 1000".into());
+            }
             let boards = if boards == "none" {
                 Vec::new()
             } else {

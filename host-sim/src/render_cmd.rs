@@ -2,14 +2,13 @@
 //! reference, compares them, and writes `frame.png`, `reference.png`,
 //! `diff.png` and `metrics.json`.
 
-use crate::reference::render::{RefFrame, RefScene};
+use crate::reference::render::{RefFrame, RefRow, RefScene};
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
 use hilcam::render::{Frame, LineSink, FLAG_OUTSIDE_FIELD};
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
-use std::path::Path;
 
 /// A core frame collected line by line.
 pub struct Collect {
@@ -239,68 +238,79 @@ pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
     Ok(core)
 }
 
-/// Renders with both, and compares.
-pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
-    let (scene, plan, frame, core) = core_render(r, budget)?;
-    let rs = RefScene::new(r);
-    let reference = rs.render();
-    let format = scene.format;
-    let core_dn = core.dn(format);
-    let metrics = compare(r, &rs, &reference, &plan, budget, &frame, &core);
-    Ok(RenderOutput {
-        core,
-        core_dn,
-        reference,
-        metrics,
-        plan,
-        format,
-    })
+/// The comparison of core and reference pixels, accumulated a line at a
+/// time (lines in any grouping, merged in any order).
+#[derive(Clone, Debug, Default)]
+pub struct Tally {
+    max_geom: f64,
+    sq_geom: f64,
+    n_geom: usize,
+    max_all: u32,
+    max_smooth: u32,
+    sq_all: f64,
+    sq_smooth: f64,
+    nsq_all: f64,
+    nsq_smooth: f64,
+    pixels: usize,
+    exact: usize,
+    exact_smooth: usize,
+    smooth: usize,
+    edges: usize,
+    edges_diff: usize,
+    flags_diff: usize,
+    outside: usize,
 }
 
-/// The render metrics of a core frame against the reference frame of the
-/// same scene.
-// `k` indexes four parallel per-pixel arrays.
-#[allow(clippy::needless_range_loop)]
-pub fn compare<S: Scalar>(
-    r: &Resolved,
-    rs: &RefScene,
-    reference: &RefFrame,
-    plan: &Plan,
-    budget: &Budget,
-    frame: &Frame<S>,
-    core: &Collect,
-) -> Metrics {
-    let (w, h) = frame.size();
-    let (w, h) = (w as usize, h as usize);
-    let format = r.format;
-    let core_dn = core.dn(format);
-
-    // Geometry: the core's pixel → undistorted mapping against the reference.
-    let (fx, fy) = (rs.sensor.f / rs.sensor.sx, rs.sensor.f / rs.sensor.sy);
-    let mut max_geom: f64 = 0.0;
-    let (mut sq_geom, mut n_geom) = (0.0, 0usize);
-    for j in 0..h {
-        for i in 0..w {
-            if let (Some((cx, cy)), Some((rx, ry))) = (
-                frame.undistorted(i as u16, j as u16),
-                reference.undistorted[j * w + i],
-            ) {
-                let e = ((cx.to_f64() - rx) * fx).hypot((cy.to_f64() - ry) * fy);
-                max_geom = max_geom.max(e);
-                sq_geom += e * e;
-                n_geom += 1;
-            }
-        }
+impl Tally {
+    /// Adds the counts of `o`.
+    pub fn merge(&mut self, o: &Tally) {
+        self.max_geom = self.max_geom.max(o.max_geom);
+        self.sq_geom += o.sq_geom;
+        self.n_geom += o.n_geom;
+        self.max_all = self.max_all.max(o.max_all);
+        self.max_smooth = self.max_smooth.max(o.max_smooth);
+        self.sq_all += o.sq_all;
+        self.sq_smooth += o.sq_smooth;
+        self.nsq_all += o.nsq_all;
+        self.nsq_smooth += o.nsq_smooth;
+        self.pixels += o.pixels;
+        self.exact += o.exact;
+        self.exact_smooth += o.exact_smooth;
+        self.smooth += o.smooth;
+        self.edges += o.edges;
+        self.edges_diff += o.edges_diff;
+        self.flags_diff += o.flags_diff;
+        self.outside += o.outside;
     }
+}
+
+/// Compares line `j` of a core frame (its channel values and flags) with
+/// the reference's.
+pub fn tally_line<S: Scalar>(
+    rs: &RefScene,
+    frame: &Frame<S>,
+    j: usize,
+    core_dn: &[[u32; 3]],
+    core_flags: &[u8],
+    reference: RefRow<'_>,
+) -> Tally {
+    let format = rs.format;
+    let (fx, fy) = (rs.sensor.f / rs.sensor.sx, rs.sensor.f / rs.sensor.sy);
     let channels = format.channels();
-    let dn_max: Vec<f64> = (0..channels).map(|c| format.dn_max(c) as f64).collect();
-    let (mut max_all, mut max_smooth) = (0u32, 0u32);
-    let (mut sq_all, mut sq_smooth, mut nsq_all, mut nsq_smooth) = (0.0, 0.0, 0.0, 0.0);
-    let (mut exact, mut exact_smooth, mut smooth, mut edges, mut edges_diff) =
-        (0usize, 0usize, 0usize, 0usize, 0usize);
-    let mut flags_diff = 0;
-    for k in 0..w * h {
-        let (c, rf) = (core_dn[k], reference.dn[k]);
+    let dn_max = [0, 1, 2].map(|c| format.dn_max(c.min(channels - 1)) as f64);
+    let mut t = Tally::default();
+    for (i, (c, cf)) in core_dn.iter().zip(core_flags).enumerate() {
+        // Geometry: the core's pixel → undistorted mapping against the
+        // reference, where both place the pixel in the lens field.
+        if let (Some((cx, cy)), Some((rx, ry))) =
+            (frame.undistorted(i as u16, j as u16), reference.undistorted[i])
+        {
+            let e = ((cx.to_f64() - rx) * fx).hypot((cy.to_f64() - ry) * fy);
+            t.max_geom = t.max_geom.max(e);
+            t.sq_geom += e * e;
+            t.n_geom += 1;
+        }
+        let rf = reference.dn[i];
         let mut same = true;
         let mut pmax = 0;
         let (mut psq, mut pnsq) = (0.0, 0.0);
@@ -311,190 +321,386 @@ pub fn compare<S: Scalar>(
             psq += (d as f64).powi(2);
             pnsq += (d as f64 / dn_max[ch]).powi(2);
         }
-        let core_in = core.flags[k] & FLAG_OUTSIDE_FIELD == 0;
-        if core_in != reference.in_field[k] {
-            flags_diff += 1;
-        }
-        max_all = max_all.max(pmax);
-        sq_all += psq;
-        nsq_all += pnsq;
-        exact += same as usize;
-        if reference.edge[k] {
-            edges += 1;
-            edges_diff += (!same) as usize;
+        let core_in = cf & FLAG_OUTSIDE_FIELD == 0;
+        t.flags_diff += (core_in != reference.in_field[i]) as usize;
+        t.outside += (!reference.in_field[i]) as usize;
+        t.pixels += 1;
+        t.max_all = t.max_all.max(pmax);
+        t.sq_all += psq;
+        t.nsq_all += pnsq;
+        t.exact += same as usize;
+        if reference.edge[i] {
+            t.edges += 1;
+            t.edges_diff += (!same) as usize;
         } else {
-            smooth += 1;
-            max_smooth = max_smooth.max(pmax);
-            sq_smooth += psq;
-            nsq_smooth += pnsq;
-            exact_smooth += same as usize;
+            t.smooth += 1;
+            t.max_smooth = t.max_smooth.max(pmax);
+            t.sq_smooth += psq;
+            t.nsq_smooth += pnsq;
+            t.exact_smooth += same as usize;
         }
     }
-    let n_all = (w * h * channels) as f64;
-    let n_smooth = (smooth * channels).max(1) as f64;
+    t
+}
+
+/// The render metrics of a core frame against the reference frame of the
+/// same scene.
+pub fn compare<S: Scalar>(
+    r: &Resolved,
+    rs: &RefScene,
+    reference: &RefFrame,
+    plan: &Plan,
+    budget: &Budget,
+    frame: &Frame<S>,
+    core: &Collect,
+) -> Metrics {
+    let (w, h) = frame.size();
+    let (w, lb) = (w as usize, frame.line_bytes());
+    let mut t = Tally::default();
+    for j in 0..h as usize {
+        let dn = decode_all(r.format, &core.pixels[j * lb..(j + 1) * lb]);
+        t.merge(&tally_line(
+            rs,
+            frame,
+            j,
+            &dn,
+            &core.flags[j * w..(j + 1) * w],
+            reference.row(j),
+        ));
+    }
+    metrics(r, plan, budget, frame, &t)
+}
+
+/// The planner's choice as reported, for the frame prepared from it.
+pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) -> PlanReport {
+    let stages = frame.stages();
+    PlanReport {
+        arithmetic: stages.arithmetic.name().into(),
+        chosen: plan
+            .candidates
+            .get(plan.chosen)
+            .map_or_else(String::new, |c| c.name().to_string()),
+        why: plan_why(plan, budget),
+        candidates: plan
+            .candidates
+            .iter()
+            .map(|c| CandidateReport {
+                name: c.name().to_string(),
+                unfit: c.fits.err().map(|u| u.reason().to_string()),
+                geom_err_px: c.geom_err_px,
+                lsb: c.lsb,
+                m3_instructions_per_pixel: c.m3_instructions_per_pixel,
+                meets_budget: c.meets(budget),
+            })
+            .collect(),
+        predicted_m3_instructions_per_pixel: plan.predicted_m3_instructions_per_pixel,
+        model: stages.model.name().trim_start_matches("rays:").into(),
+        mean_depth_m: match stages.model {
+            hilcam::render::RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.to_num()),
+            _ => None,
+        },
+        lut_entries: stages.distortion_lut.unwrap_or(0),
+        lut_format: frame.table_frac_bits().map(|f| format!("I{}F{}", 32 - f, f)),
+        predicted_geom_err_px: plan.predicted_geom_err_px,
+        weak_perspective_err_px: plan.weak_perspective_err_px,
+        predicted_lsb: plan.predicted_lsb,
+        meets_budget: plan.meets_budget,
+        budget_geom_px: budget.max_geom_err_px,
+        budget_lsb: budget.max_lsb,
+    }
+}
+
+/// The metrics from a whole frame's [`Tally`].
+pub fn metrics<S: Scalar>(
+    r: &Resolved,
+    plan: &Plan,
+    budget: &Budget,
+    frame: &Frame<S>,
+    t: &Tally,
+) -> Metrics {
+    let (w, h) = frame.size();
+    let (w, h) = (w as usize, h as usize);
+    let format = r.format;
+    let channels = format.channels();
+    let n_all = (t.pixels * channels).max(1) as f64;
+    let n_smooth = (t.smooth * channels).max(1) as f64;
     let psnr = |nsq: f64, n: f64| (nsq > 0.0).then(|| 10.0 * (n / nsq).log10());
     let bits = (0..channels)
         .map(|c| 32 - format.dn_max(c).leading_zeros())
         .max()
         .unwrap_or(8);
-    let stages = frame.stages();
+    let px = t.pixels.max(1) as f64;
     Metrics {
         scene: r.desc.name.clone(),
         width: w,
         height: h,
         format: format.name().into(),
         bits,
-        stages: stages.names().iter().map(|s| s.to_string()).collect(),
-        plan: PlanReport {
-            arithmetic: stages.arithmetic.name().into(),
-            chosen: plan
-                .candidates
-                .get(plan.chosen)
-                .map_or_else(String::new, |c| c.name().to_string()),
-            why: plan_why(plan, budget),
-            candidates: plan
-                .candidates
-                .iter()
-                .map(|c| CandidateReport {
-                    name: c.name().to_string(),
-                    unfit: c.fits.err().map(|u| u.reason().to_string()),
-                    geom_err_px: c.geom_err_px,
-                    lsb: c.lsb,
-                    m3_instructions_per_pixel: c.m3_instructions_per_pixel,
-                    meets_budget: c.meets(budget),
-                })
-                .collect(),
-            predicted_m3_instructions_per_pixel: plan.predicted_m3_instructions_per_pixel,
-            model: stages.model.name().trim_start_matches("rays:").into(),
-            mean_depth_m: match stages.model {
-                hilcam::render::RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.to_num()),
-                _ => None,
-            },
-            lut_entries: stages.distortion_lut.unwrap_or(0),
-            lut_format: frame.table_frac_bits().map(|f| format!("I{}F{}", 32 - f, f)),
-            predicted_geom_err_px: plan.predicted_geom_err_px,
-            weak_perspective_err_px: plan.weak_perspective_err_px,
-            predicted_lsb: plan.predicted_lsb,
-            meets_budget: plan.meets_budget,
-            budget_geom_px: budget.max_geom_err_px,
-            budget_lsb: budget.max_lsb,
-        },
+        stages: frame.stages().names().iter().map(|s| s.to_string()).collect(),
+        plan: plan_report(plan, budget, frame),
         table_bytes: frame.table_bytes(),
-        max_abs_lsb: max_all,
-        rms_lsb: (sq_all / n_all).sqrt(),
-        exact_fraction: exact as f64 / (w * h) as f64,
-        psnr_db: psnr(nsq_all, n_all),
-        max_geom_err_px: max_geom,
-        rms_geom_err_px: (sq_geom / n_geom.max(1) as f64).sqrt(),
-        edge_pixels: edges,
-        edge_pixels_differing: edges_diff,
-        edge_pixels_differing_fraction: edges_diff as f64 / (w * h) as f64,
-        max_abs_lsb_smooth: max_smooth,
-        rms_lsb_smooth: (sq_smooth / n_smooth).sqrt(),
-        psnr_db_smooth: psnr(nsq_smooth, n_smooth),
-        exact_fraction_smooth: exact_smooth as f64 / smooth.max(1) as f64,
-        outside_field_pixels: reference.in_field.iter().filter(|f| !**f).count(),
-        field_flags_differing: flags_diff,
+        max_abs_lsb: t.max_all,
+        rms_lsb: (t.sq_all / n_all).sqrt(),
+        exact_fraction: t.exact as f64 / px,
+        psnr_db: psnr(t.nsq_all, n_all),
+        max_geom_err_px: t.max_geom,
+        rms_geom_err_px: (t.sq_geom / t.n_geom.max(1) as f64).sqrt(),
+        edge_pixels: t.edges,
+        edge_pixels_differing: t.edges_diff,
+        edge_pixels_differing_fraction: t.edges_diff as f64 / px,
+        max_abs_lsb_smooth: t.max_smooth,
+        rms_lsb_smooth: (t.sq_smooth / n_smooth).sqrt(),
+        psnr_db_smooth: psnr(t.nsq_smooth, n_smooth),
+        exact_fraction_smooth: t.exact_smooth as f64 / t.smooth.max(1) as f64,
+        outside_field_pixels: t.outside,
+        field_flags_differing: t.flags_diff,
+    }
+}
+
+/// One line rendered by both, and compared.
+pub struct LineOut {
+    /// Line number.
+    pub y: usize,
+    /// Core bytes.
+    pub pixels: Vec<u8>,
+    /// Core flags.
+    pub flags: Vec<u8>,
+    /// Core channel values.
+    pub core_dn: Vec<[u32; 3]>,
+    /// The reference's line.
+    pub reference: RefFrame,
+    /// The comparison.
+    pub tally: Tally,
+}
+
+/// Renders every line with the core and the reference, compares them, and
+/// hands the lines to `sink` in order. Lines are rendered in parallel on
+/// every core, a band at a time, so memory stays O(width).
+pub fn run_lines<S: Scalar>(
+    frame: &Frame<S>,
+    rs: &RefScene,
+    sink: &mut dyn FnMut(LineOut) -> Result<(), String>,
+) -> Result<Tally, String> {
+    use rayon::prelude::*;
+    let (w, h) = frame.size();
+    let band = rayon::current_num_threads().max(1) * 4;
+    let mut total = Tally::default();
+    for j0 in (0..h as usize).step_by(band) {
+        let lines = (j0..(j0 + band).min(h as usize))
+            .into_par_iter()
+            .map(|j| -> Result<LineOut, String> {
+                let mut pixels = vec![0u8; frame.line_bytes()];
+                let mut flags = vec![0u8; w as usize];
+                frame
+                    .render_line(j as u16, &mut pixels, &mut flags)
+                    .map_err(|e| format!("render failed: {e:?}"))?;
+                let core_dn = decode_all(rs.format, &pixels);
+                let reference = rs.render_line(j);
+                let tally = tally_line(rs, frame, j, &core_dn, &flags, reference.row(0));
+                Ok(LineOut {
+                    y: j,
+                    pixels,
+                    flags,
+                    core_dn,
+                    reference,
+                    tally,
+                })
+            })
+            .collect::<Vec<_>>();
+        for l in lines {
+            let l = l?;
+            total.merge(&l.tally);
+            sink(l)?;
+        }
+    }
+    Ok(total)
+}
+
+/// Renders with both, and compares, in memory.
+pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
+    let scene = r.core_scene()?;
+    let plan = planner::plan(&scene, budget);
+    let frame =
+        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let rs = RefScene::new(r);
+    let (w, h) = frame.size();
+    let mut core = Collect {
+        pixels: Vec::with_capacity(frame.line_bytes() * h as usize),
+        flags: Vec::with_capacity(w as usize * h as usize),
+    };
+    let mut core_dn = Vec::with_capacity(w as usize * h as usize);
+    let mut reference = RefFrame {
+        width: w as usize,
+        height: h as usize,
+        dn: Vec::new(),
+        in_field: Vec::new(),
+        edge: Vec::new(),
+        undistorted: Vec::new(),
+    };
+    let t = run_lines(&frame, &rs, &mut |l| {
+        core.pixels.extend_from_slice(&l.pixels);
+        core.flags.extend_from_slice(&l.flags);
+        core_dn.extend_from_slice(&l.core_dn);
+        reference.append(l.reference);
+        Ok(())
+    })?;
+    let metrics = metrics(r, &plan, budget, &frame, &t);
+    Ok(RenderOutput {
+        core,
+        core_dn,
+        reference,
+        metrics,
+        plan,
+        format: scene.format,
+    })
+}
+
+/// How a PNG holds the pixels of a format (or of the diff map).
+fn png_layout(format: Option<PixelFormat>) -> (png::ColorType, png::BitDepth) {
+    match format {
+        Some(PixelFormat::Gray8) => (png::ColorType::Grayscale, png::BitDepth::Eight),
+        Some(PixelFormat::Gray16 { .. }) => (png::ColorType::Grayscale, png::BitDepth::Sixteen),
+        Some(PixelFormat::Rgb565) | None => (png::ColorType::Rgb, png::BitDepth::Eight),
+    }
+}
+
+/// A PNG written a row at a time: 8-bit gray, 16-bit gray scaled to the
+/// full 16 bits, or 8-bit RGB (`format`), or RGB for the diff map (`None`).
+fn png_stream<W: std::io::Write + 'static>(
+    w: W,
+    width: usize,
+    height: usize,
+    format: Option<PixelFormat>,
+) -> Result<png::StreamWriter<'static, W>, String> {
+    let mut e = png::Encoder::new(w, width as u32, height as u32);
+    let (c, d) = png_layout(format);
+    e.set_color(c);
+    e.set_depth(d);
+    e.write_header()
+        .and_then(|w| w.into_stream_writer())
+        .map_err(|e| format!("PNG encoding failed: {e}"))
+}
+
+/// One PNG row of channel values.
+fn png_row(format: PixelFormat, dn: &[[u32; 3]], out: &mut Vec<u8>) {
+    out.clear();
+    for p in dn {
+        match format {
+            PixelFormat::Gray8 => out.push(p[0] as u8),
+            PixelFormat::Gray16 { bits } => {
+                out.extend_from_slice(&((p[0] << (16 - bits as u32)) as u16).to_be_bytes())
+            }
+            PixelFormat::Rgb565 => out.extend_from_slice(&[
+                (p[0] * 255 / 31) as u8,
+                (p[1] * 255 / 63) as u8,
+                (p[2] * 255 / 31) as u8,
+            ]),
+        }
+    }
+}
+
+/// One row of the diff heat map: black where core and reference agree;
+/// 1 LSB dark red, 2 red, 4 yellow, 8 or more white; identical edge
+/// pixels dark blue.
+fn diff_row(format: PixelFormat, core: &[[u32; 3]], reference: RefRow<'_>, out: &mut Vec<u8>) {
+    out.clear();
+    for (k, c) in core.iter().enumerate() {
+        let d = (0..format.channels())
+            .map(|ch| c[ch].abs_diff(reference.dn[k][ch]))
+            .max()
+            .unwrap_or(0);
+        out.extend_from_slice(&match d {
+            0 if reference.edge[k] => [0, 0, 90],
+            0 => [0, 0, 0],
+            1 => [140, 0, 0],
+            2..=3 => [255, 0, 0],
+            4..=7 => [255, 255, 0],
+            _ => [255, 255, 255],
+        });
     }
 }
 
 /// Encodes frame bytes (as the core produces them) as a PNG.
 pub fn encode_png(format: PixelFormat, w: usize, h: usize, bytes: &[u8]) -> Result<Vec<u8>, String> {
     let bpp = format.bytes_per_pixel();
-    if bytes.len() != w * h * bpp {
+    if bytes.len() != w * h * bpp || w == 0 || h == 0 {
         return Err(format!(
             "frame of {} bytes is not {w}x{h} {}",
             bytes.len(),
             format.name()
         ));
     }
-    let dn = decode_all(format, bytes);
-    png(format, w, h, &dn)
-}
-
-/// Encodes channel values as a PNG (8-bit gray, 16-bit gray scaled to the
-/// full 16 bits, or 8-bit RGB).
-fn png(format: PixelFormat, w: usize, h: usize, dn: &[[u32; 3]]) -> Result<Vec<u8>, String> {
-    let mut out = std::io::Cursor::new(Vec::new());
-    let (w32, h32) = (w as u32, h as u32);
-    let res = match format {
-        PixelFormat::Gray8 => {
-            let data: Vec<u8> = dn.iter().map(|p| p[0] as u8).collect();
-            image::GrayImage::from_raw(w32, h32, data).map(|i| i.write_to(&mut out, image::ImageFormat::Png))
-        }
-        PixelFormat::Gray16 { bits } => {
-            let data: Vec<u16> = dn.iter().map(|p| (p[0] << (16 - bits as u32)) as u16).collect();
-            image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(w32, h32, data)
-                .map(|i| i.write_to(&mut out, image::ImageFormat::Png))
-        }
-        PixelFormat::Rgb565 => {
-            let data: Vec<u8> = dn
-                .iter()
-                .flat_map(|p| {
-                    [
-                        (p[0] * 255 / 31) as u8,
-                        (p[1] * 255 / 63) as u8,
-                        (p[2] * 255 / 31) as u8,
-                    ]
-                })
-                .collect();
-            image::RgbImage::from_raw(w32, h32, data).map(|i| i.write_to(&mut out, image::ImageFormat::Png))
-        }
-    };
-    match res {
-        Some(Ok(())) => Ok(out.into_inner()),
-        Some(Err(e)) => Err(format!("PNG encoding failed: {e}")),
-        None => Err("PNG encoding failed: buffer size".into()),
+    let (mut data, mut row) = (Vec::new(), Vec::new());
+    for line in bytes.chunks_exact(w * bpp) {
+        png_row(format, &decode_all(format, line), &mut row);
+        data.extend_from_slice(&row);
     }
-}
-
-/// The diff heat map: black where core and reference agree; 1 LSB dark red,
-/// 2 red, 4 yellow, 8 or more white; identical edge pixels dark blue.
-fn diff_png(o: &RenderOutput) -> Result<Vec<u8>, String> {
-    let (w, h) = (o.metrics.width, o.metrics.height);
-    let mut data = Vec::with_capacity(w * h * 3);
-    for k in 0..w * h {
-        let d = (0..o.format.channels())
-            .map(|c| o.core_dn[k][c].abs_diff(o.reference.dn[k][c]))
-            .max()
-            .unwrap_or(0);
-        let rgb = match d {
-            0 if o.reference.edge[k] => [0, 0, 90],
-            0 => [0, 0, 0],
-            1 => [140, 0, 0],
-            2..=3 => [255, 0, 0],
-            4..=7 => [255, 255, 0],
-            _ => [255, 255, 255],
-        };
-        data.extend_from_slice(&rgb);
-    }
-    let mut out = std::io::Cursor::new(Vec::new());
-    image::RgbImage::from_raw(w as u32, h as u32, data)
-        .ok_or("diff: buffer size")?
-        .write_to(&mut out, image::ImageFormat::Png)
+    let mut out = Vec::new();
+    let mut e = png::Encoder::new(&mut out, w as u32, h as u32);
+    let (c, d) = png_layout(Some(format));
+    e.set_color(c);
+    e.set_depth(d);
+    e.write_header()
+        .and_then(|mut png| png.write_image_data(&data).and_then(|_| png.finish()))
         .map_err(|e| format!("PNG encoding failed: {e}"))?;
-    Ok(out.into_inner())
+    Ok(out)
 }
 
-/// Writes the four files into `dir` (created if needed). Everything is
-/// encoded before the first file is written.
-pub fn write(dir: &Path, o: &RenderOutput) -> Result<(), String> {
-    let (w, h) = (o.metrics.width, o.metrics.height);
-    let files = [
-        ("frame.png", png(o.format, w, h, &o.core_dn)?),
-        ("reference.png", png(o.format, w, h, &o.reference.dn)?),
-        ("diff.png", diff_png(o)?),
-        (
-            "metrics.json",
-            serde_json::to_vec_pretty(&o.metrics).map_err(|e| format!("metrics: {e}"))?,
-        ),
-    ];
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    for (name, bytes) in files {
-        let p = dir.join(name);
-        std::fs::write(&p, bytes).map_err(|e| format!("{}: {e}", p.display()))?;
+/// `host-sim render`: plans (refusing a scene no candidate meets the budget
+/// for, unless `allow_over_budget`, before anything is written), then
+/// checks that `dir` takes files, renders with both a band of lines at a
+/// time and streams `frame.png`, `reference.png`, `diff.png` and
+/// `metrics.json` into `dir`, committed together ([`crate::output`]). Memory is O(width), whatever the height.
+pub fn render_to(
+    dir: &std::path::Path,
+    r: &Resolved,
+    budget: &Budget,
+    allow_over_budget: bool,
+) -> Result<Metrics, String> {
+    let scene = r.core_scene()?;
+    let plan = planner::plan(&scene, budget);
+    let frame =
+        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    if !plan.meets_budget && !allow_over_budget {
+        let report = plan_report(&plan, budget, &frame);
+        return Err(format!(
+            "refused: {}\n{}nothing written (--allow-over-budget renders it anyway)",
+            report.why,
+            plan_text(&report)
+        ));
     }
-    Ok(())
+    let mut out = crate::output::Outputs::prepare(dir)?;
+    let rs = RefScene::new(r);
+    let (w, h) = frame.size();
+    let (w, h) = (w as usize, h as usize);
+    let format = scene.format;
+    let mut pngs = [
+        png_stream(out.create("frame.png")?, w, h, Some(format))?,
+        png_stream(out.create("reference.png")?, w, h, Some(format))?,
+        png_stream(out.create("diff.png")?, w, h, None)?,
+    ];
+    let names = ["frame.png", "reference.png", "diff.png"];
+    let io = |k: usize, e: &dyn std::fmt::Display| format!("{}: {e}", out.dir().join(names[k]).display());
+    let mut row = Vec::new();
+    let t = run_lines(&frame, &rs, &mut |l| {
+        use std::io::Write;
+        png_row(format, &l.core_dn, &mut row);
+        pngs[0].write_all(&row).map_err(|e| io(0, &e))?;
+        png_row(format, &l.reference.dn, &mut row);
+        pngs[1].write_all(&row).map_err(|e| io(1, &e))?;
+        diff_row(format, &l.core_dn, l.reference.row(0), &mut row);
+        pngs[2].write_all(&row).map_err(|e| io(2, &e))
+    })?;
+    for (k, p) in pngs.into_iter().enumerate() {
+        p.finish().map_err(|e| io(k, &e))?;
+    }
+    let m = metrics(r, &plan, budget, &frame, &t);
+    out.write(
+        "metrics.json",
+        &serde_json::to_vec_pretty(&m).map_err(|e| format!("metrics: {e}"))?,
+    )?;
+    out.commit()?;
+    Ok(m)
 }
 
 /// Why the planner chose what it chose, in a sentence.

@@ -55,6 +55,7 @@ pub struct CameraDesc {
     /// Pixel pitch, metres: one number, or `[s_x, s_y]`.
     pub pitch: Pair,
     /// Principal point, pixels (default: the sensor centre).
+    #[serde(default, deserialize_with = "exact::opt")]
     pub principal_point: Option<[f64; 2]>,
     /// `perspective` (default) or `orthographic`.
     #[serde(default = "perspective")]
@@ -70,6 +71,7 @@ pub struct CameraDesc {
     /// Tolerable blur diameter, metres.
     pub tolerable_blur: f64,
     /// `[k1, k2]` (default none).
+    #[serde(default, deserialize_with = "exact::opt")]
     pub distortion: Option<[f64; 2]>,
     /// The pose.
     pub pose: PoseDesc,
@@ -80,8 +82,7 @@ fn perspective() -> String {
 }
 
 /// A number or a pair.
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(untagged)]
+#[derive(Clone, Copy, Debug)]
 pub enum Pair {
     /// The same for both.
     One(f64),
@@ -106,16 +107,22 @@ impl Pair {
 #[serde(deny_unknown_fields)]
 pub struct PoseDesc {
     /// Look-at eye.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub eye: Option<[f64; 3]>,
     /// Look-at target.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub target: Option<[f64; 3]>,
     /// Look-at up.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub up: Option<[f64; 3]>,
     /// Centre of projection.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub position: Option<[f64; 3]>,
     /// Yaw, pitch, roll, radians.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub yaw_pitch_roll: Option<[f64; 3]>,
     /// Rotation matrix rows.
+    #[serde(default, deserialize_with = "exact::opt_matrix")]
     pub rotation: Option<[[f64; 3]; 3]>,
 }
 
@@ -160,8 +167,7 @@ pub struct Environment {
 }
 
 /// A gray value or an `[r, g, b]` triple.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Colour {
     /// Gray.
     Gray(f64),
@@ -217,10 +223,12 @@ pub struct LightEntry {
     /// `point` or `directional`.
     pub kind: String,
     /// Point: position, metres.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub position: Option<[f64; 3]>,
     /// Point: intensity, W/sr.
     pub intensity: Option<Colour>,
     /// Directional: direction towards the light.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub direction: Option<[f64; 3]>,
     /// Directional: irradiance `E₀`, W/m².
     pub irradiance: Option<Colour>,
@@ -254,16 +262,21 @@ pub struct PrimitiveDesc {
     /// Material name.
     pub material: String,
     /// Plane: a point on it.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub point: Option<[f64; 3]>,
     /// Plane, disc, rectangle: normal.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub normal: Option<[f64; 3]>,
     /// Sphere, disc, rectangle: centre.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub centre: Option<[f64; 3]>,
     /// Sphere, disc: radius.
     pub radius: Option<f64>,
     /// Rectangle: direction of the `u` edges.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub u_axis: Option<[f64; 3]>,
     /// Rectangle: `[width, height]` along `u`, `v`.
+    #[serde(default, deserialize_with = "exact::opt")]
     pub size: Option<[f64; 2]>,
     /// Planar shapes: checker texture.
     pub checker: Option<CheckerDesc>,
@@ -278,6 +291,7 @@ pub struct CheckerDesc {
     /// Material of the odd cells.
     pub material: String,
     /// Direction of the texture's `u` axis (projected into the plane).
+    #[serde(deserialize_with = "exact::arr")]
     pub u_axis: [f64; 3],
 }
 
@@ -307,16 +321,154 @@ pub struct Resolved {
     pub lights: Vec<LightDesc>,
 }
 
-/// Reads and checks a scene file. Errors name the file and the field.
+/// The largest scene file read, bytes (docs/scenes.md): a scene of the
+/// most materials, lights and primitives the core holds is under 8 KiB.
+pub const MAX_SCENE_BYTES: u64 = 1 << 20;
+
+/// Reads and checks a scene file of at most [`MAX_SCENE_BYTES`]. Errors
+/// name the file and the field.
 pub fn load(path: &Path) -> Result<Resolved, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    use std::io::Read;
+    let at = |e: String| format!("{}: {e}", path.display());
+    let file = std::fs::File::open(path).map_err(|e| at(e.to_string()))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_SCENE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| at(e.to_string()))?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        return Err(at(format!(
+            "larger than {MAX_SCENE_BYTES} bytes: not a scene file (docs/scenes.md)"
+        )));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| at(format!("not UTF-8 text: {e}")))?;
+    parse(&text).map_err(at)
 }
 
 /// Parses and checks scene text.
 pub fn parse(text: &str) -> Result<Resolved, String> {
-    let desc: SceneDesc = toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())?;
+    let desc: SceneDesc = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
     resolve(desc)
+}
+
+/// A TOML error as `line N: KEY: message`, the key being the one whose
+/// value the error points at (serde's messages do not name it), followed by
+/// the TOML crate's own excerpt.
+fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    let full = e.to_string().trim_end().to_string();
+    let Some(span) = e.span() else {
+        return full;
+    };
+    let start = span.start.min(text.len());
+    let line_no = text[..start].matches('\n').count() + 1;
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    // The nearest `key =` before the span on its line (inline tables too).
+    let before = &text[line_start..start];
+    let key = before.rfind('=').and_then(|eq| {
+        let k = before[..eq].trim_end();
+        let k = k
+            .rsplit(|c: char| c == '{' || c == ',' || c.is_whitespace())
+            .next()?;
+        (!k.is_empty()).then(|| k.trim_matches('"').to_string())
+    });
+    match key {
+        Some(k) => format!("line {line_no}: {k}: {}\n{full}", e.message().trim_end()),
+        None => full,
+    }
+}
+
+impl<'de> Deserialize<'de> for Pair {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(match exact::one_or::<D, 2>(d, "a number or [a, b]")? {
+            Ok(v) => Pair::One(v),
+            Err(a) => Pair::Two(a),
+        })
+    }
+}
+
+impl<'de> Deserialize<'de> for Colour {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(match exact::one_or::<D, 3>(d, "a number or [r, g, b]")? {
+            Ok(v) => Colour::Gray(v),
+            Err(a) => Colour::Rgb(a),
+        })
+    }
+}
+
+/// Fixed-size arrays that must have exactly their length: serde's array
+/// impl, under the TOML deserializer, drops extra elements (OpenCV's
+/// five-coefficient `distortion` would silently lose three).
+mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    struct Len(usize, &'static str);
+    impl serde::de::Expected for Len {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "exactly {} {}", self.0, self.1)
+        }
+    }
+
+    fn fixed<'de, D: Deserializer<'de>, T, const N: usize>(
+        v: Vec<T>,
+        what: &'static str,
+    ) -> Result<[T; N], D::Error> {
+        let n = v.len();
+        v.try_into()
+            .map_err(|_| D::Error::invalid_length(n, &Len(N, what)))
+    }
+
+    /// `[f64; N]`, exactly N numbers.
+    pub fn arr<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+        fixed::<D, f64, N>(Vec::deserialize(d)?, "numbers")
+    }
+
+    /// An optional `[f64; N]`, exactly N numbers.
+    pub fn opt<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<Option<[f64; N]>, D::Error> {
+        arr(d).map(Some)
+    }
+
+    /// A number (`Ok`) or exactly N numbers (`Err`).
+    pub fn one_or<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+        what: &'static str,
+    ) -> Result<Result<f64, [f64; N]>, D::Error> {
+        struct V<const N: usize>(&'static str);
+        impl<'de, const N: usize> serde::de::Visitor<'de> for V<N> {
+            type Value = Result<f64, [f64; N]>;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.0)
+            }
+            fn visit_f64<E: Error>(self, v: f64) -> Result<Self::Value, E> {
+                Ok(Ok(v))
+            }
+            fn visit_i64<E: Error>(self, v: i64) -> Result<Self::Value, E> {
+                Ok(Ok(v as f64))
+            }
+            fn visit_u64<E: Error>(self, v: u64) -> Result<Self::Value, E> {
+                Ok(Ok(v as f64))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = seq.next_element::<f64>()? {
+                    v.push(x);
+                }
+                let n = v.len();
+                v.try_into()
+                    .map(Err)
+                    .map_err(|_| A::Error::invalid_length(n, &Len(N, "numbers")))
+            }
+        }
+        d.deserialize_any(V::<N>(what))
+    }
+
+    /// An optional 3×3 matrix, exactly 3 rows of exactly 3 numbers.
+    pub fn opt_matrix<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[[f64; 3]; 3]>, D::Error> {
+        let rows: Vec<Vec<f64>> = Vec::deserialize(d)?;
+        let rows = rows
+            .into_iter()
+            .map(|r| fixed::<D, f64, 3>(r, "numbers in a row"))
+            .collect::<Result<Vec<_>, _>>()?;
+        fixed::<D, [f64; 3], 3>(rows, "rows").map(Some)
+    }
 }
 
 fn need<T: Copy>(v: Option<T>, what: &str) -> Result<T, String> {
@@ -350,6 +502,13 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
         }
     };
     let names: Vec<&str> = desc.materials.iter().map(|m| m.name.as_str()).collect();
+    for (i, n) in names.iter().enumerate() {
+        if let Some(j) = names[..i].iter().position(|m| m == n) {
+            return Err(format!(
+                "materials[{i}].name: {n:?} is also the name of materials[{j}] (names must be unique)"
+            ));
+        }
+    }
     let material = |name: &str, field: String| -> Result<usize, String> {
         names
             .iter()
@@ -480,8 +639,10 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
         primitives,
         lights,
     };
-    // Build the core scene once, so that every range check runs now.
-    r.core_scene()?;
+    // Build the core scene and prepare its default frame once, so that
+    // every range check runs now, naming the field, rather than at render.
+    let scene = r.core_scene()?;
+    r.check_renderable(&scene)?;
     Ok(r)
 }
 
@@ -508,10 +669,85 @@ impl Resolved {
             .unwrap_or_else(|| c.focal_length / c.f_number.unwrap_or(1.0))
     }
 
+    /// A core construction error, naming the scene file's key (the core
+    /// names its own parameters: `pitch_x` is the file's `camera.pitch`).
+    fn field_error(&self, e: hilcam::Error) -> String {
+        use hilcam::error::Field as F;
+        let pose = |k: &str| format!("camera.pose.{k}");
+        let key = match e.field() {
+            F::FocalLength => "camera.focal_length".into(),
+            F::PitchX | F::PitchY => "camera.pitch".into(),
+            F::Width => "camera.width".into(),
+            F::Height => "camera.height".into(),
+            F::PrincipalX | F::PrincipalY => "camera.principal_point".into(),
+            F::Rotation => match self.pose {
+                Pose::Ypr { .. } => pose("yaw_pitch_roll"),
+                _ => pose("rotation"),
+            },
+            F::Translation => match self.pose {
+                Pose::LookAt { .. } => pose("eye"),
+                _ => pose("position"),
+            },
+            F::Angle => pose("yaw_pitch_roll"),
+            F::Target => pose("target"),
+            F::Up => pose("up"),
+            F::Aperture => "camera.aperture".into(),
+            F::FNumber => "camera.f_number".into(),
+            F::FocusDistance => "camera.focus_distance".into(),
+            F::TolerableBlur => "camera.tolerable_blur".into(),
+            F::OrthographicScale => "camera.orthographic_scale".into(),
+            F::Distortion => "camera.distortion".into(),
+            F::MeanDepth | F::Point => "camera".to_string(),
+        };
+        let text = e.to_string();
+        let why = text.split_once(": ").map_or(text.as_str(), |(_, w)| w);
+        format!("{key}: {why}")
+    }
+
+    /// Prepares the frame the planner picks by default, so that a camera
+    /// the renderer cannot image is refused at load, naming the fields
+    /// that set it, instead of failing at render.
+    fn check_renderable(&self, scene: &Scene) -> Result<(), String> {
+        use hilcam::render::{Frame, RenderError, MAX_SLOPE};
+        let plan = hilcam::planner::plan(scene, &hilcam::planner::Budget::default());
+        let Err(e) = Frame::new(scene, &plan.options) else {
+            return Ok(());
+        };
+        let c = &self.desc.camera;
+        // The widest sensor corner in normalized coordinates (f64).
+        let (sx, sy) = c.pitch.get();
+        let (ox, oy) = c.principal_point.map_or(
+            ((c.width as f64 - 1.0) / 2.0, (c.height as f64 - 1.0) / 2.0),
+            |[x, y]| (x, y),
+        );
+        let (last_i, last_j) = (c.width as f64 - 1.0, c.height as f64 - 1.0);
+        let corner = [(0.0, 0.0), (last_i, 0.0), (0.0, last_j), (last_i, last_j)]
+            .into_iter()
+            .map(|(i, j)| (((ox - i) * sx / c.focal_length), ((oy - j) * sy / c.focal_length)))
+            .fold((0.0f64, 0.0f64), |(a, b), (x, y)| {
+                (a.max(x.abs()), b.max(y.abs()))
+            });
+        Err(match e {
+            RenderError::FieldTooWide => format!(
+                "camera.width, camera.height, camera.pitch, camera.focal_length, camera.principal_point, \
+                 camera.distortion: field too wide: a sensor corner's undistorted slope (tan of its angle \
+                 off the axis) exceeds {MAX_SLOPE} (the corners lie at |x̂_d| {:.3}, |ŷ_d| {:.3} before \
+                 distortion); docs/scenes.md, \"Field of view\"",
+                corner.0, corner.1
+            ),
+            RenderError::DistortionOutOfRange => format!(
+                "camera.distortion: the factor 1 + k1 u + k2 u² exceeds ±32768 over the sensor (corners at \
+                 |x̂_d| {:.3}, |ŷ_d| {:.3}); docs/scenes.md, \"Field of view\"",
+                corner.0, corner.1
+            ),
+            other => format!("camera: the renderer cannot prepare this camera: {other:?}"),
+        })
+    }
+
     /// The core's scene. Errors name the field.
     pub fn core_scene(&self) -> Result<Scene, String> {
         let c = &self.desc.camera;
-        let cam_err = |e: hilcam::Error| format!("camera.{}", e);
+        let cam_err = |e: hilcam::Error| self.field_error(e);
         let intr = IntrinsicsConfig {
             focal_length: c.focal_length,
             pitch: c.pitch.get(),
@@ -525,7 +761,7 @@ impl Resolved {
             }
             Pose::Matrix { position, rotation } => Extrinsics::from_matrix(rotation, position),
         }
-        .map_err(|e| format!("camera.pose.{e}"))?;
+        .map_err(cam_err)?;
         let model = match (c.model.as_str(), c.orthographic_scale) {
             ("perspective", None) => Model::Perspective,
             ("orthographic", Some(m)) => Model::orthographic(m).map_err(cam_err)?,

@@ -3,12 +3,11 @@
 //! with faults, decoded by the host decoder, and checked byte for byte.
 
 use crate::link::decoder::{Decoder, Stats};
-use crate::link::sim::{inject, send_frames, Faults, Link, Sent};
+use crate::link::sim::{frame_pixels, Channel, Faults, Link, Recorder, HOST_CHUNK};
 use crate::scene_file::Resolved;
-use hilcam::link::{FrameStart, WireFormat, PROTOCOL_VERSION};
+use hilcam::link::{Encoder, FrameStart, WireFormat, PROTOCOL_VERSION};
 use hilcam::planner::Budget;
 use serde::Serialize;
-use std::collections::HashMap;
 
 /// The core's render of a scene: pixel bytes and the frame header to send
 /// them with.
@@ -75,68 +74,95 @@ pub struct Outcome {
     pub decoder: Stats,
 }
 
-/// Sends the encoded frames through `faults` and checks what comes out.
-pub fn run(sent: &Sent, faults: &Faults) -> Outcome {
-    let out = inject(&sent.stream, &sent.messages, faults);
+/// What [`run`] sent and what came out.
+pub struct Run {
+    /// What happened.
+    pub outcome: Outcome,
+    /// Bytes on the wire (without faults).
+    pub wire_bytes: u64,
+    /// Pixel payload bytes.
+    pub pixel_bytes: u64,
+}
+
+/// Encodes `n` frames of `base` ([`frame_pixels`]: each distinct) with the
+/// core's encoder, sends them through a link with `faults`, decodes, and
+/// checks every frame and message against what was sent. A frame at a
+/// time: memory does not grow with `n`.
+pub fn run(base: &[u8], start: FrameStart, n: u32, faults: &Faults) -> Result<Run, String> {
+    let mut enc =
+        Encoder::<Recorder, HOST_CHUNK, { hilcam::link::wire_size(HOST_CHUNK) }>::new(Recorder::default())
+            .map_err(|e| format!("encoder: {e:?}"))?;
+    let mut channel = Channel::new(faults);
     // Each sent message's identity: the CRC-32 of its body, from a clean
-    // decode of the sent stream (in order, one per non-empty message).
+    // decode of the sent bytes (in order, one per non-empty message).
     let mut clean = Decoder::new(1 << 20, 1 << 24);
     clean.record = true;
-    clean.push(&sent.stream, &mut |_| {});
     let mut dec = Decoder::new(1 << 20, 1 << 24);
     dec.record = true;
-    let mut got: HashMap<u32, Vec<u8>> = HashMap::new();
-    let mut corrupted = 0u64;
-    let by_id: HashMap<u32, &Vec<u8>> = sent.frames.iter().map(|(id, _, p)| (*id, p)).collect();
-    for piece in out.stream.chunks(1 << 16) {
-        dec.push(piece, &mut |f| match by_id.get(&f.start.frame_id) {
-            Some(p) if **p == f.pixels && !got.contains_key(&f.start.frame_id) => {
-                got.insert(f.start.frame_id, f.pixels);
+    let (mut wire, mut c) = (0u64, Counts::default());
+    let (mut out, mut hits) = (Vec::new(), Vec::new());
+    let line = start.line_bytes();
+    for k in 0..n {
+        let pixels = frame_pixels(base, line, k);
+        let rec = enc.writer();
+        rec.bytes.clear();
+        rec.writes.clear();
+        enc.begin_frame(FrameStart { frame_id: k, ..start })
+            .map_err(|e| format!("encoder: {e:?}"))?;
+        for l in pixels.chunks_exact(line) {
+            enc.push_line(l).map_err(|e| format!("encoder: {e:?}"))?;
+        }
+        enc.end_frame(None).map_err(|e| format!("encoder: {e:?}"))?;
+        let rec = enc.writer();
+        let at = wire as usize;
+        clean.received.clear();
+        clean.push(&rec.bytes, &mut |_| {});
+        out.clear();
+        // Keep the hit on the delimiter before this frame (it counts for
+        // the first message's intactness).
+        hits.retain(|h| *h + 1 >= at);
+        channel.send(&rec.bytes, &rec.writes, &mut out, &mut hits);
+        dec.received.clear();
+        let mut delivered = false;
+        dec.push(&out, &mut |f| {
+            if f.start.frame_id == k && !delivered && f.pixels == pixels {
+                delivered = true;
+            } else {
+                c.corrupted_frames_accepted += 1;
             }
-            _ => corrupted += 1,
         });
-    }
-    let touched = |(a, b): (usize, usize)| {
-        let i = out.hits.partition_point(|h| *h < a);
-        out.hits.get(i).is_some_and(|h| *h < b)
-    };
-    let mut hit = 0;
-    let mut lost = 0;
-    for (id, range, _) in &sent.frames {
-        let t = touched(*range);
-        hit += t as u64;
-        if !t && !got.contains_key(id) {
-            lost += 1;
+        let touched = |(a, b): (usize, usize)| {
+            let i = hits.partition_point(|h| *h < a);
+            hits.get(i).is_some_and(|h| *h < b)
+        };
+        let hit = touched((at, at + rec.bytes.len()));
+        c.frames_sent += 1;
+        c.frames_hit_by_faults += hit as u64;
+        c.frames_delivered_intact += delivered as u64;
+        c.intact_frames_lost += (!hit && !delivered) as u64;
+        let bodies = rec
+            .writes
+            .iter()
+            .filter(|(a, b)| b - a > 1)
+            .zip(clean.received.iter());
+        for ((a, b), id) in bodies {
+            // intact: its bytes and the delimiter before it
+            if !touched(((at + a).saturating_sub(1), at + b)) {
+                c.untouched_messages += 1;
+                c.untouched_messages_lost += (!dec.received.contains(id)) as u64;
+            }
         }
+        wire += rec.bytes.len() as u64;
     }
-    let received: std::collections::HashSet<u32> = dec.received.iter().copied().collect();
-    let mut untouched_messages = 0;
-    let mut untouched_lost = 0;
-    let bodies = sent
-        .messages
-        .iter()
-        .filter(|(a, b)| b - a > 1)
-        .zip(clean.received.iter());
-    for ((a, b), id) in bodies {
-        // intact: its bytes and the delimiter before it
-        if !touched((a.saturating_sub(1), *b)) {
-            untouched_messages += 1;
-            untouched_lost += (!received.contains(id)) as u64;
-        }
-    }
-    Outcome {
-        faults: *faults,
-        counts: Counts {
-            frames_sent: sent.frames.len() as u64,
-            frames_hit_by_faults: hit,
-            frames_delivered_intact: got.len() as u64,
-            corrupted_frames_accepted: corrupted,
-            intact_frames_lost: lost,
-            untouched_messages,
-            untouched_messages_lost: untouched_lost,
+    Ok(Run {
+        outcome: Outcome {
+            faults: *faults,
+            counts: c,
+            decoder: dec.stats,
         },
-        decoder: dec.stats,
-    }
+        wire_bytes: wire,
+        pixel_bytes: enc.pixel_bytes,
+    })
 }
 
 /// `stream.json`.
@@ -177,11 +203,10 @@ pub fn stream(
     frames: u32,
 ) -> Result<(StreamReport, Vec<u8>), String> {
     let (pixels, start) = core_frame(r, 0)?;
-    let sent = send_frames(&pixels, start, frames, None)?;
-    let outcome = run(&sent, faults);
-    let wire_per_frame = sent.stream.len() as f64 / frames.max(1) as f64;
+    let sent = run(&pixels, start, frames, faults)?;
+    let wire_per_frame = sent.wire_bytes as f64 / frames.max(1) as f64;
     let secs = link.seconds(wire_per_frame.ceil() as u64);
-    let first = sent.frames.first().map(|f| f.2.clone()).unwrap_or_default();
+    let first = frame_pixels(&pixels, start.line_bytes(), 0);
     Ok((
         StreamReport {
             scene: r.desc.name.clone(),
@@ -192,10 +217,10 @@ pub fn stream(
             chunk_bytes: crate::link::sim::HOST_CHUNK,
             frame_bytes: start.frame_bytes(),
             wire_bytes_per_frame: wire_per_frame,
-            link_efficiency: sent.pixel_bytes as f64 / sent.stream.len() as f64,
+            link_efficiency: sent.pixel_bytes as f64 / sent.wire_bytes as f64,
             seconds_per_frame: secs,
             achievable_fps: 1.0 / secs,
-            outcome,
+            outcome: sent.outcome,
         },
         first,
     ))
@@ -255,16 +280,15 @@ pub fn campaign(
         ("cut-0.002", 1000, f(0.0, 0.0, 0.0, 0.0, 0.0, 0.002, 9)),
         ("mixed", 1000, f(1e-5, 1e-6, 1e-6, 1e-6, 0.002, 0.0005, 10)),
     ];
-    let clean = send_frames(&pixels, start, 10, None)?;
-    let efficiency = clean.pixel_bytes as f64 / clean.stream.len() as f64;
+    let clean = run(&pixels, start, 10, &Faults::default())?;
+    let efficiency = clean.pixel_bytes as f64 / clean.wire_bytes as f64;
     let mut settings = Vec::new();
     for (name, n, faults) in plan {
         let n = ((n as f64 * scale).ceil() as u32).max(1);
         progress(name);
-        let sent = send_frames(&pixels, start, n, None)?;
         settings.push(Setting {
             name: name.into(),
-            outcome: run(&sent, &faults),
+            outcome: run(&pixels, start, n, &faults)?.outcome,
         });
     }
     let mut totals = Counts::default();

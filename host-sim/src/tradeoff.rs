@@ -528,7 +528,7 @@ fn slope(points: &[(f64, f64)]) -> Option<f64> {
 
 /// Runs the sweep and writes the three files into `out`.
 pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut outputs = crate::output::Outputs::prepare(out)?;
     let base_path = repo_root().join("scenes/standard.toml");
     let base = std::fs::read_to_string(&base_path).map_err(|e| format!("{}: {e}", base_path.display()))?;
     let scenes: Vec<PathBuf> = match &cfg.scenes {
@@ -769,14 +769,10 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
     let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
     let md = markdown(&report);
     let png = crate::tradeoff_plot::plot(&report)?;
-    for (name, bytes) in [
-        ("tradeoff.json", json),
-        ("tradeoff.md", md.clone().into_bytes()),
-        ("tradeoff.png", png),
-    ] {
-        let p = out.join(name);
-        std::fs::write(&p, bytes).map_err(|e| format!("{}: {e}", p.display()))?;
-    }
+    outputs.write("tradeoff.json", &json)?;
+    outputs.write("tradeoff.md", md.as_bytes())?;
+    outputs.write("tradeoff.png", &png)?;
+    outputs.commit()?;
     Ok(md)
 }
 

@@ -138,12 +138,16 @@ fn decoding_resumes_after_a_cut() {
     assert!(dec.stats.bad_crc + dec.stats.bad_cobs >= 1);
     // and the faults model: truncation of every message loses every frame
     let out = run(
-        &sent,
+        &base,
+        start,
+        6,
         &Faults {
             truncate: 1.0,
             ..Faults::default()
         },
     )
+    .expect("runs")
+    .outcome
     .counts;
     assert_eq!(out.frames_delivered_intact, 0);
     assert_eq!(out.corrupted_frames_accepted, 0);
@@ -201,10 +205,18 @@ fn decoder_reads_a_pty() {
     });
     serialport::SerialPort::set_timeout(&mut slave, std::time::Duration::from_millis(50)).expect("timeout");
     let mut dec = Decoder::new(1 << 20, 1 << 24);
-    let frames =
-        host_sim::link::serial::read_frames(&mut slave, 3, std::time::Duration::from_secs(5), &mut dec)
-            .expect("reads");
+    let mut frames = Vec::new();
+    let limits = host_sim::link::serial::Limits {
+        frames: 3,
+        idle: std::time::Duration::from_secs(5),
+        deadline: std::time::Duration::from_secs(30),
+    };
+    let (got, ending) = host_sim::link::serial::read_frames(&mut slave, limits, &mut dec, &mut |f| {
+        frames.push(f);
+        Ok(())
+    });
     writer.join().expect("writer");
+    assert_eq!((got, ending), (3, host_sim::link::serial::Ending::Complete));
     assert_eq!(frames.len(), 3);
     assert_eq!(frames[2].pixels, sent.frames[2].2);
 }
@@ -217,4 +229,30 @@ fn wire_doc_example_is_current() {
     for line in wire_example().expect("example").lines() {
         assert!(doc.contains(line.trim_end()), "docs/wire.md lacks {line:?}");
     }
+}
+
+/// A reader that ends (the sender hung up) ends the read with what came:
+/// nothing already decoded is lost, and the ending says why.
+#[test]
+fn a_hangup_keeps_the_frames_already_decoded() {
+    let start = header(8, 2, WireFormat::Gray8);
+    let sent = send_frames(&[1u8; 16], start, 2, None).expect("encodes");
+    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    let mut frames = Vec::new();
+    let limits = host_sim::link::serial::Limits {
+        frames: 5,
+        idle: std::time::Duration::from_secs(5),
+        deadline: std::time::Duration::from_secs(30),
+    };
+    let (got, ending) = host_sim::link::serial::read_frames(
+        &mut std::io::Cursor::new(sent.stream),
+        limits,
+        &mut dec,
+        &mut |f| {
+            frames.push(f);
+            Ok(())
+        },
+    );
+    assert_eq!((got, ending), (2, host_sim::link::serial::Ending::Hangup));
+    assert_eq!(frames.len(), 2);
 }

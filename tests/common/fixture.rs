@@ -36,12 +36,18 @@ irradiance = 6.0
 
 /// The base scene with `extra` appended and each `(a, b)` replaced once.
 pub fn scene(extra: &str, replace: &[(&str, &str)]) -> Resolved {
+    try_scene(extra, replace).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// [`scene`], or the loader's error.
+#[allow(dead_code)] // not every test binary refuses a scene
+pub fn try_scene(extra: &str, replace: &[(&str, &str)]) -> Result<Resolved, String> {
     let mut text = format!("{BASE}{extra}");
     for (a, b) in replace {
         assert!(text.contains(a), "fixture lacks {a:?}");
         text = text.replacen(a, b, 1);
     }
-    parse(&text).unwrap_or_else(|e| panic!("{e}"))
+    parse(&text)
 }
 
 /// An infinite checkered floor at y = 0.

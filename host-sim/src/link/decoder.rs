@@ -3,7 +3,7 @@
 //! next `0x00` after any error, and counts what it dropped and why. It never
 //! panics, whatever the bytes (a fuzz target and a proptest check it).
 
-use hilcam::link::{FrameEnd, FrameStart, Message, CRC32, PROTOCOL_VERSION};
+use hilcam::link::{FrameEnd, FrameStart, Message, WireFormat, CRC32, PROTOCOL_VERSION};
 use serde::Serialize;
 use std::io::Read;
 
@@ -47,7 +47,8 @@ pub struct Stats {
     pub frames_dropped_unfinished: u64,
     /// Frames dropped because the whole-frame CRC did not match.
     pub frames_dropped_crc: u64,
-    /// Frames refused at their start (size or version).
+    /// Frames refused at their start (size, version, or Gray16 `bits`
+    /// outside 9 to 16).
     pub frames_refused: u64,
 }
 
@@ -168,10 +169,12 @@ impl Decoder {
                 if self.open.take().is_some() {
                     self.stats.frames_dropped_unfinished += 1;
                 }
+                let bad_bits = matches!(s.format, WireFormat::Gray16 { bits } if !(9..=16).contains(&bits));
                 if s.version != PROTOCOL_VERSION
                     || s.frame_bytes() > self.max_frame
                     || s.width == 0
                     || s.height == 0
+                    || bad_bits
                 {
                     self.stats.frames_refused += 1;
                     return;

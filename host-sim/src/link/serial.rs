@@ -2,42 +2,112 @@
 //! crate.
 
 use super::decoder::{Decoder, Frame};
+use serde::Serialize;
 use std::io::Read;
 use std::time::{Duration, Instant};
 
-/// Reads from the serial device at `path` until `frames` frames are
-/// delivered, the input ends, or `timeout` passes without a byte.
+/// How long to read for.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// Frames wanted.
+    pub frames: u64,
+    /// Stop after this long without a byte.
+    pub idle: Duration,
+    /// Stop after this long in all, whatever arrives.
+    pub deadline: Duration,
+}
+
+/// Why reading stopped.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Ending {
+    /// Every frame asked for arrived.
+    Complete,
+    /// The input ended (the sender hung up).
+    Hangup,
+    /// No byte for the idle timeout.
+    IdleTimeout,
+    /// The overall deadline passed.
+    Deadline,
+    /// A signal asked to stop ([`crate::output::interrupted`]).
+    Interrupted,
+    /// The device failed.
+    ReadError(String),
+    /// Handling a frame failed (e.g. writing it).
+    FrameError(String),
+}
+
+impl Ending {
+    /// In words.
+    pub fn describe(&self) -> String {
+        match self {
+            Ending::Complete => "complete".into(),
+            Ending::Hangup => "the input ended".into(),
+            Ending::IdleTimeout => "no byte within the idle timeout".into(),
+            Ending::Deadline => "the deadline passed".into(),
+            Ending::Interrupted => "interrupted".into(),
+            Ending::ReadError(e) => format!("read error: {e}"),
+            Ending::FrameError(e) => e.clone(),
+        }
+    }
+}
+
+/// Reads from the serial device at `path` until the limits say stop; hands
+/// every intact frame to `on_frame` as it completes.
 pub fn receive(
     path: &str,
     baud: u32,
-    frames: u64,
-    timeout: Duration,
+    limits: Limits,
     dec: &mut Decoder,
-) -> Result<Vec<Frame>, String> {
+    on_frame: &mut dyn FnMut(Frame) -> Result<(), String>,
+) -> Result<(u64, Ending), String> {
     let mut port = serialport::new(path, baud)
         .timeout(Duration::from_millis(100))
         .open()
         .map_err(|e| format!("{path}: {e}"))?;
-    read_frames(&mut port, frames, timeout, dec)
+    Ok(read_frames(&mut port, limits, dec, on_frame))
 }
 
-/// Reads frames from any reader that times out (`TimedOut`/`WouldBlock`) when
-/// idle.
+/// Reads frames from any reader that times out (`TimedOut`/`WouldBlock`)
+/// when idle, handing each to `on_frame` as it completes; returns how many
+/// arrived and why reading stopped. A read error or hang-up ends the read
+/// but loses nothing already handed over.
 pub fn read_frames<R: Read + ?Sized>(
     r: &mut R,
-    frames: u64,
-    timeout: Duration,
+    limits: Limits,
     dec: &mut Decoder,
-) -> Result<Vec<Frame>, String> {
-    let mut out = Vec::new();
+    on_frame: &mut dyn FnMut(Frame) -> Result<(), String>,
+) -> (u64, Ending) {
+    let mut got = 0u64;
+    let mut failed: Option<String> = None;
     let mut buf = [0u8; 4096];
+    let start = Instant::now();
     let mut last = Instant::now();
-    while (out.len() as u64) < frames {
+    let ending = loop {
+        if let Some(e) = failed.take() {
+            break Ending::FrameError(e);
+        }
+        if got >= limits.frames {
+            break Ending::Complete;
+        }
+        if crate::output::interrupted() {
+            break Ending::Interrupted;
+        }
+        if start.elapsed() > limits.deadline {
+            break Ending::Deadline;
+        }
         match r.read(&mut buf) {
-            Ok(0) => break,
+            Ok(0) => break Ending::Hangup,
             Ok(n) => {
                 last = Instant::now();
-                dec.push(&buf[..n], &mut |f| out.push(f));
+                dec.push(&buf[..n], &mut |f| {
+                    if failed.is_none() && got < limits.frames {
+                        match on_frame(f) {
+                            Ok(()) => got += 1,
+                            Err(e) => failed = Some(e),
+                        }
+                    }
+                });
             }
             Err(e)
                 if matches!(
@@ -47,12 +117,14 @@ pub fn read_frames<R: Read + ?Sized>(
                         | std::io::ErrorKind::Interrupted
                 ) =>
             {
-                if last.elapsed() > timeout {
-                    break;
+                if last.elapsed() > limits.idle {
+                    break Ending::IdleTimeout;
                 }
             }
-            Err(e) => return Err(format!("serial read: {e}")),
+            // A pty whose other side closed reads EIO: the sender hung up.
+            Err(e) if e.raw_os_error() == Some(5) => break Ending::Hangup,
+            Err(e) => break Ending::ReadError(e.to_string()),
         }
-    }
-    Ok(out)
+    };
+    (got, ending)
 }

@@ -161,82 +161,147 @@ pub struct Delivered {
     pub hits: Vec<usize>,
 }
 
-/// Sends `stream` (whose messages occupy `messages`, byte ranges in order)
-/// through the faults.
+/// Sends a whole `stream` (whose messages occupy `messages`, byte ranges in
+/// order) through the faults: one [`Channel::send`].
 pub fn inject(stream: &[u8], messages: &[(usize, usize)], f: &Faults) -> Delivered {
-    let mut rng = Rng(ChaCha8Rng::seed_from_u64(f.seed));
-    let mut lost = vec![false; stream.len()];
-    let mut hits = Vec::new();
-    // Message-level faults first: truncations and cuts mark bytes lost.
-    for &(a, b) in messages {
-        let len = b - a;
-        if len >= 2 && rng.unit() < f.truncate {
-            // Lose 1 .. len-2 bytes before the delimiter at b-1.
-            let k = 1 + rng.below((len - 2) as u64) as usize;
-            for (i, l) in lost.iter_mut().enumerate().take(b - 1).skip(b - 1 - k) {
-                *l = true;
-                hits.push(i);
-            }
-        }
-        if len >= 1 && rng.unit() < f.cut {
-            let from = a + rng.below(len as u64) as usize;
-            let n = 1 + rng.below(40_000) as usize;
-            let to = (from + n).min(stream.len());
-            for (i, l) in lost.iter_mut().enumerate().take(to).skip(from) {
-                *l = true;
-                hits.push(i);
-            }
-        }
-    }
     let mut out = Vec::with_capacity(stream.len() + stream.len() / 64);
-    let (mut next_drop, mut next_dup, mut next_ins) = (rng.gap(f.drop), rng.gap(f.dup), rng.gap(f.insert));
-    let mut next_flip = rng.gap(f.ber); // in bits from the stream start
-    let mut bit: u64 = 0;
-    for (i, &byte) in stream.iter().enumerate() {
-        next_ins = next_ins.saturating_sub(1);
-        if next_ins == 0 {
-            let n = 1 + rng.below(16);
-            for _ in 0..n {
-                out.push(rng.0.next_u32() as u8);
-            }
-            hits.push(i);
-            next_ins = rng.gap(f.insert);
-        }
-        let mut b = byte;
-        // Bit flips in this byte's 8 bits.
-        while next_flip <= bit + 8 && next_flip != u64::MAX {
-            let k = (next_flip - bit - 1) as u32;
-            b ^= 1 << k;
-            hits.push(i);
-            next_flip = next_flip.saturating_add(rng.gap(f.ber));
-        }
-        bit += 8;
-        next_drop = next_drop.saturating_sub(1);
-        let dropped = next_drop == 0;
-        if dropped {
-            next_drop = rng.gap(f.drop);
-        }
-        next_dup = next_dup.saturating_sub(1);
-        let dup = next_dup == 0;
-        if dup {
-            next_dup = rng.gap(f.dup);
-        }
-        if lost[i] {
-            continue;
-        }
-        if dropped {
-            hits.push(i);
-            continue;
-        }
-        out.push(b);
-        if dup {
-            out.push(b);
-            hits.push(i);
+    let mut hits = Vec::new();
+    Channel::new(f).send(stream, messages, &mut out, &mut hits);
+    Delivered { stream: out, hits }
+}
+
+/// The faulty link as a channel that a stream goes through a piece at a
+/// time (a frame, say), so that memory does not grow with the stream: the
+/// fault processes (bit flips, drops, duplicates, inserts, and a cut that
+/// runs on into later pieces) continue from piece to piece.
+pub struct Channel {
+    f: Faults,
+    rng: Rng,
+    next_drop: u64,
+    next_dup: u64,
+    next_ins: u64,
+    /// Next bit flip, in bits from the stream start.
+    next_flip: u64,
+    bit: u64,
+    /// Offset of the next piece in the stream.
+    offset: usize,
+    /// A cut loses every byte before this offset.
+    cut_until: usize,
+}
+
+impl Channel {
+    /// A channel with the fault settings `f`.
+    pub fn new(f: &Faults) -> Channel {
+        let mut rng = Rng(ChaCha8Rng::seed_from_u64(f.seed));
+        let (next_drop, next_dup, next_ins) = (rng.gap(f.drop), rng.gap(f.dup), rng.gap(f.insert));
+        let next_flip = rng.gap(f.ber);
+        Channel {
+            f: *f,
+            rng,
+            next_drop,
+            next_dup,
+            next_ins,
+            next_flip,
+            bit: 0,
+            offset: 0,
+            cut_until: 0,
         }
     }
-    hits.sort_unstable();
-    hits.dedup();
-    Delivered { stream: out, hits }
+
+    /// Sends the next piece of the stream, whose messages occupy `messages`
+    /// (ranges within `piece`): appends what the receiver sees to `out`, and
+    /// the stream offsets a fault touched to `hits` (sorted).
+    pub fn send(
+        &mut self,
+        piece: &[u8],
+        messages: &[(usize, usize)],
+        out: &mut Vec<u8>,
+        hits: &mut Vec<usize>,
+    ) {
+        let (f, base) = (self.f, self.offset);
+        let first_hit = hits.len();
+        let rng = &mut self.rng;
+        let mut lost = vec![false; piece.len()];
+        // A cut from an earlier piece runs on.
+        let carried = self.cut_until.saturating_sub(base).min(piece.len());
+        for (i, l) in lost.iter_mut().enumerate().take(carried) {
+            *l = true;
+            hits.push(base + i);
+        }
+        // Message-level faults first: truncations and cuts mark bytes lost.
+        for &(a, b) in messages {
+            let len = b - a;
+            if len >= 2 && rng.unit() < f.truncate {
+                // Lose 1 .. len-2 bytes before the delimiter at b-1.
+                let k = 1 + rng.below((len - 2) as u64) as usize;
+                for (i, l) in lost.iter_mut().enumerate().take(b - 1).skip(b - 1 - k) {
+                    *l = true;
+                    hits.push(base + i);
+                }
+            }
+            if len >= 1 && rng.unit() < f.cut {
+                let from = a + rng.below(len as u64) as usize;
+                let n = 1 + rng.below(40_000) as usize;
+                self.cut_until = self.cut_until.max(base + from + n);
+                for (i, l) in lost.iter_mut().enumerate().take(from + n).skip(from) {
+                    *l = true;
+                    hits.push(base + i);
+                }
+            }
+        }
+        for (i, &byte) in piece.iter().enumerate() {
+            self.next_ins = self.next_ins.saturating_sub(1);
+            if self.next_ins == 0 {
+                let n = 1 + rng.below(16);
+                for _ in 0..n {
+                    out.push(rng.0.next_u32() as u8);
+                }
+                hits.push(base + i);
+                self.next_ins = rng.gap(f.insert);
+            }
+            let mut b = byte;
+            // Bit flips in this byte's 8 bits.
+            while self.next_flip <= self.bit + 8 && self.next_flip != u64::MAX {
+                let k = (self.next_flip - self.bit - 1) as u32;
+                b ^= 1 << k;
+                hits.push(base + i);
+                self.next_flip = self.next_flip.saturating_add(rng.gap(f.ber));
+            }
+            self.bit += 8;
+            self.next_drop = self.next_drop.saturating_sub(1);
+            let dropped = self.next_drop == 0;
+            if dropped {
+                self.next_drop = rng.gap(f.drop);
+            }
+            self.next_dup = self.next_dup.saturating_sub(1);
+            let dup = self.next_dup == 0;
+            if dup {
+                self.next_dup = rng.gap(f.dup);
+            }
+            if lost[i] {
+                continue;
+            }
+            if dropped {
+                hits.push(base + i);
+                continue;
+            }
+            out.push(b);
+            if dup {
+                out.push(b);
+                hits.push(base + i);
+            }
+        }
+        hits[first_hit..].sort_unstable();
+        let mut k = first_hit;
+        for i in first_hit..hits.len() {
+            if k == first_hit || hits[i] != hits[k - 1] {
+                hits[k] = hits[i];
+                k += 1;
+            }
+        }
+        hits.truncate(k);
+        self.offset += piece.len();
+    }
 }
 
 /// A `Vec<u8>` as an `embedded_io::Write` that remembers where each write
@@ -281,7 +346,16 @@ pub struct Sent {
     pub pixel_bytes: u64,
 }
 
-/// Encodes `n` frames: frame `k` is `base` with a per-frame pattern added to
+/// Frame `k` of a test stream: `base` (lines of `line` bytes) with a
+/// per-frame pattern added to every byte, so that no two frames are alike.
+pub fn frame_pixels(base: &[u8], line: usize, k: u32) -> Vec<u8> {
+    base.iter()
+        .enumerate()
+        .map(|(i, b)| b.wrapping_add((k.wrapping_mul(37) as usize).wrapping_add(i / line.max(1) * 13) as u8))
+        .collect()
+}
+
+/// Encodes `n` frames in memory: frame `k` is `base` with a per-frame pattern added to
 /// every byte (so that no two frames are alike), all with `start`'s header.
 pub fn send_frames(base: &[u8], start: FrameStart, n: u32, cost: Option<u64>) -> Result<Sent, String> {
     let mut enc =
@@ -290,11 +364,7 @@ pub fn send_frames(base: &[u8], start: FrameStart, n: u32, cost: Option<u64>) ->
     let line = start.line_bytes();
     let mut frames = Vec::with_capacity(n as usize);
     for k in 0..n {
-        let pixels: Vec<u8> = base
-            .iter()
-            .enumerate()
-            .map(|(i, b)| b.wrapping_add((k.wrapping_mul(37) as usize).wrapping_add(i / line * 13) as u8))
-            .collect();
+        let pixels = frame_pixels(base, line, k);
         let begin = enc.writer().bytes.len();
         enc.begin_frame(FrameStart { frame_id: k, ..start })
             .map_err(|e| format!("encoder: {e:?}"))?;

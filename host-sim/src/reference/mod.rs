@@ -25,6 +25,7 @@ pub(crate) fn cross(a: V3, b: V3) -> V3 {
 }
 
 pub(crate) fn unit(a: V3) -> V3 {
-    let n = dot(a, a).sqrt();
+    // hypot: no overflow for vectors as long as f64 holds.
+    let n = a[0].hypot(a[1]).hypot(a[2]);
     [a[0] / n, a[1] / n, a[2] / n]
 }

@@ -404,7 +404,35 @@ impl RefScene {
         (dn, true)
     }
 
-    /// Renders the frame, with edge pixels marked.
+    /// Renders line `j`, with edge pixels marked.
+    pub fn render_line(&self, j: usize) -> RefFrame {
+        let w = self.sensor.width as usize;
+        let mut f = RefFrame {
+            width: w,
+            height: 1,
+            dn: Vec::with_capacity(w),
+            in_field: Vec::with_capacity(w),
+            edge: Vec::with_capacity(w),
+            undistorted: Vec::with_capacity(w),
+        };
+        let e = 1.0 / 256.0;
+        let y = j as f64;
+        for i in 0..w {
+            let x = i as f64;
+            let (dn, in_field) = self.pixel(x, y);
+            let k = self.key(x, y);
+            let edge = [(x + e, y), (x - e, y), (x, y + e), (x, y - e)]
+                .into_iter()
+                .any(|(a, b)| self.key(a, b) != k);
+            f.dn.push(dn);
+            f.in_field.push(in_field);
+            f.edge.push(edge);
+            f.undistorted.push(self.undistorted(x, y));
+        }
+        f
+    }
+
+    /// Renders the frame, a line at a time ([`RefScene::render_line`]).
     pub fn render(&self) -> RefFrame {
         let (w, h) = (self.sensor.width as usize, self.sensor.height as usize);
         let mut f = RefFrame {
@@ -415,23 +443,45 @@ impl RefScene {
             edge: Vec::with_capacity(w * h),
             undistorted: Vec::with_capacity(w * h),
         };
-        let e = 1.0 / 256.0;
         for j in 0..h {
-            for i in 0..w {
-                let (x, y) = (i as f64, j as f64);
-                let (dn, in_field) = self.pixel(x, y);
-                let k = self.key(x, y);
-                let edge = [(x + e, y), (x - e, y), (x, y + e), (x, y - e)]
-                    .into_iter()
-                    .any(|(a, b)| self.key(a, b) != k);
-                f.dn.push(dn);
-                f.in_field.push(in_field);
-                f.edge.push(edge);
-                f.undistorted.push(self.undistorted(x, y));
-            }
+            f.append(self.render_line(j));
         }
         f
     }
+}
+
+impl RefFrame {
+    /// Appends the lines of `o` (of the same width).
+    pub fn append(&mut self, o: RefFrame) {
+        self.dn.extend(o.dn);
+        self.in_field.extend(o.in_field);
+        self.edge.extend(o.edge);
+        self.undistorted.extend(o.undistorted);
+    }
+
+    /// Line `j` as slices.
+    pub fn row(&self, j: usize) -> RefRow<'_> {
+        let r = j * self.width..(j + 1) * self.width;
+        RefRow {
+            dn: &self.dn[r.clone()],
+            in_field: &self.in_field[r.clone()],
+            edge: &self.edge[r.clone()],
+            undistorted: &self.undistorted[r],
+        }
+    }
+}
+
+/// One line of a [`RefFrame`].
+#[derive(Clone, Copy, Debug)]
+pub struct RefRow<'a> {
+    /// Pixel values per channel.
+    pub dn: &'a [[u32; 3]],
+    /// Inside the lens field.
+    pub in_field: &'a [bool],
+    /// Edge pixels.
+    pub edge: &'a [bool],
+    /// Undistorted normalized points.
+    pub undistorted: &'a [Option<(f64, f64)>],
 }
 
 /// `t > 0` where the ray meets the plane through `p` with normal `n`.
