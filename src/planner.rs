@@ -22,8 +22,10 @@
 //!   edge pixels), and the specular lobe, whose exponent multiplies the
 //!   error of `r̂·v̂`.
 //! - **Cost** ([`CostModel`]): M3 instructions a pixel, linear in the
-//!   scene's features, with coefficients fitted to QEMU counts
-//!   (`host-sim tradeoff` fits them and reports predicted vs measured).
+//!   scene's features (primitives by kind, their sampled screen coverage,
+//!   lights and lobe per shaded pixel, distortion, colour, parallel rays),
+//!   with coefficients fitted to QEMU counts (`host-sim costfit` fits them
+//!   and reports predicted vs measured; `docs/cost-model.md`).
 //! - **Choice.** The cheapest candidate that the arithmetic's formats hold
 //!   and whose predictions are within the budget; if none is, the most
 //!   accurate, with `meets_budget = false`.
@@ -323,6 +325,39 @@ struct Geometry {
     gain: f64,
     /// Largest DN of any channel.
     dn_max: f64,
+    /// Fraction of the sensor whose rays hit a primitive (sampled).
+    coverage: f64,
+    /// Sum over the bounded primitives of the fraction of the sensor whose
+    /// rays hit each (sampled).
+    bounded_area: f64,
+}
+
+/// The coverage sample grid (columns, rows).
+const COVERAGE_GRID: (u32, u32) = (8, 6);
+
+impl PrimGeom {
+    /// Whether the ray `o + t d`, `t > 0`, meets the primitive (a
+    /// rectangle as the disc through its corners: coverage, not shading).
+    fn hit(&self, o: [f64; 3], d: [f64; 3]) -> bool {
+        let oc = sub3(self.c, o);
+        match self.shape {
+            Shape::Sphere { .. } => {
+                let (dd, t) = (dot3(d, d), dot3(oc, d));
+                let inside = dot3(oc, oc) <= self.r * self.r;
+                inside || (t > 0.0 && dot3(oc, oc) - t * t / dd <= self.r * self.r)
+            }
+            _ => {
+                let den = dot3(self.n, d);
+                if libm::fabs(den) < 1e-12 {
+                    return false;
+                }
+                let t = dot3(self.n, oc) / den;
+                let plane = matches!(self.shape, Shape::Plane { .. });
+                let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+                t > 0.0 && (plane || norm3(sub3(p, self.c)) <= self.r)
+            }
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -502,6 +537,28 @@ impl Geometry {
             })
             .fold(0.0, f64::max);
         let dn_max = (0..fmt.channels()).map(|c| fmt.dn_max(c)).max().unwrap_or(255) as f64;
+        // Coverage: a grid of COVERAGE_GRID rays over the sensor (distortion
+        // ignored), each tested against every primitive.
+        let (gx, gy) = COVERAGE_GRID;
+        let (mut hits, mut bounded) = (0u32, 0u32);
+        for a in 0..gx {
+            for b in 0..gy {
+                let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
+                let y = (oy - (b as f64 + 0.5) * h as f64 / gy as f64) / fy;
+                let (o, d) = match origin_scale {
+                    None => ([0.0; 3], [x, y, 1.0]),
+                    Some(k) => ([x * k, y * k, 0.0], [0.0, 0.0, 1.0]),
+                };
+                let mut any = false;
+                for p in &prims {
+                    if p.hit(o, d) {
+                        any = true;
+                        bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
+                    }
+                }
+                hits += any as u32;
+            }
+        }
         Geometry {
             f_px: fx.max(fy),
             u_max,
@@ -516,6 +573,8 @@ impl Geometry {
             lights,
             gain,
             dn_max,
+            coverage: hits as f64 / (gx * gy) as f64,
+            bounded_area: bounded as f64 / (gx * gy) as f64,
         }
     }
 
@@ -810,10 +869,26 @@ pub struct Features {
     pub extra_channels: f64,
     /// 1 for parallel rays.
     pub parallel: f64,
+    /// Fraction of the sensor that sees a primitive (a sampled estimate):
+    /// the lights', textures' and lobe's terms are per shaded pixel, so
+    /// they are scaled by it.
+    pub coverage: f64,
+    /// Sum over the bounded primitives of the fraction of the sensor each
+    /// covers (sampled): where a primitive is tested for every pixel, not
+    /// culled by its screen bound.
+    pub bounded_area: f64,
 }
 
 impl Features {
-    /// The features of `scene` rendered with `distortion`.
+    /// The features of `scene` rendered with `opts` (what the cost model's
+    /// calibration measures: `host-sim costfit`).
+    pub fn of_options(scene: &Scene, opts: &Options) -> Features {
+        let distortion =
+            (!scene.distortion.is_none() || opts.keep_all_stages).then_some(opts.distortion_eval);
+        Features::of(scene, &Geometry::of(scene, opts.model), distortion)
+    }
+
+    /// The features of `scene` rendered with `distortion` and `g`'s rays.
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
     fn of(scene: &Scene, g: &Geometry, distortion: Option<DistortionEval>) -> Features {
@@ -843,31 +918,37 @@ impl Features {
         f.specular = if scene.has_specular() { 1.0 } else { 0.0 };
         f.extra_channels = (scene.format.channels() - 1) as f64;
         f.parallel = if g.origin_scale.is_some() { 1.0 } else { 0.0 };
+        f.coverage = g.coverage;
+        f.bounded_area = g.bounded_area;
         f
     }
 
     /// As a vector, in [`CostModel::coef`]'s order (the constant first).
     pub fn to_array(&self) -> [f64; COST_TERMS] {
+        let c = self.coverage;
         [
             1.0,
             self.planes,
             self.spheres,
             self.discs,
             self.rects,
-            self.checkers,
-            self.point_lights,
-            self.dir_lights,
+            self.checkers * c,
+            self.point_lights * c,
+            self.dir_lights * c,
             self.poly,
             self.table,
-            self.specular,
+            self.specular * c,
             self.extra_channels,
             self.parallel,
+            c,
+            self.bounded_area,
+            self.bounded_area * self.parallel,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 13;
+pub const COST_TERMS: usize = 16;
 
 /// M3 instructions a pixel as a linear function of [`Features`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -877,7 +958,7 @@ pub struct CostModel {
 }
 
 impl CostModel {
-    /// The fitted model of an arithmetic (`host-sim tradeoff` fits these to
+    /// The fitted model of an arithmetic (`host-sim costfit` fits these to
     /// QEMU counts and reports the fit).
     pub const fn of(a: Arithmetic) -> CostModel {
         match a {
@@ -892,17 +973,21 @@ impl CostModel {
     }
 }
 
-/// The fast arithmetic's cost model (M3 instructions a pixel).
+/// The fast arithmetic's cost model (M3 instructions a pixel), fitted by
+/// `host-sim costfit` to QEMU counts of the calibration scenes
+/// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        150.0, 60.0, 90.0, 80.0, 90.0, 30.0, 90.0, 40.0, 20.0, 30.0, 150.0, 60.0, 10.0,
+        123.1, 51.5, 5.1, 12.1, -5.0, 31.5, 172.2, 69.0, 10.0, 0.0, 226.7, 69.6, 11.7, 95.4, 122.5, -38.5,
     ],
 };
 
-/// The wide (I32F32) arithmetic's cost model (M3 instructions a pixel).
+/// The wide (I32F32) arithmetic's cost model (M3 instructions a pixel),
+/// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        3000.0, 1500.0, 2500.0, 2000.0, 2500.0, 800.0, 2500.0, 1000.0, 200.0, 400.0, 3000.0, 1500.0, 100.0,
+        2865.3, 2684.7, 24.4, -126.2, -117.4, 253.0, 3150.6, 326.6, 347.3, 397.8, 5203.4, 294.9, -2443.9,
+        199.2, 3547.7, 1081.1,
     ],
 };
 

@@ -254,3 +254,38 @@ fn predicted_bounds_hold_on_random_scenes() {
         "too many ordinary scenes refused: {over_normal}"
     );
 }
+
+/// The planner's cost constants are the least-squares fit of the committed
+/// QEMU counts (`docs/cost-calibration.json`, written by `host-sim
+/// costfit`), and those counts' features are what the planner computes
+/// today for the same scenes and variants: the model traces to
+/// measurements, and a change to the features or the constants without a
+/// new calibration fails here.
+#[test]
+fn cost_model_is_the_fit_of_the_committed_calibration() {
+    use hilcam::planner::{FAST_COST, WIDE_COST};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/cost-calibration.json");
+    let cal = host_sim::costfit::load_calibration(&path).expect("calibration");
+    assert!(cal.points.len() >= 60, "{} points", cal.points.len());
+    for p in &cal.points {
+        let now = host_sim::costfit::features_now(p).expect("features");
+        // JSON keeps f64 to within an ulp or so.
+        let same =
+            now.len() == p.features.len() && now.iter().zip(&p.features).all(|(a, b)| (a - b).abs() <= 1e-12);
+        assert!(
+            same,
+            "{} {}: features changed since the calibration: {now:?} vs {:?}",
+            p.scene, p.variant, p.features
+        );
+    }
+    for (arithmetic, model) in [("fast", FAST_COST), ("wide", WIDE_COST)] {
+        let fit = host_sim::costfit::fit(&cal.points, arithmetic).expect("fit");
+        for (k, (a, b)) in fit.coef.iter().zip(model.coef).enumerate() {
+            assert!(
+                (a - b).abs() <= 0.05 + 1e-9,
+                "{arithmetic} {}: fitted {a:.3}, committed {b}",
+                host_sim::costfit::TERMS[k]
+            );
+        }
+    }
+}

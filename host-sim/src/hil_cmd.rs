@@ -283,12 +283,12 @@ pub fn hil_variants(
         scenes.to_vec()
     };
     let resolved: Vec<Resolved> = list.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
+    let mut outputs = crate::output::Outputs::prepare(out)?;
     let elf = match elf {
         Some(e) => e,
         None => build_firmware(board, scenes, &variants)?,
     };
     let (flash, ram) = elf_sizes(&elf)?;
-    let mut outputs = crate::output::Outputs::prepare(out)?;
     let uart = out.join("uart.bin");
     let _ = std::fs::remove_file(&uart);
     let t = Instant::now();

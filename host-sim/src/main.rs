@@ -142,6 +142,15 @@ enum Cmd {
         #[arg(long, default_value_t = 7)]
         repeats: usize,
     },
+    /// Fit the planner's cost model: calibration scenes rendered on the M3
+    /// in QEMU with each arithmetic, least squares per arithmetic, and the
+    /// shipped scenes' predicted against measured cost. Writes costfit.json
+    /// and costfit.md.
+    Costfit {
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
     /// Host throughput of the default render (plan, prepare and render
     /// every frame, lines in parallel on every core, as `render` does),
     /// and on one core: frames/s and ns/pixel (medians over the frames).
@@ -430,6 +439,9 @@ fn main() -> ExitCode {
             };
             host_sim::tradeoff::run(&cfg, &out)
         })()),
+        Cmd::Costfit { out } => finish(
+            host_sim::hil_cmd::Board::parse("lm3s6965evb").and_then(|b| host_sim::costfit::run(b, &out)),
+        ),
         Cmd::Throughput { scene, frames } => finish((|| {
             if !(1..=10_000).contains(&frames) {
                 return Err("--frames: must be 1 to 10000".into());

@@ -1,0 +1,664 @@
+//! `host-sim costfit`: fits the planner's cost model to QEMU counts.
+//!
+//! Calibration scenes vary one feature at a time (primitives of each kind,
+//! textures, lights of each kind, distortion by polynomial or table, the
+//! specular lobe, colour, parallel rays) and a few together. Each is
+//! rendered on the Cortex-M3 (lm3s6965evb, `-icount`) with each arithmetic
+//! forced (`mix32-poly`; `i32f32-poly`, `i32f32-lut64-linear`), and the
+//! instructions per pixel are fitted by least squares, per arithmetic,
+//! linear in [`Features`]. The fitted coefficients are
+//! [`hilcam::planner::FAST_COST`] and [`hilcam::planner::WIDE_COST`];
+//! `costfit.json` holds the measurements (committed as
+//! `docs/cost-calibration.json`, from which a test refits the constants),
+//! and `costfit.md` the fit and, for every shipped scene, the default
+//! path's predicted against measured cost.
+
+use crate::hil_cmd::{hil_variants, shipped_scenes, Board};
+use crate::scene_file::load;
+use crate::variant::Variant;
+use hilcam::planner::{self, Budget, CostModel, Features, COST_TERMS};
+use hilcam::render::Arithmetic;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write;
+use std::path::Path;
+
+/// One calibration measurement.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Point {
+    /// Scene name.
+    pub scene: String,
+    /// Variant rendered.
+    pub variant: String,
+    /// `fast` or `wide`.
+    pub arithmetic: String,
+    /// The features, in [`Features::to_array`]'s order.
+    pub features: Vec<f64>,
+    /// Measured M3 instructions a pixel.
+    pub measured: f64,
+}
+
+/// The names of [`Features::to_array`]'s terms.
+pub const TERMS: [&str; COST_TERMS] = [
+    "constant",
+    "planes",
+    "spheres",
+    "discs",
+    "rectangles",
+    "checkers",
+    "point_lights",
+    "directional_lights",
+    "poly",
+    "table",
+    "specular",
+    "extra_channels",
+    "parallel",
+    "coverage",
+    "bounded_area",
+    "bounded_area_parallel",
+];
+
+/// What one calibration scene holds beyond the base (a floor plane, one
+/// point light, gray8, perspective, no distortion).
+#[derive(Clone, Copy, Default)]
+struct Spec {
+    spheres: usize,
+    discs: usize,
+    rects: usize,
+    planes: usize,
+    checker_floor: bool,
+    checker_rects: bool,
+    point_lights: usize,
+    dir_lights: usize,
+    distortion: bool,
+    specular: bool,
+    rgb: bool,
+    ortho: bool,
+    /// No floor plane: mostly background.
+    no_floor: bool,
+    /// A rectangle, a disc or a sphere filling most of the view.
+    big: Option<&'static str>,
+    /// A target 20 m away through a 25 mm lens (the planner picks parallel
+    /// rays): a checkered rectangle, with a disc and spheres in front.
+    far: Option<(usize, usize)>,
+}
+
+fn spec_list() -> Vec<(&'static str, Spec)> {
+    let d = Spec::default;
+    vec![
+        ("base", d()),
+        ("sphere1", Spec { spheres: 1, ..d() }),
+        ("sphere2", Spec { spheres: 2, ..d() }),
+        ("sphere4", Spec { spheres: 4, ..d() }),
+        ("sphere8", Spec { spheres: 8, ..d() }),
+        ("disc1", Spec { discs: 1, ..d() }),
+        ("disc3", Spec { discs: 3, ..d() }),
+        ("rect1", Spec { rects: 1, ..d() }),
+        ("rect3", Spec { rects: 3, ..d() }),
+        ("planes3", Spec { planes: 2, ..d() }),
+        (
+            "checker",
+            Spec {
+                checker_floor: true,
+                ..d()
+            },
+        ),
+        (
+            "checker-rects",
+            Spec {
+                checker_floor: true,
+                rects: 2,
+                checker_rects: true,
+                ..d()
+            },
+        ),
+        (
+            "point2",
+            Spec {
+                point_lights: 1,
+                ..d()
+            },
+        ),
+        (
+            "point4",
+            Spec {
+                point_lights: 3,
+                ..d()
+            },
+        ),
+        ("dir1", Spec { dir_lights: 1, ..d() }),
+        ("dir2", Spec { dir_lights: 2, ..d() }),
+        (
+            "distortion",
+            Spec {
+                distortion: true,
+                ..d()
+            },
+        ),
+        (
+            "specular",
+            Spec {
+                specular: true,
+                ..d()
+            },
+        ),
+        ("rgb", Spec { rgb: true, ..d() }),
+        ("ortho", Spec { ortho: true, ..d() }),
+        (
+            "mix-a",
+            Spec {
+                spheres: 2,
+                checker_floor: true,
+                point_lights: 1,
+                distortion: true,
+                rgb: true,
+                ..d()
+            },
+        ),
+        (
+            "mix-b",
+            Spec {
+                discs: 2,
+                rects: 1,
+                dir_lights: 1,
+                specular: true,
+                ortho: true,
+                ..d()
+            },
+        ),
+        (
+            "mix-c",
+            Spec {
+                spheres: 3,
+                rects: 2,
+                checker_floor: true,
+                distortion: true,
+                specular: true,
+                ..d()
+            },
+        ),
+        (
+            "nofloor-rect",
+            Spec {
+                no_floor: true,
+                rects: 2,
+                ..d()
+            },
+        ),
+        (
+            "far-rect",
+            Spec {
+                far: Some((0, 0)),
+                ..d()
+            },
+        ),
+        (
+            "far-rect-disc",
+            Spec {
+                far: Some((1, 0)),
+                ..d()
+            },
+        ),
+        (
+            "far-rect-spheres",
+            Spec {
+                far: Some((0, 3)),
+                ..d()
+            },
+        ),
+        (
+            "big-rect",
+            Spec {
+                no_floor: true,
+                big: Some("rect"),
+                ..d()
+            },
+        ),
+        (
+            "big-disc",
+            Spec {
+                no_floor: true,
+                big: Some("disc"),
+                dir_lights: 1,
+                ..d()
+            },
+        ),
+        (
+            "big-sphere",
+            Spec {
+                no_floor: true,
+                big: Some("sphere"),
+                ..d()
+            },
+        ),
+        (
+            "big-rect-ortho",
+            Spec {
+                no_floor: true,
+                big: Some("rect"),
+                ortho: true,
+                checker_rects: true,
+                ..d()
+            },
+        ),
+        (
+            "big-floor-rect",
+            Spec {
+                big: Some("rect"),
+                spheres: 1,
+                rgb: true,
+                ..d()
+            },
+        ),
+        (
+            "nofloor-mix",
+            Spec {
+                no_floor: true,
+                spheres: 3,
+                discs: 1,
+                dir_lights: 1,
+                ..d()
+            },
+        ),
+        (
+            "nofloor-ortho",
+            Spec {
+                no_floor: true,
+                rects: 1,
+                discs: 1,
+                point_lights: 1,
+                ortho: true,
+                checker_rects: true,
+                ..d()
+            },
+        ),
+        (
+            "mix-d",
+            Spec {
+                spheres: 1,
+                discs: 1,
+                point_lights: 2,
+                dir_lights: 1,
+                rgb: true,
+                ..d()
+            },
+        ),
+    ]
+}
+
+/// The calibration scenes as (name, TOML).
+pub fn calibration_scenes() -> Vec<(String, String)> {
+    spec_list()
+        .into_iter()
+        .map(|(name, s)| (format!("cal-{name}"), scene_text(&format!("cal-{name}"), &s)))
+        .collect()
+}
+
+fn scene_text(name: &str, s: &Spec) -> String {
+    if let Some((discs, spheres)) = s.far {
+        return far_text(name, discs, spheres);
+    }
+    let mut t = String::new();
+    let _ = writeln!(t, "name = \"{name}\"\n\n[output]");
+    let _ = writeln!(
+        t,
+        "format = \"{}\"\nexposure = 800.0\n",
+        if s.rgb { "rgb565" } else { "gray8" }
+    );
+    t.push_str("[camera]\nwidth = 160\nheight = 120\nfocal_length = 2.4e-3\npitch = 12e-6\n");
+    t.push_str("f_number = 2.0\nfocus_distance = 3.0\ntolerable_blur = 12e-6\n");
+    if s.distortion {
+        t.push_str("distortion = [0.15, 0.05]\n");
+    }
+    if s.ortho {
+        t.push_str("model = \"orthographic\"\northographic_scale = 4.8e-4\n");
+    }
+    t.push_str("pose = { eye = [0.0, 1.2, -3.0], target = [0.0, 0.4, 0.0], up = [0.0, 1.0, 0.0] }\n\n");
+    t.push_str("[environment]\nambient = 0.2\nbackground = 1.0\n\n");
+    t.push_str("[[materials]]\nname = \"floor\"\nalbedo = 0.6\n");
+    if s.specular {
+        t.push_str("specular = 0.6\nmix = 0.5\nexponent = 20\n");
+    }
+    t.push_str(
+        "\n[[materials]]\nname = \"matte\"\nalbedo = 0.8\n\n[[materials]]\nname = \"dark\"\nalbedo = 0.3\n\n",
+    );
+    let _ = writeln!(
+        t,
+        "[[lights]]\nkind = \"point\"\nposition = [2.0, 3.0, -2.0]\nintensity = 50.0\n"
+    );
+    for k in 0..s.point_lights {
+        let _ = writeln!(
+            t,
+            "[[lights]]\nkind = \"point\"\nposition = [{:.1}, 2.5, -1.5]\nintensity = 20.0\n",
+            -2.0 + k as f64
+        );
+    }
+    for k in 0..s.dir_lights {
+        let _ = writeln!(
+            t,
+            "[[lights]]\nkind = \"directional\"\ndirection = [{:.1}, 1.0, -0.5]\nirradiance = 0.5\n",
+            0.5 - k as f64
+        );
+    }
+    if !s.no_floor {
+        t.push_str("[[primitives]]\nkind = \"plane\"\nmaterial = \"floor\"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\n");
+        if s.checker_floor {
+            t.push_str("checker = { cell = 0.25, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }\n");
+        }
+        t.push('\n');
+    }
+    match s.big {
+        Some("rect") => {
+            t.push_str("[[primitives]]\nkind = \"rectangle\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\nnormal = [0.0, 0.27, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [5.0, 4.0]\n");
+            if s.checker_rects {
+                t.push_str("checker = { cell = 0.2, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }\n");
+            }
+            t.push('\n');
+        }
+        Some("disc") => t.push_str(
+            "[[primitives]]\nkind = \"disc\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\nnormal = [0.0, 0.27, -1.0]\nradius = 2.0\n\n",
+        ),
+        Some(_) => t.push_str(
+            "[[primitives]]\nkind = \"sphere\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\nradius = 1.6\n\n",
+        ),
+        None => {}
+    }
+    for k in 0..s.planes {
+        // Walls behind the scene, left and right.
+        let x = if k % 2 == 0 { -2.5 } else { 2.5 };
+        let _ = writeln!(
+            t,
+            "[[primitives]]\nkind = \"plane\"\nmaterial = \"matte\"\npoint = [{x:.1}, 0.0, 0.0]\nnormal = [1.0, 0.0, 0.3]\n"
+        );
+    }
+    for k in 0..s.spheres {
+        let (x, z) = (-1.05 + 0.7 * (k % 4) as f64, -0.3 + 0.8 * (k / 4) as f64);
+        let _ = writeln!(
+            t,
+            "[[primitives]]\nkind = \"sphere\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.25, {z:.2}]\nradius = 0.25\n"
+        );
+    }
+    for k in 0..s.discs {
+        let x = -0.8 + 0.8 * k as f64;
+        let _ = writeln!(
+            t,
+            "[[primitives]]\nkind = \"disc\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.6, 0.6]\nnormal = [0.0, 0.2, -1.0]\nradius = 0.3\n"
+        );
+    }
+    for k in 0..s.rects {
+        let x = -0.9 + 0.9 * k as f64;
+        let _ = writeln!(
+            t,
+            "[[primitives]]\nkind = \"rectangle\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.9, 0.9]\nnormal = [0.0, 0.1, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [0.6, 0.4]"
+        );
+        if s.checker_rects {
+            t.push_str("checker = { cell = 0.1, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }\n");
+        }
+        t.push('\n');
+    }
+    t
+}
+
+fn far_text(name: &str, discs: usize, spheres: usize) -> String {
+    let mut t = format!(
+        "name = \"{name}\"\n\n[output]\nformat = \"gray8\"\nexposure = 2000.0\n\n[camera]\nwidth = 160\nheight = 120\n\
+         focal_length = 25e-3\npitch = 8e-6\nf_number = 4.0\nfocus_distance = 20.0\ntolerable_blur = 8e-6\n\
+         pose = {{ eye = [0.0, 0.0, -20.0], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0] }}\n\n\
+         [environment]\nambient = 0.05\nbackground = 0.05\n\n[[materials]]\nname = \"white\"\nalbedo = 0.9\n\n\
+         [[materials]]\nname = \"dark\"\nalbedo = 0.1\n\n[[lights]]\nkind = \"directional\"\n\
+         direction = [0.2, 0.1, -1.0]\nirradiance = 5.0\n\n[[primitives]]\nkind = \"rectangle\"\nmaterial = \"white\"\n\
+         centre = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [0.8, 0.6]\n\
+         checker = {{ cell = 0.1, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }}\n\n"
+    );
+    for k in 0..discs {
+        let _ = writeln!(
+            t,
+            "[[primitives]]\nkind = \"disc\"\nmaterial = \"dark\"\ncentre = [{:.2}, 0.0, -0.01]\nnormal = [0.0, 0.0, -1.0]\nradius = 0.1\n",
+            -0.2 + 0.2 * k as f64
+        );
+    }
+    for k in 0..spheres {
+        let _ = writeln!(
+            t,
+            "[[primitives]]\nkind = \"sphere\"\nmaterial = \"white\"\ncentre = [{:.2}, 0.1, -0.1]\nradius = 0.08\n",
+            -0.25 + 0.25 * k as f64
+        );
+    }
+    t
+}
+
+/// The arithmetic a variant renders with.
+fn arithmetic_of(v: &Variant, scene: &hilcam::scene::Scene) -> Arithmetic {
+    v.options(planner::plan(scene, &Budget::default()).options)
+        .arithmetic
+}
+
+/// Least squares per arithmetic: the coefficients of every term that some
+/// point exercises (the others stay 0), by the normal equations.
+pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
+    let rows: Vec<(&[f64], f64)> = points
+        .iter()
+        .filter(|p| p.arithmetic == arithmetic)
+        .map(|p| (p.features.as_slice(), p.measured))
+        .collect();
+    let used: Vec<usize> = (0..COST_TERMS)
+        .filter(|&k| rows.iter().any(|(f, _)| f.get(k).is_some_and(|x| *x != 0.0)))
+        .collect();
+    let n = used.len();
+    if rows.len() < n {
+        return Err(format!("{arithmetic}: {} points for {n} terms", rows.len()));
+    }
+    // [AᵀA | Aᵀb], solved by Gaussian elimination with partial pivoting.
+    let mut m = vec![vec![0.0f64; n + 1]; n];
+    for (f, y) in &rows {
+        for (a, &i) in used.iter().enumerate() {
+            for (b, &j) in used.iter().enumerate() {
+                m[a][b] += f[i] * f[j];
+            }
+            m[a][n] += f[i] * y;
+        }
+    }
+    for c in 0..n {
+        let p = (c..n)
+            .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
+            .ok_or("empty system")?;
+        if m[p][c].abs() < 1e-9 {
+            return Err(format!(
+                "{arithmetic}: the term {} is not determined by the points",
+                TERMS[used[c]]
+            ));
+        }
+        m.swap(c, p);
+        let pivot = m[c].clone();
+        for (r, row) in m.iter_mut().enumerate() {
+            if r != c {
+                let k = row[c] / pivot[c];
+                for (x, p) in row.iter_mut().zip(&pivot).skip(c) {
+                    *x -= k * p;
+                }
+            }
+        }
+    }
+    let mut coef = [0.0; COST_TERMS];
+    for (a, &i) in used.iter().enumerate() {
+        coef[i] = m[a][n] / m[a][a];
+    }
+    Ok(CostModel { coef })
+}
+
+/// `costfit.json`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Calibration {
+    /// Board the counts come from.
+    pub board: String,
+    /// The measurements.
+    pub points: Vec<Point>,
+}
+
+/// Reads a `costfit.json` (e.g. the committed `docs/cost-calibration.json`).
+pub fn load_calibration(path: &Path) -> Result<Calibration, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The features the planner computes now for a calibration point (its
+/// scene from [`calibration_scenes`], rendered with its variant).
+pub fn features_now(p: &Point) -> Result<Vec<f64>, String> {
+    let text = calibration_scenes()
+        .into_iter()
+        .find(|(n, _)| *n == p.scene)
+        .map(|(_, t)| t)
+        .ok_or_else(|| format!("{}: no such calibration scene", p.scene))?;
+    let scene = crate::scene_file::parse(&text)?.core_scene()?;
+    let opts = Variant::parse(&p.variant)?.options(planner::plan(&scene, &Budget::default()).options);
+    Ok(Features::of_options(&scene, &opts).to_array().to_vec())
+}
+
+/// A model as the Rust constant `planner.rs` holds.
+pub fn rust_const(name: &str, m: &CostModel) -> String {
+    let coef: Vec<String> = m.coef.iter().map(|c| format!("{c:.1}")).collect();
+    format!(
+        "pub const {name}: CostModel = CostModel {{\n    coef: [{}],\n}};",
+        coef.join(", ")
+    )
+}
+
+/// Runs the calibration on `board`, fits, checks the fit against the
+/// shipped scenes' default path, and writes costfit.json and costfit.md.
+pub fn run(board: Board, out: &Path) -> Result<String, String> {
+    let mut outputs = crate::output::Outputs::prepare(out)?;
+    let work = out.join("work");
+    std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
+    let mut paths = Vec::new();
+    for (name, text) in calibration_scenes() {
+        let p = work.join(format!("{name}.toml"));
+        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+        paths.push(p);
+    }
+    let variants: Vec<Variant> = ["mix32-poly", "i32f32-poly", "i32f32-lut64-linear"]
+        .iter()
+        .map(|v| Variant::parse(v))
+        .collect::<Result<_, _>>()?;
+    let mut points = Vec::new();
+    for (k, batch) in paths.chunks(6).enumerate() {
+        let r = hil_variants(board, None, batch, &variants, &work.join(format!("batch{k}")))?;
+        for f in r.frames {
+            let path = batch
+                .iter()
+                .find(|p| p.file_stem().is_some_and(|s| s.to_string_lossy() == f.scene))
+                .ok_or_else(|| format!("{}: not in the batch", f.scene))?;
+            let scene = load(path)?.core_scene()?;
+            let v = Variant::parse(&f.variant)?;
+            let opts = v.options(planner::plan(&scene, &Budget::default()).options);
+            let arithmetic = arithmetic_of(&v, &scene);
+            // The table variant on a scene without distortion repeats the
+            // polynomial one.
+            if v.name().contains("lut") && scene.distortion.is_none() {
+                continue;
+            }
+            points.push(Point {
+                scene: f.scene.clone(),
+                variant: f.variant.clone(),
+                arithmetic: arithmetic.name().into(),
+                features: Features::of_options(&scene, &opts).to_array().to_vec(),
+                measured: f.instructions_per_pixel.ok_or("no instruction count")?,
+            });
+        }
+    }
+    let cal = Calibration {
+        board: board.machine().into(),
+        points,
+    };
+    let report = report(&cal, board, out)?;
+    outputs.write(
+        "costfit.json",
+        &serde_json::to_vec_pretty(&cal).map_err(|e| e.to_string())?,
+    )?;
+    outputs.write("costfit.md", report.as_bytes())?;
+    outputs.commit()?;
+    Ok(report)
+}
+
+/// The fit and the check against the shipped scenes.
+fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String> {
+    let fast = fit(&cal.points, "fast")?;
+    let wide = fit(&cal.points, "wide")?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Cost model fit ({} M3 instructions/pixel, QEMU -icount)\n",
+        cal.board
+    );
+    let _ = writeln!(s, "## Coefficients\n\n| term | fast | wide |\n|---|---|---|");
+    for (k, t) in TERMS.iter().enumerate() {
+        let _ = writeln!(s, "| {t} | {:.1} | {:.1} |", fast.coef[k], wide.coef[k]);
+    }
+    let _ = writeln!(
+        s,
+        "\n```rust\n{}\n{}\n```\n",
+        rust_const("FAST_COST", &fast),
+        rust_const("WIDE_COST", &wide)
+    );
+    let _ = writeln!(
+        s,
+        "## Calibration scenes\n\n| scene | variant | measured | fitted | error |\n|---|---|---|---|---|"
+    );
+    let mut worst: f64 = 0.0;
+    for p in &cal.points {
+        let m = if p.arithmetic == "fast" { &fast } else { &wide };
+        let mut f = [0.0; COST_TERMS];
+        f.copy_from_slice(&p.features);
+        let pred: f64 = m.coef.iter().zip(f).map(|(c, x)| c * x).sum();
+        let e = (pred - p.measured) / p.measured;
+        worst = worst.max(e.abs());
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} | {:.0} | {:+.1} % |",
+            p.scene,
+            p.variant,
+            p.measured,
+            pred,
+            100.0 * e
+        );
+    }
+    let _ = writeln!(s, "\nLargest calibration error: {:.1} %.\n", 100.0 * worst);
+    // The shipped scenes, default path: the planner's prediction (the
+    // committed model) against QEMU.
+    let shipped = shipped_scenes()?;
+    let r = hil_variants(
+        board,
+        None,
+        &shipped,
+        &[Variant::PLANNED],
+        &out.join("work/shipped"),
+    )?;
+    let _ = writeln!(
+        s,
+        "## Shipped scenes, default path\n\n| scene | chosen | predicted (committed model) | predicted (this fit) | measured | error (committed) |\n|---|---|---|---|---|---|"
+    );
+    for f in &r.frames {
+        let path = shipped
+            .iter()
+            .find(|p| p.file_stem().is_some_and(|s| s.to_string_lossy() == f.scene))
+            .ok_or("shipped scene")?;
+        let scene = load(path)?.core_scene()?;
+        let plan = planner::plan(&scene, &Budget::default());
+        let chosen = plan.candidates.get(plan.chosen).ok_or("no candidate")?;
+        let fitted = match chosen.arithmetic {
+            Arithmetic::Fast => &fast,
+            Arithmetic::Wide => &wide,
+        }
+        .predict(&Features::of_options(&scene, &plan.options));
+        let measured = f.instructions_per_pixel.ok_or("no instruction count")?;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} | {:.0} | {:.0} | {:+.1} % |",
+            f.scene,
+            chosen.name(),
+            chosen.m3_instructions_per_pixel,
+            fitted,
+            measured,
+            100.0 * (chosen.m3_instructions_per_pixel - measured) / measured
+        );
+    }
+    Ok(s)
+}
