@@ -351,6 +351,77 @@ fn receive_fails_when_frames_are_missing_and_keeps_those_that_came() {
     );
 }
 
+/// A corrupted frame among intact ones (a flipped bit, a truncated chunk,
+/// garbage between frames): every intact frame is written, no corrupted
+/// one, and the status says one is missing.
+#[test]
+fn receive_keeps_every_intact_frame_of_a_damaged_stream() {
+    let start = header(WireFormat::Gray8);
+    let base: Vec<u8> = (0..64).map(|i| i as u8).collect();
+    let sent = send_frames(&base, start, 6, None).expect("encodes");
+    let mut stream = Vec::new();
+    for (id, (a, b), _) in &sent.frames {
+        let mut f = sent.stream[*a..*b].to_vec();
+        match id {
+            1 => f[20] ^= 0x10,                          // a flipped bit
+            3 => f.truncate(f.len() - 9),                // the end cut short
+            4 => stream.extend_from_slice(&[0x55; 300]), // garbage before it
+            _ => {}
+        }
+        stream.extend_from_slice(&f);
+    }
+    let (r, out) = receive(
+        "receive-damaged",
+        stream,
+        &["--frames", "6", "--timeout", "1"],
+        None,
+    );
+    assert!(r.failed_cleanly(), "exit {:?}: {}", r.code, r.stderr);
+    // Frames 1 (bad CRC) and 3 (no end) are dropped; the garbage and
+    // frame 3's tail end at frame 4's opening delimiter, and decoding
+    // resumes there.
+    assert!(r.stderr.contains("4 of 6 frames"), "{}", r.stderr);
+    assert_eq!(
+        entries(&out),
+        [
+            "frame-00000.png",
+            "frame-00002.png",
+            "frame-00004.png",
+            "frame-00005.png",
+            "receive.json"
+        ]
+    );
+}
+
+/// Odd scene paths: a directory, an empty file, bytes that are not UTF-8,
+/// a file that does not exist: each an error naming the path.
+#[test]
+fn odd_scene_paths_are_errors_naming_them() {
+    let dir = scratch("odd-paths");
+    let empty = write_scene(&dir, "empty.toml", "");
+    let binary = dir.join("binary.toml");
+    std::fs::write(&binary, [0xff, 0xfe, 0x00, 0x80]).expect("write");
+    let out = dir.join("out");
+    for (scene, what) in [
+        (dir.to_str().expect("utf-8").to_string(), "Is a directory"),
+        (empty.to_str().expect("utf-8").to_string(), "missing"),
+        (binary.to_str().expect("utf-8").to_string(), "not UTF-8"),
+        (
+            dir.join("nope.toml").to_str().expect("utf-8").to_string(),
+            "No such file",
+        ),
+    ] {
+        let r = run(&["render", "--scene", &scene, "--out", out.to_str().expect("utf-8")]);
+        assert!(r.failed_cleanly(), "{scene}: exit {:?}: {}", r.code, r.stderr);
+        assert!(
+            r.stderr.contains(&scene) && r.stderr.contains(what),
+            "{scene}: {}",
+            r.stderr
+        );
+        assert!(!out.exists());
+    }
+}
+
 /// Frames that share an id (a sender that restarted) each get a file.
 #[test]
 fn repeated_frame_ids_do_not_overwrite_each_other() {
