@@ -102,6 +102,19 @@ impl PixelFormat {
         }
     }
 
+    /// The channel values of one pixel's bytes (as [`PixelFormat::pack`]
+    /// writes them; unused channels 0, missing bytes read as 0): what a
+    /// receiver, the PNG writer and the comparisons decode with.
+    pub fn unpack(self, b: &[u8]) -> [u32; 3] {
+        let byte = |i: usize| b.get(i).copied().unwrap_or(0);
+        let le16 = u16::from_le_bytes([byte(0), byte(1)]) as u32;
+        match self {
+            PixelFormat::Gray8 => [byte(0) as u32, 0, 0],
+            PixelFormat::Gray16 { .. } => [le16, 0, 0],
+            PixelFormat::Rgb565 => [le16 >> 11, (le16 >> 5) & 63, le16 & 31],
+        }
+    }
+
     /// Packs channel values (each ≤ `dn_max`) into the pixel bytes.
     #[inline]
     pub fn pack(self, dn: [u32; 3], out: &mut [u8]) {

@@ -4,8 +4,8 @@
 
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, FLAG_OUTSIDE_FIELD};
+use host_sim::harness::{render, RenderOutput};
 use host_sim::reference::render::RefScene;
-use host_sim::render_cmd::{decode, render, RenderOutput};
 mod common;
 
 use common::fixture::{
@@ -161,7 +161,7 @@ fn extreme_largest_sensor() {
     for j in [0u16, 8191, 16383] {
         frame.render_line(j, &mut line, &mut flags).expect("renders");
         for i in (0..16384u16).step_by(7) {
-            let core = decode(s.format, &line[i as usize..i as usize + 1])[0];
+            let core = s.format.unpack(&line[i as usize..i as usize + 1])[0];
             let (want, _) = rs.pixel(i as f64, j as f64);
             let k = rs.key(i as f64, j as f64);
             let e = 1.0 / 256.0;
@@ -243,10 +243,10 @@ fn extreme_strong_distortion_coarser_table_format() {
     let v = host_sim::variant::Variant::parse(&format!("i32f32-lut{}-linear", table.lut_entries))
         .expect("variant");
     let (_, plan, frame, core) =
-        host_sim::render_cmd::core_render_variant::<hilcam::scalar::I32F32>(&r, &Budget::default(), &v)
+        host_sim::variant::core_render_variant::<hilcam::scalar::I32F32>(&r, &Budget::default(), &v)
             .expect("renders");
     let rs = host_sim::reference::render::RefScene::new(&r);
-    let m = host_sim::render_cmd::compare(&r, &rs, &rs.render(), &plan, &Budget::default(), &frame, &core);
+    let m = host_sim::harness::compare(&r, &rs, &rs.render(), &plan, &Budget::default(), &frame, &core);
     let fmt = m.plan.lut_format.clone().expect("a table");
     assert!(fmt != "I2F30", "format {fmt} should be coarser");
     assert!(m.max_geom_err_px <= 1.0 / 256.0, "{}", m.max_geom_err_px);

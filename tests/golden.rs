@@ -11,7 +11,7 @@ use hilcam::planner::{Budget, Plan};
 use hilcam::render::Frame;
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
-use host_sim::render_cmd::Collect;
+use host_sim::harness::Collect;
 use host_sim::scene_file::load;
 use host_sim::variant::{FrameUser, Variant};
 use std::collections::BTreeMap;

@@ -10,9 +10,10 @@ use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, POINT_LIGHT, 
 use hilcam::planner::Budget;
 use hilcam::render::FLAG_OUTSIDE_FIELD;
 use hilcam::scalar::I32F32;
+use host_sim::harness::{Collect, Metrics};
 use host_sim::reference::render::RefScene;
-use host_sim::render_cmd::{core_render_variant, Collect, Metrics};
 use host_sim::scene_file::{load, Resolved};
+use host_sim::variant::core_render_variant;
 use host_sim::variant::Variant;
 
 /// The frame rendered on the mix32 path and its metrics against the
@@ -23,7 +24,7 @@ fn mix(r: &Resolved) -> Result<(Metrics, Collect), String> {
     let (_, plan, frame, core) = core_render_variant::<I32F32>(r, &budget, &v)?;
     let rs = RefScene::new(r);
     let reference = rs.render();
-    let m = host_sim::render_cmd::compare(r, &rs, &reference, &plan, &budget, &frame, &core);
+    let m = host_sim::harness::compare(r, &rs, &reference, &plan, &budget, &frame, &core);
     Ok((m, core))
 }
 
@@ -259,7 +260,7 @@ fn outside_the_formats_is_a_typed_error() {
         let e = mix(&r).err().expect("refused");
         assert!(e.contains("OutsideFormat"), "{e}");
         // The generic path renders it.
-        assert!(host_sim::render_cmd::render(&r, &Budget::default()).is_ok());
+        assert!(host_sim::harness::render(&r, &Budget::default()).is_ok());
     }
 }
 

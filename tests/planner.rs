@@ -12,7 +12,7 @@ mod common;
 use common::Max;
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Arithmetic, Frame};
-use host_sim::render_cmd::render;
+use host_sim::harness::render;
 use host_sim::scene_file::parse;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};

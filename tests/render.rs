@@ -4,7 +4,7 @@
 
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, LineSink, RenderError, RenderModel, FLAG_OUTSIDE_FIELD};
-use host_sim::render_cmd::{render, Metrics};
+use host_sim::harness::{render, Metrics};
 use host_sim::scene_file::{load, parse, Resolved};
 use std::path::PathBuf;
 
@@ -242,8 +242,8 @@ fn parallel_host_render_is_byte_identical_with_one_core() {
             p.options.with_arithmetic(hilcam::render::Arithmetic::Wide),
         ] {
             let frame = Frame::new(&s, &opts).expect("frame");
-            let par = host_sim::render_cmd::collect(&frame).expect("parallel");
-            let one = host_sim::render_cmd::collect_serial(&frame).expect("serial");
+            let par = host_sim::harness::collect(&frame).expect("parallel");
+            let one = host_sim::harness::collect_serial(&frame).expect("serial");
             assert_eq!(par.pixels, one.pixels, "{}", path.display());
             assert_eq!(par.flags, one.flags, "{}", path.display());
         }

@@ -4,9 +4,10 @@
 //! render of the same scene (they must be byte-identical) and to the f64
 //! reference.
 
+use crate::frame_png::encode_png;
+use crate::harness::{decode_all, Collect};
 use crate::link::decoder::Decoder;
 use crate::reference::render::{RefFrame, RefScene};
-use crate::render_cmd::{decode_all, encode_png, Collect};
 use crate::scene_file::{load, Resolved};
 use crate::variant::{FrameUser, Variant};
 use hilcam::planner::{Budget, Plan};

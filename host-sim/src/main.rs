@@ -272,7 +272,7 @@ fn main() -> ExitCode {
             let (report, first) = host_sim::stream_cmd::stream(&resolved, link, &faults, frames)
                 .map_err(|e| format!("{}: {e}", scene.display()))?;
             let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
-            let png = host_sim::render_cmd::encode_png(
+            let png = host_sim::frame_png::encode_png(
                 resolved.format,
                 report.width as usize,
                 report.height as usize,
@@ -363,7 +363,7 @@ fn main() -> ExitCode {
                     hilcam::link::WireFormat::Gray16 { bits } => hilcam::scene::PixelFormat::Gray16 { bits },
                     hilcam::link::WireFormat::Rgb565 => hilcam::scene::PixelFormat::Rgb565,
                 };
-                let png = host_sim::render_cmd::encode_png(
+                let png = host_sim::frame_png::encode_png(
                     fmt,
                     f.start.width as usize,
                     f.start.height as usize,
@@ -458,9 +458,9 @@ fn main() -> ExitCode {
                     let f = hilcam::render::Frame::new(&s, &p.options)
                         .map_err(|e| format!("{}: cannot render: {e:?}", scene.display()))?;
                     let c = if parallel {
-                        host_sim::render_cmd::collect(&f)?
+                        host_sim::harness::collect(&f)?
                     } else {
-                        host_sim::render_cmd::collect_serial(&f)?
+                        host_sim::harness::collect_serial(&f)?
                     };
                     secs.push(t.elapsed().as_secs_f64());
                     std::hint::black_box(c);

@@ -12,7 +12,7 @@ use serde::Serialize;
 /// The core's render of a scene: pixel bytes and the frame header to send
 /// them with.
 pub fn core_frame(r: &Resolved, scene_id: u32) -> Result<(Vec<u8>, FrameStart), String> {
-    let (scene, _, frame, core) = crate::render_cmd::core_render(r, &Budget::default())?;
+    let (scene, _, frame, core) = crate::harness::core_render(r, &Budget::default())?;
     let (w, h) = frame.size();
     let pixels = core.pixels;
     let start = FrameStart {

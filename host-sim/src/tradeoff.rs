@@ -10,9 +10,9 @@
 //! what the planner's pruning saves on every shipped scene. Writes
 //! `tradeoff.json`, `tradeoff.md` and `tradeoff.png`.
 
+use crate::harness::{compare, Collect, Metrics};
 use crate::hil_cmd::{hil_variants, repo_root, shipped_scenes, Board, HilReport};
 use crate::reference::render::RefScene;
-use crate::render_cmd::{compare, Collect, Metrics};
 use crate::scene_file::{load, Resolved};
 use crate::variant::{FrameUser, ScalarKind, Variant, WithScalar};
 use hilcam::distortion::MAX_LUT;
@@ -731,8 +731,8 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
                     a.distortion_lut.unwrap_or(0)
                 ));
             }
-            let pa = crate::render_cmd::collect(&planned)?;
-            let pb_ = crate::render_cmd::collect(&full)?;
+            let pa = crate::harness::collect(&planned)?;
+            let pb_ = crate::harness::collect(&full)?;
             let max_between = pa
                 .pixels
                 .iter()

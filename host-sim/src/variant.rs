@@ -4,9 +4,9 @@
 //! the planner picks: the default), `mix32-poly`, `i32f32-lut256-linear`,
 //! `f32-poly`.
 
-use crate::render_cmd::{core_render_variant, Collect};
+use crate::harness::{collect, Collect};
 use crate::scene_file::Resolved;
-use hilcam::planner::{Budget, Plan};
+use hilcam::planner::{self, Budget, Plan};
 use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override};
 use hilcam::scalar::{Scalar, I32F32};
 
@@ -196,7 +196,7 @@ impl Variant {
     }
 
     /// Renders `r` on the host with this variant: the frame's bytes and
-    /// what [`crate::render_cmd::compare`] needs.
+    /// what [`crate::harness::compare`] needs.
     pub fn render<W: FrameUser>(&self, r: &Resolved, budget: &Budget, user: W) -> Result<W::Out, String> {
         struct Go<'a, W> {
             r: &'a Resolved,
@@ -226,6 +226,21 @@ pub trait FrameUser {
     type Out;
     /// Uses the plan, the prepared frame and its rendered bytes.
     fn use_frame<S: Scalar>(self, plan: &Plan, frame: &Frame<S>, core: Collect) -> Self::Out;
+}
+
+/// [`crate::harness::core_render`] with per-pixel values in `S` and the options of
+/// `variant`.
+pub fn core_render_variant<S: Scalar>(
+    r: &Resolved,
+    budget: &Budget,
+    variant: &Variant,
+) -> Result<(hilcam::scene::Scene, Plan, Frame<S>, Collect), String> {
+    let scene = r.core_scene()?;
+    let plan = planner::plan(&scene, budget);
+    let frame = Frame::<S>::build(&scene, &variant.options(plan.options))
+        .map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
+    Ok((scene, plan, frame, core))
 }
 
 #[cfg(test)]

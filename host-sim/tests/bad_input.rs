@@ -6,7 +6,7 @@
 //! rejected the same way or give a scene that renders.
 
 use hilcam::planner::Budget;
-use host_sim::render_cmd::render;
+use host_sim::harness::render;
 use host_sim::scene_file::parse;
 use std::path::PathBuf;
 

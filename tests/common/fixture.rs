@@ -1,7 +1,7 @@
 //! A small scene every rendering test starts from (96×64 Gray8, two
 //! materials, one directional light, no primitives), and a checkered floor.
 
-use host_sim::render_cmd::Metrics;
+use host_sim::harness::Metrics;
 use host_sim::scene_file::{parse, Resolved};
 
 /// The base scene (no primitives).

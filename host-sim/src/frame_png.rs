@@ -1,0 +1,99 @@
+//! Frames as PNG files: the core's pixel bytes (through the core's codec,
+//! `PixelFormat::unpack`) or channel values as 8-bit gray, 16-bit gray
+//! scaled to the full 16 bits, or 8-bit RGB; the diff heat map; written a
+//! row at a time, so that a frame never has to be held whole.
+
+use crate::harness::decode_all;
+use crate::reference::render::RefRow;
+use hilcam::scene::PixelFormat;
+
+/// How a PNG holds the pixels of a format (or of the diff map).
+pub fn png_layout(format: Option<PixelFormat>) -> (png::ColorType, png::BitDepth) {
+    match format {
+        Some(PixelFormat::Gray8) => (png::ColorType::Grayscale, png::BitDepth::Eight),
+        Some(PixelFormat::Gray16 { .. }) => (png::ColorType::Grayscale, png::BitDepth::Sixteen),
+        Some(PixelFormat::Rgb565) | None => (png::ColorType::Rgb, png::BitDepth::Eight),
+    }
+}
+
+/// A PNG written a row at a time: 8-bit gray, 16-bit gray scaled to the
+/// full 16 bits, or 8-bit RGB (`format`), or RGB for the diff map (`None`).
+pub fn png_stream<W: std::io::Write + 'static>(
+    w: W,
+    width: usize,
+    height: usize,
+    format: Option<PixelFormat>,
+) -> Result<png::StreamWriter<'static, W>, String> {
+    let mut e = png::Encoder::new(w, width as u32, height as u32);
+    let (c, d) = png_layout(format);
+    e.set_color(c);
+    e.set_depth(d);
+    e.write_header()
+        .and_then(|w| w.into_stream_writer())
+        .map_err(|e| format!("PNG encoding failed: {e}"))
+}
+
+/// One PNG row of channel values.
+pub fn png_row(format: PixelFormat, dn: &[[u32; 3]], out: &mut Vec<u8>) {
+    out.clear();
+    for p in dn {
+        match format {
+            PixelFormat::Gray8 => out.push(p[0] as u8),
+            PixelFormat::Gray16 { bits } => {
+                out.extend_from_slice(&((p[0] << (16 - bits as u32)) as u16).to_be_bytes())
+            }
+            PixelFormat::Rgb565 => out.extend_from_slice(&[
+                (p[0] * 255 / 31) as u8,
+                (p[1] * 255 / 63) as u8,
+                (p[2] * 255 / 31) as u8,
+            ]),
+        }
+    }
+}
+
+/// One row of the diff heat map: black where core and reference agree;
+/// 1 LSB dark red, 2 red, 4 yellow, 8 or more white; identical edge
+/// pixels dark blue.
+pub fn diff_row(format: PixelFormat, core: &[[u32; 3]], reference: RefRow<'_>, out: &mut Vec<u8>) {
+    out.clear();
+    for (k, c) in core.iter().enumerate() {
+        let d = (0..format.channels())
+            .map(|ch| c[ch].abs_diff(reference.dn[k][ch]))
+            .max()
+            .unwrap_or(0);
+        out.extend_from_slice(&match d {
+            0 if reference.edge[k] => [0, 0, 90],
+            0 => [0, 0, 0],
+            1 => [140, 0, 0],
+            2..=3 => [255, 0, 0],
+            4..=7 => [255, 255, 0],
+            _ => [255, 255, 255],
+        });
+    }
+}
+
+/// Encodes frame bytes (as the core produces them) as a PNG.
+pub fn encode_png(format: PixelFormat, w: usize, h: usize, bytes: &[u8]) -> Result<Vec<u8>, String> {
+    let bpp = format.bytes_per_pixel();
+    if bytes.len() != w * h * bpp || w == 0 || h == 0 {
+        return Err(format!(
+            "frame of {} bytes is not {w}x{h} {}",
+            bytes.len(),
+            format.name()
+        ));
+    }
+    let (mut data, mut row) = (Vec::new(), Vec::new());
+    for line in bytes.chunks_exact(w * bpp) {
+        png_row(format, &decode_all(format, line), &mut row);
+        data.extend_from_slice(&row);
+    }
+    let mut out = Vec::new();
+    let mut e = png::Encoder::new(&mut out, w as u32, h as u32);
+    let (c, d) = png_layout(Some(format));
+    e.set_color(c);
+    e.set_depth(d);
+    e.write_header()
+        .and_then(|mut png| png.write_image_data(&data).and_then(|_| png.finish()))
+        .map_err(|e| format!("PNG encoding failed: {e}"))?;
+    Ok(out)
+}

@@ -1,0 +1,564 @@
+//! The harness every command shares: the core's frame rendered line by
+//! line (in parallel, byte-identical with one core), the f64 reference's,
+//! their comparison ([`Tally`] → [`Metrics`]) and the plan as reported.
+//! The commands (`render_cmd`, `hil_cmd`, `stream_cmd`, `tradeoff`) and the
+//! tests use it; it uses none of them.
+
+use crate::reference::render::{RefFrame, RefRow, RefScene};
+use crate::scene_file::Resolved;
+use hilcam::planner::{self, Budget, Plan};
+use hilcam::render::{Frame, LineSink, FLAG_OUTSIDE_FIELD};
+use hilcam::scalar::Scalar;
+use hilcam::scene::PixelFormat;
+use serde::Serialize;
+
+/// A core frame collected line by line.
+pub struct Collect {
+    /// Bytes of every line, in order.
+    pub pixels: Vec<u8>,
+    /// Flags of every pixel.
+    pub flags: Vec<u8>,
+}
+
+impl Collect {
+    /// Channel values of every pixel.
+    pub fn dn(&self, format: PixelFormat) -> Vec<[u32; 3]> {
+        decode_all(format, &self.pixels)
+    }
+}
+
+impl LineSink for Collect {
+    type Error = std::convert::Infallible;
+    fn line(&mut self, _y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
+        self.pixels.extend_from_slice(pixels);
+        self.flags.extend_from_slice(flags);
+        Ok(())
+    }
+}
+
+/// One candidate the planner considered, as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct CandidateReport {
+    /// `fast-poly`, `wide-lut64`, …
+    pub name: String,
+    /// Why the arithmetic's formats cannot hold the scene (null: they can).
+    pub unfit: Option<String>,
+    /// Predicted pixel → undistorted error, px.
+    pub geom_err_px: f64,
+    /// Predicted largest |core − reference| before rounding, LSB.
+    pub lsb: f64,
+    /// Predicted cost, M3 instructions a pixel (the fitted cost model).
+    pub m3_instructions_per_pixel: f64,
+    /// Fits and within the budget.
+    pub meets_budget: bool,
+}
+
+/// The planner's choice, as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanReport {
+    /// The arithmetic the core rendered with (`fast`, `wide`).
+    pub arithmetic: String,
+    /// The candidate the planner chose (the frame may be a variant of it).
+    pub chosen: String,
+    /// Why it was chosen.
+    pub why: String,
+    /// Every candidate considered.
+    pub candidates: Vec<CandidateReport>,
+    /// Predicted cost of the chosen candidate, M3 instructions a pixel.
+    pub predicted_m3_instructions_per_pixel: f64,
+    /// Ray model the core rendered with.
+    pub model: String,
+    /// Mean depth if weak perspective was chosen, metres.
+    pub mean_depth_m: Option<f64>,
+    /// Distortion table entries (0: no distortion stage).
+    pub lut_entries: usize,
+    /// The entries' format, chosen for the camera (e.g. "I4F28").
+    pub lut_format: Option<String>,
+    /// Predicted pixel → undistorted error, px.
+    pub predicted_geom_err_px: f64,
+    /// §2 weak-perspective bound over the scene, px (null: unbounded scene).
+    pub weak_perspective_err_px: Option<f64>,
+    /// Predicted largest |core − reference| before rounding, LSB.
+    pub predicted_lsb: f64,
+    /// All predictions within the budget.
+    pub meets_budget: bool,
+    /// The budget.
+    pub budget_geom_px: f64,
+    /// The budget.
+    pub budget_lsb: f64,
+}
+
+/// `metrics.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Metrics {
+    /// Scene name.
+    pub scene: String,
+    /// Width, px.
+    pub width: usize,
+    /// Height, px.
+    pub height: usize,
+    /// Output format.
+    pub format: String,
+    /// Significant bits per channel (largest channel).
+    pub bits: u32,
+    /// Stages the core ran.
+    pub stages: Vec<String>,
+    /// The planner's choice.
+    pub plan: PlanReport,
+    /// Distortion table bytes.
+    pub table_bytes: usize,
+    /// Largest |core − reference| over all pixels and channels, LSB.
+    pub max_abs_lsb: u32,
+    /// RMS difference over all samples, LSB.
+    pub rms_lsb: f64,
+    /// Fraction of pixels identical in every channel.
+    pub exact_fraction: f64,
+    /// PSNR over all pixels, dB (per-channel full scale); null when identical.
+    pub psnr_db: Option<f64>,
+    /// Largest distance between the core's and the reference's pixel →
+    /// undistorted image point, over pixels both place in the lens field, px.
+    pub max_geom_err_px: f64,
+    /// RMS of that distance, px.
+    pub rms_geom_err_px: f64,
+    /// Pixels a 1/256 px move of whose centre changes what the reference ray
+    /// hits (primitive, texture cell) or its in-field flag.
+    pub edge_pixels: usize,
+    /// Edge pixels whose values differ.
+    pub edge_pixels_differing: usize,
+    /// `edge_pixels_differing` as a fraction of all pixels.
+    pub edge_pixels_differing_fraction: f64,
+    /// Largest |core − reference| over smooth (non-edge) pixels, LSB.
+    pub max_abs_lsb_smooth: u32,
+    /// RMS over smooth pixels, LSB.
+    pub rms_lsb_smooth: f64,
+    /// PSNR over smooth pixels, dB; null when identical.
+    pub psnr_db_smooth: Option<f64>,
+    /// Fraction of smooth pixels identical.
+    pub exact_fraction_smooth: f64,
+    /// Pixels outside the lens field (reference).
+    pub outside_field_pixels: usize,
+    /// Pixels whose in-field flag differs between core and reference.
+    pub field_flags_differing: usize,
+}
+
+/// Everything one render produced.
+pub struct RenderOutput {
+    /// Core frame bytes.
+    pub core: Collect,
+    /// Core values per channel.
+    pub core_dn: Vec<[u32; 3]>,
+    /// Reference frame.
+    pub reference: RefFrame,
+    /// Metrics.
+    pub metrics: Metrics,
+    /// The plan.
+    pub plan: Plan,
+    /// Output format.
+    pub format: PixelFormat,
+}
+
+/// Decodes frame bytes into channel values, a pixel at a time.
+pub fn decode_all(format: PixelFormat, bytes: &[u8]) -> Vec<[u32; 3]> {
+    bytes
+        .chunks_exact(format.bytes_per_pixel())
+        .map(|b| format.unpack(b))
+        .collect()
+}
+
+/// The core's scene, its plan for `budget`, the prepared frame, and the
+/// frame rendered line by line (bytes and flags).
+pub fn core_render(
+    r: &Resolved,
+    budget: &Budget,
+) -> Result<(hilcam::scene::Scene, Plan, Frame, Collect), String> {
+    let scene = r.core_scene()?;
+    let plan = planner::plan(&scene, budget);
+    let frame =
+        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
+    Ok((scene, plan, frame, core))
+}
+
+/// Renders a prepared frame into memory, its lines in parallel on every
+/// core (rayon): each line is rendered straight into its place, so the
+/// bytes are those of [`collect_serial`] (tested).
+pub fn collect<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
+    use rayon::prelude::*;
+    let (w, h) = frame.size();
+    let lb = frame.line_bytes();
+    let mut core = Collect {
+        pixels: vec![0u8; lb * h as usize],
+        flags: vec![0u8; w as usize * h as usize],
+    };
+    if lb == 0 || w == 0 {
+        return Ok(core);
+    }
+    core.pixels
+        .par_chunks_mut(lb)
+        .zip(core.flags.par_chunks_mut(w as usize))
+        .enumerate()
+        .try_for_each(|(j, (p, f))| frame.render_line(j as u16, p, f))
+        .map_err(|e| format!("render failed: {e:?}"))?;
+    Ok(core)
+}
+
+/// Renders a prepared frame into memory a line at a time through the
+/// core's [`LineSink`] (one core).
+pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
+    let (w, h) = frame.size();
+    let mut line = vec![0u8; frame.line_bytes()];
+    let mut flags = vec![0u8; w as usize];
+    let mut core = Collect {
+        pixels: Vec::with_capacity(frame.line_bytes() * h as usize),
+        flags: Vec::with_capacity(w as usize * h as usize),
+    };
+    frame
+        .render(&mut line, &mut flags, &mut core)
+        .map_err(|e| format!("render failed: {e:?}"))?;
+    Ok(core)
+}
+
+/// The comparison of core and reference pixels, accumulated a line at a
+/// time (lines in any grouping, merged in any order).
+#[derive(Clone, Debug, Default)]
+pub struct Tally {
+    max_geom: f64,
+    sq_geom: f64,
+    n_geom: usize,
+    max_all: u32,
+    max_smooth: u32,
+    sq_all: f64,
+    sq_smooth: f64,
+    nsq_all: f64,
+    nsq_smooth: f64,
+    pixels: usize,
+    exact: usize,
+    exact_smooth: usize,
+    smooth: usize,
+    edges: usize,
+    edges_diff: usize,
+    flags_diff: usize,
+    outside: usize,
+}
+
+impl Tally {
+    /// Adds the counts of `o`.
+    pub fn merge(&mut self, o: &Tally) {
+        self.max_geom = self.max_geom.max(o.max_geom);
+        self.sq_geom += o.sq_geom;
+        self.n_geom += o.n_geom;
+        self.max_all = self.max_all.max(o.max_all);
+        self.max_smooth = self.max_smooth.max(o.max_smooth);
+        self.sq_all += o.sq_all;
+        self.sq_smooth += o.sq_smooth;
+        self.nsq_all += o.nsq_all;
+        self.nsq_smooth += o.nsq_smooth;
+        self.pixels += o.pixels;
+        self.exact += o.exact;
+        self.exact_smooth += o.exact_smooth;
+        self.smooth += o.smooth;
+        self.edges += o.edges;
+        self.edges_diff += o.edges_diff;
+        self.flags_diff += o.flags_diff;
+        self.outside += o.outside;
+    }
+}
+
+/// Compares line `j` of a core frame (its channel values and flags) with
+/// the reference's.
+pub fn tally_line<S: Scalar>(
+    rs: &RefScene,
+    frame: &Frame<S>,
+    j: usize,
+    core_dn: &[[u32; 3]],
+    core_flags: &[u8],
+    reference: RefRow<'_>,
+) -> Tally {
+    let format = rs.format;
+    let (fx, fy) = (rs.sensor.f / rs.sensor.sx, rs.sensor.f / rs.sensor.sy);
+    let channels = format.channels();
+    let dn_max = [0, 1, 2].map(|c| format.dn_max(c.min(channels - 1)) as f64);
+    let mut t = Tally::default();
+    for (i, (c, cf)) in core_dn.iter().zip(core_flags).enumerate() {
+        // Geometry: the core's pixel → undistorted mapping against the
+        // reference, where both place the pixel in the lens field.
+        if let (Some((cx, cy)), Some((rx, ry))) =
+            (frame.undistorted(i as u16, j as u16), reference.undistorted[i])
+        {
+            let e = ((cx.to_f64() - rx) * fx).hypot((cy.to_f64() - ry) * fy);
+            t.max_geom = t.max_geom.max(e);
+            t.sq_geom += e * e;
+            t.n_geom += 1;
+        }
+        let rf = reference.dn[i];
+        let mut same = true;
+        let mut pmax = 0;
+        let (mut psq, mut pnsq) = (0.0, 0.0);
+        for ch in 0..channels {
+            let d = c[ch].abs_diff(rf[ch]);
+            same &= d == 0;
+            pmax = pmax.max(d);
+            psq += (d as f64).powi(2);
+            pnsq += (d as f64 / dn_max[ch]).powi(2);
+        }
+        let core_in = cf & FLAG_OUTSIDE_FIELD == 0;
+        t.flags_diff += (core_in != reference.in_field[i]) as usize;
+        t.outside += (!reference.in_field[i]) as usize;
+        t.pixels += 1;
+        t.max_all = t.max_all.max(pmax);
+        t.sq_all += psq;
+        t.nsq_all += pnsq;
+        t.exact += same as usize;
+        if reference.edge[i] {
+            t.edges += 1;
+            t.edges_diff += (!same) as usize;
+        } else {
+            t.smooth += 1;
+            t.max_smooth = t.max_smooth.max(pmax);
+            t.sq_smooth += psq;
+            t.nsq_smooth += pnsq;
+            t.exact_smooth += same as usize;
+        }
+    }
+    t
+}
+
+/// The render metrics of a core frame against the reference frame of the
+/// same scene.
+pub fn compare<S: Scalar>(
+    r: &Resolved,
+    rs: &RefScene,
+    reference: &RefFrame,
+    plan: &Plan,
+    budget: &Budget,
+    frame: &Frame<S>,
+    core: &Collect,
+) -> Metrics {
+    let (w, h) = frame.size();
+    let (w, lb) = (w as usize, frame.line_bytes());
+    let mut t = Tally::default();
+    for j in 0..h as usize {
+        let dn = decode_all(r.format, &core.pixels[j * lb..(j + 1) * lb]);
+        t.merge(&tally_line(
+            rs,
+            frame,
+            j,
+            &dn,
+            &core.flags[j * w..(j + 1) * w],
+            reference.row(j),
+        ));
+    }
+    metrics(r, plan, budget, frame, &t)
+}
+
+/// The planner's choice as reported, for the frame prepared from it.
+pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) -> PlanReport {
+    let stages = frame.stages();
+    PlanReport {
+        arithmetic: stages.arithmetic.name().into(),
+        chosen: plan
+            .candidates
+            .get(plan.chosen)
+            .map_or_else(String::new, |c| c.name().to_string()),
+        why: plan_why(plan, budget),
+        candidates: plan
+            .candidates
+            .iter()
+            .map(|c| CandidateReport {
+                name: c.name().to_string(),
+                unfit: c.fits.err().map(|u| u.reason().to_string()),
+                geom_err_px: c.geom_err_px,
+                lsb: c.lsb,
+                m3_instructions_per_pixel: c.m3_instructions_per_pixel,
+                meets_budget: c.meets(budget),
+            })
+            .collect(),
+        predicted_m3_instructions_per_pixel: plan.predicted_m3_instructions_per_pixel,
+        model: stages.model.name().trim_start_matches("rays:").into(),
+        mean_depth_m: match stages.model {
+            hilcam::render::RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.to_num()),
+            _ => None,
+        },
+        lut_entries: stages.distortion_lut.unwrap_or(0),
+        lut_format: frame.table_frac_bits().map(|f| format!("I{}F{}", 32 - f, f)),
+        predicted_geom_err_px: plan.predicted_geom_err_px,
+        weak_perspective_err_px: plan.weak_perspective_err_px,
+        predicted_lsb: plan.predicted_lsb,
+        meets_budget: plan.meets_budget,
+        budget_geom_px: budget.max_geom_err_px,
+        budget_lsb: budget.max_lsb,
+    }
+}
+
+/// The metrics from a whole frame's [`Tally`].
+pub fn metrics<S: Scalar>(
+    r: &Resolved,
+    plan: &Plan,
+    budget: &Budget,
+    frame: &Frame<S>,
+    t: &Tally,
+) -> Metrics {
+    let (w, h) = frame.size();
+    let (w, h) = (w as usize, h as usize);
+    let format = r.format;
+    let channels = format.channels();
+    let n_all = (t.pixels * channels).max(1) as f64;
+    let n_smooth = (t.smooth * channels).max(1) as f64;
+    let psnr = |nsq: f64, n: f64| (nsq > 0.0).then(|| 10.0 * (n / nsq).log10());
+    let bits = (0..channels)
+        .map(|c| 32 - format.dn_max(c).leading_zeros())
+        .max()
+        .unwrap_or(8);
+    let px = t.pixels.max(1) as f64;
+    Metrics {
+        scene: r.desc.name.clone(),
+        width: w,
+        height: h,
+        format: format.name().into(),
+        bits,
+        stages: frame.stages().names().iter().map(|s| s.to_string()).collect(),
+        plan: plan_report(plan, budget, frame),
+        table_bytes: frame.table_bytes(),
+        max_abs_lsb: t.max_all,
+        rms_lsb: (t.sq_all / n_all).sqrt(),
+        exact_fraction: t.exact as f64 / px,
+        psnr_db: psnr(t.nsq_all, n_all),
+        max_geom_err_px: t.max_geom,
+        rms_geom_err_px: (t.sq_geom / t.n_geom.max(1) as f64).sqrt(),
+        edge_pixels: t.edges,
+        edge_pixels_differing: t.edges_diff,
+        edge_pixels_differing_fraction: t.edges_diff as f64 / px,
+        max_abs_lsb_smooth: t.max_smooth,
+        rms_lsb_smooth: (t.sq_smooth / n_smooth).sqrt(),
+        psnr_db_smooth: psnr(t.nsq_smooth, n_smooth),
+        exact_fraction_smooth: t.exact_smooth as f64 / t.smooth.max(1) as f64,
+        outside_field_pixels: t.outside,
+        field_flags_differing: t.flags_diff,
+    }
+}
+
+/// One line rendered by both, and compared.
+pub struct LineOut {
+    /// Line number.
+    pub y: usize,
+    /// Core bytes.
+    pub pixels: Vec<u8>,
+    /// Core flags.
+    pub flags: Vec<u8>,
+    /// Core channel values.
+    pub core_dn: Vec<[u32; 3]>,
+    /// The reference's line.
+    pub reference: RefFrame,
+    /// The comparison.
+    pub tally: Tally,
+}
+
+/// Renders every line with the core and the reference, compares them, and
+/// hands the lines to `sink` in order. Lines are rendered in parallel on
+/// every core, a band at a time, so memory stays O(width).
+pub fn run_lines<S: Scalar>(
+    frame: &Frame<S>,
+    rs: &RefScene,
+    sink: &mut dyn FnMut(LineOut) -> Result<(), String>,
+) -> Result<Tally, String> {
+    use rayon::prelude::*;
+    let (w, h) = frame.size();
+    let band = rayon::current_num_threads().max(1) * 4;
+    let mut total = Tally::default();
+    for j0 in (0..h as usize).step_by(band) {
+        let lines = (j0..(j0 + band).min(h as usize))
+            .into_par_iter()
+            .map(|j| -> Result<LineOut, String> {
+                let mut pixels = vec![0u8; frame.line_bytes()];
+                let mut flags = vec![0u8; w as usize];
+                frame
+                    .render_line(j as u16, &mut pixels, &mut flags)
+                    .map_err(|e| format!("render failed: {e:?}"))?;
+                let core_dn = decode_all(rs.format, &pixels);
+                let reference = rs.render_line(j);
+                let tally = tally_line(rs, frame, j, &core_dn, &flags, reference.row(0));
+                Ok(LineOut {
+                    y: j,
+                    pixels,
+                    flags,
+                    core_dn,
+                    reference,
+                    tally,
+                })
+            })
+            .collect::<Vec<_>>();
+        for l in lines {
+            let l = l?;
+            total.merge(&l.tally);
+            sink(l)?;
+        }
+    }
+    Ok(total)
+}
+
+/// Renders with both, and compares, in memory.
+pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
+    let scene = r.core_scene()?;
+    let plan = planner::plan(&scene, budget);
+    let frame =
+        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let rs = RefScene::new(r);
+    let (w, h) = frame.size();
+    let mut core = Collect {
+        pixels: Vec::with_capacity(frame.line_bytes() * h as usize),
+        flags: Vec::with_capacity(w as usize * h as usize),
+    };
+    let mut core_dn = Vec::with_capacity(w as usize * h as usize);
+    let mut reference = RefFrame {
+        width: w as usize,
+        height: h as usize,
+        dn: Vec::new(),
+        in_field: Vec::new(),
+        edge: Vec::new(),
+        undistorted: Vec::new(),
+    };
+    let t = run_lines(&frame, &rs, &mut |l| {
+        core.pixels.extend_from_slice(&l.pixels);
+        core.flags.extend_from_slice(&l.flags);
+        core_dn.extend_from_slice(&l.core_dn);
+        reference.append(l.reference);
+        Ok(())
+    })?;
+    let metrics = metrics(r, &plan, budget, &frame, &t);
+    Ok(RenderOutput {
+        core,
+        core_dn,
+        reference,
+        metrics,
+        plan,
+        format: scene.format,
+    })
+}
+
+/// Why the planner chose what it chose, in a sentence.
+pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
+    let Some(c) = plan.candidates.get(plan.chosen) else {
+        return "no candidate".into();
+    };
+    let within = plan.candidates.iter().filter(|c| c.meets(budget)).count();
+    if c.meets(budget) {
+        format!(
+            "{} is the cheapest of {within} candidate(s) within the budget ({:.0} predicted M3 \
+             instructions/pixel; {:.2e} px, {:.3} LSB before rounding)",
+            c.name(),
+            c.m3_instructions_per_pixel,
+            c.geom_err_px,
+            c.lsb
+        )
+    } else {
+        format!(
+            "no candidate meets the budget ({} px, {} LSB): {} is the most accurate that fits \
+             ({:.2e} px, {:.3} LSB before rounding)",
+            budget.max_geom_err_px,
+            budget.max_lsb,
+            c.name(),
+            c.geom_err_px,
+            c.lsb
+        )
+    }
+}
