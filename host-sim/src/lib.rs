@@ -18,5 +18,4 @@ pub mod render_cmd;
 pub mod scene_file;
 pub mod stream_cmd;
 pub mod tradeoff;
-pub mod tradeoff_plot;
 pub mod variant;

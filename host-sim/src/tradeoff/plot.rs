@@ -3,7 +3,7 @@
 //! accurate) joined. Cost is M3 instructions per pixel when the firmware
 //! ran, host ns per pixel otherwise.
 
-use crate::tradeoff::{Report, Row};
+use super::report::{Report, Row};
 use crate::variant::ScalarKind;
 use plotters::prelude::*;
 
