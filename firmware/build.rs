@@ -72,7 +72,10 @@ fn main() {
             Some([k1, k2]) => format!("Distortion::new({k1:?}, {k2:?}).map_err(|_| \"distortion\")?"),
             None => "Distortion::NONE".to_string(),
         };
-        let _ = writeln!(code, "#[inline(never)]\nfn scene_{i}() -> Result<Scene, &'static str> {{");
+        let _ = writeln!(
+            code,
+            "#[inline(never)]\nfn scene_{i}() -> Result<Scene, &'static str> {{"
+        );
         let _ = writeln!(
             code,
             "    let intr = IntrinsicsConfig {{ focal_length: {:?}, pitch: {:?}, size: ({}, {}), principal_point: {:?} }};",

@@ -9,11 +9,11 @@
 //! starts with an extra `0x00`, so that a lost delimiter at the end of one
 //! frame never merges into the next.
 //!
-//! The [`Encoder`] is fed line by line (it is a [`LineSink`], so the renderer
-//! feeds it directly) and holds one chunk and one encoded message: RAM is
+//! The [`Encoder`] is fed line by line (through a [`Stream`], a frame sink,
+//! the renderer feeds it directly) and holds one chunk and one encoded message: RAM is
 //! `CHUNK + WIRE` bytes, whatever the frame height. No heap.
 
-use crate::render::LineSink;
+use crate::render::{FrameInfo, FrameSink};
 use crate::scene::PixelFormat;
 use postcard::ser_flavors::crc::CrcModifier;
 use postcard::ser_flavors::{Cobs, Slice};
@@ -320,12 +320,31 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
     }
 }
 
-/// The renderer feeds the encoder directly: `Frame::render(.., &mut encoder)`
-/// between `begin_frame` and `end_frame`.
-impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> LineSink for Encoder<W, CHUNK, WIRE> {
+/// One frame sent through an [`Encoder`], as a [`FrameSink`] the renderer
+/// feeds directly (`Frame::render(.., &mut Stream { enc, start })`): `begin`
+/// sends `start` (whose size and format must be the frame's), each line a
+/// chunk's worth at a time, `end` the [`FrameEnd`] with the cost.
+pub struct Stream<'a, W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> {
+    /// The encoder.
+    pub enc: &'a mut Encoder<W, CHUNK, WIRE>,
+    /// The frame's header.
+    pub start: FrameStart,
+}
+
+impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> FrameSink for Stream<'_, W, CHUNK, WIRE> {
     type Error = LinkError<W::Error>;
+    fn begin(&mut self, info: &FrameInfo) -> Result<(), Self::Error> {
+        let s = self.start;
+        if (s.width, s.height, s.format) != (info.width, info.height, WireFormat::from(info.format)) {
+            return Err(LinkError::Sequence);
+        }
+        self.enc.begin_frame(s)
+    }
     fn line(&mut self, _y: u16, pixels: &[u8], _flags: &[u8]) -> Result<(), Self::Error> {
-        self.push_line(pixels)
+        self.enc.push_line(pixels)
+    }
+    fn end(&mut self, cost: Option<u64>) -> Result<(), Self::Error> {
+        self.enc.end_frame(cost).map(|_| ())
     }
 }
 

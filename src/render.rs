@@ -1,7 +1,7 @@
 //! The line renderer (camera-model.md §3, §5, §6, §7).
 //!
 //! One ray per pixel centre, fixed point end to end, one scanline at a time
-//! into a caller-provided line buffer, handed to a [`LineSink`]: RAM is
+//! into a caller-provided line buffer, handed to a [`FrameSink`]: RAM is
 //! O(width), whatever the height.
 //!
 //! A [`Frame`] is prepared once per frame: the scene is moved into the camera
@@ -37,13 +37,96 @@ pub const FLAG_OUTSIDE_FIELD: u8 = 1;
 /// half-angle of 86.4°.
 pub const MAX_SLOPE: i32 = 16;
 
-/// Receives rendered lines.
-pub trait LineSink {
+/// What a [`FrameSink`] is told when a frame begins.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameInfo {
+    /// Width, pixels.
+    pub width: u16,
+    /// Height, pixels (lines).
+    pub height: u16,
+    /// Pixel format.
+    pub format: PixelFormat,
+}
+
+/// Receives a rendered frame: [`FrameSink::begin`], every line in order,
+/// [`FrameSink::end`]. The link's [`crate::link::Stream`], the host's
+/// collectors and the timing adapter [`Timed`] are sinks.
+pub trait FrameSink {
     /// The sink's error.
     type Error;
+    /// The frame begins.
+    fn begin(&mut self, _info: &FrameInfo) -> Result<(), Self::Error> {
+        Ok(())
+    }
     /// Line `y`: `pixels` holds `width × bytes_per_pixel` bytes, `flags` one
     /// byte of `FLAG_*` bits a pixel.
     fn line(&mut self, y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error>;
+    /// The frame ends; `cost` is what rendering it cost when an adapter
+    /// ([`Timed`]) measured it.
+    fn end(&mut self, _cost: Option<u64>) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+/// A timing adapter: measures the renderer, not the sink. The time spent
+/// between the inner sink's calls (plus `already`, e.g. the frame's
+/// preparation), converted by `to_cost`, is passed to the inner sink's
+/// [`FrameSink::end`] as the frame's cost — so a slow link's back-pressure
+/// is not counted.
+pub struct Timed<K, C, T> {
+    /// The sink timed.
+    pub inner: K,
+    clock: C,
+    to_cost: T,
+    spent: u64,
+    last: u64,
+}
+
+impl<K: FrameSink, C: FnMut() -> u64, T: Fn(u64) -> u64> Timed<K, C, T> {
+    /// Starts timing now; `already` clock ticks are counted in.
+    pub fn new(inner: K, mut clock: C, to_cost: T, already: u64) -> Self {
+        let last = clock();
+        Timed {
+            inner,
+            clock,
+            to_cost,
+            spent: already,
+            last,
+        }
+    }
+
+    /// The cost so far (`to_cost` of the ticks counted).
+    pub fn cost(&self) -> u64 {
+        (self.to_cost)(self.spent)
+    }
+
+    fn lap(&mut self) {
+        let now = (self.clock)();
+        self.spent = self.spent.wrapping_add(now.wrapping_sub(self.last));
+    }
+}
+
+impl<K: FrameSink, C: FnMut() -> u64, T: Fn(u64) -> u64> FrameSink for Timed<K, C, T> {
+    type Error = K::Error;
+    fn begin(&mut self, info: &FrameInfo) -> Result<(), Self::Error> {
+        self.lap();
+        let r = self.inner.begin(info);
+        self.last = (self.clock)();
+        r
+    }
+    fn line(&mut self, y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
+        self.lap();
+        let r = self.inner.line(y, pixels, flags);
+        self.last = (self.clock)();
+        r
+    }
+    fn end(&mut self, _cost: Option<u64>) -> Result<(), Self::Error> {
+        self.lap();
+        let cost = self.cost();
+        let r = self.inner.end(Some(cost));
+        self.last = (self.clock)();
+        r
+    }
 }
 
 /// How the renderer forms rays (chosen by the planner; may approximate the
@@ -795,12 +878,18 @@ impl<S: Scalar> Frame<S> {
     }
 
     /// Renders every line through `sink`, reusing the caller's line buffers.
-    pub fn render<K: LineSink>(
+    pub fn render<K: FrameSink>(
         &self,
         pixels: &mut [u8],
         flags: &mut [u8],
         sink: &mut K,
     ) -> Result<(), FrameError<K::Error>> {
+        let info = FrameInfo {
+            width: self.width,
+            height: self.height,
+            format: self.format,
+        };
+        sink.begin(&info).map_err(FrameError::Sink)?;
         for j in 0..self.height {
             self.render_line(j, pixels, flags).map_err(FrameError::Render)?;
             let n = self.line_bytes();
@@ -809,7 +898,7 @@ impl<S: Scalar> Frame<S> {
                 sink.line(j, p, f).map_err(FrameError::Sink)?;
             }
         }
-        Ok(())
+        sink.end(None).map_err(FrameError::Sink)
     }
 
     #[inline(never)]

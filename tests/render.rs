@@ -3,7 +3,7 @@
 //! lens field, and the line-buffer API.
 
 use hilcam::planner::{plan, Budget};
-use hilcam::render::{Frame, LineSink, RenderError, RenderModel, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, FrameSink, RenderError, RenderModel, FLAG_OUTSIDE_FIELD};
 use host_sim::harness::{render, Metrics};
 use host_sim::scene_file::{load, parse, Resolved};
 use std::path::PathBuf;
@@ -192,7 +192,7 @@ fn pixels_beyond_the_fold_are_flagged() {
 }
 
 struct Count(usize, Vec<u8>);
-impl LineSink for Count {
+impl FrameSink for Count {
     type Error = ();
     fn line(&mut self, y: u16, pixels: &[u8], _flags: &[u8]) -> Result<(), ()> {
         assert_eq!(y as usize, self.0, "lines arrive in order");

@@ -11,8 +11,8 @@ mod board;
 #[allow(clippy::all, unused_imports)]
 mod scenes {
     use hilcam::distortion::Distortion;
-    use hilcam::render::{DistortionEval, Options, Override};
     use hilcam::lens::{Aperture, LensConfig};
+    use hilcam::render::{DistortionEval, Options, Override};
     use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec};
     use hilcam::{Camera, Extrinsics, IntrinsicsConfig, Model};
     include!(concat!(env!("OUT_DIR"), "/scenes.rs"));
@@ -24,9 +24,9 @@ use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
 #[cfg(feature = "status")]
 use cortex_m_semihosting::hprintln;
-use hilcam::link::{wire_size, Encoder, FrameStart, WireFormat, DEFAULT_CHUNK, PROTOCOL_VERSION};
+use hilcam::link::{wire_size, Encoder, FrameStart, Stream, WireFormat, DEFAULT_CHUNK, PROTOCOL_VERSION};
 use hilcam::planner::{plan, ray_model, Budget};
-use hilcam::render::{Frame, Options};
+use hilcam::render::{Frame, Options, Timed};
 use hilcam::scalar::Scalar;
 use hilcam::scene::Scene;
 
@@ -189,7 +189,7 @@ impl Runner for Run<'_> {
         let t0 = ticks();
         let mut frame = Frame::<S>::empty();
         frame.prepare(scene, opts).map_err(|_| "frame")?;
-        let mut cost = ticks() - t0;
+        let prepare = ticks() - t0;
         let (w, h) = frame.size();
         let start = FrameStart {
             version: PROTOCOL_VERSION,
@@ -200,18 +200,14 @@ impl Runner for Run<'_> {
             scene_id: self.scene_id,
             exposure: scene.exposure.to_bits(),
         };
-        self.enc.begin_frame(start).map_err(|_| "begin")?;
-        let n = frame.line_bytes();
-        for j in 0..h {
-            // Only rendering is counted: the UART's back-pressure is not.
-            let t = ticks();
-            frame.render_line(j, self.line, self.flags).map_err(|_| "render")?;
-            cost += ticks() - t;
-            self.enc.push_line(self.line.get(..n).ok_or("line")?).map_err(|_| "send")?;
-        }
-        let ins = instructions(cost);
-        self.enc.end_frame(Some(ins)).map_err(|_| "end")?;
-        Ok(ins)
+        // Only rendering is counted (the preparation and the time between
+        // the link's calls), not the UART's back-pressure: the timing is an
+        // adapter around the link's sink.
+        let mut sink = Timed::new(Stream { enc: self.enc, start }, ticks, instructions, prepare);
+        frame
+            .render(self.line, self.flags, &mut sink)
+            .map_err(|_| "render")?;
+        Ok(sink.cost())
     }
 }
 

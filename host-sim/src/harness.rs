@@ -7,7 +7,7 @@
 use crate::reference::render::{RefFrame, RefRow, RefScene};
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{Frame, LineSink, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, FrameSink, FLAG_OUTSIDE_FIELD};
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
@@ -27,7 +27,7 @@ impl Collect {
     }
 }
 
-impl LineSink for Collect {
+impl FrameSink for Collect {
     type Error = std::convert::Infallible;
     fn line(&mut self, _y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
         self.pixels.extend_from_slice(pixels);
@@ -203,7 +203,7 @@ pub fn collect<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
 }
 
 /// Renders a prepared frame into memory a line at a time through the
-/// core's [`LineSink`] (one core).
+/// core's [`FrameSink`] (one core).
 pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
     let (w, h) = frame.size();
     let mut line = vec![0u8; frame.line_bytes()];

@@ -256,3 +256,73 @@ fn a_hangup_keeps_the_frames_already_decoded() {
     assert_eq!((got, ending), (2, host_sim::link::serial::Ending::Hangup));
     assert_eq!(frames.len(), 2);
 }
+
+/// The renderer feeds the link through its frame sink, timed by the
+/// adapter: the frame decodes to the bytes rendered, its end carries the
+/// cost the adapter measured (the time between the sink's calls, not the
+/// sink's own), and a header that does not match the frame is refused.
+#[test]
+fn a_frame_streams_through_the_sink_with_its_measured_cost() {
+    use hilcam::render::{FrameError, Timed};
+    let r = host_sim::scene_file::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/standard.toml"
+    )))
+    .expect("standard scene");
+    let (scene, _, frame, core) =
+        host_sim::harness::core_render(&r, &hilcam::planner::Budget::default()).expect("renders");
+    let (w, h) = frame.size();
+    let start = FrameStart {
+        version: PROTOCOL_VERSION,
+        frame_id: 9,
+        width: w,
+        height: h,
+        format: WireFormat::from(scene.format),
+        scene_id: 0,
+        exposure: 0,
+    };
+    let mut line = vec![0u8; frame.line_bytes()];
+    let mut flags = vec![0u8; w as usize];
+    // A clock that advances one tick a reading: the adapter reads it
+    // before and after each sink call, so each call spans one tick (not
+    // counted) and each gap between calls one tick (counted).
+    let t = std::cell::Cell::new(0u64);
+    let mut enc = Encoder::<Recorder, 2048, { hilcam::link::wire_size(2048) }>::new(Recorder::default())
+        .expect("encoder");
+    let cost = {
+        let mut sink = Timed::new(
+            hilcam::link::Stream { enc: &mut enc, start },
+            || {
+                t.set(t.get() + 1);
+                t.get()
+            },
+            |ticks| ticks,
+            5,
+        );
+        frame.render(&mut line, &mut flags, &mut sink).expect("streams");
+        sink.cost()
+    };
+    // begin, h lines, end: h + 2 laps of 1 tick, plus the 5 given.
+    assert_eq!(cost, h as u64 + 2 + 5);
+    let (frames, _) = decode_all(&enc.into_inner().bytes);
+    assert_eq!(frames.len(), 1);
+    assert_eq!(frames[0].pixels, core.pixels);
+    assert_eq!(frames[0].end.cost, Some(cost));
+    // A header of another size is refused before anything is sent.
+    let mut enc = Encoder::<Recorder, 2048, { hilcam::link::wire_size(2048) }>::new(Recorder::default())
+        .expect("encoder");
+    let wrong = FrameStart {
+        width: w + 1,
+        ..start
+    };
+    let r = frame.render(
+        &mut line,
+        &mut flags,
+        &mut hilcam::link::Stream {
+            enc: &mut enc,
+            start: wrong,
+        },
+    );
+    assert!(matches!(r, Err(FrameError::Sink(LinkError::Sequence))), "{r:?}");
+    assert!(enc.into_inner().bytes.is_empty());
+}

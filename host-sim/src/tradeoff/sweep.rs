@@ -10,7 +10,7 @@ use crate::scene_file::{load, Resolved};
 use crate::variant::{FrameUser, ScalarKind, Variant, WithScalar};
 use hilcam::distortion::MAX_LUT;
 use hilcam::planner::{plan, Budget, Plan};
-use hilcam::render::{DistortionEval, Frame, LineSink, Override};
+use hilcam::render::{DistortionEval, Frame, FrameSink, Override};
 use hilcam::scalar::Scalar;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::HashMap;
@@ -112,7 +112,7 @@ fn scalar_kinds(variants: &[Variant]) -> Vec<ScalarKind> {
 }
 
 struct Discard;
-impl LineSink for Discard {
+impl FrameSink for Discard {
     type Error = std::convert::Infallible;
     fn line(&mut self, _: u16, _: &[u8], _: &[u8]) -> Result<(), Self::Error> {
         Ok(())
