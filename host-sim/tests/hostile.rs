@@ -68,14 +68,7 @@ fn run_with(args: &[&str], setup: Option<fn() -> std::io::Result<()>>) -> Ran {
             cmd.pre_exec(f);
         }
     }
-    let child = cmd.spawn().expect("spawns");
-    let (code, rss) = reap(child);
-    Ran {
-        code,
-        stdout: std::fs::read_to_string(&o).unwrap_or_default(),
-        stderr: std::fs::read_to_string(&e).unwrap_or_default(),
-        max_rss_kib: rss,
-    }
+    finish(cmd.spawn().expect("spawns"), &dir)
 }
 
 fn run(args: &[&str]) -> Ran {
@@ -274,43 +267,55 @@ fn duplicate_material_names_are_refused_naming_both() {
     );
 }
 
-/// `receive` on a pty: the sender writes `stream` and hangs up (or, with
-/// `hold`, keeps the line open); returns the run and the output dir.
-fn receive(test: &str, stream: Vec<u8>, extra: &[&str], hold: Option<Duration>) -> (Ran, PathBuf) {
+/// `host-sim receive --device PTY --out DIR/out EXTRA…` started on a fresh
+/// pty pair, once it has the port open: (the child, the pty's master side
+/// to write to, its slave side, the test's directory).
+fn start_receive(
+    test: &str,
+    extra: &[&str],
+) -> (
+    std::process::Child,
+    serialport::TTYPort,
+    serialport::TTYPort,
+    PathBuf,
+) {
     let dir = scratch(test);
-    let out = dir.join("out");
-    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let (master, slave) = serialport::TTYPort::pair().expect("pty pair");
     let path = slave.name().expect("pty name");
-    let mut args = vec![
-        "receive",
-        "--device",
-        &path,
-        "--out",
-        out.to_str().expect("utf-8"),
-    ];
-    args.extend_from_slice(extra);
-    let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
     let child = Command::new(BIN)
-        .args(&args)
+        .args(["receive", "--device", &path, "--out"])
+        .arg(dir.join("out"))
+        .args(extra)
         .stdin(Stdio::null())
         .stdout(std::fs::File::create(dir.join("stdout")).expect("file"))
         .stderr(std::fs::File::create(dir.join("stderr")).expect("file"))
         .spawn()
         .expect("spawns");
     wait_open(child.id(), &path);
+    (child, master, slave, dir)
+}
+
+/// Waits for a child whose stdout and stderr go to files in `dir`.
+fn finish(child: std::process::Child, dir: &Path) -> Ran {
+    let (code, rss) = reap(child);
+    Ran {
+        code,
+        stdout: std::fs::read_to_string(dir.join("stdout")).unwrap_or_default(),
+        stderr: std::fs::read_to_string(dir.join("stderr")).unwrap_or_default(),
+        max_rss_kib: rss,
+    }
+}
+
+/// `receive` on a pty: the sender writes `stream` and hangs up (after
+/// `hold`, default 300 ms); returns the run and the output dir.
+fn receive(test: &str, stream: Vec<u8>, extra: &[&str], hold: Option<Duration>) -> (Ran, PathBuf) {
+    let (child, mut master, slave, dir) = start_receive(test, extra);
     master.write_all(&stream).expect("write");
     master.flush().expect("flush");
     std::thread::sleep(hold.unwrap_or(Duration::from_millis(300)));
     drop(master);
     drop(slave);
-    let (code, rss) = reap(child);
-    let ran = Ran {
-        code,
-        stdout: std::fs::read_to_string(dir.join("stdout")).unwrap_or_default(),
-        stderr: std::fs::read_to_string(dir.join("stderr")).unwrap_or_default(),
-        max_rss_kib: rss,
-    };
-    (ran, out)
+    (finish(child, &dir), dir.join("out"))
 }
 
 fn header(format: WireFormat) -> FrameStart {
@@ -620,29 +625,11 @@ fn stream_memory_does_not_grow_with_frames() {
 /// `receive`, with a failing status and receive.json.
 #[test]
 fn receive_stops_at_the_deadline_on_endless_noise() {
-    let dir = scratch("receive-noise");
+    let (child, mut master, slave, dir) = start_receive(
+        "receive-noise",
+        &["--frames", "1", "--timeout", "1", "--deadline", "2"],
+    );
     let out = dir.join("out");
-    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
-    let path = slave.name().expect("pty name");
-    let child = Command::new(BIN)
-        .args([
-            "receive",
-            "--device",
-            &path,
-            "--frames",
-            "1",
-            "--timeout",
-            "1",
-            "--deadline",
-            "2",
-            "--out",
-        ])
-        .arg(&out)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(dir.join("stderr")).expect("file"))
-        .spawn()
-        .expect("spawns");
     let t = Instant::now();
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let s2 = stop.clone();
@@ -661,14 +648,13 @@ fn receive_stops_at_the_deadline_on_endless_noise() {
             std::thread::sleep(Duration::from_millis(5));
         }
     });
-    let (code, _) = reap(child);
+    let r = finish(child, &dir);
     let took = t.elapsed();
     stop.store(true, std::sync::atomic::Ordering::SeqCst);
     noise.join().expect("noise");
     drop(slave);
-    let err = std::fs::read_to_string(dir.join("stderr")).unwrap_or_default();
-    assert_eq!(code, Some(1), "{err}");
-    assert!(err.contains("deadline"), "{err}");
+    assert!(r.failed_cleanly(), "exit {:?}: {}", r.code, r.stderr);
+    assert!(r.stderr.contains("deadline"), "{}", r.stderr);
     assert!(took < Duration::from_secs(30), "took {took:?}");
     assert_eq!(entries(&out), ["receive.json"]);
 }
@@ -677,28 +663,9 @@ fn receive_stops_at_the_deadline_on_endless_noise() {
 /// receive.json says it was interrupted.
 #[test]
 fn receive_interrupted_keeps_the_frames_already_received() {
-    let dir = scratch("receive-sigint");
+    let (child, mut master, slave, dir) =
+        start_receive("receive-sigint", &["--frames", "5", "--timeout", "60"]);
     let out = dir.join("out");
-    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
-    let path = slave.name().expect("pty name");
-    let child = Command::new(BIN)
-        .args([
-            "receive",
-            "--device",
-            &path,
-            "--frames",
-            "5",
-            "--timeout",
-            "60",
-            "--out",
-        ])
-        .arg(&out)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(dir.join("stderr")).expect("file"))
-        .spawn()
-        .expect("spawns");
-    wait_open(child.id(), &path);
     let sent = send_frames(&[5u8; 64], header(WireFormat::Gray8), 2, None).expect("encodes");
     master.write_all(&sent.stream).expect("write");
     let t = Instant::now();
@@ -709,14 +676,14 @@ fn receive_interrupted_keeps_the_frames_already_received() {
     }
     // SAFETY: kill(2) on our own child's pid.
     unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
-    let (code, _) = reap(child);
+    let r = finish(child, &dir);
     drop(master);
     drop(slave);
-    let err = std::fs::read_to_string(dir.join("stderr")).unwrap_or_default();
-    assert_eq!(code, Some(1), "{err}");
+    assert!(r.failed_cleanly(), "exit {:?}: {}", r.code, r.stderr);
     assert!(
-        err.contains("2 of 5 frames") && err.contains("interrupted"),
-        "{err}"
+        r.stderr.contains("2 of 5 frames") && r.stderr.contains("interrupted"),
+        "{}",
+        r.stderr
     );
     assert_eq!(
         entries(&out),
