@@ -480,6 +480,54 @@ fn gray16_bits_outside_9_to_16_are_refused() {
     }
 }
 
+/// Headers that claim huge frames (up to 16384×16384 RGB565, 512 MiB) are
+/// refused at their start: the decoder never reserves more than its 16 MiB
+/// frame limit, whatever a hostile link claims.
+#[test]
+fn frame_headers_claiming_huge_frames_are_refused() {
+    // Only the header, as the wire carries it (a hostile sender need not
+    // send the pixels, nor have an encoder that holds such lines):
+    // COBS(postcard ‖ CRC-32 LE) 0x00.
+    let wire = |start: FrameStart| {
+        let mut body = [0u8; 64];
+        let n = postcard::to_slice(&hilcam::link::Message::FrameStart(start), &mut body)
+            .expect("serializes")
+            .len();
+        let mut msg = body[..n].to_vec();
+        msg.extend_from_slice(&hilcam::link::CRC32.checksum(&body[..n]).to_le_bytes());
+        let mut bytes = vec![0u8; msg.len() + msg.len() / 254 + 2];
+        let k = cobs::encode(&msg, &mut bytes);
+        bytes.truncate(k);
+        bytes.push(0);
+        let mut dec = host_sim::link::decoder::Decoder::new(1 << 20, 1 << 24);
+        dec.push(&bytes, &mut |_| {});
+        dec.stats
+    };
+    // The encoding is right: a header within the limit is accepted.
+    let ok = wire(FrameStart {
+        width: 4096,
+        height: 4096,
+        ..header(WireFormat::Gray8)
+    });
+    assert_eq!((ok.messages_ok, ok.frames_refused), (1, 0));
+    for (w, h, format) in [
+        (16384u16, 16384u16, WireFormat::Rgb565),
+        (16384, 1025, WireFormat::Gray8),
+        (4097, 4096, WireFormat::Gray8),
+    ] {
+        let stats = wire(FrameStart {
+            width: w,
+            height: h,
+            ..header(format)
+        });
+        assert_eq!(
+            (stats.messages_ok, stats.frames_refused),
+            (1, 1),
+            "{w}x{h} {format:?}"
+        );
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Crashes
 
