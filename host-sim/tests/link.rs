@@ -326,3 +326,40 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
     assert!(matches!(r, Err(FrameError::Sink(LinkError::Sequence))), "{r:?}");
     assert!(enc.into_inner().bytes.is_empty());
 }
+
+/// A message whose CRC is right but whose body is not the canonical
+/// encoding of what it decodes to — bytes after the last field, an
+/// over-long varint — is refused (`bad_message`), as docs/wire.md says;
+/// the canonical body of the same message is accepted.
+#[test]
+fn non_canonical_bodies_are_refused() {
+    let wire = |body: &[u8]| {
+        let mut msg = body.to_vec();
+        msg.extend_from_slice(&hilcam::link::CRC32.checksum(body).to_le_bytes());
+        let mut bytes = vec![0u8; msg.len() + msg.len() / 254 + 2];
+        let k = cobs::encode(&msg, &mut bytes);
+        bytes.truncate(k);
+        bytes.push(0);
+        let mut dec = Decoder::new(1 << 20, 1 << 24);
+        dec.push(&bytes, &mut |_| {});
+        (dec.stats.messages_ok, dec.stats.bad_message)
+    };
+    let start = FrameStart {
+        frame_id: 7,
+        ..header(4, 2, WireFormat::Gray8)
+    };
+    let mut buf = [0u8; 64];
+    let body = postcard::to_slice(&hilcam::link::Message::FrameStart(start), &mut buf)
+        .expect("serializes")
+        .to_vec();
+    // tag 0, version, frame_id 7: the third byte.
+    assert_eq!(&body[..3], &[0, PROTOCOL_VERSION, 7]);
+    assert_eq!(wire(&body), (1, 0), "the canonical body");
+    let mut trailing = body.clone();
+    trailing.push(0);
+    assert_eq!(wire(&trailing), (0, 1), "a trailing byte");
+    let mut long = body[..2].to_vec();
+    long.extend_from_slice(&[0x87, 0x00]); // 7 as a two-byte varint
+    long.extend_from_slice(&body[3..]);
+    assert_eq!(wire(&long), (0, 1), "an over-long varint");
+}

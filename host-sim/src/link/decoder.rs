@@ -31,8 +31,8 @@ pub struct Stats {
     pub bad_cobs: u64,
     /// Messages whose CRC-32 did not match (or too short to carry one).
     pub bad_crc: u64,
-    /// Messages with a good CRC that did not parse (or were of an unknown
-    /// protocol version).
+    /// Messages with a good CRC that did not parse, or parsed but were not
+    /// the canonical encoding (trailing bytes, over-long varints).
     pub bad_message: u64,
     /// Messages longer than the decoder accepts (discarded to the next
     /// delimiter).
@@ -156,9 +156,12 @@ impl Decoder {
         if self.record {
             self.received.push(sum);
         }
+        // The body must be exactly the canonical encoding of what it
+        // decodes to: no trailing bytes, no over-long varints
+        // (docs/wire.md).
         let msg: Message<'_> = match postcard::from_bytes(body) {
-            Ok(m) => m,
-            Err(_) => {
+            Ok(m) if is_canonical(&m, body) => m,
+            _ => {
                 self.stats.bad_message += 1;
                 return;
             }
@@ -226,6 +229,15 @@ impl Decoder {
             },
         }
     }
+}
+
+/// Whether `body`, which decodes to `m`, is `m`'s one encoding (postcard's:
+/// shortest varints, nothing after the last field). Its length tells: an
+/// over-long varint or a trailing byte only ever lengthens a body, and
+/// every other field decodes from exactly its canonical bytes.
+fn is_canonical(m: &Message<'_>, body: &[u8]) -> bool {
+    postcard::serialize_with_flavor::<_, postcard::ser_flavors::Size, usize>(m, Default::default())
+        .is_ok_and(|n| n == body.len())
 }
 
 /// Decodes a whole stream from any reader (a file, a pipe, a serial port),
