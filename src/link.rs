@@ -66,6 +66,18 @@ impl From<PixelFormat> for WireFormat {
     }
 }
 
+/// The pixel format a received frame holds (a receiver checks `bits`
+/// first: 9 to 16).
+impl From<WireFormat> for PixelFormat {
+    fn from(f: WireFormat) -> Self {
+        match f {
+            WireFormat::Gray8 => PixelFormat::Gray8,
+            WireFormat::Gray16 { bits } => PixelFormat::Gray16 { bits },
+            WireFormat::Rgb565 => PixelFormat::Rgb565,
+        }
+    }
+}
+
 impl WireFormat {
     /// Bytes a pixel.
     pub const fn bytes_per_pixel(self) -> usize {

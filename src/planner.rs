@@ -969,7 +969,13 @@ impl CostModel {
 
     /// Predicted M3 instructions a pixel.
     pub fn predict(&self, f: &Features) -> f64 {
-        self.coef.iter().zip(f.to_array()).map(|(c, x)| c * x).sum()
+        self.predict_terms(&f.to_array())
+    }
+
+    /// Predicted M3 instructions a pixel from the terms themselves, in
+    /// [`Features::to_array`]'s order (missing terms count as 0).
+    pub fn predict_terms(&self, terms: &[f64]) -> f64 {
+        self.coef.iter().zip(terms).map(|(c, x)| c * x).sum()
     }
 }
 

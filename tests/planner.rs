@@ -269,9 +269,8 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
     assert!(cal.points.len() >= 60, "{} points", cal.points.len());
     for p in &cal.points {
         let now = host_sim::costfit::features_now(p).expect("features");
-        // JSON keeps f64 to within an ulp or so.
-        let same =
-            now.len() == p.features.len() && now.iter().zip(&p.features).all(|(a, b)| (a - b).abs() <= 1e-12);
+        // serde_json with float_roundtrip reads back exactly the f64 written.
+        let same = now == p.features;
         assert!(
             same,
             "{} {}: features changed since the calibration: {now:?} vs {:?}",

@@ -426,10 +426,10 @@ fn far_text(name: &str, discs: usize, spheres: usize) -> String {
     t
 }
 
-/// The arithmetic a variant renders with.
-fn arithmetic_of(v: &Variant, scene: &hilcam::scene::Scene) -> Arithmetic {
-    v.options(planner::plan(scene, &Budget::default()).options)
-        .arithmetic
+/// The options `variant` renders `scene` with (the default plan's, as the
+/// variant changes them): its arithmetic, and the features measured.
+fn variant_options(scene: &hilcam::scene::Scene, variant: &Variant) -> hilcam::render::Options {
+    variant.options(planner::plan(scene, &Budget::default()).options)
 }
 
 /// Least squares per arithmetic: the coefficients of every term that some
@@ -509,7 +509,7 @@ pub fn features_now(p: &Point) -> Result<Vec<f64>, String> {
         .map(|(_, t)| t)
         .ok_or_else(|| format!("{}: no such calibration scene", p.scene))?;
     let scene = crate::scene_file::parse(&text)?.core_scene()?;
-    let opts = Variant::parse(&p.variant)?.options(planner::plan(&scene, &Budget::default()).options);
+    let opts = variant_options(&scene, &Variant::parse(&p.variant)?);
     Ok(Features::of_options(&scene, &opts).to_array().to_vec())
 }
 
@@ -548,8 +548,7 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
                 .ok_or_else(|| format!("{}: not in the batch", f.scene))?;
             let scene = load(path)?.core_scene()?;
             let v = Variant::parse(&f.variant)?;
-            let opts = v.options(planner::plan(&scene, &Budget::default()).options);
-            let arithmetic = arithmetic_of(&v, &scene);
+            let opts = variant_options(&scene, &v);
             // The table variant on a scene without distortion repeats the
             // polynomial one.
             if v.name().contains("lut") && scene.distortion.is_none() {
@@ -558,7 +557,7 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
             points.push(Point {
                 scene: f.scene.clone(),
                 variant: f.variant.clone(),
-                arithmetic: arithmetic.name().into(),
+                arithmetic: opts.arithmetic.name().into(),
                 features: Features::of_options(&scene, &opts).to_array().to_vec(),
                 measured: f.instructions_per_pixel.ok_or("no instruction count")?,
             });
@@ -605,9 +604,7 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
     let mut worst: f64 = 0.0;
     for p in &cal.points {
         let m = if p.arithmetic == "fast" { &fast } else { &wide };
-        let mut f = [0.0; COST_TERMS];
-        f.copy_from_slice(&p.features);
-        let pred: f64 = m.coef.iter().zip(f).map(|(c, x)| c * x).sum();
+        let pred = m.predict_terms(&p.features);
         let e = (pred - p.measured) / p.measured;
         worst = worst.max(e.abs());
         let _ = writeln!(

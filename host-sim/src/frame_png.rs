@@ -7,13 +7,23 @@ use crate::harness::decode_all;
 use crate::reference::render::RefRow;
 use hilcam::scene::PixelFormat;
 
-/// How a PNG holds the pixels of a format (or of the diff map).
-pub fn png_layout(format: Option<PixelFormat>) -> (png::ColorType, png::BitDepth) {
-    match format {
+/// A PNG encoder for `format`'s pixels (or the diff map's, `None`): 8-bit
+/// gray, 16-bit gray, or 8-bit RGB.
+fn png_encoder<W: std::io::Write>(
+    w: W,
+    width: usize,
+    height: usize,
+    format: Option<PixelFormat>,
+) -> png::Encoder<'static, W> {
+    let mut e = png::Encoder::new(w, width as u32, height as u32);
+    let (c, d) = match format {
         Some(PixelFormat::Gray8) => (png::ColorType::Grayscale, png::BitDepth::Eight),
         Some(PixelFormat::Gray16 { .. }) => (png::ColorType::Grayscale, png::BitDepth::Sixteen),
         Some(PixelFormat::Rgb565) | None => (png::ColorType::Rgb, png::BitDepth::Eight),
-    }
+    };
+    e.set_color(c);
+    e.set_depth(d);
+    e
 }
 
 /// A PNG written a row at a time: 8-bit gray, 16-bit gray scaled to the
@@ -24,11 +34,8 @@ pub fn png_stream<W: std::io::Write + 'static>(
     height: usize,
     format: Option<PixelFormat>,
 ) -> Result<png::StreamWriter<'static, W>, String> {
-    let mut e = png::Encoder::new(w, width as u32, height as u32);
-    let (c, d) = png_layout(format);
-    e.set_color(c);
-    e.set_depth(d);
-    e.write_header()
+    png_encoder(w, width, height, format)
+        .write_header()
         .and_then(|w| w.into_stream_writer())
         .map_err(|e| format!("PNG encoding failed: {e}"))
 }
@@ -88,11 +95,8 @@ pub fn encode_png(format: PixelFormat, w: usize, h: usize, bytes: &[u8]) -> Resu
         data.extend_from_slice(&row);
     }
     let mut out = Vec::new();
-    let mut e = png::Encoder::new(&mut out, w as u32, h as u32);
-    let (c, d) = png_layout(Some(format));
-    e.set_color(c);
-    e.set_depth(d);
-    e.write_header()
+    png_encoder(&mut out, w, h, Some(format))
+        .write_header()
         .and_then(|mut png| png.write_image_data(&data).and_then(|_| png.finish()))
         .map_err(|e| format!("PNG encoding failed: {e}"))?;
     Ok(out)

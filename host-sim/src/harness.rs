@@ -7,7 +7,7 @@
 use crate::reference::render::{RefFrame, RefRow, RefScene};
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{Frame, FrameSink, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, FrameSink, Options, FLAG_OUTSIDE_FIELD};
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
@@ -165,16 +165,28 @@ pub fn decode_all(format: PixelFormat, bytes: &[u8]) -> Vec<[u32; 3]> {
         .collect()
 }
 
+/// The core's scene, its plan for `budget`, and the frame prepared with
+/// the plan's options as `options` changes them (a variant's; `|o| o` for
+/// the default path).
+pub fn prepare<S: Scalar>(
+    r: &Resolved,
+    budget: &Budget,
+    options: impl FnOnce(Options) -> Options,
+) -> Result<(hilcam::scene::Scene, Plan, Frame<S>), String> {
+    let scene = r.core_scene()?;
+    let plan = planner::plan(&scene, budget);
+    let frame = Frame::<S>::build(&scene, &options(plan.options))
+        .map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    Ok((scene, plan, frame))
+}
+
 /// The core's scene, its plan for `budget`, the prepared frame, and the
 /// frame rendered line by line (bytes and flags).
 pub fn core_render(
     r: &Resolved,
     budget: &Budget,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame, Collect), String> {
-    let scene = r.core_scene()?;
-    let plan = planner::plan(&scene, budget);
-    let frame =
-        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let (scene, plan, frame) = prepare(r, budget, |o| o)?;
     let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
     Ok((scene, plan, frame, core))
 }
@@ -439,8 +451,6 @@ pub fn metrics<S: Scalar>(
 
 /// One line rendered by both, and compared.
 pub struct LineOut {
-    /// Line number.
-    pub y: usize,
     /// Core bytes.
     pub pixels: Vec<u8>,
     /// Core flags.
@@ -478,7 +488,6 @@ pub fn run_lines<S: Scalar>(
                 let reference = rs.render_line(j);
                 let tally = tally_line(rs, frame, j, &core_dn, &flags, reference.row(0));
                 Ok(LineOut {
-                    y: j,
                     pixels,
                     flags,
                     core_dn,
@@ -498,10 +507,7 @@ pub fn run_lines<S: Scalar>(
 
 /// Renders with both, and compares, in memory.
 pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
-    let scene = r.core_scene()?;
-    let plan = planner::plan(&scene, budget);
-    let frame =
-        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, |o| o)?;
     let rs = RefScene::new(r);
     let (w, h) = frame.size();
     let mut core = Collect {

@@ -358,11 +358,7 @@ fn main() -> ExitCode {
             let mut written: Vec<ReceivedFrame> = Vec::new();
             let mut seen: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
             let mut on_frame = |f: host_sim::link::decoder::Frame| -> Result<(), String> {
-                let fmt = match f.start.format {
-                    hilcam::link::WireFormat::Gray8 => hilcam::scene::PixelFormat::Gray8,
-                    hilcam::link::WireFormat::Gray16 { bits } => hilcam::scene::PixelFormat::Gray16 { bits },
-                    hilcam::link::WireFormat::Rgb565 => hilcam::scene::PixelFormat::Rgb565,
-                };
+                let fmt = hilcam::scene::PixelFormat::from(f.start.format);
                 let png = host_sim::frame_png::encode_png(
                     fmt,
                     f.start.width as usize,

@@ -4,11 +4,10 @@
 //! directory; the plan and the summary as text.
 
 use crate::frame_png::{diff_row, png_row, png_stream};
-use crate::harness::{metrics, plan_report, run_lines, Metrics, PlanReport};
+use crate::harness::{metrics, plan_report, prepare, run_lines, Metrics, PlanReport};
 use crate::reference::render::RefScene;
 use crate::scene_file::Resolved;
-use hilcam::planner::{self, Budget};
-use hilcam::render::Frame;
+use hilcam::planner::Budget;
 
 /// `host-sim render`: plans (refusing a scene no candidate meets the budget
 /// for, unless `allow_over_budget`, before anything is written), then
@@ -21,10 +20,7 @@ pub fn render_to(
     budget: &Budget,
     allow_over_budget: bool,
 ) -> Result<Metrics, String> {
-    let scene = r.core_scene()?;
-    let plan = planner::plan(&scene, budget);
-    let frame =
-        Frame::new(&scene, &plan.options).map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, |o| o)?;
     if !plan.meets_budget && !allow_over_budget {
         let report = plan_report(&plan, budget, &frame);
         return Err(format!(

@@ -6,7 +6,7 @@
 
 use crate::harness::{collect, Collect};
 use crate::scene_file::Resolved;
-use hilcam::planner::{self, Budget, Plan};
+use hilcam::planner::{Budget, Plan};
 use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override};
 use hilcam::scalar::{Scalar, I32F32};
 
@@ -235,10 +235,7 @@ pub fn core_render_variant<S: Scalar>(
     budget: &Budget,
     variant: &Variant,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame<S>, Collect), String> {
-    let scene = r.core_scene()?;
-    let plan = planner::plan(&scene, budget);
-    let frame = Frame::<S>::build(&scene, &variant.options(plan.options))
-        .map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let (scene, plan, frame) = crate::harness::prepare::<S>(r, budget, |o| variant.options(o))?;
     let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
     Ok((scene, plan, frame, core))
 }

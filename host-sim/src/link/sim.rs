@@ -291,15 +291,10 @@ impl Channel {
                 hits.push(base + i);
             }
         }
+        // Earlier pieces' hits all lie before `base`: sorting this piece's
+        // keeps the whole list sorted.
         hits[first_hit..].sort_unstable();
-        let mut k = first_hit;
-        for i in first_hit..hits.len() {
-            if k == first_hit || hits[i] != hits[k - 1] {
-                hits[k] = hits[i];
-                k += 1;
-            }
-        }
-        hits.truncate(k);
+        hits.dedup();
         self.offset += piece.len();
     }
 }
