@@ -148,6 +148,20 @@ fn main() {
                 }
             }
         }
+        if let Some(sm) = r.desc.sampling {
+            let _ = writeln!(
+                code,
+                "    s.set_sampling({:?}, {}).map_err(|_| \"sampling\")?;",
+                sm.edge_error, sm.adaptive
+            );
+        }
+        if let Some(n) = r.desc.noise {
+            let _ = writeln!(
+                code,
+                "    s.set_noise({:?}, {:?}, {:?}, {}).map_err(|_| \"noise\")?;",
+                n.saturation, n.dark_noise, n.dark_offset, n.seed
+            );
+        }
         let _ = writeln!(code, "    Ok(s)\n}}\n");
     }
     let _ = writeln!(

@@ -20,6 +20,8 @@
 //! - [`shading`]: the mixed BRDF and lights;
 //! - [`vignetting`]: cos⁴ fall-off, exposure and quantization;
 //! - [`render`]: the line renderer (rays, intersection, and the stages above);
+//! - [`sampling`]: pixel-area integration, the sample pattern;
+//! - [`noise`]: sensor noise (EMVA 1288) from a counter-based generator;
 //! - [`scalar`]: the per-pixel number type (I32F32, 32-bit fixed point, `f32`);
 //! - [`planner`]: picks the cheapest rendering that meets an error budget;
 //! - [`link`]: the wire protocol and the frame encoder;
@@ -39,10 +41,12 @@ pub mod lens;
 pub mod link;
 #[cfg(feature = "mix32")]
 pub mod mix32;
+pub mod noise;
 pub mod num;
 pub mod planner;
 pub mod projection;
 pub mod render;
+pub mod sampling;
 pub mod scalar;
 pub mod scene;
 pub mod shading;

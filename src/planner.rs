@@ -73,6 +73,9 @@ pub enum Unfit {
     /// The fast arithmetic is not built in (the core's `mix32` feature is
     /// off).
     NotBuilt,
+    /// The scene asks for pixel-area sampling or sensor noise, which run in
+    /// the wide arithmetic only.
+    SensorStages,
 }
 
 impl Unfit {
@@ -85,6 +88,7 @@ impl Unfit {
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
+            Unfit::SensorStages => "pixel-area sampling and sensor noise run in the wide arithmetic only",
         }
     }
 }
@@ -161,7 +165,18 @@ pub struct Plan {
     pub candidates: heapless::Vec<Candidate, MAX_CANDIDATES>,
     /// Index of the chosen candidate.
     pub chosen: usize,
+    /// Predicted edge-placement error of the sample pattern, pixels
+    /// ([`crate::sampling::edge_error`]; ½ for one sample at the centre).
+    pub predicted_edge_err_px: f64,
+    /// Predicted samples a pixel (with the adaptive rule's corner tests
+    /// counted as [`KEY_COST`] of a sample each): what the costs above are
+    /// multiplied by.
+    pub predicted_samples_per_pixel: f64,
 }
+
+/// The cost of the adaptive rule's look at a corner (intersection, no
+/// shading), as a fraction of a sample's.
+pub const KEY_COST: f64 = 0.6;
 
 /// The ray model alone (the first step of [`plan`]): what a caller that
 /// forces the arithmetic and the distortion evaluation still needs.
@@ -189,6 +204,12 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let half = budget.max_geom_err_px / 2.0;
     let (model, wp) = ray_model_and_bound(scene, budget);
     let g = Geometry::of(scene, model);
+    let (samples, adaptive) = match scene.sampling {
+        Some(s) => (crate::sampling::grid_for(s.edge_error_px.to_num()), s.adaptive),
+        None => (1, false),
+    };
+    let spp = samples_per_pixel(scene, &g, samples, adaptive);
+    let sensor_stages = samples > 1 || scene.noise.is_some();
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
         let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
@@ -202,6 +223,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         }
         // What the distortion evaluation does not change, once.
         let fits = match arithmetic {
+            Arithmetic::Fast if sensor_stages => Err(Unfit::SensorStages),
             Arithmetic::Fast => g.fast_fits(scene),
             Arithmetic::Wide => Ok(()),
         };
@@ -213,7 +235,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 }
                 _ => g.direct_geom_err(arithmetic, scene),
             };
-            let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion));
+            let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion)) * spp;
             let _ = cands.push(Candidate {
                 arithmetic,
                 distortion,
@@ -261,6 +283,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let mut options = Options::new(model, c.lut_entries.max(2));
     options.distortion_eval = c.distortion.unwrap_or(DistortionEval::Polynomial);
     options.arithmetic = c.arithmetic;
+    options.samples = samples;
+    options.adaptive = adaptive;
     Plan {
         options,
         predicted_geom_err_px: c.geom_err_px,
@@ -270,7 +294,61 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         meets_budget: meets,
         candidates: cands,
         chosen,
+        predicted_edge_err_px: crate::sampling::edge_error(samples),
+        predicted_samples_per_pixel: spp,
     }
+}
+
+/// Samples a pixel for an `n×n` grid: `n²` on every pixel, or with the
+/// adaptive rule one at the centre, two corner looks ([`KEY_COST`] each)
+/// and `n²` on the estimated fraction of pixels an edge crosses.
+fn samples_per_pixel(scene: &Scene, g: &Geometry, n: u8, adaptive: bool) -> f64 {
+    let n2 = f64::from(n) * f64::from(n);
+    match (n, adaptive) {
+        (0 | 1, _) => 1.0,
+        (_, false) => n2,
+        (_, true) => 1.0 + 2.0 * KEY_COST + n2 * edge_fraction(scene, g),
+    }
+}
+
+/// The fraction of pixels an edge crosses, estimated from the edges'
+/// length on the sensor (pixels, at each primitive's centre distance, seen
+/// face on): a sphere's or disc's outline (`2π f r / |c|`), a rectangle's
+/// (`4 f (h_u + h_v) / |c|`), a plane's horizon (the sensor's width), and a
+/// checker texture's cell boundaries (two families of lines a projected
+/// cell apart over the area the primitive covers); a line crosses `4/π`
+/// pixels per pixel of length on average over its directions.
+// Out of line: planning runs once a frame; keeping it small saves flash.
+#[inline(never)]
+fn edge_fraction(scene: &Scene, g: &Geometry) -> f64 {
+    use core::f64::consts::PI;
+    let (w, h) = scene.camera.intrinsics.size();
+    let area = f64::from(w) * f64::from(h);
+    let mut length = 0.0;
+    for (p, pg) in scene.primitives.iter().zip(&g.prims) {
+        let k = g.f_px / norm3(pg.c).max(1e-9);
+        let covered = match p.shape {
+            Shape::Plane { .. } => {
+                length += f64::from(w);
+                g.coverage * area
+            }
+            Shape::Rectangle { half, .. } => {
+                let (hu, hv) = (half[0].to_num::<f64>() * k, half[1].to_num::<f64>() * k);
+                length += 4.0 * (hu + hv);
+                4.0 * hu * hv
+            }
+            _ => {
+                let r = pg.r * k;
+                length += 2.0 * PI * r;
+                PI * r * r
+            }
+        };
+        if let Some(ch) = &p.checker {
+            let cell = (ch.cell.to_num::<f64>() * k).max(1e-9);
+            length += 2.0 * covered.min(area) / cell;
+        }
+    }
+    (4.0 / PI * length / area).min(1.0)
 }
 
 /// The smallest power-of-two table whose error is within `half` (or the

@@ -197,6 +197,12 @@ pub struct Options {
     pub keep_all_stages: bool,
     /// The per-pixel arithmetic.
     pub arithmetic: Arithmetic,
+    /// Pixel-area integration: the side `n` of the `n×n` sample grid
+    /// ([`crate::sampling`]; 1, 2, 4, 8 or 16; 1 is the centre alone).
+    pub samples: u8,
+    /// The grid only where a pixel's corners and centre disagree
+    /// ([`crate::sampling`]'s adaptive rule).
+    pub adaptive: bool,
 }
 
 /// The per-pixel arithmetic (the planner's choice).
@@ -231,6 +237,8 @@ impl Options {
             distortion_eval: DistortionEval::Linear,
             keep_all_stages: false,
             arithmetic: Arithmetic::Wide,
+            samples: 1,
+            adaptive: false,
         }
     }
 
@@ -264,6 +272,14 @@ pub enum Override {
     /// specular stage even without a specular material, no slope-space
     /// culling.
     AllStages,
+    /// An `n×n` sample grid on every pixel (`adaptive = false`) or where
+    /// the adaptive rule asks.
+    Samples {
+        /// Grid side: 1, 2, 4, 8 or 16.
+        n: u8,
+        /// The adaptive rule.
+        adaptive: bool,
+    },
 }
 
 impl Options {
@@ -292,7 +308,12 @@ impl Options {
                     Arithmetic::Wide => DistortionEval::Linear,
                 },
                 keep_all_stages: true,
-                arithmetic: self.arithmetic,
+                ..self
+            },
+            Override::Samples { n, adaptive } => Options {
+                samples: n,
+                adaptive,
+                ..self
             },
         }
     }
@@ -312,8 +333,8 @@ pub enum RenderError {
     /// The distortion factor `g` exceeds ±32 768 over the sensor.
     DistortionOutOfRange,
     /// The [`crate::mix32`] path cannot render the frame: it needs a stage
-    /// that path leaves out (parallel rays, a distortion table, the
-    /// specular lobe) or values beyond its formats.
+    /// that path leaves out (a distortion table, pixel-area sampling,
+    /// sensor noise) or values beyond its formats.
     OutsideFormat,
 }
 
@@ -343,17 +364,35 @@ pub struct Stages {
     pub format: PixelFormat,
     /// The per-pixel arithmetic.
     pub arithmetic: Arithmetic,
+    /// Sample grid side (1: the pixel centre alone).
+    pub samples: u8,
+    /// The adaptive rule decides which pixels get the grid.
+    pub adaptive: bool,
+    /// Sensor noise.
+    pub noise: bool,
 }
 
 impl Stages {
     /// Stage names, in pipeline order.
-    pub fn names(&self) -> heapless::Vec<&'static str, 9> {
+    pub fn names(&self) -> heapless::Vec<&'static str, 12> {
         let mut v = heapless::Vec::new();
         let _ = v.push(match self.arithmetic {
             Arithmetic::Fast => "arithmetic:fast",
             Arithmetic::Wide => "arithmetic:wide",
         });
         let _ = v.push("pixel-to-normalized");
+        if self.samples > 1 {
+            let _ = v.push(match (self.samples, self.adaptive) {
+                (2, false) => "sample:2x2",
+                (4, false) => "sample:4x4",
+                (8, false) => "sample:8x8",
+                (_, false) => "sample:16x16",
+                (2, true) => "sample:2x2-adaptive",
+                (4, true) => "sample:4x4-adaptive",
+                (8, true) => "sample:8x8-adaptive",
+                (_, true) => "sample:16x16-adaptive",
+            });
+        }
         if let Some(d) = self.distortion {
             let _ = v.push(d.name());
         }
@@ -365,6 +404,9 @@ impl Stages {
         }
         if self.vignetting {
             let _ = v.push("vignetting:cos4");
+        }
+        if self.noise {
+            let _ = v.push("noise:emva1288");
         }
         let _ = v.push(match self.format {
             PixelFormat::Gray8 => "quantize:gray8",
@@ -516,6 +558,16 @@ pub struct Frame<S: Scalar = Q> {
     /// `K π/4 (d/f)²` per channel (with the channel's full-scale factor):
     /// DN per unit radiance on the axis.
     gain: V3<S>,
+    /// Sample grid offsets from the pixel centre, `x̂_d` and `ŷ_d` (I64F64
+    /// raw), and the half pixel steps (the corners).
+    sub_x: [i128; crate::sampling::MAX_GRID as usize],
+    sub_y: [i128; crate::sampling::MAX_GRID as usize],
+    half: (i128, i128),
+    /// `1/n²`.
+    inv_n2: S,
+    /// The scene's noise and the stage made of it for [`Frame::set_frame_id`].
+    noise_spec: Option<crate::scene::Noise>,
+    noise: Option<crate::noise::Stage<S>>,
     /// The [`crate::mix32`] path, when the options ask for it.
     #[cfg(feature = "mix32")]
     mix: Option<crate::mix32::Mix32>,
@@ -571,6 +623,9 @@ impl<S: Scalar> Frame<S> {
                 specular: false,
                 format: PixelFormat::Gray8,
                 arithmetic: Arithmetic::Wide,
+                samples: 1,
+                adaptive: false,
+                noise: false,
             },
             x0: 0,
             dx: 0,
@@ -586,6 +641,12 @@ impl<S: Scalar> Frame<S> {
             materials: [Brdf::default().to(); crate::scene::MAX_MATERIALS],
             background: [S::ZERO; 3],
             gain: [S::ZERO; 3],
+            sub_x: [0; crate::sampling::MAX_GRID as usize],
+            sub_y: [0; crate::sampling::MAX_GRID as usize],
+            half: (0, 0),
+            inv_n2: S::ONE,
+            noise_spec: None,
+            noise: None,
             #[cfg(feature = "mix32")]
             mix: None,
         }
@@ -627,8 +688,21 @@ impl<S: Scalar> Frame<S> {
             specular: scene.has_specular() || opts.keep_all_stages,
             format: scene.format,
             arithmetic: opts.arithmetic,
+            samples: opts.samples.clamp(1, crate::sampling::MAX_GRID),
+            adaptive: opts.adaptive && opts.samples > 1,
+            noise: scene.noise.is_some(),
         };
+        if !matches!(self.stages.samples, 1 | 2 | 4 | 8 | 16) {
+            return Err(RenderError::Degenerate);
+        }
         (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
+        let n = self.stages.samples;
+        self.sub_x = crate::sampling::scaled_offsets(dx, n);
+        self.sub_y = crate::sampling::scaled_offsets(dy, n);
+        self.half = (dx / 2, dy / 2);
+        self.inv_n2 = S::from_q(Q::from_bits(1i64 << (32 - 2 * crate::sampling::log2(n))));
+        self.noise_spec = scene.noise;
+        self.noise = scene.noise.map(|z| crate::noise::Stage::new(&z, scene.format, 0));
         self.background = from_q3(scene.background);
         // What only some frames set, reset from the previous frame; every
         // other field is set below for every frame.
@@ -719,7 +793,7 @@ impl<S: Scalar> Frame<S> {
         if opts.arithmetic == Arithmetic::Fast {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
-            if table {
+            if table || self.stages.samples > 1 || self.stages.noise {
                 return Err(RenderError::OutsideFormat);
             }
             self.prepare_mix32(scene, poly_q, gain, origin_scale, opts.keep_all_stages)?;
@@ -788,6 +862,13 @@ impl<S: Scalar> Frame<S> {
         _: bool,
     ) -> Result<(), RenderError> {
         Err(RenderError::OutsideFormat)
+    }
+
+    /// Sets the frame id the noise is keyed by (0 after preparation).
+    pub fn set_frame_id(&mut self, id: u32) {
+        self.noise = self
+            .noise_spec
+            .map(|z| crate::noise::Stage::new(&z, self.format, id));
     }
 
     /// The stages this frame runs.
@@ -906,91 +987,171 @@ impl<S: Scalar> Frame<S> {
         let bpp = self.format.bytes_per_pixel();
         let channels = self.format.channels();
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c));
-        let yd = S::from_q(self.yd_q(j));
-        let (dist, vig, spec) = (
-            self.stages.distortion.is_some(),
-            self.stages.vignetting,
-            self.stages.specular,
-        );
+        let yc = self.y0 - self.dy * j as i128;
+        let n = self.stages.samples;
+        let corners = n > 1 && self.stages.adaptive;
+        let (hx, hy) = self.half;
+        let (top, bottom) = (yc + hy, yc - hy);
+        // The keys of the current pixel's left corners (adaptive rule).
+        let mut left = if corners {
+            [
+                self.key::<PERSP>(self.x0 + hx, top),
+                self.key::<PERSP>(self.x0 + hx, bottom),
+            ]
+        } else {
+            [None, None]
+        };
         let mut acc = self.x0;
-        for (out, flag) in pixels
+        let row = u32::from(j) * u32::from(self.width);
+        for (i, (out, flag)) in pixels
             .chunks_exact_mut(bpp)
             .zip(flags.iter_mut())
             .take(self.width as usize)
+            .enumerate()
         {
-            let xd = S::from_q(from_acc(acc));
+            let xc = acc;
             acc -= self.dx;
-            let (x, y) = if dist {
-                match self.undistort(xd, yd) {
-                    Some(p) => p,
-                    None => {
-                        *flag = FLAG_OUTSIDE_FIELD;
-                        out.iter_mut().for_each(|b| *b = 0);
-                        continue;
-                    }
+            let value = if n <= 1 {
+                self.sample::<PERSP>(xc, yc).map(|(v, _)| v)
+            } else if corners {
+                let right = [
+                    self.key::<PERSP>(xc - hx, top),
+                    self.key::<PERSP>(xc - hx, bottom),
+                ];
+                let centre = self.sample::<PERSP>(xc, yc);
+                let uniform = match centre {
+                    Some((_, k)) => left.iter().chain(right.iter()).all(|c| *c == Some(k)),
+                    None => false,
+                };
+                left = right;
+                match centre {
+                    Some((v, _)) if uniform => Some(v),
+                    _ => self.grid::<PERSP>(xc, yc),
                 }
             } else {
-                (xd, yd)
+                self.grid::<PERSP>(xc, yc)
+            };
+            let Some(value) = value else {
+                *flag = FLAG_OUTSIDE_FIELD;
+                out.iter_mut().for_each(|b| *b = 0);
+                continue;
             };
             *flag = 0;
-            let (o, d) = if PERSP {
-                ([S::ZERO; 3], [x, y, S::ONE])
-            } else {
-                (
-                    [x.mul(self.k_origin), y.mul(self.k_origin), S::ZERO],
-                    [S::ZERO, S::ZERO, S::ONE],
-                )
-            };
-            // d·d (1 for parallel rays); for perspective rays also the
-            // 1 + x̂² + ŷ² of cos⁴α (equal in fixed point, where sums are exact).
-            let a = if PERSP { dot(d, d) } else { S::ONE };
-            let radiance = if spec {
-                self.trace::<true, PERSP>(o, d, a, (x, y))
-            } else {
-                self.trace::<false, PERSP>(o, d, a, (x, y))
-            };
-            let cos4 = match (vig, PERSP) {
-                (false, _) => S::ONE,
-                (true, true) => vignetting::cos4_of(a),
-                (true, false) => vignetting::cos4(x, y),
-            };
             let mut dn = [0u32; 3];
-            for (((dst, l), g), max) in dn
-                .iter_mut()
-                .zip(radiance)
-                .zip(self.gain)
-                .zip(dn_max)
-                .take(channels)
-            {
-                *dst = vignetting::quantize(g, l, cos4, max);
+            match &self.noise {
+                None => {
+                    for ((dst, v), max) in dn.iter_mut().zip(value).zip(dn_max).take(channels) {
+                        *dst = vignetting::round_dn(v, max);
+                    }
+                }
+                Some(z) => {
+                    let p = row + i as u32;
+                    for (c, ((dst, v), max)) in
+                        dn.iter_mut().zip(value).zip(dn_max).take(channels).enumerate()
+                    {
+                        *dst = z.apply(v, p, c, max);
+                    }
+                }
             }
             self.format.pack(dn, out);
         }
     }
 
-    /// Radiance (per channel) seen along the ray `o + t d`, `a = d·d`, of
-    /// the undistorted slopes `(x̂, ŷ)`.
+    /// The ray of the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw): origin,
+    /// direction, `d·d`, and the undistorted slopes; `None` beyond the fold.
+    #[inline(always)]
+    fn ray<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, V3<S>, S, (S, S))> {
+        let (xd, yd) = (S::from_q(from_acc(xacc)), S::from_q(from_acc(yacc)));
+        let (x, y) = if self.stages.distortion.is_some() {
+            self.undistort(xd, yd)?
+        } else {
+            (xd, yd)
+        };
+        let (o, d) = if PERSP {
+            ([S::ZERO; 3], [x, y, S::ONE])
+        } else {
+            (
+                [x.mul(self.k_origin), y.mul(self.k_origin), S::ZERO],
+                [S::ZERO, S::ZERO, S::ONE],
+            )
+        };
+        // d·d (1 for parallel rays); for perspective rays also the
+        // 1 + x̂² + ŷ² of cos⁴α (equal in fixed point, where sums are exact).
+        let a = if PERSP { dot(d, d) } else { S::ONE };
+        Some((o, d, a, (x, y)))
+    }
+
+    /// One sample at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw): `K E`
+    /// per channel in DN before rounding, and what the ray sees; `None`
+    /// beyond the fold.
+    #[inline(always)]
+    fn sample<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
+        let (o, d, a, (x, y)) = self.ray::<PERSP>(xacc, yacc)?;
+        let (radiance, key) = if self.stages.specular {
+            self.trace::<true, PERSP>(o, d, a, (x, y))
+        } else {
+            self.trace::<false, PERSP>(o, d, a, (x, y))
+        };
+        let cos4 = match (self.stages.vignetting, PERSP) {
+            (false, _) => S::ONE,
+            (true, true) => vignetting::cos4_of(a),
+            (true, false) => vignetting::cos4(x, y),
+        };
+        let mut e = [S::ZERO; 3];
+        for ((dst, l), g) in e.iter_mut().zip(radiance).zip(self.gain) {
+            *dst = vignetting::exposure(g, l, cos4);
+        }
+        Some((e, key))
+    }
+
+    /// What the ray at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw) sees;
+    /// `None` beyond the fold.
+    #[inline(never)]
+    fn key<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<Key> {
+        let (o, d, a, xy) = self.ray::<PERSP>(xacc, yacc)?;
+        Some(self.look::<PERSP>(o, d, a, xy).map_or(Key::NOTHING, |s| s.key))
+    }
+
+    /// The mean of the `n×n` grid of the pixel centred at `(xc, yc)`
+    /// (I64F64 raw); `None` if any sample lies beyond the fold.
+    #[inline(never)]
+    fn grid<const PERSP: bool>(&self, xc: i128, yc: i128) -> Option<V3<S>> {
+        let n = self.stages.samples as usize;
+        let mut sum = [S::ZERO; 3];
+        for oy in self.sub_y.iter().take(n) {
+            for ox in self.sub_x.iter().take(n) {
+                // Pixel coordinates grow as x̂_d, ŷ_d fall.
+                let (e, _) = self.sample::<PERSP>(xc - ox, yc - oy)?;
+                for (s, v) in sum.iter_mut().zip(e) {
+                    *s = s.add(v);
+                }
+            }
+        }
+        Some(sum.map(|s| s.mul(self.inv_n2)))
+    }
+
+    /// The nearest primitive the ray `o + t d` meets (`a = d·d`, `(x̂, ŷ)`
+    /// its undistorted slopes), with the material at the hit.
     #[inline]
-    fn trace<const SPEC: bool, const PERSP: bool>(&self, o: V3<S>, d: V3<S>, a: S, (x, y): (S, S)) -> V3<S> {
-        let mut nearest: Option<(&CamPrim<S>, Hit<S>)> = None;
-        for p in &self.prims {
+    fn look<const PERSP: bool>(&self, o: V3<S>, d: V3<S>, a: S, (x, y): (S, S)) -> Option<Seen<S>> {
+        let mut nearest: Option<(usize, &CamPrim<S>, Hit<S>)> = None;
+        for (i, p) in self.prims.iter().enumerate() {
             if let Some(b) = &p.bounds {
                 if x < b[0] || x > b[1] || y < b[2] || y > b[3] {
                     continue;
                 }
             }
             if let Some(h) = intersect::<S, PERSP>(&p.shape, o, d, a) {
-                if h.t < nearest.as_ref().map_or(S::MAX, |(_, b)| b.t) {
-                    nearest = Some((p, h));
+                if h.t < nearest.as_ref().map_or(S::MAX, |(_, _, b)| b.t) {
+                    nearest = Some((i, p, h));
                 }
             }
         }
-        let Some((p, hit)) = nearest else {
-            return self.background;
-        };
+        let (i, p, hit) = nearest?;
         // The point and the texture of the nearest hit only.
         let point = hit.point.unwrap_or_else(|| axpy(hit.t, d, o));
         let mut m = p.material as usize;
+        let mut cell = (0, 0);
         if let Some(ch) = &p.checker {
             let rel = sub3(point, ch.origin);
             let cu = dot(rel, ch.u).mul(ch.inv_cell).floor_int();
@@ -998,10 +1159,33 @@ impl<S: Scalar> Frame<S> {
             if (cu + cv) & 1 != 0 {
                 m = ch.material as usize;
             }
+            cell = (cu, cv);
         }
-        let Some(mat) = self.materials.get(m) else {
-            return self.background;
+        Some(Seen {
+            hit,
+            point,
+            material: m,
+            key: Key { prim: i as u8, cell },
+        })
+    }
+
+    /// Radiance (per channel) seen along the ray `o + t d`, `a = d·d`, of
+    /// the undistorted slopes `(x̂, ŷ)`, and what it sees.
+    #[inline]
+    fn trace<const SPEC: bool, const PERSP: bool>(
+        &self,
+        o: V3<S>,
+        d: V3<S>,
+        a: S,
+        xy: (S, S),
+    ) -> (V3<S>, Key) {
+        let Some(seen) = self.look::<PERSP>(o, d, a, xy) else {
+            return (self.background, Key::NOTHING);
         };
+        let Some(mat) = self.materials.get(seen.material) else {
+            return (self.background, seen.key);
+        };
+        let hit = seen.hit;
         // Two-sided surfaces: the normal faces the viewer.
         let normal = if hit.away { hit.n.map(S::neg) } else { hit.n };
         let view = if SPEC {
@@ -1015,8 +1199,39 @@ impl<S: Scalar> Frame<S> {
         } else {
             [S::ZERO; 3]
         };
-        crate::shading::radiance::<S, SPEC>(mat, &self.lights, point, normal, view, self.format.channels())
+        let l = crate::shading::radiance::<S, SPEC>(
+            mat,
+            &self.lights,
+            seen.point,
+            normal,
+            view,
+            self.format.channels(),
+        );
+        (l, seen.key)
     }
+}
+
+/// What a ray sees, for the adaptive sampling rule: the primitive (255:
+/// none) and, on a textured one, the texture cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Key {
+    prim: u8,
+    cell: (i64, i64),
+}
+
+impl Key {
+    const NOTHING: Key = Key {
+        prim: u8::MAX,
+        cell: (0, 0),
+    };
+}
+
+/// A ray's nearest hit with the material there.
+struct Seen<S> {
+    hit: Hit<S>,
+    point: V3<S>,
+    material: usize,
+    key: Key,
 }
 
 /// `x̂_d` or `ŷ_d` from its I64F64 accumulator.

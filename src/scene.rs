@@ -324,6 +324,43 @@ pub struct Scene {
     pub primitives: heapless::Vec<Primitive, MAX_PRIMITIVES>,
     /// Lights.
     pub lights: heapless::Vec<Light, MAX_LIGHTS>,
+    /// Pixel-area integration (camera-model.md §7), if the scene asks for
+    /// it; without it a pixel is one sample at its centre.
+    pub sampling: Option<Sampling>,
+    /// Sensor noise (camera-model.md §9), if the scene asks for it.
+    pub noise: Option<Noise>,
+}
+
+/// Smallest edge-placement error a scene may ask of pixel-area sampling,
+/// pixels (16×16 samples a pixel).
+pub const MIN_EDGE_ERROR: f64 = 1.0 / 32.0;
+
+/// Pixel-area integration as a scene asks for it (camera-model.md §7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sampling {
+    /// Largest error the sampling pattern may leave in an edge's placement,
+    /// pixels ([`MIN_EDGE_ERROR`] to 0.5): the planner picks the grid from
+    /// it (an `n×n` grid places a straight edge within `1/(2n)` px).
+    pub edge_error_px: Q,
+    /// Spend the grid only on pixels whose corners and centre do not all
+    /// see the same primitive and texture cell (docs/sensor.md); `false`:
+    /// the grid on every pixel.
+    pub adaptive: bool,
+}
+
+/// Sensor noise in the EMVA 1288 linear model (camera-model.md §9).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Noise {
+    /// Saturation capacity `μ_e,sat`, electrons at `DN_max` (1 to 10⁷).
+    pub saturation_e: Q,
+    /// Dark noise `σ_d`, electrons rms (0 to 10⁴).
+    pub dark_noise_e: Q,
+    /// Dark offset `μ_y,dark`, DN (0 to `DN_max`).
+    pub dark_offset_dn: Q,
+    /// The generator's seed.
+    pub seed: u64,
 }
 
 /// Checks and converts scene values (f64 in SI units → fixed point).
@@ -476,7 +513,45 @@ impl Scene {
             materials: heapless::Vec::new(),
             primitives: heapless::Vec::new(),
             lights: heapless::Vec::new(),
+            sampling: None,
+            noise: None,
         })
+    }
+
+    /// Asks for pixel-area integration with edges placed within
+    /// `edge_error_px` ([`MIN_EDGE_ERROR`] to 0.5 px); `adaptive` as
+    /// [`Sampling::adaptive`].
+    pub fn set_sampling(&mut self, edge_error_px: f64, adaptive: bool) -> Result<(), SceneError> {
+        let c = Check { item: Item::Scene };
+        self.sampling = Some(Sampling {
+            edge_error_px: c.q("sampling.edge_error", edge_error_px, MIN_EDGE_ERROR, 0.5)?,
+            adaptive,
+        });
+        Ok(())
+    }
+
+    /// Asks for sensor noise: saturation capacity (e⁻), dark noise (e⁻ rms),
+    /// dark offset (DN of the format's first channel) and seed.
+    pub fn set_noise(
+        &mut self,
+        saturation_e: f64,
+        dark_noise_e: f64,
+        dark_offset_dn: f64,
+        seed: u64,
+    ) -> Result<(), SceneError> {
+        let c = Check { item: Item::Scene };
+        self.noise = Some(Noise {
+            saturation_e: c.q("noise.saturation", saturation_e, 1.0, 1e7)?,
+            dark_noise_e: c.q("noise.dark_noise", dark_noise_e, 0.0, 1e4)?,
+            dark_offset_dn: c.q(
+                "noise.dark_offset",
+                dark_offset_dn,
+                0.0,
+                self.format.dn_max(0) as f64,
+            )?,
+            seed,
+        });
+        Ok(())
     }
 
     /// Adds a material; returns its index.

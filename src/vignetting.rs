@@ -34,10 +34,22 @@ pub fn gain(exposure: Q, d_over_f: Wide, (num, den): (u32, u32)) -> Q {
     quotient::<Q>(base.mul(Wide::int(num as i64)), Wide::int(4 * den as i64)).value
 }
 
+/// `K E = gain · L · cos4`: the pixel value in DN before rounding.
+#[inline(always)]
+pub fn exposure<S: Scalar>(gain: S, radiance: S, cos4: S) -> S {
+    gain.mul(radiance).mul(cos4)
+}
+
+/// `DN = min(DN_max, floor(v + 1/2))` of a value `v` in DN, never negative,
+/// never wrapped.
+#[inline(always)]
+pub fn round_dn<S: Scalar>(v: S, dn_max: u32) -> u32 {
+    v.add(S::HALF).floor_int().clamp(0, dn_max as i64) as u32
+}
+
 /// `DN = min(DN_max, floor(gain · L · cos4 + 1/2))`, never negative, never
 /// wrapped.
 #[inline(always)]
 pub fn quantize<S: Scalar>(gain: S, radiance: S, cos4: S, dn_max: u32) -> u32 {
-    let v = gain.mul(radiance).mul(cos4).add(S::HALF);
-    v.floor_int().clamp(0, dn_max as i64) as u32
+    round_dn(exposure(gain, radiance, cos4), dn_max)
 }

@@ -5,6 +5,7 @@
 //! tests use it; it uses none of them.
 
 use crate::reference::render::{RefFrame, RefRow, RefScene};
+use crate::reference::sampling::Pattern;
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
 use hilcam::render::{Frame, FrameSink, Options, FLAG_OUTSIDE_FIELD};
@@ -86,6 +87,16 @@ pub struct PlanReport {
     pub budget_geom_px: f64,
     /// The budget.
     pub budget_lsb: f64,
+    /// Sample grid side (1: one sample at the pixel centre).
+    pub samples: u8,
+    /// The adaptive rule spends the grid only where a pixel's corners and
+    /// centre disagree.
+    pub adaptive: bool,
+    /// Predicted edge-placement error of the sample pattern, px.
+    pub predicted_edge_err_px: f64,
+    /// Predicted samples a pixel (corner looks counted as a fraction of a
+    /// sample), which the predicted cost includes.
+    pub predicted_samples_per_pixel: f64,
 }
 
 /// `metrics.json`.
@@ -139,6 +150,23 @@ pub struct Metrics {
     pub outside_field_pixels: usize,
     /// Pixels whose in-field flag differs between core and reference.
     pub field_flags_differing: usize,
+    /// The sample pattern's own error: the reference with the frame's
+    /// pattern against the reference with 16×16 samples a pixel, before
+    /// rounding and without noise (null when the frame has one sample a
+    /// pixel).
+    pub sampling_error: Option<SamplingError>,
+}
+
+/// The sample pattern's error against a converged estimate.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct SamplingError {
+    /// Largest |pattern − converged| over pixels and channels, DN.
+    pub max_dn: f64,
+    /// RMS over pixels and channels, DN.
+    pub rms_dn: f64,
+    /// Pixels the pattern sampled with the full grid (adaptive: the others
+    /// took their centre).
+    pub grid_pixels: usize,
 }
 
 /// Everything one render produced.
@@ -251,6 +279,10 @@ pub struct Tally {
     edges_diff: usize,
     flags_diff: usize,
     outside: usize,
+    samp_max: f64,
+    samp_sq: f64,
+    samp_n: usize,
+    samp_grid: usize,
 }
 
 impl Tally {
@@ -273,6 +305,10 @@ impl Tally {
         self.edges_diff += o.edges_diff;
         self.flags_diff += o.flags_diff;
         self.outside += o.outside;
+        self.samp_max = self.samp_max.max(o.samp_max);
+        self.samp_sq += o.samp_sq;
+        self.samp_n += o.samp_n;
+        self.samp_grid += o.samp_grid;
     }
 }
 
@@ -333,6 +369,23 @@ pub fn tally_line<S: Scalar>(
         }
     }
     t
+}
+
+/// Adds line `j`'s sampling error (`rs`'s pattern against `conv`'s) to `t`.
+fn sampling_tally(rs: &RefScene, conv: &RefScene, j: usize, t: &mut Tally) {
+    let channels = rs.format.channels();
+    for i in 0..rs.sensor.width as usize {
+        let (Some(a), Some(b)) = (rs.area_mean(i, j), conv.area_mean(i, j)) else {
+            continue;
+        };
+        t.samp_grid += rs.takes_grid(i, j) as usize;
+        for c in 0..channels {
+            let d = (a[c] - b[c]).abs();
+            t.samp_max = t.samp_max.max(d);
+            t.samp_sq += d * d;
+            t.samp_n += 1;
+        }
+    }
 }
 
 /// The render metrics of a core frame against the reference frame of the
@@ -399,6 +452,10 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         meets_budget: plan.meets_budget,
         budget_geom_px: budget.max_geom_err_px,
         budget_lsb: budget.max_lsb,
+        samples: stages.samples,
+        adaptive: stages.adaptive,
+        predicted_edge_err_px: plan.predicted_edge_err_px,
+        predicted_samples_per_pixel: plan.predicted_samples_per_pixel,
     }
 }
 
@@ -446,6 +503,11 @@ pub fn metrics<S: Scalar>(
         exact_fraction_smooth: t.exact_smooth as f64 / t.smooth.max(1) as f64,
         outside_field_pixels: t.outside,
         field_flags_differing: t.flags_diff,
+        sampling_error: (frame.stages().samples > 1).then(|| SamplingError {
+            max_dn: t.samp_max,
+            rms_dn: (t.samp_sq / t.samp_n.max(1) as f64).sqrt(),
+            grid_pixels: t.samp_grid,
+        }),
     }
 }
 
@@ -473,6 +535,15 @@ pub fn run_lines<S: Scalar>(
 ) -> Result<Tally, String> {
     use rayon::prelude::*;
     let (w, h) = frame.size();
+    // The reference samples each pixel as the frame does; where the frame
+    // has more than one sample a pixel, the pattern's own error is measured
+    // against 16×16.
+    let st = frame.stages();
+    let rs = &rs.with_pattern(Pattern {
+        n: st.samples,
+        adaptive: st.adaptive,
+    });
+    let converged = (st.samples > 1).then(|| rs.with_pattern(Pattern::CONVERGED));
     let band = rayon::current_num_threads().max(1) * 4;
     let mut total = Tally::default();
     for j0 in (0..h as usize).step_by(band) {
@@ -486,7 +557,10 @@ pub fn run_lines<S: Scalar>(
                     .map_err(|e| format!("render failed: {e:?}"))?;
                 let core_dn = decode_all(rs.format, &pixels);
                 let reference = rs.render_line(j);
-                let tally = tally_line(rs, frame, j, &core_dn, &flags, reference.row(0));
+                let mut tally = tally_line(rs, frame, j, &core_dn, &flags, reference.row(0));
+                if let Some(conv) = &converged {
+                    sampling_tally(rs, conv, j, &mut tally);
+                }
                 Ok(LineOut {
                     pixels,
                     flags,

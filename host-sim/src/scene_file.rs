@@ -28,6 +28,46 @@ pub struct SceneDesc {
     pub lights: Vec<LightEntry>,
     /// Primitives.
     pub primitives: Vec<PrimitiveDesc>,
+    /// Pixel-area integration (camera-model.md §7); without it a pixel is
+    /// one sample at its centre.
+    #[serde(default)]
+    pub sampling: Option<SamplingDesc>,
+    /// Sensor noise (camera-model.md §9); off without it.
+    #[serde(default)]
+    pub noise: Option<NoiseDesc>,
+}
+
+/// `[sampling]`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SamplingDesc {
+    /// Largest edge-placement error of the sample pattern, pixels (1/32 to
+    /// 0.5): the planner picks the grid from it.
+    pub edge_error: f64,
+    /// The grid only where a pixel's corners and centre disagree (default
+    /// true).
+    #[serde(default = "yes")]
+    pub adaptive: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// `[noise]`: the EMVA 1288 linear camera model.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseDesc {
+    /// Saturation capacity, electrons at full scale (1 to 10⁷).
+    pub saturation: f64,
+    /// Dark noise, electrons rms (0 to 10⁴).
+    pub dark_noise: f64,
+    /// Dark offset, DN (0 to full scale; default 0).
+    #[serde(default)]
+    pub dark_offset: f64,
+    /// The generator's seed (default 0).
+    #[serde(default)]
+    pub seed: u64,
 }
 
 /// `[output]`.
@@ -812,6 +852,16 @@ impl Resolved {
                 } => scene.add_directional_light(*direction, irradiance.rgb()),
             }
             .map_err(|e| e.to_string())?;
+        }
+        if let Some(sm) = self.desc.sampling {
+            scene
+                .set_sampling(sm.edge_error, sm.adaptive)
+                .map_err(|e| e.to_string())?;
+        }
+        if let Some(n) = self.desc.noise {
+            scene
+                .set_noise(n.saturation, n.dark_noise, n.dark_offset, n.seed)
+                .map_err(|e| e.to_string())?;
         }
         Ok(scene)
     }

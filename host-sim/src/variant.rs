@@ -99,7 +99,8 @@ impl Variant {
     };
 
     /// `planned`, or `ARITH-planned`, `ARITH-lutN-linear`,
-    /// `ARITH-lutN-nearest`, `ARITH-poly`, `ARITH-all-stages`.
+    /// `ARITH-lutN-nearest`, `ARITH-poly`, `ARITH-all-stages`, `ARITH-sN`
+    /// (an N×N sample grid on every pixel), `ARITH-sN-adaptive`.
     pub fn name(&self) -> String {
         let s = self.scalar.name();
         match self.over {
@@ -115,6 +116,8 @@ impl Variant {
             ),
             Override::Polynomial => format!("{s}-poly"),
             Override::AllStages => format!("{s}-all-stages"),
+            Override::Samples { n, adaptive: false } => format!("{s}-s{n}"),
+            Override::Samples { n, adaptive: true } => format!("{s}-s{n}-adaptive"),
         }
     }
 
@@ -123,8 +126,8 @@ impl Variant {
         let bad = || {
             format!(
                 "variant {name:?}: expected planned, or ARITH-planned, ARITH-lutN-linear, \
-                 ARITH-lutN-nearest, ARITH-poly or ARITH-all-stages, ARITH one of planned, mix32, \
-                 i32f32, f32"
+                 ARITH-lutN-nearest, ARITH-poly, ARITH-all-stages, ARITH-sN or ARITH-sN-adaptive \
+                 (N 1, 2, 4, 8, 16), ARITH one of planned, mix32, i32f32, f32"
             )
         };
         if name == "planned" {
@@ -139,6 +142,20 @@ impl Variant {
             "planned" => Override::Planned,
             "poly" => Override::Polynomial,
             "all-stages" => Override::AllStages,
+            _ if rest.starts_with('s') => {
+                let (n, adaptive) = match rest[1..].split_once('-') {
+                    Some((n, "adaptive")) => (n, true),
+                    Some(_) => return Err(bad()),
+                    None => (&rest[1..], false),
+                };
+                let n: u8 = n.parse().map_err(|_| bad())?;
+                if !matches!(n, 1 | 2 | 4 | 8 | 16) {
+                    return Err(format!(
+                        "variant {name:?}: the sample grid's side must be 1, 2, 4, 8 or 16"
+                    ));
+                }
+                Override::Samples { n, adaptive }
+            }
             _ => {
                 let (n, eval) = rest
                     .strip_prefix("lut")
@@ -186,6 +203,9 @@ impl Variant {
             Override::AllStages => "Override::AllStages".into(),
             Override::Table { entries, eval } => {
                 format!("Override::Table {{ entries: {entries}, eval: DistortionEval::{eval:?} }}")
+            }
+            Override::Samples { n, adaptive } => {
+                format!("Override::Samples {{ n: {n}, adaptive: {adaptive} }}")
             }
         };
         let arith = match self.scalar.arithmetic() {

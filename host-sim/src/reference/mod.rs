@@ -4,8 +4,10 @@ pub mod distortion;
 pub mod extrinsics;
 pub mod intrinsics;
 pub mod lens;
+pub mod noise;
 pub mod projection;
 pub mod render;
+pub mod sampling;
 pub mod shading;
 pub mod vignetting;
 

@@ -10,6 +10,8 @@
 use super::distortion::Radial;
 use super::extrinsics::Pose;
 use super::intrinsics::Sensor;
+use super::noise::NoiseModel;
+use super::sampling::Pattern;
 use super::shading::{self, Light, Material};
 use super::vignetting;
 use super::{cross, dot, unit, V3};
@@ -97,6 +99,13 @@ pub struct RefScene {
     aperture: f64,
     /// Output format.
     pub format: PixelFormat,
+    /// The sample pattern (from the scene's `[sampling]`; the harness sets
+    /// the one a frame was rendered with).
+    pub pattern: Pattern,
+    /// Sensor noise, if the scene asks.
+    pub noise: Option<NoiseModel>,
+    /// The frame id the noise is keyed by.
+    pub frame_id: u32,
 }
 
 /// A rendered reference frame.
@@ -263,6 +272,24 @@ impl RefScene {
             exposure: r.desc.output.exposure,
             aperture: r.aperture_diameter(),
             format: r.format,
+            pattern: r.desc.sampling.map_or(Pattern::CENTRE, |s| {
+                Pattern::for_edge_error(s.edge_error, s.adaptive)
+            }),
+            noise: r.desc.noise.map(|n| NoiseModel {
+                saturation: n.saturation,
+                dark_noise: n.dark_noise,
+                dark_offset: n.dark_offset,
+                seed: n.seed,
+            }),
+            frame_id: 0,
+        }
+    }
+
+    /// This scene sampled with `pattern`.
+    pub fn with_pattern(&self, pattern: Pattern) -> RefScene {
+        RefScene {
+            pattern,
+            ..self.clone()
         }
     }
 
@@ -366,12 +393,28 @@ impl RefScene {
         }
     }
 
-    /// Pixel values of pixel position `(xi, yi)` per channel, and whether it
-    /// is in the lens field.
+    /// Pixel values of the sample at pixel position `(xi, yi)` per
+    /// channel (rounded, no noise), and whether it is in the lens field.
     pub fn pixel(&self, xi: f64, yi: f64) -> ([u32; 3], bool) {
-        let Some((x, y)) = self.undistorted(xi, yi) else {
-            return ([0; 3], false);
-        };
+        match self.sample(xi, yi) {
+            None => ([0; 3], false),
+            Some(v) => (
+                [0, 1, 2].map(|c| {
+                    if c < self.format.channels() {
+                        vignetting::round_dn(v[c], self.format.dn_max(c))
+                    } else {
+                        0
+                    }
+                }),
+                true,
+            ),
+        }
+    }
+
+    /// `K E` per channel at pixel position `(xi, yi)`, DN before rounding;
+    /// `None` outside the lens field.
+    pub fn sample(&self, xi: f64, yi: f64) -> Option<[f64; 3]> {
+        let (x, y) = self.undistorted(xi, yi)?;
         let (o, d) = self.ray(x, y);
         let radiance = match self.hit(o, d) {
             None => self.background,
@@ -393,15 +436,97 @@ impl RefScene {
             RefModel::Orthographic(_) => 1.0,
             RefModel::Perspective => vignetting::cos4(x, y),
         };
-        let mut dn = [0u32; 3];
-        for (c, v) in dn.iter_mut().enumerate().take(self.format.channels()) {
+        let mut v = [0.0; 3];
+        for (c, v) in v.iter_mut().enumerate().take(self.format.channels()) {
             let e = vignetting::irradiance(radiance[c], self.aperture, self.sensor.f, cos4);
             // K is in DN of channel 0; a channel with a larger full scale
             // (RGB565 green) scales it by dn_max(c) / dn_max(0).
             let k = self.exposure * self.format.dn_max(c) as f64 / self.format.dn_max(0) as f64;
-            *v = vignetting::quantize(k, e, self.format.dn_max(c));
+            *v = k * e;
+        }
+        Some(v)
+    }
+
+    /// The mean `K E` of pixel `(i, j)` under the pattern (§7): `None` if
+    /// any sample the pattern takes lies outside the lens field.
+    pub fn area_mean(&self, i: usize, j: usize) -> Option<[f64; 3]> {
+        let (x, y) = (i as f64, j as f64);
+        let p = self.pattern;
+        if !self.takes_grid(i, j) {
+            return self.sample(x, y);
+        }
+        let off = p.offsets();
+        let mut sum = [0.0; 3];
+        for b in &off {
+            for a in &off {
+                let v = self.sample(x + a, y + b)?;
+                for c in 0..3 {
+                    sum[c] += v[c];
+                }
+            }
+        }
+        let n2 = f64::from(p.n) * f64::from(p.n);
+        Some(sum.map(|s| s / n2))
+    }
+
+    /// Whether the pattern takes the grid at pixel `(i, j)`: always with
+    /// more than one sample, unless the adaptive rule finds its four
+    /// corners and its centre in the field and seeing the same primitive
+    /// and texture cell.
+    pub fn takes_grid(&self, i: usize, j: usize) -> bool {
+        let (x, y) = (i as f64, j as f64);
+        let p = self.pattern;
+        if p.n <= 1 {
+            return false;
+        }
+        if !p.adaptive {
+            return true;
+        }
+        let centre = self.key(x, y);
+        let corners = [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)];
+        !(centre.in_field && corners.iter().all(|(a, b)| self.key(x + a, y + b) == centre))
+    }
+
+    /// Pixel `(i, j)`'s values per channel (§7 and §9), and whether it is in
+    /// the lens field.
+    pub fn pixel_value(&self, i: usize, j: usize) -> ([u32; 3], bool) {
+        let Some(mean) = self.area_mean(i, j) else {
+            return ([0; 3], false);
+        };
+        let p = (j * self.sensor.width as usize + i) as u64;
+        let dn0 = self.format.dn_max(0);
+        let mut dn = [0u32; 3];
+        for (c, d) in dn.iter_mut().enumerate().take(self.format.channels()) {
+            let max = self.format.dn_max(c);
+            *d = match &self.noise {
+                None => vignetting::round_dn(mean[c], max),
+                Some(n) => n.record(mean[c], max, dn0, n.deviate(self.frame_id, p, c as u64)),
+            };
         }
         (dn, true)
+    }
+
+    /// Whether pixel `(i, j)` is an edge pixel: a 1/256 px move of its
+    /// centre, or (sampled) of any of its corners inwards or outwards,
+    /// changes what the ray sees — where core and reference may decide
+    /// differently.
+    pub fn is_edge(&self, i: usize, j: usize) -> bool {
+        let (x, y) = (i as f64, j as f64);
+        let e = 1.0 / 256.0;
+        let k = self.key(x, y);
+        let centre = [(x + e, y), (x - e, y), (x, y + e), (x, y - e)]
+            .into_iter()
+            .any(|(a, b)| self.key(a, b) != k);
+        if centre || self.pattern.n <= 1 {
+            return centre;
+        }
+        let mut pts = Vec::with_capacity(8);
+        for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+            for r in [0.5 - e, 0.5 + e] {
+                pts.push((x + a * r, y + b * r));
+            }
+        }
+        pts.into_iter().any(|(a, b)| self.key(a, b) != k)
     }
 
     /// Renders line `j`, with edge pixels marked.
@@ -415,15 +540,11 @@ impl RefScene {
             edge: Vec::with_capacity(w),
             undistorted: Vec::with_capacity(w),
         };
-        let e = 1.0 / 256.0;
         let y = j as f64;
         for i in 0..w {
             let x = i as f64;
-            let (dn, in_field) = self.pixel(x, y);
-            let k = self.key(x, y);
-            let edge = [(x + e, y), (x - e, y), (x, y + e), (x, y - e)]
-                .into_iter()
-                .any(|(a, b)| self.key(a, b) != k);
+            let (dn, in_field) = self.pixel_value(i, j);
+            let edge = self.is_edge(i, j);
             f.dn.push(dn);
             f.in_field.push(in_field);
             f.edge.push(edge);

@@ -24,3 +24,15 @@ pub fn quantize(k: f64, e: f64, dn_max: u32) -> u32 {
         v as u32
     }
 }
+
+/// `DN = min(DN_max, floor(v + 1/2))` of a value `v` in DN.
+pub fn round_dn(v: f64, dn_max: u32) -> u32 {
+    let v = (v + 0.5).floor();
+    if v >= dn_max as f64 {
+        dn_max
+    } else if v <= 0.0 {
+        0
+    } else {
+        v as u32
+    }
+}

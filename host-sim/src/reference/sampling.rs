@@ -1,0 +1,42 @@
+//! Reference pixel-area sampling (camera-model.md §7), written from the
+//! contract and docs/sensor.md: the pixel square `[i − ½, i + ½] ×
+//! [j − ½, j + ½]`, an `n×n` grid of cell centres, and the adaptive rule.
+
+/// The pattern a frame is sampled with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pattern {
+    /// Grid side (1: the centre alone).
+    pub n: u8,
+    /// The grid only where the corners and centre disagree.
+    pub adaptive: bool,
+}
+
+impl Pattern {
+    /// One sample at the centre.
+    pub const CENTRE: Pattern = Pattern {
+        n: 1,
+        adaptive: false,
+    };
+    /// The converged estimate the sampling error is measured against.
+    pub const CONVERGED: Pattern = Pattern {
+        n: 16,
+        adaptive: false,
+    };
+
+    /// The grid for an edge-placement budget (docs/sensor.md): the smallest
+    /// side in 1, 2, 4, 8, 16 whose worst straight-edge error, half a grid
+    /// cell, is within it.
+    pub fn for_edge_error(e: f64, adaptive: bool) -> Pattern {
+        let n = [1u8, 2, 4, 8, 16]
+            .into_iter()
+            .find(|&n| 1.0 / (2.0 * f64::from(n)) <= e)
+            .unwrap_or(16);
+        Pattern { n, adaptive }
+    }
+
+    /// Offsets of the grid's cell centres from the pixel centre, pixels.
+    pub fn offsets(&self) -> Vec<f64> {
+        let n = f64::from(self.n);
+        (0..self.n).map(|a| (f64::from(a) + 0.5) / n - 0.5).collect()
+    }
+}

@@ -1,0 +1,135 @@
+//! Sensor noise (camera-model.md §9): the EMVA 1288 linear camera model,
+//! from a counter-based generator, so that a pixel's noise depends on
+//! (seed, frame id, pixel index, channel) only — not on the order pixels
+//! are rendered in — and is the same on every target.
+//!
+//! **Generator** (docs/sensor.md): `mix` is the SplitMix64 finaliser
+//! (`z ^= z >> 30; z *= 0xbf58476d1ce4e5b9; z ^= z >> 27;
+//! z *= 0x94d049bb133111eb; z ^= z >> 31`, arithmetic mod 2⁶⁴). A frame's
+//! key is `mix(seed + mix(frame_id + 1))`; draw `k` (0, 1, 2) of channel `c`
+//! of pixel `p = j · width + i` is `h_k = mix(key ^ (p << 4 | c << 2 | k))`.
+//! **Normal transform:** the twelve 16-bit words `u` of `h_0, h_1, h_2`
+//! (least significant first) give `z = (Σ u − 393 210) / 65 536` — the
+//! Irwin–Hall sum of twelve uniforms: mean 0, variance `1 − 2⁻³²`, within
+//! ±6. Integer until the last step, so the reference computes the same `z`.
+//!
+//! **Recorded value:** with `μ_y` the noise-free pixel value (DN, before
+//! rounding), `K_sys = DN_max / μ_e,sat`, the noise in DN is
+//! `z · sqrt(K_sys μ_y + (K_sys σ_d)²)` (shot noise of `μ_e = μ_y / K_sys`
+//! electrons plus dark noise), and
+//! `DN = clamp(floor(μ_y + noise + μ_y,dark + ½), 0, DN_max)`.
+
+use crate::scalar::Scalar;
+use crate::scene::{Noise, PixelFormat, Q};
+
+/// The SplitMix64 finaliser.
+#[inline]
+pub const fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A frame's key.
+pub const fn frame_key(seed: u64, frame_id: u32) -> u64 {
+    mix(seed.wrapping_add(mix(frame_id as u64 + 1)))
+}
+
+/// `65 536 z` for channel `c` of pixel `p` (an integer within ±393 210).
+#[inline]
+pub fn normal_q16(key: u64, pixel: u32, channel: u8) -> i32 {
+    let base = (u64::from(pixel) << 4) | (u64::from(channel & 3) << 2);
+    let mut sum: i64 = 0;
+    for k in 0..3u64 {
+        let h = mix(key ^ (base | k));
+        for w in 0..4 {
+            sum += ((h >> (16 * w)) & 0xffff) as i64;
+        }
+    }
+    (sum - 393_210) as i32
+}
+
+/// The noise stage of a frame, in the renderer's scalar.
+#[derive(Clone, Copy, Debug)]
+pub struct Stage<S> {
+    /// `K_sys` per channel, DN per electron.
+    ksys: [S; 3],
+    /// `(K_sys σ_d)²` per channel, DN².
+    dark_var: [S; 3],
+    /// `μ_y,dark` per channel plus ½ (the rounding), DN.
+    offset: [S; 3],
+    key: u64,
+}
+
+impl<S: Scalar> Stage<S> {
+    /// The stage for `noise` on `format`, frame `frame_id`. The dark offset
+    /// is in DN of the first channel; a channel with a larger full scale
+    /// (RGB565 green) scales it like the exposure.
+    pub fn new(noise: &Noise, format: PixelFormat, frame_id: u32) -> Stage<S> {
+        let sat = noise.saturation_e.to_num::<f64>().max(1.0);
+        let d0 = f64::from(format.dn_max(0));
+        let per = |c: usize| {
+            let dn = f64::from(format.dn_max(c));
+            let k = dn / sat;
+            let dark = k * noise.dark_noise_e.to_num::<f64>();
+            let off = noise.dark_offset_dn.to_num::<f64>() * dn / d0 + 0.5;
+            [k, dark * dark, off].map(|v| S::from_q(Q::saturating_from_num(v)))
+        };
+        let [a, b, c] = [per(0), per(1), per(2)];
+        Stage {
+            ksys: [a[0], b[0], c[0]],
+            dark_var: [a[1], b[1], c[1]],
+            offset: [a[2], b[2], c[2]],
+            key: frame_key(noise.seed, frame_id),
+        }
+    }
+
+    /// The recorded value of channel `c` of pixel `p` whose noise-free value
+    /// is `mu` DN (before rounding), clamped to `[0, dn_max]`.
+    #[inline]
+    pub fn apply(&self, mu: S, pixel: u32, c: usize, dn_max: u32) -> u32 {
+        let (k, var, off) = (
+            self.ksys.get(c).copied().unwrap_or(S::ZERO),
+            self.dark_var.get(c).copied().unwrap_or(S::ZERO),
+            self.offset.get(c).copied().unwrap_or(S::HALF),
+        );
+        let mu = if mu > S::ZERO { mu } else { S::ZERO };
+        let sigma = k.mul(mu).add(var).sqrt().unwrap_or(S::ZERO);
+        let z = S::from_q(Q::from_bits(
+            i64::from(normal_q16(self.key, pixel, c as u8)) << 16,
+        ));
+        let v = mu.add(sigma.mul(z)).add(off);
+        v.floor_int().clamp(0, i64::from(dn_max)) as u32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normal_has_unit_variance_and_zero_mean() {
+        let key = frame_key(7, 3);
+        let n = 200_000u32;
+        let (mut s, mut s2) = (0f64, 0f64);
+        for p in 0..n {
+            let z = f64::from(normal_q16(key, p, 0)) / 65536.0;
+            s += z;
+            s2 += z * z;
+        }
+        let mean = s / f64::from(n);
+        let var = s2 / f64::from(n) - mean * mean;
+        assert!(mean.abs() < 0.01, "mean {mean}");
+        assert!((var - 1.0).abs() < 0.01, "variance {var}");
+    }
+
+    #[test]
+    fn draws_depend_on_every_key_part() {
+        let k = frame_key(1, 0);
+        let z = normal_q16(k, 5, 0);
+        assert_ne!(z, normal_q16(k, 6, 0));
+        assert_ne!(z, normal_q16(k, 5, 1));
+        assert_ne!(z, normal_q16(frame_key(1, 1), 5, 0));
+        assert_ne!(z, normal_q16(frame_key(2, 0), 5, 0));
+    }
+}

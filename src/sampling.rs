@@ -1,0 +1,72 @@
+//! Pixel-area integration (camera-model.md §7): the sample pattern and the
+//! planner's rule for its size.
+//!
+//! A pixel `(i, j)` covers `[i − ½, i + ½] × [j − ½, j + ½]` (pixel
+//! coordinates). Its samples are an `n×n` stratified grid, the cell centres:
+//! sample `(a, b)` at `(i + s_a, j + s_b)`, `s_a = (2a + 1 − n) / (2n)`,
+//! `a, b = 0 … n − 1`, `n` ∈ {1, 2, 4, 8, 16} (n = 1: the centre alone).
+//! The pixel's irradiance is the samples' mean. An `n×n` grid places a
+//! straight edge within `1/(2n)` px (the worst case is an edge parallel to
+//! the grid's rows: each row counts its samples on either side).
+//!
+//! **Adaptive rule** (when the scene asks for it): the renderer first looks
+//! at the pixel's four corners `(i ± ½, j ± ½)` and its centre. If all five
+//! are in the lens field and see the same primitive (or all see nothing)
+//! and, on a textured primitive, the same texture cell, the pixel's value is
+//! its centre sample; otherwise it is the grid's mean. Content that fits
+//! between a pixel's corners without touching them is missed by the test
+//! (docs/sensor.md). A pixel any of whose samples lies beyond the lens
+//! field's fold is flagged outside the field and valued 0, as a centre
+//! sample beyond it is.
+
+/// The largest grid side.
+pub const MAX_GRID: u8 = 16;
+
+/// The smallest grid side `n` ∈ {1, 2, 4, 8, 16} whose edge-placement error
+/// `1/(2n)` is within `edge_error_px` (16 if none is).
+pub fn grid_for(edge_error_px: f64) -> u8 {
+    let mut n = 1u8;
+    while n < MAX_GRID && edge_error(n) > edge_error_px {
+        n *= 2;
+    }
+    n
+}
+
+/// The edge-placement error of an `n×n` grid, pixels: `1/(2n)` (½ for the
+/// centre alone).
+pub fn edge_error(n: u8) -> f64 {
+    0.5 / f64::from(n.max(1))
+}
+
+/// `step · s_a` for `a = 0 … n − 1` (entries beyond `n` are 0), in the
+/// caller's fixed-point units (`step` is the pixel step, I64F64 raw):
+/// truncated toward zero, the same on every target.
+pub fn scaled_offsets(step: i128, n: u8) -> [i128; MAX_GRID as usize] {
+    let n = n.clamp(1, MAX_GRID) as i128;
+    let mut out = [0i128; MAX_GRID as usize];
+    for (a, o) in out.iter_mut().enumerate().take(n as usize) {
+        *o = step.saturating_mul(2 * a as i128 + 1 - n) / (2 * n);
+    }
+    out
+}
+
+/// `log2 n` of a grid side (0 for 1).
+pub fn log2(n: u8) -> u32 {
+    n.max(1).trailing_zeros()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_meets_the_edge_error() {
+        assert_eq!(grid_for(0.5), 1);
+        assert_eq!(grid_for(0.25), 2);
+        assert_eq!(grid_for(0.2), 4);
+        assert_eq!(grid_for(0.0625), 8);
+        assert_eq!(grid_for(0.01), 16);
+        let o = scaled_offsets(1 << 20, 4);
+        assert_eq!(&o[..4], &[-(3 << 17), -(1 << 17), 1 << 17, 3 << 17]);
+    }
+}
