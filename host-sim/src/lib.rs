@@ -18,4 +18,5 @@ pub mod render_cmd;
 pub mod scene_file;
 pub mod stream_cmd;
 pub mod tradeoff;
+pub mod truth;
 pub mod variant;

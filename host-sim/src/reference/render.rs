@@ -285,6 +285,58 @@ impl RefScene {
         }
     }
 
+    /// Where the world point `p` is imaged, in pixel coordinates (the
+    /// declared model, then distortion, camera-model.md §1–§3); `None` if
+    /// it is behind the camera or beyond the lens field's fold.
+    pub fn project(&self, p: V3) -> Option<(f64, f64)> {
+        let c = self.pose.world_to_camera(p);
+        let (x, y) = match self.model {
+            RefModel::Perspective if c[2] > 0.0 => (c[0] / c[2], c[1] / c[2]),
+            RefModel::Perspective => return None,
+            RefModel::Orthographic(m) => (m * c[0] / self.sensor.f, m * c[1] / self.sensor.f),
+        };
+        let (xd, yd) = match self.radial {
+            Some(r) => r.distort(x, y)?,
+            None => (x, y),
+        };
+        Some(self.sensor.normalized_to_pixel(xd, yd))
+    }
+
+    /// The inner corners (where four whole cells meet) of each checkered
+    /// rectangle: texture coordinates `(u, v)` (metres from the texture's
+    /// origin) and the world point, row by row along `v`.
+    pub fn checker_corners(&self) -> Vec<Vec<([f64; 2], V3)>> {
+        let mut out = Vec::new();
+        for p in &self.prims {
+            let (Shape::Rect { c, u, v, hu, hv, .. }, Some(ch)) = (p.shape, p.checker) else {
+                continue;
+            };
+            let reach = |h: f64| ((h - ch.cell) / ch.cell + 1e-9).floor() as i64;
+            // Enough cells either way for any in-plane texture direction;
+            // the test below keeps those inside the rectangle.
+            let reach = reach(hu.max(hv)) + 1;
+            let mut pts = Vec::new();
+            for l in -reach..=reach {
+                for k in -reach..=reach {
+                    let (a, b) = (k as f64 * ch.cell, l as f64 * ch.cell);
+                    let q = [
+                        ch.origin[0] + a * ch.u[0] + b * ch.v[0],
+                        ch.origin[1] + a * ch.u[1] + b * ch.v[1],
+                        ch.origin[2] + a * ch.u[2] + b * ch.v[2],
+                    ];
+                    let rel = sub(q, c);
+                    let inside =
+                        dot(rel, u).abs() <= hu - ch.cell + 1e-9 && dot(rel, v).abs() <= hv - ch.cell + 1e-9;
+                    if inside {
+                        pts.push(([a, b], q));
+                    }
+                }
+            }
+            out.push(pts);
+        }
+        out
+    }
+
     /// This scene sampled with `pattern`.
     pub fn with_pattern(&self, pattern: Pattern) -> RefScene {
         RefScene {

@@ -1,0 +1,104 @@
+//! Ground truth of a rendered frame (`host-sim frame`): the camera in
+//! OpenCV's pixel conventions, the pose, and where each checker texture's
+//! inner corners are imaged — computed by the f64 reference from the scene,
+//! not read off the frame.
+
+use crate::reference::render::RefScene;
+use crate::scene_file::Resolved;
+use serde::Serialize;
+
+/// `truth.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Truth {
+    /// Scene name.
+    pub scene: String,
+    /// Frame size, px.
+    pub width: u32,
+    /// Frame size, px.
+    pub height: u32,
+    /// Focal length in pixels along x (`f / s_x`): OpenCV's `fx`.
+    pub fx: f64,
+    /// Focal length in pixels along y: OpenCV's `fy`.
+    pub fy: f64,
+    /// Principal point, px: OpenCV's `cx`, `cy` (pixel centres at integers,
+    /// as OpenCV's).
+    pub cx: f64,
+    /// See `cx`.
+    pub cy: f64,
+    /// The contract's radial distortion `[k1, k2]` (distorted →
+    /// undistorted, camera-model.md §3; not OpenCV's direction), if any.
+    pub distortion: Option<[f64; 2]>,
+    /// Per checkered rectangle, its inner corners, row by row.
+    pub checker_corners: Vec<Vec<Corner>>,
+    /// The stages the frame was rendered with.
+    pub stages: Vec<String>,
+}
+
+/// A checker corner.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Corner {
+    /// Texture coordinates `(u, v)`, metres from the texture's origin (the
+    /// rectangle's centre): the board's own coordinates.
+    pub board: [f64; 2],
+    /// Pixel position (`null` where the corner is behind the camera or
+    /// beyond the lens field's fold).
+    pub pixel: Option<[f64; 2]>,
+}
+
+/// The truth of `r` rendered with `stages`.
+pub fn truth(r: &Resolved, stages: Vec<String>) -> Truth {
+    let rs = RefScene::new(r);
+    let s = rs.sensor;
+    Truth {
+        scene: r.desc.name.clone(),
+        width: s.width,
+        height: s.height,
+        fx: s.f / s.sx,
+        fy: s.f / s.sy,
+        cx: s.ox,
+        cy: s.oy,
+        distortion: r.desc.camera.distortion,
+        checker_corners: rs
+            .checker_corners()
+            .into_iter()
+            .map(|pts| {
+                pts.into_iter()
+                    .map(|(board, p)| Corner {
+                        board,
+                        pixel: rs.project(p).map(|(x, y)| [x, y]),
+                    })
+                    .collect()
+            })
+            .collect(),
+        stages,
+    }
+}
+
+/// Renders `r` with the core only (the planner's choice, or `variant`) as
+/// frame `frame_id` (the noise's key) and writes `frame.png` and
+/// `truth.json` into `dir`, both or neither.
+pub fn frame_to(
+    dir: &std::path::Path,
+    r: &Resolved,
+    variant: &crate::variant::Variant,
+    frame_id: u32,
+) -> Result<Truth, String> {
+    use crate::variant::ScalarKind;
+    if variant.scalar == ScalarKind::F32 {
+        return Err("--variant: f32 variants are for the sweep (tradeoff), not for frames".into());
+    }
+    let budget = hilcam::planner::Budget::default();
+    let (scene, _, mut frame) =
+        crate::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| variant.options(o))?;
+    frame.set_frame_id(frame_id);
+    let core = crate::harness::collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
+    let (w, h) = frame.size();
+    let png = crate::frame_png::encode_png(scene.format, w as usize, h as usize, &core.pixels)?;
+    let t = truth(r, frame.stages().names().iter().map(|s| s.to_string()).collect());
+    let json = serde_json::to_vec_pretty(&t).map_err(|e| format!("truth: {e}"))?;
+    let mut out = crate::output::Outputs::prepare(dir)?;
+    out.write("frame.png", &png)?;
+    out.write("truth.json", &json)?;
+    out.commit()?;
+    Ok(t)
+}
