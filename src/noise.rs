@@ -64,24 +64,25 @@ pub struct Stage<S> {
 impl<S: Scalar> Stage<S> {
     /// The stage for `noise` on `format`, frame `frame_id`. The dark offset
     /// is in DN of the first channel; a channel with a larger full scale
-    /// (RGB565 green) scales it like the exposure.
+    /// (RGB565 green) scales it like the exposure. In I32F32, saturating.
     pub fn new(noise: &Noise, format: PixelFormat, frame_id: u32) -> Stage<S> {
-        let sat = noise.saturation_e.to_num::<f64>().max(1.0);
-        let d0 = f64::from(format.dn_max(0));
-        let per = |c: usize| {
-            let dn = f64::from(format.dn_max(c));
-            let k = dn / sat;
-            let dark = k * noise.dark_noise_e.to_num::<f64>();
-            let off = noise.dark_offset_dn.to_num::<f64>() * dn / d0 + 0.5;
-            [k, dark * dark, off].map(|v| S::from_q(Q::saturating_from_num(v)))
-        };
-        let [a, b, c] = [per(0), per(1), per(2)];
-        Stage {
-            ksys: [a[0], b[0], c[0]],
-            dark_var: [a[1], b[1], c[1]],
-            offset: [a[2], b[2], c[2]],
+        let mut st = Stage {
+            ksys: [S::ZERO; 3],
+            dark_var: [S::ZERO; 3],
+            offset: [S::HALF; 3],
             key: frame_key(noise.seed, frame_id),
+        };
+        for c in 0..3 {
+            let [k, var, off] = channel_constants(noise, format.dn_max(c), format.dn_max(0));
+            if let (Some(a), Some(b), Some(o)) =
+                (st.ksys.get_mut(c), st.dark_var.get_mut(c), st.offset.get_mut(c))
+            {
+                *a = S::from_q(k);
+                *b = S::from_q(var);
+                *o = S::from_q(off);
+            }
         }
+        st
     }
 
     /// The recorded value of channel `c` of pixel `p` whose noise-free value
@@ -101,6 +102,24 @@ impl<S: Scalar> Stage<S> {
         let v = mu.add(sigma.mul(z)).add(off);
         v.floor_int().clamp(0, i64::from(dn_max)) as u32
     }
+}
+
+/// `K_sys = dn/μ_e,sat`, `(K_sys σ_d)²` and `μ_y,dark · dn/dn0 + ½` of a
+/// channel of full scale `dn` (`dn0` the first channel's), I32F32 from
+/// integer arithmetic on the raw values, saturating.
+#[inline(never)]
+fn channel_constants(noise: &Noise, dn: u32, dn0: u32) -> [Q; 3] {
+    let q = |v: u128| Q::from_bits(v.min(i64::MAX as u128) as i64);
+    let raw = |v: Q| v.to_bits().max(0) as u128;
+    let sat = raw(noise.saturation_e).max(1);
+    let k = (u128::from(dn) << 64) / sat;
+    let dark = k.saturating_mul(raw(noise.dark_noise_e)) >> 32;
+    let var = dark
+        .min(u128::from(u64::MAX))
+        .saturating_mul(dark.min(u128::from(u64::MAX)))
+        >> 32;
+    let off = raw(noise.dark_offset_dn).saturating_mul(u128::from(dn)) / u128::from(dn0.max(1)) + (1 << 31);
+    [q(k), q(var), q(off)]
 }
 
 #[cfg(test)]

@@ -201,6 +201,9 @@ impl Wide {
     /// Rescales the mantissa to exactly `bits` significant bits (or leaves zero
     /// alone). Shifting right rounds; the value changes by at most half a unit
     /// in the last kept place.
+    // Out of line: Wide runs in per-frame preparation only, where one
+    // shared copy saves flash on the boards.
+    #[inline(never)]
     fn normalized(self, bits: u32) -> Wide {
         if self.mant == 0 {
             return Wide::ZERO;
@@ -240,6 +243,9 @@ impl Wide {
     }
 
     /// Quotient, with at least 62 significant bits; `None` when `o` is zero.
+    // Out of line: Wide runs in per-frame preparation only, where one
+    // shared copy saves flash on the boards.
+    #[inline(never)]
     pub fn checked_div(self, o: Wide) -> Option<Wide> {
         if o.mant == 0 {
             return None;

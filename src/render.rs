@@ -774,29 +774,31 @@ impl<S: Scalar> Frame<S> {
             .ok_or(RenderError::Degenerate)?;
         let gain = [0, 1, 2].map(|c| vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c)));
         self.gain = from_q3(gain);
-        for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
-            *dst = Brdf::new(m, scene.ambient).to();
-        }
         // Parallel rays' origin scale; slope-space culling unless every
         // stage is kept.
         let origin_scale = match opts.model {
             RenderModel::Perspective => None,
             _ => Some(self.k_origin.to_q()),
         };
-        let cull = !opts.keep_all_stages;
-        for p in &scene.primitives {
-            let _ = self.prims.push(cam_prim(scene, p, origin_scale, cull).to());
-        }
-        for l in &scene.lights {
-            let _ = self.lights.push(shading_light(scene, l).to());
-        }
         if opts.arithmetic == Arithmetic::Fast {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
             if table || self.stages.samples > 1 || self.stages.noise {
                 return Err(RenderError::OutsideFormat);
             }
-            self.prepare_mix32(scene, poly_q, gain, origin_scale, opts.keep_all_stages)?;
+            // The fast path prepares its own primitives, lights and
+            // materials: the wide ones are not built.
+            return self.prepare_mix32(scene, poly_q, gain, origin_scale, opts.keep_all_stages);
+        }
+        for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
+            *dst = Brdf::new(m, scene.ambient).to();
+        }
+        let cull = !opts.keep_all_stages;
+        for p in &scene.primitives {
+            let _ = self.prims.push(cam_prim(scene, p, origin_scale, cull).to());
+        }
+        for l in &scene.lights {
+            let _ = self.lights.push(shading_light(scene, l).to());
         }
         Ok(())
     }
@@ -1012,24 +1014,9 @@ impl<S: Scalar> Frame<S> {
             let xc = acc;
             acc -= self.dx;
             let value = if n <= 1 {
-                self.sample::<PERSP>(xc, yc).map(|(v, _)| v)
-            } else if corners {
-                let right = [
-                    self.key::<PERSP>(xc - hx, top),
-                    self.key::<PERSP>(xc - hx, bottom),
-                ];
-                let centre = self.sample::<PERSP>(xc, yc);
-                let uniform = match centre {
-                    Some((_, k)) => left.iter().chain(right.iter()).all(|c| *c == Some(k)),
-                    None => false,
-                };
-                left = right;
-                match centre {
-                    Some((v, _)) if uniform => Some(v),
-                    _ => self.grid::<PERSP>(xc, yc),
-                }
+                self.sample_inline::<PERSP>(xc, yc).map(|(v, _)| v)
             } else {
-                self.grid::<PERSP>(xc, yc)
+                self.area_value::<PERSP>(xc, yc, (top, bottom), &mut left)
             };
             let Some(value) = value else {
                 *flag = FLAG_OUTSIDE_FIELD;
@@ -1057,10 +1044,43 @@ impl<S: Scalar> Frame<S> {
         }
     }
 
+    /// The value of the pixel centred at `(xc, yc)` (I64F64 raw) under the
+    /// sample pattern: with the adaptive rule, its centre sample if its
+    /// corners (`left` from the previous pixel, the right ones looked at
+    /// here on the lines `top`, `bottom`) and centre see the same; else the
+    /// grid's mean. Out of line: the one-sample loop stays lean.
+    #[inline(never)]
+    fn area_value<const PERSP: bool>(
+        &self,
+        xc: i128,
+        yc: i128,
+        (top, bottom): (i128, i128),
+        left: &mut [Option<Key>; 2],
+    ) -> Option<V3<S>> {
+        if !self.stages.adaptive {
+            return self.grid::<PERSP>(xc, yc);
+        }
+        let hx = self.half.0;
+        let right = [
+            self.key::<PERSP>(xc - hx, top),
+            self.key::<PERSP>(xc - hx, bottom),
+        ];
+        let centre = self.sample::<PERSP>(xc, yc);
+        let uniform = match centre {
+            Some((_, k)) => left.iter().chain(right.iter()).all(|c| *c == Some(k)),
+            None => false,
+        };
+        *left = right;
+        match centre {
+            Some((v, _)) if uniform => Some(v),
+            _ => self.grid::<PERSP>(xc, yc),
+        }
+    }
+
     /// The ray of the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw): origin,
     /// direction, `d·d`, and the undistorted slopes; `None` beyond the fold.
     #[inline(always)]
-    fn ray<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, V3<S>, S, (S, S))> {
+    fn ray<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<PixelRay<S>> {
         let (xd, yd) = (S::from_q(from_acc(xacc)), S::from_q(from_acc(yacc)));
         let (x, y) = if self.stages.distortion.is_some() {
             self.undistort(xd, yd)?
@@ -1078,15 +1098,22 @@ impl<S: Scalar> Frame<S> {
         // d·d (1 for parallel rays); for perspective rays also the
         // 1 + x̂² + ŷ² of cos⁴α (equal in fixed point, where sums are exact).
         let a = if PERSP { dot(d, d) } else { S::ONE };
-        Some((o, d, a, (x, y)))
+        Some(PixelRay { o, d, a, xy: (x, y) })
     }
 
     /// One sample at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw): `K E`
     /// per channel in DN before rounding, and what the ray sees; `None`
-    /// beyond the fold.
-    #[inline(always)]
+    /// beyond the fold. Out of line, for the grid and the adaptive rule (one
+    /// copy in flash); the one-sample loop inlines [`Frame::sample_inline`].
+    #[inline(never)]
     fn sample<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
-        let (o, d, a, (x, y)) = self.ray::<PERSP>(xacc, yacc)?;
+        self.sample_inline::<PERSP>(xacc, yacc)
+    }
+
+    /// [`Frame::sample`], inlined.
+    #[inline(always)]
+    fn sample_inline<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
+        let PixelRay { o, d, a, xy: (x, y) } = self.ray::<PERSP>(xacc, yacc)?;
         let (radiance, key) = if self.stages.specular {
             self.trace::<true, PERSP>(o, d, a, (x, y))
         } else {
@@ -1098,7 +1125,12 @@ impl<S: Scalar> Frame<S> {
             (true, false) => vignetting::cos4(x, y),
         };
         let mut e = [S::ZERO; 3];
-        for ((dst, l), g) in e.iter_mut().zip(radiance).zip(self.gain) {
+        for ((dst, l), g) in e
+            .iter_mut()
+            .zip(radiance)
+            .zip(self.gain)
+            .take(self.format.channels())
+        {
             *dst = vignetting::exposure(g, l, cos4);
         }
         Some((e, key))
@@ -1108,7 +1140,7 @@ impl<S: Scalar> Frame<S> {
     /// `None` beyond the fold.
     #[inline(never)]
     fn key<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<Key> {
-        let (o, d, a, xy) = self.ray::<PERSP>(xacc, yacc)?;
+        let PixelRay { o, d, a, xy } = self.ray::<PERSP>(xacc, yacc)?;
         Some(self.look::<PERSP>(o, d, a, xy).map_or(Key::NOTHING, |s| s.key))
     }
 
@@ -1132,7 +1164,7 @@ impl<S: Scalar> Frame<S> {
 
     /// The nearest primitive the ray `o + t d` meets (`a = d·d`, `(x̂, ŷ)`
     /// its undistorted slopes), with the material at the hit.
-    #[inline]
+    #[inline(always)]
     fn look<const PERSP: bool>(&self, o: V3<S>, d: V3<S>, a: S, (x, y): (S, S)) -> Option<Seen<S>> {
         let mut nearest: Option<(usize, &CamPrim<S>, Hit<S>)> = None;
         for (i, p) in self.prims.iter().enumerate() {
@@ -1209,6 +1241,14 @@ impl<S: Scalar> Frame<S> {
         );
         (l, seen.key)
     }
+}
+
+/// A sample's ray: origin, direction, `d·d`, and the undistorted slopes.
+struct PixelRay<S> {
+    o: V3<S>,
+    d: V3<S>,
+    a: S,
+    xy: (S, S),
 }
 
 /// What a ray sees, for the adaptive sampling rule: the primitive (255:

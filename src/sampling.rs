@@ -40,12 +40,17 @@ pub fn edge_error(n: u8) -> f64 {
 
 /// `step · s_a` for `a = 0 … n − 1` (entries beyond `n` are 0), in the
 /// caller's fixed-point units (`step` is the pixel step, I64F64 raw):
-/// truncated toward zero, the same on every target.
+/// `step (2a + 1 − n)` shifted right by `log2 n + 1` (rounded toward −∞,
+/// the same on every target; saturating).
+#[inline(never)]
 pub fn scaled_offsets(step: i128, n: u8) -> [i128; MAX_GRID as usize] {
-    let n = n.clamp(1, MAX_GRID) as i128;
+    let n = n.clamp(1, MAX_GRID);
+    let shift = log2(n) + 1;
     let mut out = [0i128; MAX_GRID as usize];
-    for (a, o) in out.iter_mut().enumerate().take(n as usize) {
-        *o = step.saturating_mul(2 * a as i128 + 1 - n) / (2 * n);
+    let mut k = 1 - i128::from(n);
+    for o in out.iter_mut().take(n as usize) {
+        *o = step.saturating_mul(k) >> shift;
+        k += 2;
     }
     out
 }
