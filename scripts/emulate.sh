@@ -31,6 +31,12 @@ uart_frames=20 usb_frames=200
 ./target/release/host-sim stream --scene scenes/standard.toml --link usb-fs --frames $usb_frames --out out/stream-usb
 ./target/release/host-sim faults --out out/faults 2>/dev/null
 echo
+# The sensor as calibration software sees it: OpenCV's corners and
+# calibrateCamera on the 36-frame calibration set (pixel-area integration by
+# default) against the true corners (docs/sensor.md). Installs
+# opencv-python-headless and numpy with pip when they are missing.
+python3 scripts/opencv-check.py --out out/opencv
+echo
 # The firmware in QEMU: the same scenes rendered on a Cortex-M3 and a
 # Cortex-M4F, streamed over their UARTs, checked byte for byte.
 qemu=0

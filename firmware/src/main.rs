@@ -189,6 +189,8 @@ impl Runner for Run<'_> {
         let t0 = ticks();
         let mut frame = Frame::<S>::empty();
         frame.prepare(scene, opts).map_err(|_| "frame")?;
+        // The frame id on the wire keys the sensor noise (camera-model.md §9).
+        frame.set_frame_id(self.frame_id);
         let prepare = ticks() - t0;
         let (w, h) = frame.size();
         let start = FrameStart {

@@ -319,12 +319,22 @@ pub fn hil_variants(
             all_exact = false;
             continue;
         }
-        let host = v.render(r, &Budget::default(), HostBytes)?;
+        let host = v.render_frame(r, &Budget::default(), f.start.frame_id, HostBytes)?;
         let exact = host == f.pixels
             && r.desc.camera.width == f.start.width
             && r.desc.camera.height == f.start.height;
         all_exact &= exact;
-        let reference = cached.get_or_insert_with(|| RefScene::new(r).render());
+        // The reference with the variant's sample pattern and, where the
+        // scene has noise, the frame's id (rendered anew for each frame).
+        let own;
+        let reference = if r.desc.noise.is_some() || !matches!(v.over, hilcam::render::Override::Planned) {
+            let mut rs = RefScene::new(r).with_pattern(v.pattern(r));
+            rs.frame_id = f.start.frame_id;
+            own = rs.render();
+            &own
+        } else {
+            cached.get_or_insert_with(|| RefScene::new(r).render())
+        };
         let (mut max, mut same) = (0u32, 0usize);
         // Zipped, so a frame of the wrong size cannot index past the
         // reference (it is already not bit-exact).

@@ -65,9 +65,9 @@ pub struct NoiseDesc {
     /// Dark offset, DN (0 to full scale; default 0).
     #[serde(default)]
     pub dark_offset: f64,
-    /// The generator's seed (default 0).
+    /// The generator's seed, 0 to 2³² − 1 (default 0).
     #[serde(default)]
-    pub seed: u64,
+    pub seed: u32,
 }
 
 /// `[output]`.
@@ -860,7 +860,7 @@ impl Resolved {
         }
         if let Some(n) = self.desc.noise {
             scene
-                .set_noise(n.saturation, n.dark_noise, n.dark_offset, n.seed)
+                .set_noise(n.saturation, n.dark_noise, n.dark_offset, u64::from(n.seed))
                 .map_err(|e| e.to_string())?;
         }
         Ok(scene)

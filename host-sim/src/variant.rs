@@ -218,16 +218,31 @@ impl Variant {
     /// Renders `r` on the host with this variant: the frame's bytes and
     /// what [`crate::harness::compare`] needs.
     pub fn render<W: FrameUser>(&self, r: &Resolved, budget: &Budget, user: W) -> Result<W::Out, String> {
+        self.render_frame(r, budget, 0, user)
+    }
+
+    /// [`Variant::render`] as frame `frame_id` (the sensor noise's key).
+    pub fn render_frame<W: FrameUser>(
+        &self,
+        r: &Resolved,
+        budget: &Budget,
+        frame_id: u32,
+        user: W,
+    ) -> Result<W::Out, String> {
         struct Go<'a, W> {
             r: &'a Resolved,
             budget: &'a Budget,
             variant: Variant,
+            frame_id: u32,
             user: W,
         }
         impl<W: FrameUser> WithScalar for Go<'_, W> {
             type Out = Result<W::Out, String>;
             fn run<S: Scalar>(self) -> Self::Out {
-                let (_, plan, frame, core) = core_render_variant::<S>(self.r, self.budget, &self.variant)?;
+                let (_, plan, mut frame) =
+                    crate::harness::prepare::<S>(self.r, self.budget, |o| self.variant.options(o))?;
+                frame.set_frame_id(self.frame_id);
+                let core = collect(&frame).map_err(|e| format!("{}: {e}", self.r.desc.name))?;
                 Ok(self.user.use_frame(&plan, &frame, core))
             }
         }
@@ -235,8 +250,21 @@ impl Variant {
             r,
             budget,
             variant: *self,
+            frame_id,
             user,
         })
+    }
+
+    /// The sample pattern the reference applies to compare with this
+    /// variant: its own grid, or the scene's.
+    pub fn pattern(&self, r: &Resolved) -> crate::reference::sampling::Pattern {
+        use crate::reference::sampling::Pattern;
+        match self.over {
+            Override::Samples { n, adaptive } => Pattern { n, adaptive },
+            _ => r.desc.sampling.map_or(Pattern::CENTRE, |s| {
+                Pattern::for_edge_error(s.edge_error, s.adaptive)
+            }),
+        }
     }
 }
 

@@ -279,7 +279,7 @@ impl RefScene {
                 saturation: n.saturation,
                 dark_noise: n.dark_noise,
                 dark_offset: n.dark_offset,
-                seed: n.seed,
+                seed: u64::from(n.seed),
             }),
             frame_id: 0,
         }
