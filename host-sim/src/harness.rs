@@ -413,6 +413,22 @@ pub fn compare<S: Scalar>(
             reference.row(j),
         ));
     }
+    // The pattern's own error against 16×16, lines in parallel.
+    if frame.stages().samples > 1 {
+        use rayon::prelude::*;
+        let conv = rs.with_pattern(Pattern::CONVERGED);
+        let parts: Vec<Tally> = (0..h as usize)
+            .into_par_iter()
+            .map(|j| {
+                let mut l = Tally::default();
+                sampling_tally(rs, &conv, j, &mut l);
+                l
+            })
+            .collect();
+        for p in &parts {
+            t.merge(p);
+        }
+    }
     metrics(r, plan, budget, frame, &t)
 }
 

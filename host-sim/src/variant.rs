@@ -180,9 +180,11 @@ impl Variant {
     }
 
     /// Whether it takes anything from the plan beyond the ray model: the
-    /// arithmetic (`planned`) or the distortion evaluation (`-planned`).
+    /// arithmetic (`planned`) or the distortion evaluation (`-planned`, and
+    /// the sample grids `-sN`, which change only the pattern).
     pub fn needs_plan(&self) -> bool {
-        self.scalar.arithmetic().is_none() || self.over == Override::Planned
+        self.scalar.arithmetic().is_none()
+            || matches!(self.over, Override::Planned | Override::Samples { .. })
     }
 
     /// The options this variant renders with, from the planned ones.

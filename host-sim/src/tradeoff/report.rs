@@ -36,6 +36,11 @@ pub struct Row {
     pub exact_fraction: f64,
     /// Edge pixels whose values differ from the reference.
     pub edge_pixels_differing: usize,
+    /// Sample grid side (1: the pixel centre).
+    pub samples: u8,
+    /// The sample pattern's RMS error against 16×16 samples a pixel, DN
+    /// (null with one sample).
+    pub sampling_rms_dn: Option<f64>,
     /// Instructions per pixel on the Cortex-M3 (QEMU icount; not cycles).
     pub instructions_per_pixel_m3: Option<f64>,
     /// Instructions per pixel on the Cortex-M4F.
@@ -173,6 +178,8 @@ impl Row {
             psnr_db_smooth: m.and_then(|m| m.psnr_db_smooth),
             exact_fraction: m.map_or(1.0, |m| m.exact_fraction),
             edge_pixels_differing: m.map_or(0, |m| m.edge_pixels_differing),
+            samples: m.map_or(1, |m| m.plan.samples),
+            sampling_rms_dn: m.and_then(|m| m.sampling_error.map(|s| s.rms_dn)),
             instructions_per_pixel_m3: None,
             instructions_per_pixel_m4f: None,
             bit_exact_m3: None,
@@ -316,14 +323,14 @@ fn opt(v: Option<f64>, prec: usize) -> String {
 pub fn markdown(r: &Report) -> String {
     let mut s = String::new();
     s.push_str(
-        "| scene | variant | max geom px | rms geom px | max LSB | max LSB smooth | rms LSB | PSNR dB | PSNR smooth dB | exact | edge differing | M3 instr/px | M4F instr/px | bit-exact M3/M4F | host ns/px | table B | flash M3 B |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | variant | max geom px | rms geom px | max LSB | max LSB smooth | rms LSB | PSNR dB | PSNR smooth dB | exact | edge differing | samples | sampling err rms DN | M3 instr/px | M4F instr/px | bit-exact M3/M4F | host ns/px | table B | flash M3 B |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let psnr = |p: Option<f64>| p.map_or("identical".into(), |p| format!("{p:.1}"));
     let be = |b: Option<bool>| b.map_or("-".into(), |b| if b { "yes".into() } else { "NO".to_string() });
     for v in &r.variants {
         s.push_str(&format!(
-            "| {} | {} | {:.2e} | {:.2e} | {} | {} | {:.3} | {} | {} | {:.4} | {} | {} | {} | {}/{} | {:.0} | {} | {} |\n",
+            "| {} | {} | {:.2e} | {:.2e} | {} | {} | {:.3} | {} | {} | {:.4} | {} | {}x{} | {} | {} | {} | {}/{} | {:.0} | {} | {} |\n",
             v.scene,
             v.variant,
             v.max_geom_err_px,
@@ -335,6 +342,9 @@ pub fn markdown(r: &Report) -> String {
             psnr(v.psnr_db_smooth),
             v.exact_fraction,
             v.edge_pixels_differing,
+            v.samples,
+            v.samples,
+            opt(v.sampling_rms_dn, 3),
             opt(v.instructions_per_pixel_m3, 0),
             opt(v.instructions_per_pixel_m4f, 0),
             be(v.bit_exact_m3),

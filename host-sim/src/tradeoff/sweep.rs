@@ -60,6 +60,14 @@ impl Config {
             scalar: ScalarKind::Mix32,
             over: Override::Polynomial,
         });
+        // The samples-a-pixel axis (camera-model.md §7): the grid on every
+        // pixel and with the adaptive rule.
+        for (n, adaptive) in [(2, true), (4, true), (8, true), (4, false)] {
+            variants.push(Variant {
+                scalar: ScalarKind::I32F32,
+                over: Override::Samples { n, adaptive },
+            });
+        }
         let root = repo_root().join("scenes");
         Config {
             scenes: Some(vec![
@@ -370,13 +378,24 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         pb.inc(1);
         for v in &cfg.variants {
             pb.set_message(format!("host, {}: {}", r.desc.name, v.name()));
+            // A variant with its own sample pattern is compared with the
+            // reference sampled the same way.
+            let own;
+            let (rs_v, reference_v) = if v.pattern(r) == rs.pattern {
+                (&rs, &reference)
+            } else {
+                let rv = rs.with_pattern(v.pattern(r));
+                let f = rv.render();
+                own = (rv, f);
+                (&own.0, &own.1)
+            };
             let (m, table_bytes) = v.render(
                 r,
                 &Budget::default(),
                 Measure {
                     r,
-                    rs: &rs,
-                    reference: &reference,
+                    rs: rs_v,
+                    reference: reference_v,
                 },
             )?;
             let ns = host_ns_per_pixel(v, r, cfg.repeats)?;
