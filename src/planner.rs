@@ -204,10 +204,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let half = budget.max_geom_err_px / 2.0;
     let (model, wp) = ray_model_and_bound(scene, budget);
     let g = Geometry::of(scene, model);
-    let (samples, adaptive) = match scene.sampling {
-        Some(s) => (crate::sampling::grid_for(s.edge_error_px.to_num()), s.adaptive),
-        None => (1, false),
-    };
+    let (samples, adaptive) = crate::sampling::of_scene(scene);
     let spp = samples_per_pixel(scene, &g, samples, adaptive);
     let sensor_stages = samples > 1 || scene.noise.is_some();
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();

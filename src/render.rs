@@ -1,6 +1,9 @@
-//! The line renderer (camera-model.md §3, §5, §6, §7).
+//! The line renderer (camera-model.md §3, §5, §6, §7, §9).
 //!
-//! One ray per pixel centre, fixed point end to end, one scanline at a time
+//! One ray per pixel centre — or, where the scene asks for pixel-area
+//! integration, the mean of an `n×n` grid over the pixel's square
+//! ([`crate::sampling`]) — then, where it asks for sensor noise, the EMVA
+//! 1288 stage ([`crate::noise`]); fixed point end to end, one scanline at a time
 //! into a caller-provided line buffer, handed to a [`FrameSink`]: RAM is
 //! O(width), whatever the height.
 //!
@@ -242,6 +245,17 @@ impl Options {
         }
     }
 
+    /// These options with the sample pattern `scene` asks for
+    /// ([`crate::sampling::of_scene`]), as the planner sets it.
+    pub fn with_scene_sampling(self, scene: &Scene) -> Options {
+        let (samples, adaptive) = crate::sampling::of_scene(scene);
+        Options {
+            samples,
+            adaptive,
+            ..self
+        }
+    }
+
     /// These options with arithmetic `a`.
     pub const fn with_arithmetic(self, a: Arithmetic) -> Options {
         Options {
@@ -327,8 +341,9 @@ pub enum RenderError {
     BufferTooSmall,
     /// An undistorted sensor corner lies beyond [`MAX_SLOPE`].
     FieldTooWide,
-    /// A primitive lies at the centre of projection, or a ray model
-    /// parameter is degenerate.
+    /// A primitive lies at the centre of projection, a ray model
+    /// parameter is degenerate, or the sample grid's side is not 1, 2, 4,
+    /// 8 or 16.
     Degenerate,
     /// The distortion factor `g` exceeds ±32 768 over the sensor.
     DistortionOutOfRange,
@@ -336,6 +351,9 @@ pub enum RenderError {
     /// that path leaves out (a distortion table, pixel-area sampling,
     /// sensor noise) or values beyond its formats.
     OutsideFormat,
+    /// The frame needs pixel-area sampling or sensor noise, and the core's
+    /// `sensor` feature is off.
+    NotBuilt,
 }
 
 /// The error of [`Frame::render`]: the renderer's or the sink's.
@@ -560,10 +578,13 @@ pub struct Frame<S: Scalar = Q> {
     gain: V3<S>,
     /// Sample grid offsets from the pixel centre, `x̂_d` and `ŷ_d` (I64F64
     /// raw), and the half pixel steps (the corners).
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
     sub_x: [i128; crate::sampling::MAX_GRID as usize],
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
     sub_y: [i128; crate::sampling::MAX_GRID as usize],
     half: (i128, i128),
     /// `1/n²`.
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
     inv_n2: S,
     /// The scene's noise and the stage made of it for [`Frame::set_frame_id`].
     noise_spec: Option<crate::scene::Noise>,
@@ -695,14 +716,24 @@ impl<S: Scalar> Frame<S> {
         if !matches!(self.stages.samples, 1 | 2 | 4 | 8 | 16) {
             return Err(RenderError::Degenerate);
         }
+        if cfg!(not(feature = "sensor")) && (self.stages.samples > 1 || self.stages.noise) {
+            return Err(RenderError::NotBuilt);
+        }
         (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
-        let n = self.stages.samples;
-        self.sub_x = crate::sampling::scaled_offsets(dx, n);
-        self.sub_y = crate::sampling::scaled_offsets(dy, n);
-        self.half = (dx / 2, dy / 2);
-        self.inv_n2 = S::from_q(Q::from_bits(1i64 << (32 - 2 * crate::sampling::log2(n))));
+        #[cfg(feature = "sensor")]
+        {
+            let n = self.stages.samples;
+            self.sub_x = crate::sampling::scaled_offsets(dx, n);
+            self.sub_y = crate::sampling::scaled_offsets(dy, n);
+            // Half a pixel step (the corners), rounded toward −∞.
+            self.half = (dx >> 1, dy >> 1);
+            self.inv_n2 = S::from_q(Q::from_bits(1i64 << (32 - 2 * crate::sampling::log2(n))));
+        }
         self.noise_spec = scene.noise;
-        self.noise = scene.noise.map(|z| crate::noise::Stage::new(&z, scene.format, 0));
+        self.noise = match scene.noise {
+            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, scene.format, 0)),
+            _ => None,
+        };
         self.background = from_q3(scene.background);
         // What only some frames set, reset from the previous frame; every
         // other field is set below for every frame.
@@ -868,9 +899,10 @@ impl<S: Scalar> Frame<S> {
 
     /// Sets the frame id the noise is keyed by (0 after preparation).
     pub fn set_frame_id(&mut self, id: u32) {
-        self.noise = self
-            .noise_spec
-            .map(|z| crate::noise::Stage::new(&z, self.format, id));
+        self.noise = match self.noise_spec {
+            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, self.format, id)),
+            _ => None,
+        };
     }
 
     /// The stages this frame runs.
@@ -985,6 +1017,7 @@ impl<S: Scalar> Frame<S> {
     }
 
     #[inline(never)]
+    #[cfg_attr(not(feature = "sensor"), allow(unused_variables, unused_mut))]
     fn line<const PERSP: bool>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
         let bpp = self.format.bytes_per_pixel();
         let channels = self.format.channels();
@@ -995,6 +1028,7 @@ impl<S: Scalar> Frame<S> {
         let (hx, hy) = self.half;
         let (top, bottom) = (yc + hy, yc - hy);
         // The keys of the current pixel's left corners (adaptive rule).
+        #[cfg(feature = "sensor")]
         let mut left = if corners {
             [
                 self.key::<PERSP>(self.x0 + hx, top),
@@ -1013,11 +1047,14 @@ impl<S: Scalar> Frame<S> {
         {
             let xc = acc;
             acc -= self.dx;
+            #[cfg(feature = "sensor")]
             let value = if n <= 1 {
                 self.sample_inline::<PERSP>(xc, yc).map(|(v, _)| v)
             } else {
                 self.area_value::<PERSP>(xc, yc, (top, bottom), &mut left)
             };
+            #[cfg(not(feature = "sensor"))]
+            let value = self.sample_inline::<PERSP>(xc, yc).map(|(v, _)| v);
             let Some(value) = value else {
                 *flag = FLAG_OUTSIDE_FIELD;
                 out.iter_mut().for_each(|b| *b = 0);
@@ -1025,20 +1062,17 @@ impl<S: Scalar> Frame<S> {
             };
             *flag = 0;
             let mut dn = [0u32; 3];
-            match &self.noise {
-                None => {
-                    for ((dst, v), max) in dn.iter_mut().zip(value).zip(dn_max).take(channels) {
-                        *dst = vignetting::round_dn(v, max);
-                    }
+            #[cfg(feature = "sensor")]
+            if let Some(z) = &self.noise {
+                let p = row + i as u32;
+                for (c, ((dst, v), max)) in dn.iter_mut().zip(value).zip(dn_max).take(channels).enumerate() {
+                    *dst = z.apply(v, p, c, max);
                 }
-                Some(z) => {
-                    let p = row + i as u32;
-                    for (c, ((dst, v), max)) in
-                        dn.iter_mut().zip(value).zip(dn_max).take(channels).enumerate()
-                    {
-                        *dst = z.apply(v, p, c, max);
-                    }
-                }
+                self.format.pack(dn, out);
+                continue;
+            }
+            for ((dst, v), max) in dn.iter_mut().zip(value).zip(dn_max).take(channels) {
+                *dst = vignetting::round_dn(v, max);
             }
             self.format.pack(dn, out);
         }
@@ -1049,6 +1083,7 @@ impl<S: Scalar> Frame<S> {
     /// corners (`left` from the previous pixel, the right ones looked at
     /// here on the lines `top`, `bottom`) and centre see the same; else the
     /// grid's mean. Out of line: the one-sample loop stays lean.
+    #[cfg(feature = "sensor")]
     #[inline(never)]
     fn area_value<const PERSP: bool>(
         &self,
@@ -1105,6 +1140,7 @@ impl<S: Scalar> Frame<S> {
     /// per channel in DN before rounding, and what the ray sees; `None`
     /// beyond the fold. Out of line, for the grid and the adaptive rule (one
     /// copy in flash); the one-sample loop inlines [`Frame::sample_inline`].
+    #[cfg(feature = "sensor")]
     #[inline(never)]
     fn sample<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
         self.sample_inline::<PERSP>(xacc, yacc)
@@ -1138,6 +1174,7 @@ impl<S: Scalar> Frame<S> {
 
     /// What the ray at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw) sees;
     /// `None` beyond the fold.
+    #[cfg(feature = "sensor")]
     #[inline(never)]
     fn key<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<Key> {
         let PixelRay { o, d, a, xy } = self.ray::<PERSP>(xacc, yacc)?;
@@ -1146,6 +1183,7 @@ impl<S: Scalar> Frame<S> {
 
     /// The mean of the `n×n` grid of the pixel centred at `(xc, yc)`
     /// (I64F64 raw); `None` if any sample lies beyond the fold.
+    #[cfg(feature = "sensor")]
     #[inline(never)]
     fn grid<const PERSP: bool>(&self, xc: i128, yc: i128) -> Option<V3<S>> {
         let n = self.stages.samples as usize;

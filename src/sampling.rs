@@ -55,6 +55,16 @@ pub fn scaled_offsets(step: i128, n: u8) -> [i128; MAX_GRID as usize] {
     out
 }
 
+/// The grid side and adaptive flag a scene's `[sampling]` asks for
+/// ([`grid_for`] of its edge error; `(1, false)` without it): what the
+/// planner puts in its options.
+pub fn of_scene(scene: &crate::scene::Scene) -> (u8, bool) {
+    match scene.sampling {
+        Some(s) => (grid_for(s.edge_error_px.to_num()), s.adaptive),
+        None => (1, false),
+    }
+}
+
 /// `log2 n` of a grid side (0 for 1).
 pub fn log2(n: u8) -> u32 {
     n.max(1).trailing_zeros()

@@ -337,7 +337,6 @@ pub const MIN_EDGE_ERROR: f64 = 1.0 / 32.0;
 
 /// Pixel-area integration as a scene asks for it (camera-model.md §7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Sampling {
     /// Largest error the sampling pattern may leave in an edge's placement,
     /// pixels ([`MIN_EDGE_ERROR`] to 0.5): the planner picks the grid from
@@ -351,7 +350,6 @@ pub struct Sampling {
 
 /// Sensor noise in the EMVA 1288 linear model (camera-model.md §9).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Noise {
     /// Saturation capacity `μ_e,sat`, electrons at `DN_max` (1 to 10⁷).
     pub saturation_e: Q,

@@ -140,7 +140,7 @@ fn main() -> ! {
         let opts = if scenes::NEEDS_PLAN {
             plan(&scene, &Budget::default()).options
         } else {
-            Options::new(ray_model(&scene, &Budget::default()), 2)
+            Options::new(ray_model(&scene, &Budget::default()), 2).with_scene_sampling(&scene)
         };
         for (v, variant) in scenes::VARIANTS.iter().enumerate() {
             let mut run = Run {
