@@ -80,6 +80,15 @@ pub fn plan_text(p: &PlanReport) -> String {
             }
         ));
     }
+    if p.samples > 1 {
+        s.push_str(&format!(
+            "  sampling: {n}x{n}{} — predicted edge error {:.4} px, {:.2} samples a pixel (in the costs above)\n",
+            if p.adaptive { " adaptive" } else { " on every pixel" },
+            p.predicted_edge_err_px,
+            p.predicted_samples_per_pixel,
+            n = p.samples
+        ));
+    }
     s
 }
 
@@ -104,5 +113,10 @@ pub fn summary(m: &Metrics) -> String {
         m.edge_pixels,
         m.edge_pixels_differing,
         100.0 * m.edge_pixels_differing_fraction
-    )
+    ) + &m.sampling_error.map_or(String::new(), |e| {
+        format!(
+            "\n{:<18} sampling error vs 16x16: rms={:.3} DN max={:.2} DN ({} pixels took the grid)",
+            "", e.rms_dn, e.max_dn, e.grid_pixels
+        )
+    })
 }
