@@ -325,16 +325,19 @@ pub fn hil_variants(
             && r.desc.camera.height == f.start.height;
         all_exact &= exact;
         // The reference with the variant's sample pattern and, where the
-        // scene has noise, the frame's id (rendered anew for each frame).
+        // scene has noise, the frame's id (rendered anew for each frame);
+        // otherwise the scene's, rendered once.
         let own;
-        let reference = if r.desc.noise.is_some() || !matches!(v.over, hilcam::render::Override::Planned) {
-            let mut rs = RefScene::new(r).with_pattern(v.pattern(r));
-            rs.frame_id = f.start.frame_id;
-            own = rs.render();
-            &own
-        } else {
-            cached.get_or_insert_with(|| RefScene::new(r).render())
-        };
+        let pattern = v.pattern(r);
+        let reference =
+            if r.desc.noise.is_some() || pattern != crate::reference::sampling::Pattern::of_scene(r) {
+                let mut rs = RefScene::new(r).with_pattern(pattern);
+                rs.frame_id = f.start.frame_id;
+                own = rs.render();
+                &own
+            } else {
+                cached.get_or_insert_with(|| RefScene::new(r).render())
+            };
         let (mut max, mut same) = (0u32, 0usize);
         // Zipped, so a frame of the wrong size cannot index past the
         // reference (it is already not bit-exact).

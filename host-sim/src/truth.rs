@@ -83,18 +83,30 @@ pub fn frame_to(
     variant: &crate::variant::Variant,
     frame_id: u32,
 ) -> Result<Truth, String> {
-    use crate::variant::ScalarKind;
-    if variant.scalar == ScalarKind::F32 {
+    /// The frame's PNG and its stages' names.
+    struct Png;
+    impl crate::variant::FrameUser for Png {
+        type Out = Result<(Vec<u8>, Vec<String>), String>;
+        fn use_frame<S: hilcam::scalar::Scalar>(
+            self,
+            _: &hilcam::planner::Plan,
+            frame: &hilcam::render::Frame<S>,
+            core: crate::harness::Collect,
+        ) -> Self::Out {
+            let (w, h) = frame.size();
+            let png =
+                crate::frame_png::encode_png(frame.stages().format, w as usize, h as usize, &core.pixels)?;
+            Ok((
+                png,
+                frame.stages().names().iter().map(|s| s.to_string()).collect(),
+            ))
+        }
+    }
+    if variant.scalar == crate::variant::ScalarKind::F32 {
         return Err("--variant: f32 variants are for the sweep (tradeoff), not for frames".into());
     }
-    let budget = hilcam::planner::Budget::default();
-    let (scene, _, mut frame) =
-        crate::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| variant.options(o))?;
-    frame.set_frame_id(frame_id);
-    let core = crate::harness::collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
-    let (w, h) = frame.size();
-    let png = crate::frame_png::encode_png(scene.format, w as usize, h as usize, &core.pixels)?;
-    let t = truth(r, frame.stages().names().iter().map(|s| s.to_string()).collect());
+    let (png, stages) = variant.render_frame(r, &hilcam::planner::Budget::default(), frame_id, Png)??;
+    let t = truth(r, stages);
     let json = serde_json::to_vec_pretty(&t).map_err(|e| format!("truth: {e}"))?;
     let mut out = crate::output::Outputs::prepare(dir)?;
     out.write("frame.png", &png)?;

@@ -263,9 +263,7 @@ impl Variant {
         use crate::reference::sampling::Pattern;
         match self.over {
             Override::Samples { n, adaptive } => Pattern { n, adaptive },
-            _ => r.desc.sampling.map_or(Pattern::CENTRE, |s| {
-                Pattern::for_edge_error(s.edge_error, s.adaptive)
-            }),
+            _ => Pattern::of_scene(r),
         }
     }
 }

@@ -118,7 +118,9 @@ fn noise_depends_on_the_frame_id_and_seed_only() {
     assert_ne!(a, frame(&other, 3), "another seed gives other noise");
 }
 
-/// A checkerboard on a white backing at a random pose, sampled `grid`
+/// The shipped calibration board (scenes/calibration/plain-00.toml) at a
+/// random pose on a smaller, wider-angle sensor under random barrel
+/// distortion, with a small sphere in front, sampled for `edge_error`
 /// (adaptive or not), with or without noise.
 fn board(rng: &mut u64, edge_error: f64, adaptive: bool, noise: bool) -> String {
     let mut next = || {
@@ -137,68 +139,50 @@ fn board(rng: &mut u64, edge_error: f64, adaptive: bool, noise: bool) -> String 
         d * pitch.sin(),
         -d * yaw.cos() * pitch.cos(),
     ];
-    let noise = if noise {
-        "[noise]\nsaturation = 9000.0\ndark_noise = 3.0\ndark_offset = 4.0\nseed = 11\n"
-    } else {
-        ""
-    };
-    format!(
-        r#"
-name = "board"
-[output]
-format = "gray8"
-exposure = 900.0
-[camera]
-width = 200
-height = 150
-focal_length = 1.2e-3
-pitch = 6e-6
-f_number = 4.0
-focus_distance = 0.45
-tolerable_blur = 6e-6
-distortion = [{k1}, 0.0]
-pose = {{ eye = {eye:?}, target = [0.0, 0.0, 0.0], up = [{}, {}, 0.0] }}
-[sampling]
-edge_error = {edge_error}
-adaptive = {adaptive}
-{noise}
-[environment]
-ambient = 0.3
-background = 0.1
-[[materials]]
-name = "white"
-albedo = 0.85
-[[materials]]
-name = "black"
-albedo = 0.05
-[[lights]]
-kind = "directional"
-direction = [0.1, 0.2, -1.0]
-irradiance = 10.0
-[[primitives]]
-kind = "rectangle"
-material = "white"
-centre = [0.0, 0.0, 0.001]
-normal = [0.0, 0.0, -1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [0.32, 0.27]
-[[primitives]]
-kind = "sphere"
-material = "white"
-centre = [0.1, 0.08, -0.05]
-radius = 0.02
-[[primitives]]
-kind = "rectangle"
-material = "white"
-centre = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, -1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [0.25, 0.2]
-checker = {{ cell = 0.025, material = "black", u_axis = [1.0, 0.0, 0.0] }}
-"#,
-        roll.sin(),
-        roll.cos()
-    )
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/calibration/plain-00.toml");
+    let text = std::fs::read_to_string(path).expect("the calibration board");
+    let mut t: toml::Table = text.parse().expect("TOML");
+    let cam = t
+        .get_mut("camera")
+        .and_then(toml::Value::as_table_mut)
+        .expect("camera");
+    cam.insert("width".into(), 200.into());
+    cam.insert("height".into(), 150.into());
+    cam.insert("focal_length".into(), 1.2e-3.into());
+    cam.insert(
+        "distortion".into(),
+        toml::Value::Array(vec![k1.into(), 0.0.into()]),
+    );
+    let mut pose = toml::Table::new();
+    pose.insert(
+        "eye".into(),
+        toml::Value::Array(eye.map(toml::Value::from).to_vec()),
+    );
+    pose.insert("target".into(), toml::Value::Array(vec![0.0.into(); 3]));
+    pose.insert(
+        "up".into(),
+        toml::Value::Array(vec![roll.sin().into(), roll.cos().into(), 0.0.into()]),
+    );
+    cam.insert("pose".into(), pose.into());
+    let mut sampling = toml::Table::new();
+    sampling.insert("edge_error".into(), edge_error.into());
+    sampling.insert("adaptive".into(), adaptive.into());
+    t.insert("sampling".into(), sampling.into());
+    if noise {
+        let n: toml::Table = "saturation = 9000.0\ndark_noise = 3.0\ndark_offset = 4.0\nseed = 11"
+            .parse()
+            .expect("noise");
+        t.insert("noise".into(), n.into());
+    }
+    let sphere: toml::Table =
+        "kind = \"sphere\"\nmaterial = \"white\"\ncentre = [0.1, 0.08, -0.05]\nradius = 0.02"
+            .parse()
+            .expect("sphere");
+    t.get_mut("primitives")
+        .and_then(toml::Value::as_array_mut)
+        .expect("primitives")
+        .push(sphere.into());
+    t.to_string()
 }
 
 #[test]

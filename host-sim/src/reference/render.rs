@@ -272,9 +272,7 @@ impl RefScene {
             exposure: r.desc.output.exposure,
             aperture: r.aperture_diameter(),
             format: r.format,
-            pattern: r.desc.sampling.map_or(Pattern::CENTRE, |s| {
-                Pattern::for_edge_error(s.edge_error, s.adaptive)
-            }),
+            pattern: Pattern::of_scene(r),
             noise: r.desc.noise.map(|n| NoiseModel {
                 saturation: n.saturation,
                 dark_noise: n.dark_noise,

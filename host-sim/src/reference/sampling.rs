@@ -34,6 +34,14 @@ impl Pattern {
         Pattern { n, adaptive }
     }
 
+    /// The pattern a scene file's `[sampling]` asks for (one sample at the
+    /// centre without it).
+    pub fn of_scene(r: &crate::scene_file::Resolved) -> Pattern {
+        r.desc.sampling.map_or(Pattern::CENTRE, |s| {
+            Pattern::for_edge_error(s.edge_error, s.adaptive)
+        })
+    }
+
     /// Offsets of the grid's cell centres from the pixel centre, pixels.
     pub fn offsets(&self) -> Vec<f64> {
         let n = f64::from(self.n);

@@ -13,18 +13,6 @@ pub fn irradiance(radiance: f64, d: f64, f: f64, cos4: f64) -> f64 {
     radiance * PI / 4.0 * (d / f) * (d / f) * cos4
 }
 
-/// `DN = min(DN_max, floor(K E + 1/2))`.
-pub fn quantize(k: f64, e: f64, dn_max: u32) -> u32 {
-    let v = (k * e + 0.5).floor();
-    if v >= dn_max as f64 {
-        dn_max
-    } else if v <= 0.0 {
-        0
-    } else {
-        v as u32
-    }
-}
-
 /// `DN = min(DN_max, floor(v + 1/2))` of a value `v` in DN.
 pub fn round_dn(v: f64, dn_max: u32) -> u32 {
     let v = (v + 0.5).floor();
