@@ -21,6 +21,7 @@
 //! - [`vignetting`]: cos⁴ fall-off, exposure and quantization;
 //! - [`render`]: the line renderer (rays, intersection, and the stages above);
 //! - [`sampling`]: pixel-area integration, the sample pattern;
+//! - [`defocus`]: the thin lens in the image, the aperture pattern;
 //! - [`noise`]: sensor noise (EMVA 1288) from a counter-based generator;
 //! - [`scalar`]: the per-pixel number type (I32F32, 32-bit fixed point, `f32`);
 //! - [`planner`]: picks the cheapest rendering that meets an error budget;
@@ -32,6 +33,7 @@
 //! its format saturates and says so through [`Sat`].
 
 pub mod camera;
+pub mod defocus;
 pub mod distortion;
 pub mod error;
 pub mod extrinsics;

@@ -73,8 +73,8 @@ pub enum Unfit {
     /// The fast arithmetic is not built in (the core's `mix32` feature is
     /// off).
     NotBuilt,
-    /// The scene asks for pixel-area sampling or sensor noise, which run in
-    /// the wide arithmetic only.
+    /// The scene asks for pixel-area sampling or sensor noise, or needs
+    /// defocus, which run in the wide arithmetic only.
     SensorStages,
 }
 
@@ -88,7 +88,7 @@ impl Unfit {
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
-            Unfit::SensorStages => "pixel-area sampling and sensor noise run in the wide arithmetic only",
+            Unfit::SensorStages => "pixel-area sampling, defocus and sensor noise run in the wide arithmetic only",
         }
     }
 }
@@ -172,6 +172,27 @@ pub struct Plan {
     /// counted as [`KEY_COST`] of a sample each): what the costs above are
     /// multiplied by.
     pub predicted_samples_per_pixel: f64,
+    /// Defocus: the content's blur and the aperture pattern chosen for it.
+    pub defocus: Defocus,
+}
+
+/// Defocus as planned (camera-model.md §8, [`crate::defocus`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Defocus {
+    /// Largest blur-circle diameter `β f / s` of content in view, pixels,
+    /// over the primitives' depth ranges (bounding spheres; planes over
+    /// the field): infinite if content reaches the lens plane, 0 without
+    /// content.
+    pub blur_px: f64,
+    /// Some content in view lies outside the depth of field (`b > b̃`).
+    pub outside_dof: bool,
+    /// Aperture pattern points (0: the chief ray alone).
+    pub points: u16,
+    /// Predicted error, px: the pattern's placement error at `blur_px`
+    /// ([`crate::defocus::placement`]) with the aperture sampled, else the
+    /// blur left out (within the depth of field: at most the tolerable
+    /// blur).
+    pub err_px: f64,
 }
 
 /// The cost of the adaptive rule's look at a corner (intersection, no
@@ -202,11 +223,18 @@ fn ray_model_and_bound(scene: &Scene, budget: &Budget) -> (RenderModel, Option<(
 pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let cam = &scene.camera;
     let half = budget.max_geom_err_px / 2.0;
-    let (model, wp) = ray_model_and_bound(scene, budget);
-    let g = Geometry::of(scene, model);
+    let (mut model, wp) = ray_model_and_bound(scene, budget);
+    let mut g = Geometry::of(scene, model);
+    let edge_budget = scene.sampling.map_or(0.5, |s| s.edge_error_px.to_num::<f64>());
+    let df = defocus(scene, &g, edge_budget);
+    if df.points > 0 && model != RenderModel::Perspective {
+        // Through the aperture, rays are perspective.
+        model = RenderModel::Perspective;
+        g = Geometry::of(scene, model);
+    }
     let (samples, adaptive) = crate::sampling::of_scene(scene);
-    let spp = samples_per_pixel(scene, &g, samples, adaptive);
-    let sensor_stages = samples > 1 || scene.noise.is_some();
+    let spp = samples_per_pixel(scene, &g, samples, adaptive) * f64::from(df.points.max(1));
+    let sensor_stages = samples > 1 || scene.noise.is_some() || df.points > 0;
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
         let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
@@ -282,6 +310,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     options.arithmetic = c.arithmetic;
     options.samples = samples;
     options.adaptive = adaptive;
+    options.aperture = df.points;
     Plan {
         options,
         predicted_geom_err_px: c.geom_err_px,
@@ -293,6 +322,94 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         chosen,
         predicted_edge_err_px: crate::sampling::edge_error(samples),
         predicted_samples_per_pixel: spp,
+        defocus: df,
+    }
+}
+
+/// Defocus for `scene` ([`Defocus`]): the inverse depths `w = 1/z` of the
+/// content in view — a bounded primitive's over its bounding sphere (if
+/// its slope bounds meet the field), a plane's over the undistorted field's
+/// bounding box (`w = n̂·(x̂, ŷ, 1) / (n̂·c)` is linear in the slopes: its
+/// extremes are at the box's corners, and a horizon in view takes `w` to
+/// 0) — against the depth of field's `[1/Ẑ_f, 1/Ẑ_n]`; the blur is
+/// `d |w − 1/Z̃|` normalized, times `f/s`. The aperture is sampled for a
+/// perspective camera with content outside the depth of field, with the
+/// smallest pattern within `edge_budget_px` ([`crate::defocus::points_for`]).
+#[inline(never)]
+fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
+    let lens = &scene.camera.lens;
+    let d = lens.diameter().to_num::<f64>();
+    let inv_focus = 1.0 / lens.focus_distance().to_num::<f64>().max(1e-300);
+    let dof = lens.depth_of_field().value;
+    let inv_near = 1.0 / dof.near.to_num::<f64>().max(1e-300);
+    let inv_far = match dof.far {
+        crate::lens::Distance::Finite(f) => 1.0 / f.to_num::<f64>().max(1e-300),
+        crate::lens::Distance::Infinite => 0.0,
+    };
+    let (xs, ys) = (g.slope_d[0] * g.g_max, g.slope_d[1] * g.g_max);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in &g.prims {
+        if let Shape::Plane { .. } = p.shape {
+            let dist = dot3(p.n, p.c);
+            if libm::fabs(dist) < 1e-12 {
+                continue;
+            }
+            let mut w = [0.0f64; 4];
+            for (k, (x, y)) in [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)].into_iter().enumerate() {
+                w[k] = (p.n[0] * x + p.n[1] * y + p.n[2]) / dist;
+            }
+            let (wmin, wmax) = w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+            if wmax <= 0.0 {
+                continue;
+            }
+            lo = lo.min(wmin.max(0.0));
+            hi = hi.max(wmax);
+            continue;
+        }
+        let (c, r) = (p.c, p.r);
+        if c[2] + r <= 0.0 {
+            continue;
+        }
+        if c[2] > r {
+            // The bounding sphere's tangent slopes against the field.
+            let zz = c[2] * c[2] - r * r;
+            let meets = |cx: f64, half: f64| {
+                let s = libm::sqrt((cx * cx + zz).max(0.0));
+                (cx * c[2] - r * s) / zz <= half && (cx * c[2] + r * s) / zz >= -half
+            };
+            if !(meets(c[0], xs) && meets(c[1], ys)) {
+                continue;
+            }
+            hi = hi.max(1.0 / (c[2] - r));
+        } else {
+            hi = f64::INFINITY;
+        }
+        lo = lo.min(1.0 / (c[2] + r));
+    }
+    if lo > hi {
+        return Defocus {
+            blur_px: 0.0,
+            outside_dof: false,
+            points: 0,
+            err_px: 0.0,
+        };
+    }
+    let blur_px = d * g.f_px * libm::fabs(hi - inv_focus).max(libm::fabs(lo - inv_focus));
+    let outside_dof = hi > inv_near || lo < inv_far;
+    let points = if outside_dof && matches!(scene.camera.model, Model::Perspective) {
+        crate::defocus::points_for(blur_px, edge_budget_px)
+    } else {
+        0
+    };
+    Defocus {
+        blur_px,
+        outside_dof,
+        points,
+        err_px: if points > 0 {
+            crate::defocus::placement(points) * blur_px
+        } else {
+            blur_px
+        },
     }
 }
 

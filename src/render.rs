@@ -206,6 +206,10 @@ pub struct Options {
     /// The grid only where a pixel's corners and centre disagree
     /// ([`crate::sampling`]'s adaptive rule).
     pub adaptive: bool,
+    /// Defocus: points of the aperture pattern a sample is lit through
+    /// ([`crate::defocus`]; 16, 64 or 256, perspective rays only); 0: the
+    /// chief ray alone (a pinhole).
+    pub aperture: u16,
 }
 
 /// The per-pixel arithmetic (the planner's choice).
@@ -242,6 +246,7 @@ impl Options {
             arithmetic: Arithmetic::Wide,
             samples: 1,
             adaptive: false,
+            aperture: 0,
         }
     }
 
@@ -294,6 +299,11 @@ pub enum Override {
         /// The adaptive rule.
         adaptive: bool,
     },
+    /// The aperture sampled with `points` (16, 64, 256), or not at all (0).
+    Aperture {
+        /// Aperture pattern points.
+        points: u16,
+    },
 }
 
 impl Options {
@@ -329,6 +339,10 @@ impl Options {
                 adaptive,
                 ..self
             },
+            Override::Aperture { points } => Options {
+                aperture: points,
+                ..self
+            },
         }
     }
 }
@@ -342,8 +356,9 @@ pub enum RenderError {
     /// An undistorted sensor corner lies beyond [`MAX_SLOPE`].
     FieldTooWide,
     /// A primitive lies at the centre of projection, a ray model
-    /// parameter is degenerate, or the sample grid's side is not 1, 2, 4,
-    /// 8 or 16.
+    /// parameter is degenerate, the sample grid's side is not 1, 2, 4, 8 or
+    /// 16, or the aperture pattern's size not 0, 16, 64 or 256 (or not 0
+    /// with parallel rays).
     Degenerate,
     /// The distortion factor `g` exceeds ±32 768 over the sensor.
     DistortionOutOfRange,
@@ -351,8 +366,8 @@ pub enum RenderError {
     /// that path leaves out (a distortion table, pixel-area sampling,
     /// sensor noise) or values beyond its formats.
     OutsideFormat,
-    /// The frame needs pixel-area sampling or sensor noise, and the core's
-    /// `sensor` feature is off.
+    /// The frame needs pixel-area sampling, defocus or sensor noise, and
+    /// the core's `sensor` feature is off.
     NotBuilt,
 }
 
@@ -386,6 +401,8 @@ pub struct Stages {
     pub samples: u8,
     /// The adaptive rule decides which pixels get the grid.
     pub adaptive: bool,
+    /// Aperture pattern points (0: a pinhole, no defocus).
+    pub aperture: u16,
     /// Sensor noise.
     pub noise: bool,
 }
@@ -415,6 +432,18 @@ impl Stages {
             let _ = v.push(d.name());
         }
         let _ = v.push(self.model.name());
+        match self.aperture {
+            0 => {}
+            16 => {
+                let _ = v.push("defocus:16");
+            }
+            64 => {
+                let _ = v.push("defocus:64");
+            }
+            _ => {
+                let _ = v.push("defocus:256");
+            }
+        }
         let _ = v.push("intersect");
         let _ = v.push("shade:lambertian");
         if self.specular {
@@ -586,6 +615,18 @@ pub struct Frame<S: Scalar = Q> {
     /// `1/n²`.
     #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
     inv_n2: S,
+    /// Defocus: the aperture radius `d/2` and `d/(2 Z̃)` (a
+    /// [`crate::defocus::SPIRAL`] entry shifted left by `ap_shift` is a
+    /// point of the `m`-point pattern on the unit disc in I32F32 bits:
+    /// times these, an aperture point's `a` and `a/Z̃`), and `1/m`.
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+    ap_r: S,
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+    ap_rz: S,
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+    ap_shift: u32,
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+    inv_m: S,
     /// The scene's noise and the stage made of it for [`Frame::set_frame_id`].
     noise_spec: Option<crate::scene::Noise>,
     noise: Option<crate::noise::Stage<S>>,
@@ -646,6 +687,7 @@ impl<S: Scalar> Frame<S> {
                 arithmetic: Arithmetic::Wide,
                 samples: 1,
                 adaptive: false,
+                aperture: 0,
                 noise: false,
             },
             x0: 0,
@@ -666,6 +708,10 @@ impl<S: Scalar> Frame<S> {
             sub_y: [0; crate::sampling::MAX_GRID as usize],
             half: (0, 0),
             inv_n2: S::ONE,
+            ap_r: S::ZERO,
+            ap_rz: S::ZERO,
+            ap_shift: 0,
+            inv_m: S::ONE,
             noise_spec: None,
             noise: None,
             #[cfg(feature = "mix32")]
@@ -711,12 +757,19 @@ impl<S: Scalar> Frame<S> {
             arithmetic: opts.arithmetic,
             samples: opts.samples.clamp(1, crate::sampling::MAX_GRID),
             adaptive: opts.adaptive && opts.samples > 1,
+            aperture: opts.aperture,
             noise: scene.noise.is_some(),
         };
         if !matches!(self.stages.samples, 1 | 2 | 4 | 8 | 16) {
             return Err(RenderError::Degenerate);
         }
-        if cfg!(not(feature = "sensor")) && (self.stages.samples > 1 || self.stages.noise) {
+        let aperture = opts.aperture > 0;
+        if aperture
+            && (!crate::defocus::is_size(opts.aperture) || !matches!(opts.model, RenderModel::Perspective))
+        {
+            return Err(RenderError::Degenerate);
+        }
+        if cfg!(not(feature = "sensor")) && (self.stages.samples > 1 || self.stages.noise || aperture) {
             return Err(RenderError::NotBuilt);
         }
         (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
@@ -728,6 +781,15 @@ impl<S: Scalar> Frame<S> {
             // Half a pixel step (the corners), rounded toward −∞.
             self.half = (dx >> 1, dy >> 1);
             self.inv_n2 = S::from_q(Q::from_bits(1i64 << (32 - 2 * crate::sampling::log2(n))));
+            // Defocus: the aperture radius, and it over Z̃.
+            let m = opts.aperture.max(1);
+            let lens = &scene.camera.lens;
+            let r = Wide::of(lens.diameter()).mul(Wide::of(Q::from_bits(1 << 31)));
+            let rz = r.checked_div(Wide::of(lens.focus_distance())).ok_or(RenderError::Degenerate)?;
+            self.ap_r = S::from_q(q(r));
+            self.ap_rz = S::from_q(q(rz));
+            self.ap_shift = crate::defocus::shift(m);
+            self.inv_m = S::from_q(Q::from_bits(1i64 << (32 - m.trailing_zeros())));
         }
         self.noise_spec = scene.noise;
         self.noise = match scene.noise {
@@ -814,7 +876,7 @@ impl<S: Scalar> Frame<S> {
         if opts.arithmetic == Arithmetic::Fast {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
-            if table || self.stages.samples > 1 || self.stages.noise {
+            if table || self.stages.samples > 1 || self.stages.noise || aperture {
                 return Err(RenderError::OutsideFormat);
             }
             // The fast path prepares its own primitives, lights and
@@ -825,8 +887,16 @@ impl<S: Scalar> Frame<S> {
             *dst = Brdf::new(m, scene.ambient).to();
         }
         let cull = !opts.keep_all_stages;
+        // With defocus, a primitive's slope bounds widen by half its
+        // largest blur circle: the aperture ray that meets it at depth z
+        // has a chief ray within (d/2)|1/z − 1/Z̃| of the hit's slope.
+        let lens = &scene.camera.lens;
+        let blur = aperture.then(|| {
+            let focus = lens.focus_distance().to_num::<f64>();
+            (lens.diameter().to_num::<f64>() / 2.0, 1.0 / focus)
+        });
         for p in &scene.primitives {
-            let _ = self.prims.push(cam_prim(scene, p, origin_scale, cull).to());
+            let _ = self.prims.push(cam_prim(scene, p, origin_scale, cull, blur).to());
         }
         for l in &scene.lights {
             let _ = self.lights.push(shading_light(scene, l).to());
@@ -851,7 +921,7 @@ impl<S: Scalar> Frame<S> {
         }
         let mut prims: heapless::Vec<CamPrimQ, { crate::scene::MAX_PRIMITIVES }> = heapless::Vec::new();
         for p in &scene.primitives {
-            let _ = prims.push(cam_prim(scene, p, origin_scale, !specular_all));
+            let _ = prims.push(cam_prim(scene, p, origin_scale, !specular_all, None));
         }
         let mut lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }> = heapless::Vec::new();
         for l in &scene.lights {
@@ -984,10 +1054,11 @@ impl<S: Scalar> Frame<S> {
             m.line(j, pixels, flags);
             return Ok(());
         }
-        if matches!(self.stages.model, RenderModel::Perspective) {
-            self.line::<true>(j, pixels, flags);
-        } else {
-            self.line::<false>(j, pixels, flags);
+        match (self.stages.model, self.stages.aperture) {
+            (RenderModel::Perspective, 0) => self.line::<PINHOLE>(j, pixels, flags),
+            #[cfg(feature = "sensor")]
+            (RenderModel::Perspective, _) => self.line::<APERTURE>(j, pixels, flags),
+            _ => self.line::<PARALLEL>(j, pixels, flags),
         }
         Ok(())
     }
@@ -1018,7 +1089,7 @@ impl<S: Scalar> Frame<S> {
 
     #[inline(never)]
     #[cfg_attr(not(feature = "sensor"), allow(unused_variables, unused_mut))]
-    fn line<const PERSP: bool>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    fn line<const R: u8>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
         let bpp = self.format.bytes_per_pixel();
         let channels = self.format.channels();
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c));
@@ -1031,8 +1102,8 @@ impl<S: Scalar> Frame<S> {
         #[cfg(feature = "sensor")]
         let mut left = if corners {
             [
-                self.key::<PERSP>(self.x0 + hx, top),
-                self.key::<PERSP>(self.x0 + hx, bottom),
+                self.key::<R>(self.x0 + hx, top),
+                self.key::<R>(self.x0 + hx, bottom),
             ]
         } else {
             [None, None]
@@ -1049,12 +1120,12 @@ impl<S: Scalar> Frame<S> {
             acc -= self.dx;
             #[cfg(feature = "sensor")]
             let value = if n <= 1 {
-                self.sample_inline::<PERSP>(xc, yc).map(|(v, _)| v)
+                self.sample_inline::<R>(xc, yc).map(|(v, _)| v)
             } else {
-                self.area_value::<PERSP>(xc, yc, (top, bottom), &mut left)
+                self.area_value::<R>(xc, yc, (top, bottom), &mut left)
             };
             #[cfg(not(feature = "sensor"))]
-            let value = self.sample_inline::<PERSP>(xc, yc).map(|(v, _)| v);
+            let value = self.sample_inline::<R>(xc, yc).map(|(v, _)| v);
             let Some(value) = value else {
                 *flag = FLAG_OUTSIDE_FIELD;
                 out.iter_mut().for_each(|b| *b = 0);
@@ -1085,7 +1156,7 @@ impl<S: Scalar> Frame<S> {
     /// grid's mean. Out of line: the one-sample loop stays lean.
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn area_value<const PERSP: bool>(
+    fn area_value<const R: u8>(
         &self,
         xc: i128,
         yc: i128,
@@ -1093,14 +1164,14 @@ impl<S: Scalar> Frame<S> {
         left: &mut [Option<Key>; 2],
     ) -> Option<V3<S>> {
         if !self.stages.adaptive {
-            return self.grid::<PERSP>(xc, yc);
+            return self.grid::<R>(xc, yc);
         }
         let hx = self.half.0;
         let right = [
-            self.key::<PERSP>(xc - hx, top),
-            self.key::<PERSP>(xc - hx, bottom),
+            self.key::<R>(xc - hx, top),
+            self.key::<R>(xc - hx, bottom),
         ];
-        let centre = self.sample::<PERSP>(xc, yc);
+        let centre = self.sample::<R>(xc, yc);
         let uniform = match centre {
             Some((_, k)) => left.iter().chain(right.iter()).all(|c| *c == Some(k)),
             None => false,
@@ -1108,21 +1179,22 @@ impl<S: Scalar> Frame<S> {
         *left = right;
         match centre {
             Some((v, _)) if uniform => Some(v),
-            _ => self.grid::<PERSP>(xc, yc),
+            _ => self.grid::<R>(xc, yc),
         }
     }
 
     /// The ray of the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw): origin,
     /// direction, `d·d`, and the undistorted slopes; `None` beyond the fold.
     #[inline(always)]
-    fn ray<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<PixelRay<S>> {
+    fn ray<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<PixelRay<S>> {
         let (xd, yd) = (S::from_q(from_acc(xacc)), S::from_q(from_acc(yacc)));
         let (x, y) = if self.stages.distortion.is_some() {
             self.undistort(xd, yd)?
         } else {
             (xd, yd)
         };
-        let (o, d) = if PERSP {
+        // The chief ray of an aperture sample is the pinhole's.
+        let (o, d) = if R != PARALLEL {
             ([S::ZERO; 3], [x, y, S::ONE])
         } else {
             (
@@ -1132,7 +1204,7 @@ impl<S: Scalar> Frame<S> {
         };
         // d·d (1 for parallel rays); for perspective rays also the
         // 1 + x̂² + ŷ² of cos⁴α (equal in fixed point, where sums are exact).
-        let a = if PERSP { dot(d, d) } else { S::ONE };
+        let a = if R != PARALLEL { dot(d, d) } else { S::ONE };
         Some(PixelRay { o, d, a, xy: (x, y) })
     }
 
@@ -1142,20 +1214,29 @@ impl<S: Scalar> Frame<S> {
     /// copy in flash); the one-sample loop inlines [`Frame::sample_inline`].
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn sample<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
-        self.sample_inline::<PERSP>(xacc, yacc)
+    fn sample<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
+        self.sample_inline::<R>(xacc, yacc)
     }
 
     /// [`Frame::sample`], inlined.
     #[inline(always)]
-    fn sample_inline<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
-        let PixelRay { o, d, a, xy: (x, y) } = self.ray::<PERSP>(xacc, yacc)?;
-        let (radiance, key) = if self.stages.specular {
-            self.trace::<true, PERSP>(o, d, a, (x, y))
+    fn sample_inline<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
+        let PixelRay { o, d, a, xy: (x, y) } = self.ray::<R>(xacc, yacc)?;
+        #[cfg(feature = "sensor")]
+        let (radiance, key) = if R == APERTURE {
+            self.through_aperture((x, y), a)
+        } else if self.stages.specular {
+            self.trace::<true, R>(o, d, a, (x, y))
         } else {
-            self.trace::<false, PERSP>(o, d, a, (x, y))
+            self.trace::<false, R>(o, d, a, (x, y))
         };
-        let cos4 = match (self.stages.vignetting, PERSP) {
+        #[cfg(not(feature = "sensor"))]
+        let (radiance, key) = if self.stages.specular {
+            self.trace::<true, R>(o, d, a, (x, y))
+        } else {
+            self.trace::<false, R>(o, d, a, (x, y))
+        };
+        let cos4 = match (self.stages.vignetting, R != PARALLEL) {
             (false, _) => S::ONE,
             (true, true) => vignetting::cos4_of(a),
             (true, false) => vignetting::cos4(x, y),
@@ -1172,26 +1253,64 @@ impl<S: Scalar> Frame<S> {
         Some((e, key))
     }
 
-    /// What the ray at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw) sees;
-    /// `None` beyond the fold.
+    /// The radiance of the chief ray of undistorted slopes `(x̂, ŷ)` (`a =
+    /// 1 + x̂² + ŷ²`) through the aperture (camera-model.md §8): the mean
+    /// over the pattern's points `A` of the radiance along the ray from `A`
+    /// through `Z̃ (x̂, ŷ, 1)`; and, for the adaptive rule, what the chief
+    /// ray sees.
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn key<const PERSP: bool>(&self, xacc: i128, yacc: i128) -> Option<Key> {
-        let PixelRay { o, d, a, xy } = self.ray::<PERSP>(xacc, yacc)?;
-        Some(self.look::<PERSP>(o, d, a, xy).map_or(Key::NOTHING, |s| s.key))
+    fn through_aperture(&self, (x, y): (S, S), a: S) -> (V3<S>, Key) {
+        let mut sum = [S::ZERO; 3];
+        let channels = self.format.channels();
+        for p in crate::defocus::SPIRAL.iter().take(self.stages.aperture as usize) {
+            let ux = S::from_q(Q::from_bits(i64::from(p[0]) << self.ap_shift));
+            let uy = S::from_q(Q::from_bits(i64::from(p[1]) << self.ap_shift));
+            let o = [ux.mul(self.ap_r), uy.mul(self.ap_r), S::ZERO];
+            let d = [x.sub(ux.mul(self.ap_rz)), y.sub(uy.mul(self.ap_rz)), S::ONE];
+            let (l, _) = if self.stages.specular {
+                self.trace::<true, APERTURE>(o, d, dot(d, d), (x, y))
+            } else {
+                self.trace::<false, APERTURE>(o, d, dot(d, d), (x, y))
+            };
+            for (s, v) in sum.iter_mut().zip(l).take(channels) {
+                *s = s.add(v);
+            }
+        }
+        let key = if self.stages.adaptive {
+            let chief = self.look::<PINHOLE>([S::ZERO; 3], [x, y, S::ONE], a, (x, y));
+            chief.map_or(Key::NOTHING, |s| s.key)
+        } else {
+            Key::NOTHING
+        };
+        (sum.map(|s| s.mul(self.inv_m)), key)
+    }
+
+    /// What the ray at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw) sees
+    /// (through the aperture: its chief ray); `None` beyond the fold.
+    #[cfg(feature = "sensor")]
+    #[inline(never)]
+    fn key<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<Key> {
+        let PixelRay { o, d, a, xy } = self.ray::<R>(xacc, yacc)?;
+        let seen = if R == APERTURE {
+            self.look::<PINHOLE>(o, d, a, xy)
+        } else {
+            self.look::<R>(o, d, a, xy)
+        };
+        Some(seen.map_or(Key::NOTHING, |s| s.key))
     }
 
     /// The mean of the `n×n` grid of the pixel centred at `(xc, yc)`
     /// (I64F64 raw); `None` if any sample lies beyond the fold.
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn grid<const PERSP: bool>(&self, xc: i128, yc: i128) -> Option<V3<S>> {
+    fn grid<const R: u8>(&self, xc: i128, yc: i128) -> Option<V3<S>> {
         let n = self.stages.samples as usize;
         let mut sum = [S::ZERO; 3];
         for oy in self.sub_y.iter().take(n) {
             for ox in self.sub_x.iter().take(n) {
                 // Pixel coordinates grow as x̂_d, ŷ_d fall.
-                let (e, _) = self.sample::<PERSP>(xc - ox, yc - oy)?;
+                let (e, _) = self.sample::<R>(xc - ox, yc - oy)?;
                 for (s, v) in sum.iter_mut().zip(e) {
                     *s = s.add(v);
                 }
@@ -1203,7 +1322,7 @@ impl<S: Scalar> Frame<S> {
     /// The nearest primitive the ray `o + t d` meets (`a = d·d`, `(x̂, ŷ)`
     /// its undistorted slopes), with the material at the hit.
     #[inline(always)]
-    fn look<const PERSP: bool>(&self, o: V3<S>, d: V3<S>, a: S, (x, y): (S, S)) -> Option<Seen<S>> {
+    fn look<const R: u8>(&self, o: V3<S>, d: V3<S>, a: S, (x, y): (S, S)) -> Option<Seen<S>> {
         let mut nearest: Option<(usize, &CamPrim<S>, Hit<S>)> = None;
         for (i, p) in self.prims.iter().enumerate() {
             if let Some(b) = &p.bounds {
@@ -1211,7 +1330,7 @@ impl<S: Scalar> Frame<S> {
                     continue;
                 }
             }
-            if let Some(h) = intersect::<S, PERSP>(&p.shape, o, d, a) {
+            if let Some(h) = intersect::<S, R>(&p.shape, o, d, a) {
                 if h.t < nearest.as_ref().map_or(S::MAX, |(_, _, b)| b.t) {
                     nearest = Some((i, p, h));
                 }
@@ -1242,14 +1361,14 @@ impl<S: Scalar> Frame<S> {
     /// Radiance (per channel) seen along the ray `o + t d`, `a = d·d`, of
     /// the undistorted slopes `(x̂, ŷ)`, and what it sees.
     #[inline]
-    fn trace<const SPEC: bool, const PERSP: bool>(
+    fn trace<const SPEC: bool, const R: u8>(
         &self,
         o: V3<S>,
         d: V3<S>,
         a: S,
         xy: (S, S),
     ) -> (V3<S>, Key) {
-        let Some(seen) = self.look::<PERSP>(o, d, a, xy) else {
+        let Some(seen) = self.look::<R>(o, d, a, xy) else {
             return (self.background, Key::NOTHING);
         };
         let Some(mat) = self.materials.get(seen.material) else {
@@ -1259,7 +1378,7 @@ impl<S: Scalar> Frame<S> {
         // Two-sided surfaces: the normal faces the viewer.
         let normal = if hit.away { hit.n.map(S::neg) } else { hit.n };
         let view = if SPEC {
-            if PERSP {
+            if R != PARALLEL {
                 let len = a.sqrt().unwrap_or(S::ONE);
                 let inv = S::ONE.div(len).unwrap_or(S::ZERO);
                 scale3(inv.neg(), d)
@@ -1280,6 +1399,16 @@ impl<S: Scalar> Frame<S> {
         (l, seen.key)
     }
 }
+
+/// Rays from the centre of projection, `o = 0`, `d = (x̂, ŷ, 1)`: the
+/// const parameter `R` of the per-sample functions.
+const PINHOLE: u8 = 0;
+/// Parallel rays, `o = (k x̂, k ŷ, 0)`, `d = (0, 0, 1)`.
+const PARALLEL: u8 = 1;
+/// Rays through the aperture (camera-model.md §8): `o = (a_x, a_y, 0)`,
+/// `d = (x̂ − a_x/Z̃, ŷ − a_y/Z̃, 1)`; a sample's chief ray is a pinhole ray.
+#[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+const APERTURE: u8 = 2;
 
 /// A sample's ray: origin, direction, `d·d`, and the undistorted slopes.
 struct PixelRay<S> {
@@ -1333,7 +1462,7 @@ struct Hit<S> {
 /// Nearest hit `t > 0` of the ray with a shape. `a = d·d` (1 for parallel
 /// rays), computed once per ray.
 #[inline]
-fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) -> Option<Hit<S>> {
+fn intersect<S: Scalar, const R: u8>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) -> Option<Hit<S>> {
     // A flat shape's hit: n̂·d is the plane's denominator.
     let flat = |n, (t, denom): (S, S), point| Hit {
         t,
@@ -1342,9 +1471,9 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
         point,
     };
     match *s {
-        CamShape::Plane { n, dist } => plane_t::<S, PERSP>(n, dist, o, d).map(|td| flat(n, td, None)),
+        CamShape::Plane { n, dist } => plane_t::<S, R>(n, dist, o, d).map(|td| flat(n, td, None)),
         CamShape::Disc { n, dist, c, r2 } => {
-            let td = plane_t::<S, PERSP>(n, dist, o, d)?;
+            let td = plane_t::<S, R>(n, dist, o, d)?;
             let p = axpy(td.0, d, o);
             let rel = sub3(p, c);
             (dot(rel, rel) <= r2).then(|| flat(n, td, Some(p)))
@@ -1358,7 +1487,7 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
             hu,
             hv,
         } => {
-            let td = plane_t::<S, PERSP>(n, dist, o, d)?;
+            let td = plane_t::<S, R>(n, dist, o, d)?;
             let p = axpy(td.0, d, o);
             let rel = sub3(p, c);
             (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then(|| flat(n, td, Some(p)))
@@ -1369,7 +1498,9 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
             // a r² − |d × oc|² (Lagrange's identity): without the
             // cancellation of b² against a |oc|², its rounding next to the
             // silhouette is r/|c| of the other form's.
-            let (b, disc) = if PERSP {
+            let (b, disc) = if R != PARALLEL {
+                // From an aperture point, the centre relative to it.
+                let c = if R == APERTURE { sub3(c, o) } else { c };
                 let x = [
                     d[1].mul(c[2]).sub(d[2].mul(c[1])),
                     d[2].mul(c[0]).sub(d[0].mul(c[2])),
@@ -1406,9 +1537,9 @@ fn intersect<S: Scalar, const PERSP: bool>(s: &CamShape<S>, o: V3<S>, d: V3<S>, 
 
 #[inline]
 /// `t > 0` and `n̂·d` where the ray meets the plane `n̂·P = dist`.
-fn plane_t<S: Scalar, const PERSP: bool>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Option<(S, S)> {
-    let denom = if PERSP { dot(n, d) } else { n[2] };
-    let num = if PERSP {
+fn plane_t<S: Scalar, const R: u8>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Option<(S, S)> {
+    let denom = if R != PARALLEL { dot(n, d) } else { n[2] };
+    let num = if R == PINHOLE {
         dist
     } else {
         dist.sub(n[0].mul(o[0]).add(n[1].mul(o[1])))
@@ -1422,9 +1553,11 @@ fn plane_t<S: Scalar, const PERSP: bool>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) 
 /// 2⁻¹⁰ relative — far more than any arithmetic's rounding moves a hit —
 /// or `None` (planes; a bounding sphere that reaches the lens plane).
 /// Perspective rays: the tangents from the centre of projection,
-/// `(c_x c_z ± r √(c_x² + c_z² − r²)) / (c_z² − r²)`; parallel rays of
-/// origin scale `k`: `(c_x ± r) / k`. Computed once a frame, in f64.
-fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>) -> Option<[Q; 4]> {
+/// `(c_x c_z ± r √(c_x² + c_z² − r²)) / (c_z² − r²)`, widened with
+/// `blur = (d/2, 1/Z̃)` (defocus) by `(d/2) max |1/z − 1/Z̃|` over the
+/// sphere's depths; parallel rays of origin scale `k`: `(c_x ± r) / k`.
+/// Computed once a frame, in f64.
+fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64, f64)>) -> Option<[Q; 4]> {
     let f = |q: Q| q.to_num::<f64>();
     let (c, r) = match *shape {
         CamShape::Plane { .. } => return None,
@@ -1442,9 +1575,13 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>) -> Option<[Q; 4]> 
             if c[2] <= r || zz <= 1e-3 * c[2] * c[2] {
                 return None;
             }
+            let spread = blur.map_or(0.0, |(half_d, inv_focus)| {
+                let w = |z: f64| libm::fabs(1.0 / z - inv_focus);
+                half_d * w(c[2] - r).max(w(c[2] + r))
+            });
             let range = |cx: f64| {
                 let s = libm::sqrt((cx * cx + zz).max(0.0));
-                ((cx * c[2] - r * s) / zz, (cx * c[2] + r * s) / zz)
+                ((cx * c[2] - r * s) / zz - spread, (cx * c[2] + r * s) / zz + spread)
             };
             [range(c[0]), range(c[1])]
         }
@@ -1477,8 +1614,14 @@ fn shading_light(scene: &Scene, l: &Light) -> ShadingLight {
 
 /// A primitive in the camera frame, with its slope-space bounds when
 /// `cull` (for rays of parallel-ray origin scale `origin_scale`, or
-/// perspective rays).
-fn cam_prim(scene: &Scene, p: &Primitive, origin_scale: Option<Q>, cull: bool) -> CamPrim<Q> {
+/// perspective rays, through the aperture with `blur`: [`slope_bounds`]).
+fn cam_prim(
+    scene: &Scene,
+    p: &Primitive,
+    origin_scale: Option<Q>,
+    cull: bool,
+    blur: Option<(f64, f64)>,
+) -> CamPrim<Q> {
     let to_q3 = |d: [Norm; 3]| dir_to_cam(scene, d);
     let (shape, origin) = match p.shape {
         Shape::Plane { point, normal } => {
@@ -1549,7 +1692,7 @@ fn cam_prim(scene: &Scene, p: &Primitive, origin_scale: Option<Q>, cull: bool) -
         shape,
         material: p.material,
         bounds: if cull {
-            slope_bounds(&shape, origin_scale)
+            slope_bounds(&shape, origin_scale, blur)
         } else {
             None
         },

@@ -95,8 +95,18 @@ pub struct PlanReport {
     /// Predicted edge-placement error of the sample pattern, px.
     pub predicted_edge_err_px: f64,
     /// Predicted samples a pixel (corner looks counted as a fraction of a
-    /// sample), which the predicted cost includes.
+    /// sample, times the aperture points), which the predicted cost
+    /// includes.
     pub predicted_samples_per_pixel: f64,
+    /// Aperture points each sample is lit through (0: a pinhole).
+    pub aperture_points: u16,
+    /// Largest blur-circle diameter of content in view, px.
+    pub blur_px: f64,
+    /// Content in view lies outside the depth of field.
+    pub outside_dof: bool,
+    /// Predicted defocus error, px: the aperture pattern's placement error,
+    /// or the blur left out when the aperture is not sampled.
+    pub predicted_defocus_err_px: f64,
 }
 
 /// `metrics.json`.
@@ -155,6 +165,22 @@ pub struct Metrics {
     /// rounding and without noise (null when the frame has one sample a
     /// pixel).
     pub sampling_error: Option<SamplingError>,
+    /// The aperture pattern's own error: the reference with the frame's
+    /// aperture points against the reference with
+    /// [`crate::reference::defocus::CONVERGED`], before rounding and without
+    /// noise (null when the frame does not sample the aperture).
+    pub defocus_error: Option<DefocusError>,
+}
+
+/// The aperture pattern's error against a converged estimate.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct DefocusError {
+    /// Largest |pattern − converged| over pixels and channels, DN.
+    pub max_dn: f64,
+    /// RMS over pixels and channels, DN.
+    pub rms_dn: f64,
+    /// Aperture points of the converged estimate.
+    pub converged_points: u16,
 }
 
 /// The sample pattern's error against a converged estimate.
@@ -279,10 +305,38 @@ pub struct Tally {
     edges_diff: usize,
     flags_diff: usize,
     outside: usize,
-    samp_max: f64,
-    samp_sq: f64,
-    samp_n: usize,
+    samp: StageTally,
     samp_grid: usize,
+    def: StageTally,
+}
+
+/// A stage's estimate against its converged estimate, accumulated.
+#[derive(Clone, Copy, Debug, Default)]
+struct StageTally {
+    max: f64,
+    sq: f64,
+    n: usize,
+}
+
+impl StageTally {
+    fn merge(&mut self, o: &StageTally) {
+        self.max = self.max.max(o.max);
+        self.sq += o.sq;
+        self.n += o.n;
+    }
+
+    fn add(&mut self, a: [f64; 3], b: [f64; 3], channels: usize) {
+        for c in 0..channels {
+            let d = (a[c] - b[c]).abs();
+            self.max = self.max.max(d);
+            self.sq += d * d;
+            self.n += 1;
+        }
+    }
+
+    fn rms(&self) -> f64 {
+        (self.sq / self.n.max(1) as f64).sqrt()
+    }
 }
 
 impl Tally {
@@ -305,10 +359,9 @@ impl Tally {
         self.edges_diff += o.edges_diff;
         self.flags_diff += o.flags_diff;
         self.outside += o.outside;
-        self.samp_max = self.samp_max.max(o.samp_max);
-        self.samp_sq += o.samp_sq;
-        self.samp_n += o.samp_n;
+        self.samp.merge(&o.samp);
         self.samp_grid += o.samp_grid;
+        self.def.merge(&o.def);
     }
 }
 
@@ -371,19 +424,43 @@ pub fn tally_line<S: Scalar>(
     t
 }
 
-/// Adds line `j`'s sampling error (`rs`'s pattern against `conv`'s) to `t`.
-fn sampling_tally(rs: &RefScene, conv: &RefScene, j: usize, t: &mut Tally) {
-    let channels = rs.format.channels();
-    for i in 0..rs.sensor.width as usize {
-        let (Some(a), Some(b)) = (rs.area_mean(i, j), conv.area_mean(i, j)) else {
-            continue;
-        };
-        t.samp_grid += rs.takes_grid(i, j) as usize;
-        for c in 0..channels {
-            let d = (a[c] - b[c]).abs();
-            t.samp_max = t.samp_max.max(d);
-            t.samp_sq += d * d;
-            t.samp_n += 1;
+/// The converged estimates a frame's stages are measured against: the
+/// reference with 16×16 samples a pixel (where the frame samples the pixel
+/// area) and with [`crate::reference::defocus::CONVERGED`] aperture points
+/// (where it samples the aperture), the rest of the pattern the frame's.
+pub struct Converged {
+    grid: Option<RefScene>,
+    aperture: Option<RefScene>,
+}
+
+impl Converged {
+    /// For `rs` (sampled as the frame is).
+    pub fn of(rs: &RefScene) -> Converged {
+        let p = rs.pattern;
+        Converged {
+            grid: (p.n > 1).then(|| rs.with_pattern(p.converged_grid())),
+            aperture: (p.aperture > 0).then(|| rs.with_pattern(p.converged_aperture())),
+        }
+    }
+
+    /// Adds line `j`'s stage errors (`rs`'s pattern against the converged
+    /// ones) to `t`, before rounding and without noise.
+    fn tally(&self, rs: &RefScene, j: usize, t: &mut Tally) {
+        if self.grid.is_none() && self.aperture.is_none() {
+            return;
+        }
+        let channels = rs.format.channels();
+        for i in 0..rs.sensor.width as usize {
+            let Some(a) = rs.area_mean(i, j) else {
+                continue;
+            };
+            if let Some(Some(b)) = self.grid.as_ref().map(|g| g.area_mean(i, j)) {
+                t.samp_grid += rs.takes_grid(i, j) as usize;
+                t.samp.add(a, b, channels);
+            }
+            if let Some(Some(b)) = self.aperture.as_ref().map(|g| g.area_mean(i, j)) {
+                t.def.add(a, b, channels);
+            }
         }
     }
 }
@@ -413,15 +490,16 @@ pub fn compare<S: Scalar>(
             reference.row(j),
         ));
     }
-    // The pattern's own error against 16×16, lines in parallel.
-    if frame.stages().samples > 1 {
+    // The pattern's own errors against converged estimates, lines in
+    // parallel.
+    {
         use rayon::prelude::*;
-        let conv = rs.with_pattern(Pattern::CONVERGED);
+        let conv = Converged::of(rs);
         let parts: Vec<Tally> = (0..h as usize)
             .into_par_iter()
             .map(|j| {
                 let mut l = Tally::default();
-                sampling_tally(rs, &conv, j, &mut l);
+                conv.tally(rs, j, &mut l);
                 l
             })
             .collect();
@@ -472,6 +550,14 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         adaptive: stages.adaptive,
         predicted_edge_err_px: plan.predicted_edge_err_px,
         predicted_samples_per_pixel: plan.predicted_samples_per_pixel,
+        aperture_points: stages.aperture,
+        blur_px: plan.defocus.blur_px,
+        outside_dof: plan.defocus.outside_dof,
+        predicted_defocus_err_px: if stages.aperture > 0 {
+            hilcam::defocus::placement(stages.aperture) * plan.defocus.blur_px
+        } else {
+            plan.defocus.blur_px
+        },
     }
 }
 
@@ -520,9 +606,14 @@ pub fn metrics<S: Scalar>(
         outside_field_pixels: t.outside,
         field_flags_differing: t.flags_diff,
         sampling_error: (frame.stages().samples > 1).then(|| SamplingError {
-            max_dn: t.samp_max,
-            rms_dn: (t.samp_sq / t.samp_n.max(1) as f64).sqrt(),
+            max_dn: t.samp.max,
+            rms_dn: t.samp.rms(),
             grid_pixels: t.samp_grid,
+        }),
+        defocus_error: (frame.stages().aperture > 0).then(|| DefocusError {
+            max_dn: t.def.max,
+            rms_dn: t.def.rms(),
+            converged_points: crate::reference::defocus::CONVERGED,
         }),
     }
 }
@@ -558,8 +649,9 @@ pub fn run_lines<S: Scalar>(
     let rs = &rs.with_pattern(Pattern {
         n: st.samples,
         adaptive: st.adaptive,
+        aperture: st.aperture,
     });
-    let converged = (st.samples > 1).then(|| rs.with_pattern(Pattern::CONVERGED));
+    let converged = Converged::of(rs);
     let band = rayon::current_num_threads().max(1) * 4;
     let mut total = Tally::default();
     for j0 in (0..h as usize).step_by(band) {
@@ -574,9 +666,7 @@ pub fn run_lines<S: Scalar>(
                 let core_dn = decode_all(rs.format, &pixels);
                 let reference = rs.render_line(j);
                 let mut tally = tally_line(rs, frame, j, &core_dn, &flags, reference.row(0));
-                if let Some(conv) = &converged {
-                    sampling_tally(rs, conv, j, &mut tally);
-                }
+                converged.tally(rs, j, &mut tally);
                 Ok(LineOut {
                     pixels,
                     flags,

@@ -89,6 +89,23 @@ pub fn plan_text(p: &PlanReport) -> String {
             n = p.samples
         ));
     }
+    if p.aperture_points > 0 {
+        s.push_str(&format!(
+            "  defocus: {} aperture points — content outside the depth of field, largest blur {:.2} px, \
+             predicted placement error {:.3} px (in the costs above)\n",
+            p.aperture_points, p.blur_px, p.predicted_defocus_err_px
+        ));
+    } else {
+        s.push_str(&format!(
+            "  defocus: none — {}, largest blur {:.3} px left out\n",
+            if p.outside_dof {
+                "content outside the depth of field, but the camera is not perspective"
+            } else {
+                "all content within the depth of field"
+            },
+            p.blur_px
+        ));
+    }
     s
 }
 
@@ -117,6 +134,11 @@ pub fn summary(m: &Metrics) -> String {
         format!(
             "\n{:<18} sampling error vs 16x16: rms={:.3} DN max={:.2} DN ({} pixels took the grid)",
             "", e.rms_dn, e.max_dn, e.grid_pixels
+        )
+    }) + &m.defocus_error.map_or(String::new(), |e| {
+        format!(
+            "\n{:<18} defocus error vs {} aperture points: rms={:.3} DN max={:.2} DN",
+            "", e.converged_points, e.rms_dn, e.max_dn
         )
     })
 }

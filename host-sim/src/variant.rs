@@ -100,7 +100,8 @@ impl Variant {
 
     /// `planned`, or `ARITH-planned`, `ARITH-lutN-linear`,
     /// `ARITH-lutN-nearest`, `ARITH-poly`, `ARITH-all-stages`, `ARITH-sN`
-    /// (an N×N sample grid on every pixel), `ARITH-sN-adaptive`.
+    /// (an N×N sample grid on every pixel), `ARITH-sN-adaptive`, `ARITH-apN`
+    /// (the aperture sampled with N points; 0: not at all).
     pub fn name(&self) -> String {
         let s = self.scalar.name();
         match self.over {
@@ -118,6 +119,7 @@ impl Variant {
             Override::AllStages => format!("{s}-all-stages"),
             Override::Samples { n, adaptive: false } => format!("{s}-s{n}"),
             Override::Samples { n, adaptive: true } => format!("{s}-s{n}-adaptive"),
+            Override::Aperture { points } => format!("{s}-ap{points}"),
         }
     }
 
@@ -127,7 +129,8 @@ impl Variant {
             format!(
                 "variant {name:?}: expected planned, or ARITH-planned, ARITH-lutN-linear, \
                  ARITH-lutN-nearest, ARITH-poly, ARITH-all-stages, ARITH-sN or ARITH-sN-adaptive \
-                 (N 1, 2, 4, 8, 16), ARITH one of planned, mix32, i32f32, f32"
+                 (N 1, 2, 4, 8, 16), ARITH-apN (N 0, 16, 64, 256), ARITH one of planned, mix32, \
+                 i32f32, f32"
             )
         };
         if name == "planned" {
@@ -142,6 +145,15 @@ impl Variant {
             "planned" => Override::Planned,
             "poly" => Override::Polynomial,
             "all-stages" => Override::AllStages,
+            _ if rest.starts_with("ap") => {
+                let points: u16 = rest[2..].parse().map_err(|_| bad())?;
+                if points != 0 && !hilcam::defocus::is_size(points) {
+                    return Err(format!(
+                        "variant {name:?}: the aperture pattern's points must be 0, 16, 64 or 256"
+                    ));
+                }
+                Override::Aperture { points }
+            }
             _ if rest.starts_with('s') => {
                 let (n, adaptive) = match rest[1..].split_once('-') {
                     Some((n, "adaptive")) => (n, true),
@@ -181,10 +193,14 @@ impl Variant {
 
     /// Whether it takes anything from the plan beyond the ray model: the
     /// arithmetic (`planned`) or the distortion evaluation (`-planned`, and
-    /// the sample grids `-sN`, which change only the pattern).
+    /// the sample grids `-sN` and apertures `-apN`, which change only the
+    /// pattern).
     pub fn needs_plan(&self) -> bool {
         self.scalar.arithmetic().is_none()
-            || matches!(self.over, Override::Planned | Override::Samples { .. })
+            || matches!(
+                self.over,
+                Override::Planned | Override::Samples { .. } | Override::Aperture { .. }
+            )
     }
 
     /// The options this variant renders with, from the planned ones.
@@ -209,6 +225,7 @@ impl Variant {
             Override::Samples { n, adaptive } => {
                 format!("Override::Samples {{ n: {n}, adaptive: {adaptive} }}")
             }
+            Override::Aperture { points } => format!("Override::Aperture {{ points: {points} }}"),
         };
         let arith = match self.scalar.arithmetic() {
             Some(a) => format!(".with_arithmetic(hilcam::render::Arithmetic::{a:?})"),
@@ -258,12 +275,17 @@ impl Variant {
     }
 
     /// The sample pattern the reference applies to compare with this
-    /// variant: its own grid, or the scene's.
+    /// variant: its own grid or aperture, or the scene's.
     pub fn pattern(&self, r: &Resolved) -> crate::reference::sampling::Pattern {
         use crate::reference::sampling::Pattern;
+        let scene = Pattern::of_scene(r);
         match self.over {
-            Override::Samples { n, adaptive } => Pattern { n, adaptive },
-            _ => Pattern::of_scene(r),
+            Override::Samples { n, adaptive } => Pattern { n, adaptive, ..scene },
+            Override::Aperture { points } => Pattern {
+                aperture: points,
+                ..scene
+            },
+            _ => scene,
         }
     }
 }
@@ -303,6 +325,8 @@ mod tests {
             "i32f32-all-stages",
             "mix32-poly",
             "planned-poly",
+            "i32f32-ap64",
+            "i32f32-ap0",
         ] {
             assert_eq!(Variant::parse(n).map(|v| v.name()), Ok(n.to_string()));
         }
@@ -313,6 +337,8 @@ mod tests {
             "f32-lut1-linear",
             "f32-lut2048-linear",
             "f32-lut64-cubic",
+            "i32f32-ap32",
+            "i32f32-ap",
         ] {
             assert!(Variant::parse(n).is_err(), "{n}");
         }

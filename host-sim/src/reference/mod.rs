@@ -1,5 +1,6 @@
 //! f64 reference models, one module per stage of the core.
 
+pub mod defocus;
 pub mod distortion;
 pub mod extrinsics;
 pub mod intrinsics;

@@ -1,4 +1,4 @@
-//! Reference renderer (camera-model.md §3, §5, §6, §7), in f64.
+//! Reference renderer (camera-model.md §3, §5–§9), in f64.
 //!
 //! Built from the same parsed scene file as the core, but independently: the
 //! ray of each pixel is taken into the world frame and intersected there
@@ -97,6 +97,11 @@ pub struct RefScene {
     background: [f64; 3],
     exposure: f64,
     aperture: f64,
+    /// Focus distance `Z̃`, metres.
+    focus: f64,
+    /// The aperture's points on the unit disc (empty: a pinhole), from
+    /// `pattern.aperture`.
+    spiral: Vec<(f64, f64)>,
     /// Output format.
     pub format: PixelFormat,
     /// The sample pattern (from the scene's `[sampling]`; the harness sets
@@ -271,8 +276,10 @@ impl RefScene {
             background: r.desc.environment.background.rgb(),
             exposure: r.desc.output.exposure,
             aperture: r.aperture_diameter(),
+            focus: r.desc.camera.focus_distance,
+            spiral: Vec::new(),
             format: r.format,
-            pattern: Pattern::of_scene(r),
+            pattern: Pattern::CENTRE,
             noise: r.desc.noise.map(|n| NoiseModel {
                 saturation: n.saturation,
                 dark_noise: n.dark_noise,
@@ -281,6 +288,7 @@ impl RefScene {
             }),
             frame_id: 0,
         }
+        .with_pattern(Pattern::of_scene(r))
     }
 
     /// Where the world point `p` is imaged, in pixel coordinates (the
@@ -337,8 +345,16 @@ impl RefScene {
 
     /// This scene sampled with `pattern`.
     pub fn with_pattern(&self, pattern: Pattern) -> RefScene {
+        let spiral = if pattern.aperture == self.pattern.aperture && !self.spiral.is_empty() {
+            self.spiral.clone()
+        } else if pattern.aperture > 0 {
+            super::defocus::spiral(pattern.aperture)
+        } else {
+            Vec::new()
+        };
         RefScene {
             pattern,
+            spiral,
             ..self.clone()
         }
     }
@@ -355,13 +371,17 @@ impl RefScene {
 
     /// The world-frame ray of an undistorted normalized point.
     fn ray(&self, x: f64, y: f64) -> (V3, V3) {
-        let (o, d) = match self.model {
-            RefModel::Perspective => ([0.0; 3], [x, y, 1.0]),
+        match self.model {
+            RefModel::Perspective => self.to_world([0.0; 3], [x, y, 1.0]),
             RefModel::Orthographic(m) => {
                 let f = self.sensor.f;
-                ([x * f / m, y * f / m, 0.0], [0.0, 0.0, 1.0])
+                self.to_world([x * f / m, y * f / m, 0.0], [0.0, 0.0, 1.0])
             }
-        };
+        }
+    }
+
+    /// A camera-frame ray (origin, direction) in the world frame.
+    fn to_world(&self, o: V3, d: V3) -> (V3, V3) {
         let ow = self.pose.camera_to_world(o);
         let dw = sub(self.pose.camera_to_world(d), self.pose.t);
         (ow, dw)
@@ -465,22 +485,24 @@ impl RefScene {
     /// `None` outside the lens field.
     pub fn sample(&self, xi: f64, yi: f64) -> Option<[f64; 3]> {
         let (x, y) = self.undistorted(xi, yi)?;
-        let (o, d) = self.ray(x, y);
-        let radiance = match self.hit(o, d) {
-            None => self.background,
-            Some((t, i, n)) => {
-                let p = at(o, d, t);
-                let mut m = self.prims[i].material;
-                if let (Some(c), Some((cu, cv))) = (self.prims[i].checker, self.cell(i, p)) {
-                    if (cu + cv).rem_euclid(2) == 1 {
-                        m = c.material;
-                    }
+        let radiance = if self.model == RefModel::Perspective && !self.spiral.is_empty() {
+            // §8: the mean over the aperture's points A of the radiance
+            // along the ray from A through F = Z̃ (x̂, ŷ, 1).
+            let f = [self.focus * x, self.focus * y, self.focus];
+            let r = self.aperture / 2.0;
+            let mut sum = [0.0; 3];
+            for (u, v) in &self.spiral {
+                let a = [r * u, r * v, 0.0];
+                let (o, d) = self.to_world(a, sub(f, a));
+                let l = self.radiance(o, d);
+                for c in 0..3 {
+                    sum[c] += l[c];
                 }
-                let n = if dot(n, d) > 0.0 { [-n[0], -n[1], -n[2]] } else { n };
-                let dl = dot(d, d).sqrt();
-                let v = [-d[0] / dl, -d[1] / dl, -d[2] / dl];
-                shading::radiance(&self.materials[m], &self.lights, self.ambient, p, n, v)
             }
+            sum.map(|s| s / self.spiral.len() as f64)
+        } else {
+            let (o, d) = self.ray(x, y);
+            self.radiance(o, d)
         };
         let cos4 = match self.model {
             RefModel::Orthographic(_) => 1.0,
@@ -495,6 +517,26 @@ impl RefScene {
             *v = k * e;
         }
         Some(v)
+    }
+
+    /// The radiance along the world-frame ray `o + t d`, per channel.
+    fn radiance(&self, o: V3, d: V3) -> [f64; 3] {
+        match self.hit(o, d) {
+            None => self.background,
+            Some((t, i, n)) => {
+                let p = at(o, d, t);
+                let mut m = self.prims[i].material;
+                if let (Some(c), Some((cu, cv))) = (self.prims[i].checker, self.cell(i, p)) {
+                    if (cu + cv).rem_euclid(2) == 1 {
+                        m = c.material;
+                    }
+                }
+                let n = if dot(n, d) > 0.0 { [-n[0], -n[1], -n[2]] } else { n };
+                let dl = dot(d, d).sqrt();
+                let v = [-d[0] / dl, -d[1] / dl, -d[2] / dl];
+                shading::radiance(&self.materials[m], &self.lights, self.ambient, p, n, v)
+            }
+        }
     }
 
     /// The mean `K E` of pixel `(i, j)` under the pattern (§7): `None` if

@@ -2,26 +2,44 @@
 //! contract and docs/sensor.md: the pixel square `[i − ½, i + ½] ×
 //! [j − ½, j + ½]`, an `n×n` grid of cell centres, and the adaptive rule.
 
-/// The pattern a frame is sampled with.
+/// The pattern a frame is sampled with: the pixel grid, and the aperture
+/// points each of its samples is lit through (§8).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Pattern {
     /// Grid side (1: the centre alone).
     pub n: u8,
     /// The grid only where the corners and centre disagree.
     pub adaptive: bool,
+    /// Aperture points (0: the chief ray alone, a pinhole).
+    pub aperture: u16,
 }
 
 impl Pattern {
-    /// One sample at the centre.
+    /// One sample at the centre, through a pinhole.
     pub const CENTRE: Pattern = Pattern {
         n: 1,
         adaptive: false,
+        aperture: 0,
     };
-    /// The converged estimate the sampling error is measured against.
-    pub const CONVERGED: Pattern = Pattern {
-        n: 16,
-        adaptive: false,
-    };
+
+    /// The converged estimate the sampling error is measured against: 16×16
+    /// on every pixel, the same aperture.
+    pub fn converged_grid(self) -> Pattern {
+        Pattern {
+            n: 16,
+            adaptive: false,
+            ..self
+        }
+    }
+
+    /// The converged estimate the defocus error is measured against: the
+    /// same grid, [`super::defocus::CONVERGED`] aperture points.
+    pub fn converged_aperture(self) -> Pattern {
+        Pattern {
+            aperture: super::defocus::CONVERGED,
+            ..self
+        }
+    }
 
     /// The grid for an edge-placement budget (docs/sensor.md): the smallest
     /// side in 1, 2, 4, 8, 16 whose worst straight-edge error, half a grid
@@ -31,15 +49,27 @@ impl Pattern {
             .into_iter()
             .find(|&n| 1.0 / (2.0 * f64::from(n)) <= e)
             .unwrap_or(16);
-        Pattern { n, adaptive }
+        Pattern {
+            n,
+            adaptive,
+            aperture: 0,
+        }
     }
 
     /// The pattern a scene file's `[sampling]` asks for (one sample at the
-    /// centre without it).
+    /// centre without it), through the aperture the core's plan samples
+    /// (the planner's rule of docs/sensor.md decides it, as the contract
+    /// has the plan report it).
     pub fn of_scene(r: &crate::scene_file::Resolved) -> Pattern {
-        r.desc.sampling.map_or(Pattern::CENTRE, |s| {
+        let grid = r.desc.sampling.map_or(Pattern::CENTRE, |s| {
             Pattern::for_edge_error(s.edge_error, s.adaptive)
-        })
+        });
+        let aperture = r.core_scene().map_or(0, |s| {
+            hilcam::planner::plan(&s, &hilcam::planner::Budget::default())
+                .options
+                .aperture
+        });
+        Pattern { aperture, ..grid }
     }
 
     /// Offsets of the grid's cell centres from the pixel centre, pixels.

@@ -1,0 +1,294 @@
+//! Defocus (camera-model.md §8) as its users check it:
+//! - edge spread: a slanted step edge at depth `Z`, rendered by the default
+//!   path (the planner's aperture pattern), spreads over `β(Z) f / s`
+//!   pixels within 5 % over 1–20 px, in front of and behind focus, and no
+//!   pixel lies farther from the uniform disc's edge-spread function than
+//!   the planner's predicted placement error;
+//! - targets at §4's near and far depth-of-field planes spread by
+//!   `b̃ / ẑ(Ẑ)` (normalized);
+//! - the shipped shallow-depth-of-field scene against the reference, which
+//!   samples the aperture with the same spiral; scenes within their depth
+//!   of field pay nothing.
+
+use hilcam::planner::Budget;
+use hilcam::render::Override;
+use hilcam::scalar::I32F32;
+use host_sim::harness::{collect, prepare};
+use host_sim::reference::lens::ThinLens;
+use host_sim::reference::render::RefScene;
+use host_sim::scene_file::parse;
+
+const WIDTH: usize = 128;
+const HEIGHT: usize = 48;
+/// 16 mm on 10 µm pixels.
+const F: f64 = 16e-3;
+const FX: f64 = F / 10e-6;
+/// F/1: d = 16 mm; β f/s reaches 25.6 px at infinity.
+const D: f64 = 16e-3;
+const FOCUS: f64 = 1.0;
+
+/// A camera at the origin looking along +z at a bright rectangle at depth
+/// `z` (`edge`: its left edge through the axis, slanted 5°; otherwise
+/// filling the view), 16-bit, lit along the axis so that its radiance is
+/// uniform.
+fn scene(z: f64, tolerable_blur: f64, edge: bool) -> String {
+    let (c, s) = (5f64.to_radians().cos(), 5f64.to_radians().sin());
+    let (centre, size) = if edge {
+        ([0.05 * z * c, 0.05 * z * s, z], [0.1 * z, 0.1 * z])
+    } else {
+        ([0.0, 0.0, z], [0.2 * z, 0.2 * z])
+    };
+    format!(
+        r#"
+name = "edge"
+[output]
+format = "gray16"
+bits = 16
+exposure = 20000.0
+[camera]
+width = {WIDTH}
+height = {HEIGHT}
+focal_length = {F}
+pitch = 10e-6
+f_number = 1.0
+focus_distance = {FOCUS}
+tolerable_blur = {tolerable_blur}
+pose = {{ eye = [0.0, 0.0, 0.0], target = [0.0, 0.0, 1.0], up = [0.0, 1.0, 0.0] }}
+[environment]
+ambient = 0.0
+background = 0.0
+[[materials]]
+name = "white"
+albedo = 0.8
+[[lights]]
+kind = "directional"
+direction = [0.0, 0.0, -1.0]
+irradiance = 10.0
+[[primitives]]
+kind = "rectangle"
+material = "white"
+centre = [{}, {}, {}]
+normal = [0.0, 0.0, -1.0]
+u_axis = [{c}, {s}, 0.0]
+size = [{}, {}]
+"#,
+        centre[0], centre[1], centre[2], size[0], size[1]
+    )
+}
+
+/// The frame's 16-bit values and the aperture points it was rendered with
+/// (`points`: forced, else the planner's), with the planner's predicted
+/// placement error, px.
+fn render(text: &str, points: Option<u16>) -> (Vec<f64>, u16, f64) {
+    let r = parse(text).expect("scene");
+    let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |o| match points {
+        Some(points) => o.with(Override::Aperture { points }),
+        None => o,
+    })
+    .expect("prepares");
+    let c = collect(&f).expect("renders");
+    let v = c
+        .pixels
+        .chunks_exact(2)
+        .map(|b| f64::from(u16::from_le_bytes([b[0], b[1]])))
+        .collect();
+    (v, f.stages().aperture, plan.defocus.err_px)
+}
+
+/// The uniform disc's edge-spread function, diameter `b` px, at `s` px
+/// from the edge (towards the bright side).
+fn esf(b: f64, s: f64) -> f64 {
+    let x = (2.0 * s / b).clamp(-1.0, 1.0);
+    0.5 + (x * (1.0 - x * x).sqrt() + x.asin()) / std::f64::consts::PI
+}
+
+/// Its inverse: where it reaches level `l` in (0, 1).
+fn esf_inverse(b: f64, l: f64) -> f64 {
+    let (mut lo, mut hi) = (-b / 2.0, b / 2.0);
+    for _ in 0..60 {
+        let m = 0.5 * (lo + hi);
+        if esf(b, m) < l {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// What one edge measures.
+struct Spread {
+    /// The fitted disc diameter, px.
+    measured_px: f64,
+    /// The largest horizontal distance of a pixel's (s, level) from the
+    /// disc's edge-spread function of the expected diameter, px.
+    placement_px: f64,
+    /// The planner's prediction of it.
+    predicted_px: f64,
+    points: u16,
+}
+
+/// Renders the edge at depth `z` and the bright field, and fits the disc
+/// diameter of the edge's spread (least squares over the pixels within
+/// reach of the edge, each at its distance from the edge's pinhole image).
+fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
+    let text = scene(z, tolerable_blur, true);
+    let (edge, points, predicted_px) = render(&text, None);
+    let (white, _, _) = render(&scene(z, tolerable_blur, false), Some(0));
+    // The edge's pinhole image: two of its points, projected.
+    let rs = RefScene::new(&parse(&text).expect("scene"));
+    let (c, s) = (5f64.to_radians().cos(), 5f64.to_radians().sin());
+    let at = |t: f64| rs.project([-0.05 * z * s * t, 0.05 * z * c * t, z]).expect("in view");
+    let (p, q) = (at(-1.0), at(1.0));
+    let inside = rs.project([0.05 * z * c, 0.05 * z * s, z]).expect("in view");
+    let (dx, dy) = (q.0 - p.0, q.1 - p.1);
+    let len = dx.hypot(dy);
+    let side = |x: f64, y: f64| ((x - p.0) * dy - (y - p.1) * dx) / len;
+    let sign = side(inside.0, inside.1).signum();
+    let reach = 0.75 * expected_px + 3.0;
+    let mut pts = Vec::new();
+    for j in 0..HEIGHT {
+        for i in 0..WIDTH {
+            let d = sign * side(i as f64, j as f64);
+            let k = j * WIDTH + i;
+            if d.abs() <= reach && white[k] > 1000.0 {
+                pts.push((d, edge[k] / white[k]));
+            }
+        }
+    }
+    let cost = |b: f64| pts.iter().map(|(d, v)| (v - esf(b, *d)).powi(2)).sum::<f64>();
+    let (mut lo, mut hi) = (0.3 * expected_px, 2.0 * expected_px);
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..100 {
+        let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        if cost(a) < cost(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    let placement_px = pts
+        .iter()
+        .map(|(d, v)| {
+            let r = expected_px / 2.0;
+            if *v <= 0.0 {
+                (d + r).max(0.0)
+            } else if *v >= 1.0 {
+                (r - d).max(0.0)
+            } else {
+                (d - esf_inverse(expected_px, *v)).abs()
+            }
+        })
+        .fold(0.0, f64::max);
+    Spread {
+        measured_px: 0.5 * (lo + hi),
+        placement_px,
+        predicted_px,
+        points,
+    }
+}
+
+#[test]
+fn edges_spread_over_the_blur_circle() {
+    // b̃ of 0.01 px: every edge here lies outside the depth of field.
+    let tolerable = 1e-7;
+    let mut worst: f64 = 0.0;
+    for target in [1.0, 2.0, 5.0, 10.0, 20.0] {
+        for side in [-1.0, 1.0] {
+            // β f/s = target: 1/Z = 1/Z̃ ± target / (d f/s).
+            let z = 1.0 / (1.0 / FOCUS + side * target / (D * FX));
+            let expected = D * (1.0 / z - 1.0 / FOCUS).abs() * FX;
+            let m = measure(z, tolerable, expected);
+            let err = m.measured_px / expected - 1.0;
+            println!(
+                "Z = {z:.4} m ({}): blur {expected:.3} px, measured {:.3} px ({:+.2} %), {} aperture points, \
+                 placement {:.3} px (predicted {:.3})",
+                if side < 0.0 { "behind" } else { "in front" },
+                m.measured_px,
+                100.0 * err,
+                m.points,
+                m.placement_px,
+                m.predicted_px
+            );
+            assert!(m.points > 0, "Z = {z}: the planner did not sample the aperture");
+            assert!(err.abs() <= 0.05, "Z = {z}: spread {} px, expected {expected}", m.measured_px);
+            // The prediction covers the pattern; 0.02 px for rounding and
+            // the 16-bit quantization.
+            assert!(
+                m.placement_px <= m.predicted_px + 0.02,
+                "Z = {z}: placement {} px over the predicted {}",
+                m.placement_px,
+                m.predicted_px
+            );
+            worst = worst.max(err.abs());
+        }
+    }
+    println!("largest spread error {:.2} %", 100.0 * worst);
+}
+
+#[test]
+fn targets_at_the_depth_of_field_planes_spread_by_the_tolerable_blur() {
+    // b̃ of four pixels.
+    let blur = 40e-6;
+    let lens = ThinLens {
+        f: F,
+        d: D,
+        focus: FOCUS,
+        blur,
+    };
+    let far = lens.far().expect("finite far plane");
+    for z in [lens.near(), far] {
+        // §4: b(Ẑ) = b̃ at the planes; normalized, b̃ / ẑ(Ẑ).
+        let image = lens.image_distance(z).expect("real image");
+        let expected = blur / image * FX;
+        let beta = D * (1.0 / z - 1.0 / FOCUS).abs() * FX;
+        assert!((beta / expected - 1.0).abs() < 1e-9, "§8's β is §4's b/ẑ");
+        let m = measure(z, blur, expected);
+        let err = m.measured_px / expected - 1.0;
+        println!(
+            "DOF plane Z = {z:.4} m: b̃/ẑ = {expected:.3} px, measured {:.3} px ({:+.2} %), {} aperture points",
+            m.measured_px,
+            100.0 * err,
+            m.points
+        );
+        assert!(err.abs() <= 0.05, "Z = {z}: spread {} px, expected {expected}", m.measured_px);
+    }
+}
+
+#[test]
+fn content_within_the_depth_of_field_pays_nothing() {
+    // The same edge inside a depth of field of ±10 px of blur: a pinhole.
+    let z = 1.0 / (1.0 / FOCUS + 2.0 / (D * FX));
+    let (_, points, _) = render(&scene(z, 100e-6, true), None);
+    assert_eq!(points, 0);
+    for name in ["standard", "spheres-specular", "checkerboard-barrel", "calibration-board"] {
+        let path = format!("{}/../scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+        let r = host_sim::scene_file::load(std::path::Path::new(&path)).expect("scene");
+        let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |o| o).expect("prepares");
+        assert!(!plan.defocus.outside_dof, "{name}");
+        assert_eq!(f.stages().aperture, 0, "{name}");
+    }
+}
+
+#[test]
+fn the_shallow_scene_matches_the_reference() {
+    let path = format!("{}/../scenes/shallow-dof.toml", env!("CARGO_MANIFEST_DIR"));
+    let r = host_sim::scene_file::load(std::path::Path::new(&path)).expect("scene");
+    let out = host_sim::harness::render(&r, &Budget::default()).expect("renders");
+    let m = &out.metrics;
+    println!(
+        "shallow-dof: {} aperture points, exact {:.4}, smooth max {} LSB, edges differing {}, defocus error vs \
+         1024 points rms {:.3} DN max {:.2} DN",
+        m.plan.aperture_points,
+        m.exact_fraction,
+        m.max_abs_lsb_smooth,
+        m.edge_pixels_differing,
+        m.defocus_error.map_or(0.0, |e| e.rms_dn),
+        m.defocus_error.map_or(0.0, |e| e.max_dn)
+    );
+    assert!(m.plan.aperture_points > 0 && m.plan.outside_dof);
+    assert!(m.max_abs_lsb_smooth <= 1);
+    assert!(m.exact_fraction >= 0.99);
+    assert!(m.edge_pixels_differing_fraction <= 0.0005);
+    assert!(m.defocus_error.is_some());
+}
