@@ -50,8 +50,9 @@ echo "== firmware built for size (opt-level z, no status): the M3 image within 6
 # Without the fast arithmetic (the core's mix32 feature): the wide one, which
 # the host renders as the variant i32f32-poly. Without the sensor stages too
 # (the core's sensor feature), so it embeds the scenes that ask for neither
-# [sampling] nor [noise].
-small_scenes=$(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml)
+# [sampling] nor [noise] and are not defocused (shallow-dof's content lies
+# outside its depth of field).
+small_scenes=$(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v shallow-dof)
 (cd firmware && HILCAM_SCENES="$(for s in $small_scenes; do echo "$PWD/../$s"; done)" HILCAM_VARIANTS=i32f32-poly \
   CARGO_PROFILE_RELEASE_OPT_LEVEL=z \
   cargo build -q --release --no-default-features --features board-lm3s6965 --target thumbv7m-none-eabi)

@@ -13,8 +13,9 @@
 //! for `m` ∈ {16, 64, 256}. Its points cover the disc evenly (equal areas
 //! per point) and its second moment is the disc's, so an edge's spread is
 //! the disc's for every `m`. One table of the `m = 256` spiral on the unit
-//! disc serves all three: the first `m` points scaled by `√(256/m)`, a
-//! shift. The reference computes the spiral from the formula.
+//! disc (i16, units of 2⁻¹⁵: within 1.5·10⁻⁵ of the radius) serves all
+//! three: the first `m` points scaled by `√(256/m)`, a shift. The
+//! reference computes the spiral from the formula.
 //!
 //! **Rule** (the planner's): the aperture is sampled when content in view
 //! lies outside the depth of field (`b(Ẑ) > b̃`, §4) — a frame whose
@@ -86,11 +87,11 @@ pub fn is_size(m: u16) -> bool {
     SIZES.contains(&m)
 }
 
-/// The left shift that takes a [`SPIRAL`] entry (2⁻³¹ units, the 256-point
-/// spiral) to point `k` of the `m`-point spiral in I32F32 bits: `1 +
+/// The left shift that takes a [`SPIRAL`] entry (2⁻¹⁵ units, the 256-point
+/// spiral) to point `k` of the `m`-point spiral in I32F32 bits: `17 +
 /// log2 √(256/m)`.
 pub fn shift(m: u16) -> u32 {
-    1 + (4 - (m.max(1).trailing_zeros() / 2).min(4))
+    17 + (4 - (m.max(1).trailing_zeros() / 2).min(4))
 }
 
 #[cfg(test)]
@@ -110,14 +111,14 @@ mod tests {
     #[test]
     fn table_is_the_spiral() {
         for (t, (x, y)) in SPIRAL.iter().zip(spiral(256)) {
-            let s = libm::ldexp(1.0, 31);
+            let s = libm::ldexp(1.0, 15);
             assert!((f64::from(t[0]) - x * s).abs() <= 1.0 && (f64::from(t[1]) - y * s).abs() <= 1.0);
         }
         // The m-point spiral is the table's first m points, shifted.
         for m in SIZES {
             for (k, (x, _)) in spiral(m as usize).into_iter().enumerate() {
                 let q = (i64::from(SPIRAL[k][0]) << shift(m)) as f64 / libm::ldexp(1.0, 32);
-                assert!((q - x).abs() < 1e-8, "m {m} k {k}");
+                assert!((q - x).abs() <= libm::ldexp(1.0, -13), "m {m} k {k}");
             }
         }
     }
@@ -160,7 +161,9 @@ mod tests {
     fn placement_is_measured() {
         for (m, want) in SIZES.into_iter().zip(PLACEMENT) {
             let pts = spiral(m as usize);
-            let inv: Vec<f64> = (0..=m).map(|k| esf_inverse(f64::from(k) / f64::from(m))).collect();
+            let inv: Vec<f64> = (0..=m)
+                .map(|k| esf_inverse(f64::from(k) / f64::from(m)))
+                .collect();
             let mut worst: f64 = 0.0;
             for t in 0..360 {
                 let th = core::f64::consts::PI * f64::from(t) / 360.0;

@@ -88,7 +88,9 @@ impl Unfit {
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
-            Unfit::SensorStages => "pixel-area sampling, defocus and sensor noise run in the wide arithmetic only",
+            Unfit::SensorStages => {
+                "pixel-area sampling, defocus and sensor noise run in the wide arithmetic only"
+            }
         }
     }
 }
@@ -338,14 +340,19 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
 #[inline(never)]
 fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
     let lens = &scene.camera.lens;
-    let d = lens.diameter().to_num::<f64>();
-    let inv_focus = 1.0 / lens.focus_distance().to_num::<f64>().max(1e-300);
-    let dof = lens.depth_of_field().value;
-    let inv_near = 1.0 / dof.near.to_num::<f64>().max(1e-300);
-    let inv_far = match dof.far {
-        crate::lens::Distance::Finite(f) => 1.0 / f.to_num::<f64>().max(1e-300),
-        crate::lens::Distance::Infinite => 0.0,
-    };
+    let (d, f) = (
+        lens.diameter().to_num::<f64>(),
+        lens.focal_length().to_num::<f64>(),
+    );
+    let (zt, b) = (
+        lens.focus_distance().to_num::<f64>(),
+        lens.tolerable_blur().to_num::<f64>(),
+    );
+    let inv_focus = 1.0 / zt;
+    // §4's planes as inverse depths: 1/Ẑ_n = (d f + b̃ Z̃) / (Z̃ f (d + b̃)),
+    // 1/Ẑ_f = (d f − b̃ Z̃) / (Z̃ f (d − b̃)), 0 (infinite) when ≤ 0.
+    let inv_near = (d * f + b * zt) / (zt * f * (d + b));
+    let inv_far = ((d * f - b * zt) / (zt * f * (d - b))).max(0.0);
     let (xs, ys) = (g.slope_d[0] * g.g_max, g.slope_d[1] * g.g_max);
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in &g.prims {
@@ -355,10 +362,15 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
                 continue;
             }
             let mut w = [0.0f64; 4];
-            for (k, (x, y)) in [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)].into_iter().enumerate() {
+            for (k, (x, y)) in [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)]
+                .into_iter()
+                .enumerate()
+            {
                 w[k] = (p.n[0] * x + p.n[1] * y + p.n[2]) / dist;
             }
-            let (wmin, wmax) = w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+            let (wmin, wmax) = w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
             if wmax <= 0.0 {
                 continue;
             }

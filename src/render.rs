@@ -785,7 +785,9 @@ impl<S: Scalar> Frame<S> {
             let m = opts.aperture.max(1);
             let lens = &scene.camera.lens;
             let r = Wide::of(lens.diameter()).mul(Wide::of(Q::from_bits(1 << 31)));
-            let rz = r.checked_div(Wide::of(lens.focus_distance())).ok_or(RenderError::Degenerate)?;
+            let rz = r
+                .checked_div(Wide::of(lens.focus_distance()))
+                .ok_or(RenderError::Degenerate)?;
             self.ap_r = S::from_q(q(r));
             self.ap_rz = S::from_q(q(rz));
             self.ap_shift = crate::defocus::shift(m);
@@ -1054,11 +1056,12 @@ impl<S: Scalar> Frame<S> {
             m.line(j, pixels, flags);
             return Ok(());
         }
-        match (self.stages.model, self.stages.aperture) {
-            (RenderModel::Perspective, 0) => self.line::<PINHOLE>(j, pixels, flags),
-            #[cfg(feature = "sensor")]
-            (RenderModel::Perspective, _) => self.line::<APERTURE>(j, pixels, flags),
-            _ => self.line::<PARALLEL>(j, pixels, flags),
+        // Through the aperture, a sample's chief ray is a pinhole ray: one
+        // loop for both (a third copy would cost flash).
+        if matches!(self.stages.model, RenderModel::Perspective) {
+            self.line::<PINHOLE>(j, pixels, flags);
+        } else {
+            self.line::<PARALLEL>(j, pixels, flags);
         }
         Ok(())
     }
@@ -1167,10 +1170,7 @@ impl<S: Scalar> Frame<S> {
             return self.grid::<R>(xc, yc);
         }
         let hx = self.half.0;
-        let right = [
-            self.key::<R>(xc - hx, top),
-            self.key::<R>(xc - hx, bottom),
-        ];
+        let right = [self.key::<R>(xc - hx, top), self.key::<R>(xc - hx, bottom)];
         let centre = self.sample::<R>(xc, yc);
         let uniform = match centre {
             Some((_, k)) => left.iter().chain(right.iter()).all(|c| *c == Some(k)),
@@ -1193,7 +1193,7 @@ impl<S: Scalar> Frame<S> {
         } else {
             (xd, yd)
         };
-        // The chief ray of an aperture sample is the pinhole's.
+        // Pinhole rays are also the chief rays of aperture samples.
         let (o, d) = if R != PARALLEL {
             ([S::ZERO; 3], [x, y, S::ONE])
         } else {
@@ -1223,7 +1223,7 @@ impl<S: Scalar> Frame<S> {
     fn sample_inline<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
         let PixelRay { o, d, a, xy: (x, y) } = self.ray::<R>(xacc, yacc)?;
         #[cfg(feature = "sensor")]
-        let (radiance, key) = if R == APERTURE {
+        let (radiance, key) = if R == PINHOLE && self.stages.aperture > 0 {
             self.through_aperture((x, y), a)
         } else if self.stages.specular {
             self.trace::<true, R>(o, d, a, (x, y))
@@ -1292,12 +1292,7 @@ impl<S: Scalar> Frame<S> {
     #[inline(never)]
     fn key<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<Key> {
         let PixelRay { o, d, a, xy } = self.ray::<R>(xacc, yacc)?;
-        let seen = if R == APERTURE {
-            self.look::<PINHOLE>(o, d, a, xy)
-        } else {
-            self.look::<R>(o, d, a, xy)
-        };
-        Some(seen.map_or(Key::NOTHING, |s| s.key))
+        Some(self.look::<R>(o, d, a, xy).map_or(Key::NOTHING, |s| s.key))
     }
 
     /// The mean of the `n×n` grid of the pixel centred at `(xc, yc)`
@@ -1361,13 +1356,7 @@ impl<S: Scalar> Frame<S> {
     /// Radiance (per channel) seen along the ray `o + t d`, `a = d·d`, of
     /// the undistorted slopes `(x̂, ŷ)`, and what it sees.
     #[inline]
-    fn trace<const SPEC: bool, const R: u8>(
-        &self,
-        o: V3<S>,
-        d: V3<S>,
-        a: S,
-        xy: (S, S),
-    ) -> (V3<S>, Key) {
+    fn trace<const SPEC: bool, const R: u8>(&self, o: V3<S>, d: V3<S>, a: S, xy: (S, S)) -> (V3<S>, Key) {
         let Some(seen) = self.look::<R>(o, d, a, xy) else {
             return (self.background, Key::NOTHING);
         };
@@ -1406,7 +1395,8 @@ const PINHOLE: u8 = 0;
 /// Parallel rays, `o = (k x̂, k ŷ, 0)`, `d = (0, 0, 1)`.
 const PARALLEL: u8 = 1;
 /// Rays through the aperture (camera-model.md §8): `o = (a_x, a_y, 0)`,
-/// `d = (x̂ − a_x/Z̃, ŷ − a_y/Z̃, 1)`; a sample's chief ray is a pinhole ray.
+/// `d = (x̂ − a_x/Z̃, ŷ − a_y/Z̃, 1)`; a sample's chief ray is a pinhole ray
+/// (the pixel loop runs as [`PINHOLE`]).
 #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
 const APERTURE: u8 = 2;
 
@@ -1581,7 +1571,10 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
             });
             let range = |cx: f64| {
                 let s = libm::sqrt((cx * cx + zz).max(0.0));
-                ((cx * c[2] - r * s) / zz - spread, (cx * c[2] + r * s) / zz + spread)
+                (
+                    (cx * c[2] - r * s) / zz - spread,
+                    (cx * c[2] + r * s) / zz + spread,
+                )
             };
             [range(c[0]), range(c[1])]
         }

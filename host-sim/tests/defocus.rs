@@ -138,7 +138,10 @@ fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
     // The edge's pinhole image: two of its points, projected.
     let rs = RefScene::new(&parse(&text).expect("scene"));
     let (c, s) = (5f64.to_radians().cos(), 5f64.to_radians().sin());
-    let at = |t: f64| rs.project([-0.05 * z * s * t, 0.05 * z * c * t, z]).expect("in view");
+    let at = |t: f64| {
+        rs.project([-0.05 * z * s * t, 0.05 * z * c * t, z])
+            .expect("in view")
+    };
     let (p, q) = (at(-1.0), at(1.0));
     let inside = rs.project([0.05 * z * c, 0.05 * z * s, z]).expect("in view");
     let (dx, dy) = (q.0 - p.0, q.1 - p.1);
@@ -211,7 +214,11 @@ fn edges_spread_over_the_blur_circle() {
                 m.predicted_px
             );
             assert!(m.points > 0, "Z = {z}: the planner did not sample the aperture");
-            assert!(err.abs() <= 0.05, "Z = {z}: spread {} px, expected {expected}", m.measured_px);
+            assert!(
+                err.abs() <= 0.05,
+                "Z = {z}: spread {} px, expected {expected}",
+                m.measured_px
+            );
             // The prediction covers the pattern; 0.02 px for rounding and
             // the 16-bit quantization.
             assert!(
@@ -251,7 +258,11 @@ fn targets_at_the_depth_of_field_planes_spread_by_the_tolerable_blur() {
             100.0 * err,
             m.points
         );
-        assert!(err.abs() <= 0.05, "Z = {z}: spread {} px, expected {expected}", m.measured_px);
+        assert!(
+            err.abs() <= 0.05,
+            "Z = {z}: spread {} px, expected {expected}",
+            m.measured_px
+        );
     }
 }
 
@@ -261,7 +272,12 @@ fn content_within_the_depth_of_field_pays_nothing() {
     let z = 1.0 / (1.0 / FOCUS + 2.0 / (D * FX));
     let (_, points, _) = render(&scene(z, 100e-6, true), None);
     assert_eq!(points, 0);
-    for name in ["standard", "spheres-specular", "checkerboard-barrel", "calibration-board"] {
+    for name in [
+        "standard",
+        "spheres-specular",
+        "checkerboard-barrel",
+        "calibration-board",
+    ] {
         let path = format!("{}/../scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
         let r = host_sim::scene_file::load(std::path::Path::new(&path)).expect("scene");
         let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |o| o).expect("prepares");
