@@ -79,7 +79,7 @@ pub fn points_for(blur_px: f64, budget_px: f64) -> u16 {
     SIZES
         .into_iter()
         .find(|m| placement(*m) * blur_px <= budget_px && spread(*m) <= SPREAD_BUDGET)
-        .unwrap_or(SIZES[SIZES.len() - 1])
+        .unwrap_or(MAX_POINTS as u16)
 }
 
 /// Whether `m` is a pattern size.

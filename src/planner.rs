@@ -361,13 +361,8 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
             if libm::fabs(dist) < 1e-12 {
                 continue;
             }
-            let mut w = [0.0f64; 4];
-            for (k, (x, y)) in [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)]
-                .into_iter()
-                .enumerate()
-            {
-                w[k] = (p.n[0] * x + p.n[1] * y + p.n[2]) / dist;
-            }
+            let w = [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)]
+                .map(|(x, y)| (p.n[0] * x + p.n[1] * y + p.n[2]) / dist);
             let (wmin, wmax) = w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
                 (a.min(*v), b.max(*v))
             });
