@@ -9,20 +9,30 @@ mod common;
 use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, POINT_LIGHT, TANGENT_SPHERE};
 use hilcam::planner::Budget;
 use hilcam::render::FLAG_OUTSIDE_FIELD;
+use hilcam::render::{Options, Override};
 use hilcam::scalar::I32F32;
-use host_sim::harness::{Collect, Metrics};
+use host_sim::harness::{collect, prepare, Collect, Metrics};
 use host_sim::reference::render::RefScene;
+use host_sim::reference::sampling::Pattern;
 use host_sim::scene_file::{load, Resolved};
-use host_sim::variant::core_render_variant;
 use host_sim::variant::Variant;
 
 /// The frame rendered on the mix32 path and its metrics against the
-/// reference; `Err` with the renderer's refusal.
+/// reference; `Err` with the renderer's refusal. Through a pinhole: some of
+/// these geometries put content outside the depth of field (a camera inside
+/// a sphere, a floor a few pixels away), and defocus runs in the wide
+/// arithmetic only (tests/defocus.rs checks it).
 fn mix(r: &Resolved) -> Result<(Metrics, Collect), String> {
     let v = Variant::parse("mix32-poly").expect("variant");
     let budget = Budget::default();
-    let (_, plan, frame, core) = core_render_variant::<I32F32>(r, &budget, &v)?;
+    let pinhole = |o: Options| v.options(o).with(Override::Aperture { points: 0 });
+    let (_, plan, frame) = prepare::<I32F32>(r, &budget, pinhole)?;
+    let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
     let rs = RefScene::new(r);
+    let rs = rs.with_pattern(Pattern {
+        aperture: 0,
+        ..rs.pattern
+    });
     let reference = rs.render();
     let m = host_sim::harness::compare(r, &rs, &reference, &plan, &budget, &frame, &core);
     Ok((m, core))
