@@ -55,19 +55,20 @@ pub const SPREAD_BUDGET: f64 = 0.02;
 /// The spread error of the `m`-point pattern (1 for a size not in
 /// [`SIZES`]).
 pub fn spread(m: u16) -> f64 {
-    SIZES
-        .iter()
-        .zip(SPREAD)
-        .find(|(s, _)| **s == m)
-        .map_or(1.0, |(_, p)| p)
+    of_size(SPREAD, m)
 }
 
 /// The placement error of the `m`-point pattern, as a fraction of the blur
 /// diameter (1 for a size not in [`SIZES`]).
 pub fn placement(m: u16) -> f64 {
+    of_size(PLACEMENT, m)
+}
+
+/// `table`'s entry for the pattern size `m` (1 for a size not in [`SIZES`]).
+fn of_size(table: [f64; 3], m: u16) -> f64 {
     SIZES
         .iter()
-        .zip(PLACEMENT)
+        .zip(table)
         .find(|(s, _)| **s == m)
         .map_or(1.0, |(_, p)| p)
 }
