@@ -367,7 +367,15 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
     // 1/Ẑ_f = (d f − b̃ Z̃) / (Z̃ f (d − b̃)), 0 (infinite) when ≤ 0.
     let inv_near = (d * f + b * zt) / (zt * f * (d + b));
     let inv_far = ((d * f - b * zt) / (zt * f * (d - b))).max(0.0);
-    let (xs, ys) = (g.slope_d[0] * g.g_max, g.slope_d[1] * g.g_max);
+    // The field box: the pixel centres' slopes and half a pixel more (the
+    // pixel area's samples), undistorted.
+    let (fx, fy) = scene.camera.intrinsics.focal_px();
+    let half = |f: crate::Gain| 0.5 / f.to_num::<f64>().max(1e-300);
+    let (x0, y0) = (g.slope_d[0] + half(fx), g.slope_d[1] + half(fy));
+    let u = x0 * x0 + y0 * y0;
+    let (k1, k2) = scene.distortion.coefficients();
+    let gain = 1.0 + (libm::fabs(k1.to_num::<f64>()) + libm::fabs(k2.to_num::<f64>()) * u) * u;
+    let (xs, ys) = (x0 * gain, y0 * gain);
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in &g.prims {
         if let Shape::Plane { .. } = p.shape {
@@ -387,7 +395,9 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
             hi = hi.max(wmax);
             continue;
         }
-        let (c, r) = (p.c, p.r);
+        // The radius widened by 1 nm: the scene's positions are rounded
+        // to 2⁻³² m.
+        let (c, r) = (p.c, p.r + 1e-9);
         if c[2] + r <= 0.0 {
             continue;
         }

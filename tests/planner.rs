@@ -5,7 +5,10 @@
 //! that says it meets the budget meets it. Scenes include tiny primitives
 //! next to the lens (0.1–0.2 mm spheres 0.3–2 mm in front of it), far
 //! lights, distortion, specular lobes, every format and ray model. A
-//! candidate the planner says fits the fast formats must also prepare.
+//! candidate the planner says fits the fast formats must also prepare. The
+//! defocus rule's depth range holds what the rays see: no hit blurs more
+//! than the plan's largest blur, and a plan that finds all content within
+//! the depth of field sees no hit outside it.
 
 mod common;
 
@@ -13,6 +16,8 @@ use common::Max;
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Arithmetic, Frame};
 use host_sim::harness::render;
+use host_sim::reference::lens::ThinLens;
+use host_sim::reference::render::{RefModel, RefScene};
 use host_sim::scene_file::parse;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -212,6 +217,39 @@ fn predicted_bounds_hold_on_random_scenes() {
             }
         }
         GEOM.record(m.max_geom_err_px / p.predicted_geom_err_px.max(1e-12));
+        // The defocus rule against the depths the reference's chief rays
+        // hit, at every pixel centre and corner.
+        let rs = RefScene::new(&r);
+        if rs.model == RefModel::Perspective {
+            let c = &r.desc.camera;
+            let lens = ThinLens {
+                f: c.focal_length,
+                d: r.aperture_diameter(),
+                focus: c.focus_distance,
+                blur: c.tolerable_blur,
+            };
+            let fx = rs.sensor.f / rs.sensor.sx;
+            let (w, h) = (rs.sensor.width as usize, rs.sensor.height as usize);
+            for j in 0..=2 * h {
+                for i in 0..=2 * w {
+                    let Some(z) = rs.depth(i as f64 / 2.0 - 0.5, j as f64 / 2.0 - 0.5) else {
+                        continue;
+                    };
+                    let blur = lens.d * (1.0 / z - 1.0 / lens.focus).abs() * fx;
+                    prop_assert!(
+                        blur <= p.defocus.blur_px * (1.0 + 1e-9) + 1e-9,
+                        "a hit at z = {z} blurs {blur} px, over the plan's {}:\n{t}",
+                        p.defocus.blur_px
+                    );
+                    let inside =
+                        z >= lens.near() * (1.0 - 1e-9) && lens.far().is_none_or(|f| z <= f * (1.0 + 1e-9));
+                    prop_assert!(
+                        p.defocus.outside_dof || inside,
+                        "a hit at z = {z} outside the depth of field the plan finds all content in:\n{t}"
+                    );
+                }
+            }
+        }
         prop_assert!(
             m.max_abs_lsb_smooth as f64 <= predicted.floor() + 1.0,
             "smooth {} LSB above the predicted {predicted} (+ rounding), {}:\n{t}",

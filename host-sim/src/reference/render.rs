@@ -463,6 +463,16 @@ impl RefScene {
         }
     }
 
+    /// The camera-frame depth `z` of what the chief ray through pixel
+    /// position `(xi, yi)` hits; `None` outside the lens field or if it
+    /// hits nothing.
+    pub fn depth(&self, xi: f64, yi: f64) -> Option<f64> {
+        let (x, y) = self.undistorted(xi, yi)?;
+        let (o, d) = self.ray(x, y);
+        let (t, _, _) = self.hit(o, d)?;
+        Some(self.pose.world_to_camera(at(o, d, t))[2])
+    }
+
     /// Pixel values of the sample at pixel position `(xi, yi)` per
     /// channel (rounded, no noise), and whether it is in the lens field.
     pub fn pixel(&self, xi: f64, yi: f64) -> ([u32; 3], bool) {
