@@ -26,6 +26,7 @@
 //! - [`scalar`]: the per-pixel number type (I32F32, 32-bit fixed point, `f32`);
 //! - [`planner`]: picks the cheapest rendering that meets an error budget;
 //! - [`link`]: the wire protocol and the frame encoder;
+//! - [`control`]: the host → camera commands, their receiver and state;
 //! - [`num`]: the fixed-point formats and wide intermediates.
 //!
 //! Nothing here panics on any input: constructors return [`Error`], a point
@@ -33,6 +34,7 @@
 //! its format saturates and says so through [`Sat`].
 
 pub mod camera;
+pub mod control;
 pub mod defocus;
 pub mod distortion;
 pub mod error;

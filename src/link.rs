@@ -13,14 +13,17 @@
 //! the renderer feeds it directly) and holds one chunk and one encoded message: RAM is
 //! `CHUNK + WIRE` bytes, whatever the frame height. No heap.
 
-use crate::render::{FrameInfo, FrameSink};
-use crate::scene::PixelFormat;
+use crate::control::{Ack, Description, Reject};
+use crate::render::{Arithmetic, DistortionEval, FrameInfo, FrameSink, RenderModel, Stages};
+use crate::scene::{PixelFormat, Scene};
 use postcard::ser_flavors::crc::CrcModifier;
 use postcard::ser_flavors::{Cobs, Slice};
 use serde::{Deserialize, Serialize};
 
-/// The protocol version this crate speaks.
-pub const PROTOCOL_VERSION: u8 = 1;
+/// The protocol version this crate speaks (`docs/wire.md`): 2 adds the
+/// frame's ground truth and the host → camera commands
+/// ([`crate::control`]).
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// CRC-32/ISO-HDLC (the zlib/Ethernet CRC): polynomial 0x04C11DB7 reflected,
 /// initial value and final XOR 0xFFFFFFFF; check value 0xCBF43926.
@@ -89,12 +92,12 @@ impl WireFormat {
 }
 
 /// Opens a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FrameStart {
     /// [`PROTOCOL_VERSION`].
     pub version: u8,
-    /// Frame counter (wraps).
+    /// Frame counter (consecutive; wraps).
     pub frame_id: u32,
     /// Width, pixels.
     pub width: u16,
@@ -106,9 +109,136 @@ pub struct FrameStart {
     pub scene_id: u32,
     /// Exposure `K` (DN per W/m²) as I32F32 raw bits.
     pub exposure: i64,
+    /// What made the frame: the camera, its pose and the plan.
+    pub truth: Truth,
+}
+
+/// A frame's ground truth: the camera that formed it, as the core held it
+/// (each fixed-point value converted to the nearest f64), and the plan it
+/// was rendered with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Truth {
+    /// When rendering began, ns in the camera's time base (QEMU: virtual
+    /// time under `-icount`).
+    pub timestamp_ns: u64,
+    /// Sequence number of the last command the camera had processed when
+    /// the frame began (`None`: none yet). Every command up to it is in
+    /// effect, none after it.
+    pub command: Option<u32>,
+    /// `R` (rows: the camera's axes in world coordinates), camera-model.md §1.
+    pub rotation: [[f64; 3]; 3],
+    /// `T`, the centre of projection in world coordinates, metres.
+    pub translation: [f64; 3],
+    /// Focal length `f`, metres.
+    pub focal_length: f64,
+    /// Pixel pitch `(s_x, s_y)`, metres.
+    pub pitch: [f64; 2],
+    /// Principal point `(o_x, o_y)`, pixels (pixel centres at integers).
+    pub principal_point: [f64; 2],
+    /// Radial distortion `(k1, k2)` of camera-model.md §3 (distorted →
+    /// undistorted); `(0, 0)` without distortion.
+    pub distortion: [f64; 2],
+    /// How the frame was rendered.
+    pub plan: WirePlan,
+}
+
+/// The rendering a frame got (the planner's choice, or a forced one), in
+/// the small codes `docs/wire.md` lists.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WirePlan {
+    /// 0 fast (32-bit, a format per quantity), 1 wide.
+    pub arithmetic: u8,
+    /// 0 perspective, 1 weak perspective, 2 orthographic.
+    pub model: u8,
+    /// 0 none, 1 polynomial, 2 table (nearest entry), 3 table (linear).
+    pub distortion: u8,
+    /// Distortion table entries (0 without a table).
+    pub table_entries: u16,
+    /// Sample grid side (1: the pixel centre).
+    pub samples: u8,
+    /// The adaptive sampling rule.
+    pub adaptive: bool,
+    /// Aperture pattern points (0: pinhole).
+    pub aperture: u16,
+    /// Sensor noise.
+    pub noise: bool,
+}
+
+impl From<&Stages> for WirePlan {
+    fn from(s: &Stages) -> Self {
+        WirePlan {
+            arithmetic: match s.arithmetic {
+                Arithmetic::Fast => 0,
+                Arithmetic::Wide => 1,
+            },
+            model: match s.model {
+                RenderModel::Perspective => 0,
+                RenderModel::WeakPerspective { .. } => 1,
+                RenderModel::Orthographic { .. } => 2,
+            },
+            distortion: match s.distortion {
+                None => 0,
+                Some(DistortionEval::Polynomial) => 1,
+                Some(DistortionEval::Nearest) => 2,
+                Some(DistortionEval::Linear) => 3,
+            },
+            table_entries: s.distortion_lut.map_or(0, |n| n.min(u16::MAX as usize) as u16),
+            samples: s.samples,
+            adaptive: s.adaptive,
+            aperture: s.aperture,
+            noise: s.noise,
+        }
+    }
+}
+
+impl Truth {
+    /// The truth of a frame of `scene` rendered with `stages`.
+    pub fn of(scene: &Scene, stages: &Stages, timestamp_ns: u64, command: Option<u32>) -> Truth {
+        let cam = &scene.camera;
+        let i = &cam.intrinsics;
+        let (sx, sy) = i.pitch();
+        let (ox, oy) = i.principal_point();
+        let (k1, k2) = scene.distortion.coefficients();
+        Truth {
+            timestamp_ns,
+            command,
+            rotation: cam.extrinsics.rotation().map(|row| row.map(|v| v.to_num())),
+            translation: cam.extrinsics.translation().to_f64(),
+            focal_length: i.focal_length().to_num(),
+            pitch: [sx.to_num(), sy.to_num()],
+            principal_point: [ox.to_num(), oy.to_num()],
+            distortion: [k1.to_num(), k2.to_num()],
+            plan: WirePlan::from(stages),
+        }
+    }
 }
 
 impl FrameStart {
+    /// The header of frame `frame_id` of scene `scene_id`, rendered with
+    /// `stages`, its truth taken from `scene`.
+    pub fn of(
+        frame_id: u32,
+        scene_id: u32,
+        scene: &Scene,
+        stages: &Stages,
+        timestamp_ns: u64,
+        command: Option<u32>,
+    ) -> FrameStart {
+        let (width, height) = scene.camera.intrinsics.size();
+        FrameStart {
+            version: PROTOCOL_VERSION,
+            frame_id,
+            width,
+            height,
+            format: WireFormat::from(scene.format),
+            scene_id,
+            exposure: scene.exposure.to_bits(),
+            truth: Truth::of(scene, stages, timestamp_ns, command),
+        }
+    }
+
     /// Bytes of pixel data the frame carries.
     pub const fn frame_bytes(&self) -> usize {
         self.width as usize * self.height as usize * self.format.bytes_per_pixel()
@@ -146,8 +276,8 @@ pub struct FrameEnd {
     pub cost: Option<u64>,
 }
 
-/// A message on the wire.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// A message on the wire, camera → host.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Message<'a> {
     /// Tag 0.
     FrameStart(FrameStart),
@@ -156,6 +286,31 @@ pub enum Message<'a> {
     Chunk(Chunk<'a>),
     /// Tag 2.
     FrameEnd(FrameEnd),
+    /// Tag 3: a command was applied ([`crate::control`]).
+    Ack(Ack),
+    /// Tag 4: a command was refused, and why.
+    #[serde(borrow)]
+    Reject(Reject<'a>),
+    /// Tag 5: the camera describes itself (answer to `Describe`).
+    Description(Description),
+}
+
+/// Whether `body`, which decodes to `value`, is `value`'s one encoding
+/// (postcard's: shortest varints, nothing after the last field). Its length
+/// tells: an over-long varint or a trailing byte only ever lengthens a
+/// body, and every other field decodes from exactly its canonical bytes.
+pub fn is_canonical<T: Serialize + ?Sized>(value: &T, body: &[u8]) -> bool {
+    postcard::serialize_with_flavor::<_, postcard::ser_flavors::Size, usize>(value, Default::default())
+        .is_ok_and(|n| n == body.len())
+}
+
+/// Checks a received message (COBS-decoded, without its delimiter): its
+/// trailing CRC-32 and that the body before it is at least one byte long.
+/// Returns the body.
+pub fn check_crc(decoded: &[u8]) -> Option<&[u8]> {
+    let split = decoded.len().checked_sub(4)?;
+    let (body, crc) = decoded.split_at(split);
+    (CRC32.checksum(body).to_le_bytes() == crc).then_some(body)
 }
 
 /// What went wrong while encoding.
@@ -174,18 +329,45 @@ pub enum LinkError<E> {
     Encode,
 }
 
-/// Encodes one message into `wire` (COBS, CRC appended, delimiter included)
-/// and returns the encoded bytes.
-pub fn encode_message<'w>(msg: &Message<'_>, wire: &'w mut [u8]) -> Option<&'w mut [u8]> {
+/// Encodes one message (a [`Message`], or a [`crate::control::Request`])
+/// into `wire` (COBS, CRC appended, delimiter included) and returns the
+/// encoded bytes.
+pub fn encode_message<'w, T: Serialize + ?Sized>(msg: &T, wire: &'w mut [u8]) -> Option<&'w mut [u8]> {
     let cobs = Cobs::try_new(Slice::new(wire)).ok()?;
     postcard::serialize_with_flavor(msg, CrcModifier::new(cobs, CRC32.digest())).ok()
 }
 
+/// One kind of [`Message`], encoded on its own: `Tagged(tag, value)` has
+/// the bytes of the `Message` variant `tag` holding `value` (postcard writes
+/// a variant index below 128 as that one byte, then the fields). A sender
+/// then holds the serializers of what it sends, not of every kind.
+#[derive(Serialize)]
+struct Tagged<'a, T: Serialize>(u8, &'a T);
+
+/// A message a camera sends outside frames: [`Ack`], [`Reject`],
+/// [`Description`].
+pub trait Reply: Serialize {
+    /// Its [`Message`] tag.
+    const TAG: u8;
+}
+
+impl Reply for Ack {
+    const TAG: u8 = 3;
+}
+
+impl Reply for Reject<'_> {
+    const TAG: u8 = 4;
+}
+
+impl Reply for Description {
+    const TAG: u8 = 5;
+}
+
 /// Encodes `msg` into `wire` and writes it; returns the bytes written.
-fn write_message<W: embedded_io::Write>(
+fn write_message<W: embedded_io::Write, T: Serialize>(
     writer: &mut W,
     wire: &mut [u8],
-    msg: &Message<'_>,
+    msg: &T,
 ) -> Result<u64, LinkError<W::Error>> {
     let bytes = encode_message(msg, wire).ok_or(LinkError::Encode)?;
     writer.write_all(bytes).map_err(LinkError::Write)?;
@@ -242,9 +424,18 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         self.writer
     }
 
-    fn send(&mut self, msg: &Message<'_>) -> Result<(), LinkError<W::Error>> {
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, msg)?;
+    fn send<T: Serialize>(&mut self, tag: u8, msg: &T) -> Result<(), LinkError<W::Error>> {
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(tag, msg))?;
         Ok(())
+    }
+
+    /// Sends an answer to a command between frames.
+    pub fn send_reply<T: Reply>(&mut self, msg: &T) -> Result<(), LinkError<W::Error>> {
+        if self.frame.is_some() {
+            return Err(LinkError::Sequence);
+        }
+        self.send(T::TAG, msg)?;
+        self.writer.flush().map_err(LinkError::Write)
     }
 
     /// Opens a frame: a delimiter, then the [`FrameStart`] message. A frame
@@ -255,7 +446,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         }
         self.writer.write_all(&[0]).map_err(LinkError::Write)?;
         self.bytes_written += 1;
-        self.send(&Message::FrameStart(start))?;
+        self.send(0, &start)?;
         self.frame = Some(start);
         self.crc = CRC32.digest();
         self.fill = 0;
@@ -273,14 +464,14 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
             return Ok(());
         }
         let data = self.chunk.get(..self.fill).ok_or(LinkError::Encode)?;
-        let msg = Message::Chunk(Chunk {
+        let msg = Chunk {
             frame_id: f.frame_id,
             first_line: self.chunk_first_line,
             offset: self.offset,
             data,
-        });
+        };
         // `send` would borrow all of `self` while `msg` borrows the chunk.
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &msg)?;
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(1, &msg))?;
         self.pixel_bytes += self.fill as u64;
         self.offset += self.fill as u32;
         self.fill = 0;
@@ -321,11 +512,14 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         }
         self.flush_chunk()?;
         let crc = core::mem::replace(&mut self.crc, CRC32.digest()).finalize();
-        self.send(&Message::FrameEnd(FrameEnd {
-            frame_id: f.frame_id,
-            crc,
-            cost,
-        }))?;
+        self.send(
+            2,
+            &FrameEnd {
+                frame_id: f.frame_id,
+                crc,
+                cost,
+            },
+        )?;
         self.frame = None;
         self.writer.flush().map_err(LinkError::Write)?;
         Ok(crc)

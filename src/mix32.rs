@@ -160,18 +160,33 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
     (hi * c4 as u64 + ((lo * c4 as u64 + (1 << 45)) >> 32)) >> 14
 }
 
-/// Packs channel values (each ≤ `dn_max`) as [`PixelFormat::pack`] does,
-/// for `C` channels in `B` bytes: gray 8, gray 16 (little-endian), RGB565.
-/// With the format known at compile time; calling [`PixelFormat::pack`]
-/// instead cost 2–4 M3 instructions a pixel (a runtime match and a slice).
+/// The pixel word of channel values (each ≤ `dn_max`) for `C` channels:
+/// the gray value, or RGB565's `r << 11 | g << 5 | b`. [`put`] writes it.
 #[inline(always)]
-fn pack<const C: usize, const B: usize>(dn: [u32; 3], out: &mut [u8; B]) {
-    let v = if C == 3 {
-        (dn[0] << 11) | (dn[1] << 5) | dn[2]
+fn word<const C: usize>(dn: [u32; 3]) -> u16 {
+    if C == 3 {
+        ((dn[0] << 11) | (dn[1] << 5) | dn[2]) as u16
     } else {
-        dn[0]
-    };
-    out.iter_mut().zip(v.to_le_bytes()).for_each(|(o, v)| *o = v);
+        dn[0] as u16
+    }
+}
+
+/// Writes a chunk's pixel words as [`PixelFormat::pack`] does: one byte
+/// each, or two little-endian. Once a chunk rather than once a pixel, so
+/// that one copy of the line loop serves Gray8 and Gray16 (a copy per byte
+/// width cost 14 KB of flash; this costs about 4 M3 instructions a pixel).
+#[inline(always)]
+fn put(words: &[u16], bytes_per_pixel: usize, out: &mut [u8]) {
+    if bytes_per_pixel == 1 {
+        for (o, w) in out.iter_mut().zip(words) {
+            *o = *w as u8;
+        }
+    } else {
+        let (out, _) = out.as_chunks_mut::<2>();
+        for (o, w) in out.iter_mut().zip(words) {
+            *o = w.to_le_bytes();
+        }
+    }
 }
 
 impl core::ops::Mul for Pf {
@@ -1062,30 +1077,27 @@ impl Mix32 {
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
     pub fn line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
         match (self.format, self.parallel.is_none()) {
-            (PixelFormat::Gray8, true) => self.line_f::<1, 1, true>(j, pixels, flags),
-            (PixelFormat::Gray16 { .. }, true) => self.line_f::<1, 2, true>(j, pixels, flags),
-            (PixelFormat::Rgb565, true) => self.line_f::<3, 2, true>(j, pixels, flags),
-            (PixelFormat::Gray8, false) => self.line_f::<1, 1, false>(j, pixels, flags),
-            (PixelFormat::Gray16 { .. }, false) => self.line_f::<1, 2, false>(j, pixels, flags),
-            (PixelFormat::Rgb565, false) => self.line_f::<3, 2, false>(j, pixels, flags),
+            (PixelFormat::Gray8 | PixelFormat::Gray16 { .. }, true) => {
+                self.line_f::<1, true>(j, pixels, flags)
+            }
+            (PixelFormat::Rgb565, true) => self.line_f::<3, true>(j, pixels, flags),
+            (PixelFormat::Gray8 | PixelFormat::Gray16 { .. }, false) => {
+                self.line_f::<1, false>(j, pixels, flags)
+            }
+            (PixelFormat::Rgb565, false) => self.line_f::<3, false>(j, pixels, flags),
         }
     }
 
-    /// [`Mix32::line`] for `C` channels in `B` bytes a pixel, perspective
-    /// or parallel rays: the line in chunks of [`CHUNK`] pixels, each in
-    /// passes — the undistorted rays, then one pass a primitive keeping the
-    /// nearest hit, then shading. A pass holds one primitive's constants in
-    /// registers.
+    /// [`Mix32::line`] for `C` channels, perspective or parallel rays: the
+    /// line in chunks of [`CHUNK`] pixels, each in passes — the undistorted
+    /// rays, then one pass a primitive keeping the nearest hit, then
+    /// shading, then the pixel bytes. A pass holds one primitive's
+    /// constants in registers.
     #[inline(never)]
-    fn line_f<const C: usize, const B: usize, const PERSP: bool>(
-        &self,
-        j: u16,
-        pixels: &mut [u8],
-        flags: &mut [u8],
-    ) {
+    fn line_f<const C: usize, const PERSP: bool>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
         let w = self.width as usize;
-        let (pixels, _) = pixels.as_chunks_mut::<B>();
-        let (Some(pixels), Some(flags)) = (pixels.get_mut(..w), flags.get_mut(..w)) else {
+        let b = self.format.bytes_per_pixel();
+        let (Some(pixels), Some(flags)) = (pixels.get_mut(..w * b), flags.get_mut(..w)) else {
             return;
         };
         let yd = self.yd(j);
@@ -1096,8 +1108,9 @@ impl Mix32 {
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let mut rays = Rays::default();
-        for (pixels, flags) in pixels.chunks_mut(CHUNK).zip(flags.chunks_mut(CHUNK)) {
-            let Some(rays) = rays.first(pixels.len()) else {
+        let mut words = [0u16; CHUNK];
+        for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
+            let Some(rays) = rays.first(flags.len()) else {
                 return;
             };
             // The chunk's slope box (rays outside the field count as (0, 0):
@@ -1120,26 +1133,26 @@ impl Mix32 {
                 }
                 p.nearest::<PERSP>(i as u8, rays);
             }
-            for ((r, out), flag) in rays.iter().zip(pixels.iter_mut()).zip(flags.iter_mut()) {
-                self.pixel::<C, B, PERSP>(r, dn_max, out, flag, &mut k);
+            for ((r, out), flag) in rays.iter().zip(words.iter_mut()).zip(flags.iter_mut()) {
+                *out = self.pixel::<C, PERSP>(r, dn_max, flag, &mut k);
             }
+            put(&words, b, pixels);
         }
     }
 
-    /// Shades and packs one pixel of a chunk whose nearest hits are known.
+    /// Shades one pixel of a chunk whose nearest hits are known; returns
+    /// its [`word`].
     #[inline(always)]
-    fn pixel<const C: usize, const B: usize, const PERSP: bool>(
+    fn pixel<const C: usize, const PERSP: bool>(
         &self,
         r: &Ray,
         dn_max: [u64; 3],
-        out: &mut [u8; B],
         flag: &mut u8,
         k: &mut KCache,
-    ) {
+    ) -> u16 {
         if r.t == 0 {
             *flag = FLAG_OUTSIDE_FIELD;
-            *out = [0; B];
-            return;
+            return 0;
         }
         *flag = 0;
         // cos⁴α = (1/a)², S31 (1/a_real = r 2^(z − 42), z ≤ 11).
@@ -1155,7 +1168,7 @@ impl Mix32 {
         };
         // Channels past C are not packed: the compiler drops them.
         let dn = zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32);
-        pack::<C, B>(dn, out);
+        word::<C>(dn)
     }
 
     /// The nearest hit of a ray after every primitive's pass: material,

@@ -516,6 +516,25 @@ impl Scene {
         })
     }
 
+    /// Moves the camera (`T` within ±[`MAX_EXTENT`] m per coordinate, as
+    /// [`Scene::new`] checks). Refused, the scene is unchanged.
+    pub fn set_pose(&mut self, pose: crate::Extrinsics) -> Result<(), SceneError> {
+        let c = Check { item: Item::Scene };
+        if pose.translation().to_f64().iter().any(|v| v.abs() > MAX_EXTENT) {
+            return Err(c.err("camera.pose", Problem::OutOfRange));
+        }
+        self.camera.extrinsics = pose;
+        Ok(())
+    }
+
+    /// Sets the exposure `K`, DN per W/m² (0 to 10⁹). Refused, the scene is
+    /// unchanged.
+    pub fn set_exposure(&mut self, k: f64) -> Result<(), SceneError> {
+        let c = Check { item: Item::Scene };
+        self.exposure = c.q("output.exposure", k, 0.0, 1e9)?;
+        Ok(())
+    }
+
     /// Asks for pixel-area integration with edges placed within
     /// `edge_error_px` ([`MIN_EDGE_ERROR`] to 0.5 px); `adaptive` as
     /// [`Sampling::adaptive`].

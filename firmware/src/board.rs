@@ -1,4 +1,5 @@
-//! The boards: UART0 as an `embedded_io::Write`, and the SysTick clock.
+//! The boards: UART0 as an `embedded_io::Write` (and polled RX), and the
+//! SysTick clock.
 //!
 //! Register access is MMIO, so this is the one place with `unsafe`: volatile
 //! reads and writes of fixed, documented device addresses.
@@ -11,9 +12,14 @@ mod regs {
     pub const BASE: usize = 0x4000_C000;
     /// Data register.
     pub const DATA: usize = BASE;
-    /// Flag register; bit 5 = transmit FIFO full.
+    /// Flag register; bit 5 = transmit FIFO full, bit 4 = receive FIFO
+    /// empty.
     pub const STATUS: usize = BASE + 0x018;
     pub const TX_FULL: u32 = 1 << 5;
+    /// Bit set in `STATUS` while a received byte waits.
+    pub const RX_READY: u32 = 1 << 4;
+    /// `RX_READY` is set when no byte waits (PL011's RXFE).
+    pub const RX_READY_INVERTED: bool = true;
     /// SysTick clock period on lm3s6965evb, ns (12.5 MHz).
     pub const SYSTICK_NS: u64 = 80;
     pub fn init() {}
@@ -25,19 +31,23 @@ mod regs {
     pub const BASE: usize = 0x4000_4000;
     /// Data register.
     pub const DATA: usize = BASE;
-    /// State register; bit 0 = transmit buffer full.
+    /// State register; bit 0 = transmit buffer full, bit 1 = receive
+    /// buffer full.
     pub const STATUS: usize = BASE + 0x004;
     pub const TX_FULL: u32 = 1;
+    pub const RX_READY: u32 = 1 << 1;
+    pub const RX_READY_INVERTED: bool = false;
     const CTRL: usize = BASE + 0x008;
     const BAUDDIV: usize = BASE + 0x010;
     /// SysTick clock period on mps2-an386, ns (25 MHz).
     pub const SYSTICK_NS: u64 = 40;
-    /// The CMSDK UART needs a divider of at least 16 and TX enabled.
+    /// The CMSDK UART needs a divider of at least 16, and TX and RX
+    /// enabled.
     pub fn init() {
         // SAFETY: documented registers of the CMSDK UART0 at a fixed address.
         unsafe {
             core::ptr::write_volatile(BAUDDIV as *mut u32, 16);
-            core::ptr::write_volatile(CTRL as *mut u32, 1);
+            core::ptr::write_volatile(CTRL as *mut u32, 0b11);
         }
     }
 }
@@ -56,6 +66,19 @@ impl Uart0 {
     pub fn new() -> Uart0 {
         regs::init();
         Uart0(())
+    }
+}
+
+/// The byte UART0 has received, if one waits (never blocks).
+#[cfg_attr(not(feature = "camera"), allow(dead_code))]
+pub fn read_byte() -> Option<u8> {
+    // SAFETY: documented UART registers at a fixed address.
+    unsafe {
+        let status = core::ptr::read_volatile(regs::STATUS as *const u32);
+        if (status & regs::RX_READY != 0) == regs::RX_READY_INVERTED {
+            return None;
+        }
+        Some(core::ptr::read_volatile(regs::DATA as *const u32) as u8)
     }
 }
 

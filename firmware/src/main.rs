@@ -1,14 +1,19 @@
 //! hilcam firmware: renders every shipped scene (built in flash from
 //! `scenes/`) with the core and streams the frames over UART0 with the link
 //! protocol. Each frame's cost — instructions, counted with SysTick under
-//! QEMU `-icount` — goes in its `FrameEnd`. Status goes to semihosting; a
-//! panic reports there and exits non-zero.
+//! QEMU `-icount` — goes in its `FrameEnd`, its ground truth in its
+//! `FrameStart`. Status goes to semihosting; a panic reports there and
+//! exits non-zero.
+//!
+//! With the `camera` feature it is a camera the host drives instead: it
+//! reads commands on UART0 RX (`hilcam::control`), answers each, and
+//! renders the frames they ask for, forever.
 #![no_std]
 #![no_main]
 
 mod board;
 
-#[allow(clippy::all, unused_imports)]
+#[allow(clippy::all, unused_imports, dead_code)]
 mod scenes {
     use hilcam::distortion::Distortion;
     use hilcam::lens::{Aperture, LensConfig};
@@ -24,7 +29,8 @@ use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
 #[cfg(feature = "status")]
 use cortex_m_semihosting::hprintln;
-use hilcam::link::{wire_size, Encoder, FrameStart, Stream, WireFormat, DEFAULT_CHUNK, PROTOCOL_VERSION};
+use hilcam::link::{wire_size, Encoder, FrameStart, Stream, DEFAULT_CHUNK};
+#[cfg(not(feature = "camera"))]
 use hilcam::planner::{plan, ray_model, Budget};
 use hilcam::render::{Frame, Options, Timed};
 use hilcam::scalar::Scalar;
@@ -61,6 +67,11 @@ fn ticks() -> u64 {
             return ((w1 as u64) << 24) | (0x00FF_FFFF - cvr) as u64;
         }
     }
+}
+
+/// Ticks → ns of the camera's time (virtual time under `-icount`).
+fn ns(ticks: u64) -> u64 {
+    ticks * board::SYSTICK_NS
 }
 
 /// Ticks → instructions under `-icount shift=7`.
@@ -132,6 +143,15 @@ fn main() -> ! {
     };
     let mut line = [0u8; scenes::MAX_LINE_BYTES];
     let mut flags = [0u8; scenes::MAX_WIDTH];
+    #[cfg(feature = "camera")]
+    camera::run(&mut enc, &mut line, &mut flags);
+    #[cfg(not(feature = "camera"))]
+    sweep(&mut enc, &mut line, &mut flags);
+}
+
+/// Renders every embedded scene with every variant, once, and exits.
+#[cfg(not(feature = "camera"))]
+fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
     for (id, name) in scenes::NAMES.iter().enumerate() {
         let scene = scenes::build(id).unwrap_or_else(|e| fail(e));
         // The planner's choice; a firmware whose variants all force the
@@ -145,11 +165,12 @@ fn main() -> ! {
         for (v, variant) in scenes::VARIANTS.iter().enumerate() {
             let mut run = Run {
                 scene: &scene,
-                enc: &mut enc,
-                line: &mut line,
-                flags: &mut flags,
+                enc,
+                line,
+                flags,
                 frame_id: (id * scenes::VARIANTS.len() + v) as u32,
                 scene_id: id as u32,
+                command: None,
             };
             let ins = scenes::render_variant(v, &opts, &mut run).unwrap_or_else(|e| fail(e));
             status!("frame {} {} {}: {} instructions", id, name, variant, ins);
@@ -161,6 +182,69 @@ fn main() -> ! {
     debug::exit(debug::EXIT_SUCCESS);
     loop {
         cortex_m::asm::wfi();
+    }
+}
+
+/// The driven camera: commands in on UART0 RX, answers and frames out.
+#[cfg(feature = "camera")]
+mod camera {
+    use super::{board, fail, ns, ticks, Enc, Run};
+    use hilcam::control::{Ack, Answer, Control, Receiver, Reject, MAX_REQUEST};
+    use hilcam::planner::{plan, Budget};
+
+    /// Bytes read from RX between two frames at most: a flood of input
+    /// delays a promised frame by at most this much decoding.
+    const RX_BUDGET: usize = 4 * MAX_REQUEST;
+
+    /// Runs the camera forever (starting on scene 0, triggered).
+    pub fn run(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
+        let scenes = super::scenes::NAMES.len() as u32;
+        let mut scene = super::scenes::build(0).unwrap_or_else(|e| fail(e));
+        let mut control = Control::new();
+        let mut rx = Receiver::<MAX_REQUEST>::new();
+        let mut frame_id = 0u32;
+        loop {
+            for _ in 0..RX_BUDGET {
+                let Some(byte) = board::read_byte() else {
+                    break;
+                };
+                let Some(Ok(req)) = rx.push(byte) else {
+                    continue;
+                };
+                let answer = control.handle(&req, &mut scene, scenes, |id| super::scenes::build(id as usize));
+                let sent = match answer {
+                    Answer::Ack => enc.send_reply(&Ack {
+                        seq: req.seq,
+                        timestamp_ns: ns(ticks()),
+                    }),
+                    Answer::Reject(reason, field) => enc.send_reply(&Reject {
+                        seq: req.seq,
+                        reason,
+                        field,
+                    }),
+                    Answer::Describe => enc.send_reply(&control.describe(&scene, scenes, frame_id)),
+                };
+                if sent.is_err() {
+                    fail("reply");
+                }
+            }
+            if control.frame_due(ns(ticks())) {
+                let opts = plan(&scene, &Budget::default()).options;
+                let mut run = Run {
+                    scene: &scene,
+                    enc,
+                    line,
+                    flags,
+                    frame_id,
+                    scene_id: control.scene_id,
+                    command: control.last_command(),
+                };
+                if super::scenes::render_variant(0, &opts, &mut run).is_err() {
+                    fail("render");
+                }
+                frame_id = frame_id.wrapping_add(1);
+            }
+        }
     }
 }
 
@@ -178,6 +262,8 @@ struct Run<'a> {
     flags: &'a mut [u8],
     frame_id: u32,
     scene_id: u32,
+    /// The last command processed (driven camera).
+    command: Option<u32>,
 }
 
 impl Runner for Run<'_> {
@@ -191,17 +277,17 @@ impl Runner for Run<'_> {
         frame.prepare(scene, opts).map_err(|_| "frame")?;
         // The frame id on the wire keys the sensor noise (camera-model.md §9).
         frame.set_frame_id(self.frame_id);
-        let prepare = ticks() - t0;
-        let (w, h) = frame.size();
-        let start = FrameStart {
-            version: PROTOCOL_VERSION,
-            frame_id: self.frame_id,
-            width: w,
-            height: h,
-            format: WireFormat::from(scene.format),
-            scene_id: self.scene_id,
-            exposure: scene.exposure.to_bits(),
-        };
+        let t1 = ticks();
+        let prepare = t1 - t0;
+        // Stamped when the frame's first message is sent.
+        let start = FrameStart::of(
+            self.frame_id,
+            self.scene_id,
+            scene,
+            &frame.stages(),
+            ns(t1),
+            self.command,
+        );
         // Only rendering is counted (the preparation and the time between
         // the link's calls), not the UART's back-pressure: the timing is an
         // adapter around the link's sink.

@@ -228,10 +228,35 @@ pub fn prepare<S: Scalar>(
     options: impl FnOnce(Options) -> Options,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame<S>), String> {
     let scene = r.core_scene()?;
-    let plan = planner::plan(&scene, budget);
-    let frame = Frame::<S>::build(&scene, &options(plan.options))
-        .map_err(|e| format!("{}: cannot render: {e:?}", r.desc.name))?;
+    let (plan, frame) = prepare_scene(&scene, &r.desc.name, budget, options)?;
     Ok((scene, plan, frame))
+}
+
+/// [`prepare`] of a core scene (`name` for errors).
+pub fn prepare_scene<S: Scalar>(
+    scene: &hilcam::scene::Scene,
+    name: &str,
+    budget: &Budget,
+    options: impl FnOnce(Options) -> Options,
+) -> Result<(Plan, Frame<S>), String> {
+    let plan = planner::plan(scene, budget);
+    let frame = Frame::<S>::build(scene, &options(plan.options))
+        .map_err(|e| format!("{name}: cannot render: {e:?}"))?;
+    Ok((plan, frame))
+}
+
+/// The default path's frame `frame_id` of a core scene (the planner's
+/// choice, lines in parallel): what a camera sends for that scene and
+/// frame, and the stages it ran.
+pub fn planned_frame(
+    scene: &hilcam::scene::Scene,
+    name: &str,
+    frame_id: u32,
+) -> Result<(Collect, hilcam::render::Stages), String> {
+    let (_, mut frame) = prepare_scene::<hilcam::scalar::I32F32>(scene, name, &Budget::default(), |o| o)?;
+    frame.set_frame_id(frame_id);
+    let core = collect(&frame).map_err(|e| format!("{name}: {e}"))?;
+    Ok((core, frame.stages()))
 }
 
 /// The core's scene, its plan for `budget`, the prepared frame, and the

@@ -85,6 +85,23 @@ pub fn shipped_scenes() -> Result<Vec<PathBuf>, String> {
 /// `scenes/` when empty), rendering each with every one of `variants` (the
 /// planned renderer when empty); returns the ELF path.
 pub fn build_firmware(board: Board, scenes: &[PathBuf], variants: &[Variant]) -> Result<PathBuf, String> {
+    build_firmware_as(board, scenes, variants, false)
+}
+
+/// [`build_firmware`], or with `camera` the driven camera (feature
+/// `camera`, without the semihosting status lines, which it has no flash
+/// left for on the M3).
+pub fn build_firmware_as(
+    board: Board,
+    scenes: &[PathBuf],
+    variants: &[Variant],
+    camera: bool,
+) -> Result<PathBuf, String> {
+    let features = if camera {
+        format!("{},camera,mix32,sensor", board.feature())
+    } else {
+        board.feature().to_string()
+    };
     let dir = repo_root().join("firmware");
     let list: Vec<String> = scenes
         .iter()
@@ -105,10 +122,11 @@ pub fn build_firmware(board: Board, scenes: &[PathBuf], variants: &[Variant]) ->
             "build",
             "--release",
             "--features",
-            board.feature(),
+            &features,
             "--target",
             board.target(),
         ])
+        .args(camera.then_some("--no-default-features"))
         .output()
         .map_err(|e| format!("cargo build (firmware): {e}"))?;
     if !out.status.success() {
@@ -156,16 +174,15 @@ pub fn qemu() -> Option<PathBuf> {
     })
 }
 
-/// Runs the ELF in QEMU under `-icount shift=7` (the firmware converts
-/// SysTick ticks to instructions with that shift); UART0 bytes go to `uart`.
-/// Returns the semihosting text.
-pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Result<String, String> {
+/// QEMU running `elf` on `board` under `-icount shift=7` (the firmware
+/// converts SysTick ticks to instructions with that shift), with UART0 on
+/// `serial` (QEMU's `-serial` syntax), semihosting on.
+pub fn spawn_qemu(board: Board, elf: &Path, serial: &str) -> Result<std::process::Child, String> {
     let qemu = qemu().ok_or("qemu-system-arm is not installed (apt-get install qemu-system-arm)")?;
-    let mut child = Command::new(qemu)
+    Command::new(qemu)
         .args(["-cpu", board.cpu(), "-machine", board.machine()])
         .args(["-display", "none", "-monitor", "none"])
-        .arg("-serial")
-        .arg(format!("file:{}", uart.display()))
+        .args(["-serial", serial])
         .args(["-semihosting-config", "enable=on,target=native"])
         .args(["-icount", "shift=7,align=off,sleep=off"])
         .arg("-kernel")
@@ -173,7 +190,13 @@ pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Res
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
-        .map_err(|e| format!("qemu: {e}"))?;
+        .map_err(|e| format!("qemu: {e}"))
+}
+
+/// Runs the ELF in QEMU ([`spawn_qemu`]); UART0 bytes go to `uart`.
+/// Returns the semihosting text.
+pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Result<String, String> {
+    let mut child = spawn_qemu(board, elf, &format!("file:{}", uart.display()))?;
     let t = Instant::now();
     loop {
         match child.try_wait().map_err(|e| format!("qemu: {e}"))? {

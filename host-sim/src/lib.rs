@@ -8,6 +8,7 @@
 
 pub mod costfit;
 pub mod demo;
+pub mod drive_cmd;
 pub mod frame_png;
 pub mod harness;
 pub mod hil_cmd;
@@ -18,5 +19,6 @@ pub mod render_cmd;
 pub mod scene_file;
 pub mod stream_cmd;
 pub mod tradeoff;
+pub mod trajectory;
 pub mod truth;
 pub mod variant;

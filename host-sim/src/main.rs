@@ -119,6 +119,33 @@ enum Cmd {
     },
     /// Print a complete small frame as it goes on the wire (docs/wire.md).
     WireExample,
+    /// Drive the camera firmware in QEMU (UART0 both ways) along a
+    /// trajectory: SetPose and Trigger for each pose; check every frame byte
+    /// for byte against the host render of that pose and its ground truth
+    /// against the pose sent. Writes frame-N.png, frame-N.json (the frame's
+    /// ground truth) and drive.json.
+    Drive {
+        /// lm3s6965evb (Cortex-M3) or mps2-an386 (Cortex-M4F).
+        #[arg(long, default_value = "lm3s6965evb")]
+        board: String,
+        /// The scene (the camera is built with it alone).
+        #[arg(long, default_value = "scenes/standard.toml")]
+        scene: std::path::PathBuf,
+        /// Frames (poses sampled evenly over the trajectory).
+        #[arg(long, default_value_t = 30)]
+        frames: usize,
+        /// Keyframes: JSON lines {"t", "position", "quaternion": [w, x, y,
+        /// z]} or CSV t,x,y,z,qw,qx,qy,qz (default: a small loop around the
+        /// scene's pose).
+        #[arg(long)]
+        poses: Option<std::path::PathBuf>,
+        /// Write the raw bytes the camera sent to this file.
+        #[arg(long)]
+        capture: Option<std::path::PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
     /// Run the firmware in QEMU, decode its UART, and compare every frame
     /// with the host render (bit-exact) and the f64 reference; writes hil.json
     /// and the frames as PNGs.
@@ -518,6 +545,51 @@ fn main() -> ExitCode {
                 1.0 / one,
                 one / px * 1e9
             ))
+        })()),
+        Cmd::Drive {
+            board,
+            scene,
+            frames,
+            poses,
+            capture,
+            out,
+        } => finish((|| {
+            let board = host_sim::hil_cmd::Board::parse(&board)?;
+            if frames == 0 {
+                return Err("--frames: at least 1".into());
+            }
+            let r = host_sim::drive_cmd::drive_qemu(
+                board,
+                &scene,
+                poses.as_deref(),
+                frames,
+                capture.as_deref(),
+                &out,
+            )?;
+            let s = format!(
+                "{} {}: {} of {} frames received, {} bit-exact, {} with matching ground truth, {} lost, \
+                 {} out of order, {} commands resent; round trip (Trigger -> first byte) mean {:.0} / max {:.0} \
+                 instructions, mean {:.1} / max {:.1} ms wall; {:.1} s",
+                r.board,
+                r.scene,
+                r.frames_received,
+                r.frames_requested,
+                r.bit_exact,
+                r.truth_matches,
+                r.lost,
+                r.out_of_order,
+                r.resent,
+                r.round_trip_instructions[0],
+                r.round_trip_instructions[1],
+                r.round_trip_wall_ms[0],
+                r.round_trip_wall_ms[1],
+                r.seconds
+            );
+            if r.passed() {
+                Ok(s)
+            } else {
+                Err(format!("{s}\nthe drive failed (see drive.json)"))
+            }
         })()),
         Cmd::Hil {
             board,

@@ -5,7 +5,7 @@
 use crate::link::decoder::{Decoder, Stats};
 use crate::link::sim::{frame_pixels, Channel, Faults, Link, Recorder, HOST_CHUNK};
 use crate::scene_file::Resolved;
-use hilcam::link::{Encoder, FrameStart, WireFormat, PROTOCOL_VERSION};
+use hilcam::link::{Encoder, FrameStart, Truth, WireFormat, WirePlan, PROTOCOL_VERSION};
 use hilcam::planner::Budget;
 use serde::Serialize;
 
@@ -13,18 +13,8 @@ use serde::Serialize;
 /// them with.
 pub fn core_frame(r: &Resolved, scene_id: u32) -> Result<(Vec<u8>, FrameStart), String> {
     let (scene, _, frame, core) = crate::harness::core_render(r, &Budget::default())?;
-    let (w, h) = frame.size();
-    let pixels = core.pixels;
-    let start = FrameStart {
-        version: PROTOCOL_VERSION,
-        frame_id: 0,
-        width: w,
-        height: h,
-        format: WireFormat::from(scene.format),
-        scene_id,
-        exposure: scene.exposure.to_bits(),
-    };
-    Ok((pixels, start))
+    let start = FrameStart::of(0, scene_id, &scene, &frame.stages(), 0, None);
+    Ok((core.pixels, start))
 }
 
 /// What happened to the frames and messages sent through a link.
@@ -310,6 +300,27 @@ pub fn campaign(
     })
 }
 
+/// The ground truth of `docs/wire.md`'s example frame: a camera at
+/// (0, 0, −1) m looking along world +z, f = 4 mm, 5 µm pixels, principal
+/// point (1.5, 0.5), no distortion, rendered fast through a pinhole, 1 ms
+/// after the camera started, command 3 the last processed.
+fn example_truth() -> Truth {
+    Truth {
+        timestamp_ns: 1_000_000,
+        command: Some(3),
+        rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        translation: [0.0, 0.0, -1.0],
+        focal_length: 0.004,
+        pitch: [5e-6, 5e-6],
+        principal_point: [1.5, 0.5],
+        distortion: [0.0, 0.0],
+        plan: WirePlan {
+            samples: 1,
+            ..WirePlan::default()
+        },
+    }
+}
+
 /// A complete small frame on the wire (4×2 Gray8), as annotated hex: the
 /// example `docs/wire.md` shows.
 pub fn wire_example() -> Result<String, String> {
@@ -322,6 +333,7 @@ pub fn wire_example() -> Result<String, String> {
         format: WireFormat::Gray8,
         scene_id: 1,
         exposure: 800i64 << 32,
+        truth: example_truth(),
     };
     let pixels = [0x00, 0x01, 0x7f, 0x80, 0xff, 0x00, 0x10, 0x20];
     let mut enc =

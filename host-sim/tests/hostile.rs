@@ -327,6 +327,7 @@ fn header(format: WireFormat) -> FrameStart {
         format,
         scene_id: 1,
         exposure: 1 << 32,
+        truth: Default::default(),
     }
 }
 

@@ -18,6 +18,7 @@ fn header(width: u16, height: u16, format: WireFormat) -> FrameStart {
         format,
         scene_id: 3,
         exposure: 1 << 32,
+        truth: Default::default(),
     }
 }
 
@@ -280,6 +281,7 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
         format: WireFormat::from(scene.format),
         scene_id: 0,
         exposure: 0,
+        truth: Default::default(),
     };
     let mut line = vec![0u8; frame.line_bytes()];
     let mut flags = vec![0u8; w as usize];
@@ -348,7 +350,7 @@ fn non_canonical_bodies_are_refused() {
         frame_id: 7,
         ..header(4, 2, WireFormat::Gray8)
     };
-    let mut buf = [0u8; 64];
+    let mut buf = [0u8; 512];
     let body = postcard::to_slice(&hilcam::link::Message::FrameStart(start), &mut buf)
         .expect("serializes")
         .to_vec();

@@ -3,12 +3,13 @@
 //! next `0x00` after any error, and counts what it dropped and why. It never
 //! panics, whatever the bytes (a fuzz target and a proptest check it).
 
-use hilcam::link::{FrameEnd, FrameStart, Message, WireFormat, CRC32, PROTOCOL_VERSION};
+use hilcam::control::{Ack, Description};
+use hilcam::link::{is_canonical, FrameEnd, FrameStart, Message, WireFormat, CRC32, PROTOCOL_VERSION};
 use serde::Serialize;
 use std::io::Read;
 
 /// A delivered frame.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
     /// Its start message.
     pub start: FrameStart,
@@ -50,6 +51,26 @@ pub struct Stats {
     /// Frames refused at their start (size, version, or Gray16 `bits`
     /// outside 9 to 16).
     pub frames_refused: u64,
+    /// Answers to commands received (acks, rejects, descriptions).
+    pub replies: u64,
+}
+
+/// A camera's answer to a command, as received.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub enum Reply {
+    /// Applied.
+    Ack(Ack),
+    /// Refused.
+    Reject {
+        /// The command's sequence number.
+        seq: u32,
+        /// Why.
+        reason: String,
+        /// The field at fault.
+        field: String,
+    },
+    /// The camera's description.
+    Description(Description),
 }
 
 struct Assembly {
@@ -72,6 +93,8 @@ pub struct Decoder {
     pub record: bool,
     /// See `record`.
     pub received: Vec<u32>,
+    /// Answers to commands, in arrival order (the caller drains them).
+    pub replies: std::collections::VecDeque<Reply>,
 }
 
 impl Decoder {
@@ -87,7 +110,13 @@ impl Decoder {
             stats: Stats::default(),
             record: false,
             received: Vec::new(),
+            replies: Default::default(),
         }
+    }
+
+    /// The id of the frame being assembled, if one is open.
+    pub fn open_frame(&self) -> Option<u32> {
+        self.open.as_ref().map(|a| a.start.frame_id)
     }
 
     /// Feeds bytes; calls `deliver` for every frame completed intact.
@@ -167,6 +196,23 @@ impl Decoder {
             }
         };
         self.stats.messages_ok += 1;
+        let reply = match msg {
+            Message::Ack(a) => Some(Reply::Ack(a)),
+            Message::Reject(r) => Some(Reply::Reject {
+                seq: r.seq,
+                reason: format!("{:?}", r.reason),
+                field: r.field.to_string(),
+            }),
+            Message::Description(d) => Some(Reply::Description(d)),
+            _ => None,
+        };
+        if let Some(r) = reply {
+            // Answers travel between (or inside) frames without touching
+            // them.
+            self.stats.replies += 1;
+            self.replies.push_back(r);
+            return;
+        }
         match msg {
             Message::FrameStart(s) => {
                 if self.open.take().is_some() {
@@ -227,17 +273,9 @@ impl Decoder {
                     self.stats.orphans += 1;
                 }
             },
+            Message::Ack(_) | Message::Reject(_) | Message::Description(_) => {}
         }
     }
-}
-
-/// Whether `body`, which decodes to `m`, is `m`'s one encoding (postcard's:
-/// shortest varints, nothing after the last field). Its length tells: an
-/// over-long varint or a trailing byte only ever lengthens a body, and
-/// every other field decodes from exactly its canonical bytes.
-fn is_canonical(m: &Message<'_>, body: &[u8]) -> bool {
-    postcard::serialize_with_flavor::<_, postcard::ser_flavors::Size, usize>(m, Default::default())
-        .is_ok_and(|n| n == body.len())
 }
 
 /// Decodes a whole stream from any reader (a file, a pipe, a serial port),

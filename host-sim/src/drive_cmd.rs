@@ -1,0 +1,442 @@
+//! `host-sim drive`: the host drives a camera (the firmware in QEMU through
+//! its UART, or anything speaking the protocol on a byte stream) along a
+//! trajectory — `SetPose`, then `Trigger` for each pose — receives every
+//! frame with its ground truth, and checks each one byte for byte against
+//! the host's render of the same pose, and its truth against the pose sent.
+
+use crate::harness::planned_frame;
+use crate::hil_cmd::{build_firmware_as, spawn_qemu, Board};
+use crate::link::decoder::{Decoder, Frame, Reply, Stats};
+use crate::scene_file::{load, Resolved};
+use crate::trajectory::{Pose, Trajectory};
+use hilcam::control::{Command, Request, MAX_REQUEST};
+use hilcam::link::{encode_message, FrameStart, Truth, PROTOCOL_VERSION};
+use hilcam::Extrinsics;
+use serde::Serialize;
+use std::collections::{HashMap, VecDeque};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// Bytes from the camera, with the time they arrived.
+type Batch = (Instant, Vec<u8>);
+
+/// Reads `r` on a thread until it ends, sending what arrives (and
+/// appending it to `capture`, the raw wire bytes, when given).
+pub fn spawn_reader(
+    mut r: impl Read + Send + 'static,
+    mut capture: Option<std::fs::File>,
+) -> mpsc::Receiver<Batch> {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut buf = vec![0u8; 1 << 14];
+        loop {
+            match r.read(&mut buf) {
+                Ok(0) => return,
+                Ok(n) => {
+                    if let Some(f) = capture.as_mut() {
+                        if f.write_all(&buf[..n]).is_err() {
+                            capture = None;
+                        }
+                    }
+                    if tx.send((Instant::now(), buf[..n].to_vec())).is_err() {
+                        return;
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(_) => return,
+            }
+        }
+    });
+    rx
+}
+
+/// A frame and when its first message arrived.
+pub struct Arrived {
+    /// The frame.
+    pub frame: Frame,
+    /// When the batch holding its `FrameStart` arrived.
+    pub first_byte: Instant,
+}
+
+/// The host's end of a link to a camera: sends requests (numbered,
+/// resent on silence), collects answers and frames.
+pub struct Driver<W: Write> {
+    writer: W,
+    rx: mpsc::Receiver<Batch>,
+    dec: Decoder,
+    frames: VecDeque<Arrived>,
+    started: HashMap<u32, Instant>,
+    seq: u32,
+    /// How long to wait for an answer before sending a request again.
+    pub timeout: Duration,
+    /// Requests sent again after a silence.
+    pub resent: u32,
+}
+
+impl<W: Write> Driver<W> {
+    /// A driver writing requests to `writer` and reading the camera's bytes
+    /// from `rx` ([`spawn_reader`]).
+    pub fn new(writer: W, rx: mpsc::Receiver<Batch>) -> Self {
+        Driver {
+            writer,
+            rx,
+            dec: Decoder::new(1 << 20, 1 << 24),
+            frames: VecDeque::new(),
+            started: HashMap::new(),
+            seq: 0,
+            timeout: Duration::from_secs(10),
+            resent: 0,
+        }
+    }
+
+    /// The decoder's counts.
+    pub fn stats(&self) -> Stats {
+        self.dec.stats
+    }
+
+    /// The sequence number the next command will carry.
+    pub fn set_next_seq(&mut self, seq: u32) {
+        self.seq = seq;
+    }
+
+    /// Waits until `deadline` for bytes and decodes them; false if none came.
+    fn pump(&mut self, deadline: Instant) -> Result<bool, String> {
+        let wait = deadline.saturating_duration_since(Instant::now());
+        let (at, bytes) = match self.rx.recv_timeout(wait) {
+            Ok(b) => b,
+            Err(mpsc::RecvTimeoutError::Timeout) => return Ok(false),
+            Err(mpsc::RecvTimeoutError::Disconnected) => return Err("the camera closed the link".into()),
+        };
+        let before = self.dec.open_frame();
+        let mut done = Vec::new();
+        self.dec.push(&bytes, &mut |f| done.push(f));
+        if let Some(id) = self.dec.open_frame().filter(|id| Some(*id) != before) {
+            self.started.insert(id, at);
+        }
+        for f in done {
+            let first_byte = self.started.remove(&f.start.frame_id).unwrap_or(at);
+            self.frames.push_back(Arrived { frame: f, first_byte });
+        }
+        Ok(true)
+    }
+
+    /// Sends `command` and waits for its answer (resending it, with the
+    /// same number, after each silence of `timeout`, three times at most).
+    /// Returns the answer and when the request was first sent.
+    pub fn command(&mut self, command: Command) -> Result<(Reply, Instant), String> {
+        let seq = self.seq;
+        if command != Command::Describe {
+            self.seq = seq.wrapping_add(1);
+        }
+        let req = Request {
+            version: PROTOCOL_VERSION,
+            seq,
+            command,
+        };
+        let mut wire = [0u8; MAX_REQUEST];
+        let bytes = encode_message(&req, &mut wire).ok_or("request does not fit MAX_REQUEST")?;
+        let sent = Instant::now();
+        for attempt in 0..4 {
+            if attempt > 0 {
+                self.resent += 1;
+            }
+            self.writer
+                .write_all(bytes)
+                .and_then(|_| self.writer.flush())
+                .map_err(|e| format!("sending command {seq}: {e}"))?;
+            let deadline = Instant::now() + self.timeout;
+            loop {
+                while let Some(r) = self.dec.replies.pop_front() {
+                    let ours = match &r {
+                        Reply::Ack(a) => a.seq == seq,
+                        Reply::Reject { seq: s, .. } => *s == seq,
+                        Reply::Description(_) => command == Command::Describe,
+                    };
+                    if ours {
+                        return Ok((r, sent));
+                    }
+                }
+                if !self.pump(deadline)? {
+                    break;
+                }
+            }
+        }
+        Err(format!("no answer to command {seq} ({command:?}) after 4 tries"))
+    }
+
+    /// The next frame, waiting up to `timeout`.
+    pub fn next_frame(&mut self, timeout: Duration) -> Result<Option<Arrived>, String> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(f) = self.frames.pop_front() {
+                return Ok(Some(f));
+            }
+            if !self.pump(deadline)? {
+                return Ok(None);
+            }
+        }
+    }
+}
+
+/// One frame of a drive.
+#[derive(Clone, Debug, Serialize)]
+pub struct DriveFrame {
+    /// Index in the trajectory.
+    pub index: usize,
+    /// The frame's id.
+    pub frame_id: u32,
+    /// The `Trigger` command that asked for it.
+    pub command: u32,
+    /// Its ground truth as received.
+    pub truth: Truth,
+    /// Pixels byte-identical to the host's render of the same pose and
+    /// frame id.
+    pub bit_exact: bool,
+    /// The truth equals the host's: the pose sent, the camera, the plan.
+    pub truth_matches: bool,
+    /// Instructions the frame cost the device (QEMU `-icount`).
+    pub instructions: Option<u64>,
+    /// Camera time from processing the `Trigger` to sending the frame's
+    /// first message, ns.
+    pub round_trip_camera_ns: u64,
+    /// Host time from sending the `Trigger` to the frame's first bytes, ms.
+    pub round_trip_wall_ms: f64,
+}
+
+/// `drive.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct DriveReport {
+    /// Board (or `host`).
+    pub board: String,
+    /// Scene.
+    pub scene: String,
+    /// Frames asked for.
+    pub frames_requested: usize,
+    /// Frames received.
+    pub frames_received: usize,
+    /// Frames asked for and never received.
+    pub lost: usize,
+    /// Frames whose id did not follow the previous one's.
+    pub out_of_order: usize,
+    /// Frames byte-identical with the host render of their pose.
+    pub bit_exact: usize,
+    /// Frames whose ground truth matched.
+    pub truth_matches: usize,
+    /// Commands sent again after a silence.
+    pub resent: u32,
+    /// Round trip in the camera's time, instructions (ns / 128 under
+    /// `-icount shift=7`): mean and largest.
+    pub round_trip_instructions: [f64; 2],
+    /// Round trip in host time, ms: mean and largest.
+    pub round_trip_wall_ms: [f64; 2],
+    /// Wall time of the whole drive, s.
+    pub seconds: f64,
+    /// The decoder's counts.
+    pub link: Stats,
+    /// Every frame.
+    pub frames: Vec<DriveFrame>,
+}
+
+impl DriveReport {
+    /// Every frame arrived, in order, bit-exact, with its truth.
+    pub fn passed(&self) -> bool {
+        self.frames_received == self.frames_requested
+            && self.lost == 0
+            && self.out_of_order == 0
+            && self.bit_exact == self.frames_requested
+            && self.truth_matches == self.frames_requested
+    }
+}
+
+/// The pose of a resolved scene, as the core holds it.
+pub fn scene_pose(r: &Resolved) -> Result<Pose, String> {
+    let scene = r.core_scene()?;
+    let e = scene.camera.extrinsics;
+    Ok(Pose {
+        rotation: e.rotation().map(|row| row.map(|v| v.to_num())),
+        translation: e.translation().to_f64(),
+    })
+}
+
+/// Drives a camera whose only scene is `r` through `poses`; writes a PNG
+/// and a JSON sidecar (its ground truth) per frame and `drive.json` into
+/// `out`. `instr_ns`: ns of camera time an instruction (128 under QEMU
+/// `-icount shift=7`).
+pub fn drive<W: Write>(
+    driver: &mut Driver<W>,
+    board: &str,
+    r: &Resolved,
+    poses: &[Pose],
+    instr_ns: f64,
+    out: &Path,
+) -> Result<DriveReport, String> {
+    let mut outputs = crate::output::Outputs::prepare(out)?;
+    let t_all = Instant::now();
+    let (d, _) = driver.command(Command::Describe)?;
+    let Reply::Description(d) = d else {
+        return Err(format!("Describe answered with {d:?}"));
+    };
+    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
+    if (d.width, d.height) != (w, h) || d.scenes < 1 {
+        return Err(format!(
+            "the camera shows {}x{} ({} scenes), the scene is {w}x{h}",
+            d.width, d.height, d.scenes
+        ));
+    }
+    driver.set_next_seq(d.last_command.map_or(0, |l| l.wrapping_add(1)));
+    let expect = |reply: Reply, what: &str| match reply {
+        Reply::Ack(a) => Ok(a),
+        other => Err(format!("{what}: {other:?}")),
+    };
+    expect(driver.command(Command::SelectScene { id: 0 })?.0, "SelectScene")?;
+    let mut scene = r.core_scene()?;
+    let mut frames = Vec::new();
+    let (mut lost, mut out_of_order) = (0, 0);
+    let mut next_id = d.next_frame;
+    for (k, pose) in poses.iter().enumerate() {
+        expect(
+            driver
+                .command(Command::SetPose {
+                    rotation: pose.rotation,
+                    translation: pose.translation,
+                })?
+                .0,
+            &format!("SetPose {k}"),
+        )?;
+        let (ack, sent) = driver.command(Command::Trigger { frames: 1 })?;
+        let ack = expect(ack, &format!("Trigger {k}"))?;
+        let Some(a) = driver.next_frame(Duration::from_secs(120))? else {
+            lost += 1;
+            continue;
+        };
+        let f = &a.frame;
+        if f.start.frame_id != next_id {
+            out_of_order += 1;
+        }
+        next_id = f.start.frame_id.wrapping_add(1);
+        // The host's render of the same pose and frame id, and the header
+        // the camera should have sent with it.
+        let e =
+            Extrinsics::from_matrix(pose.rotation, pose.translation).map_err(|e| format!("pose {k}: {e}"))?;
+        scene.set_pose(e).map_err(|e| format!("pose {k}: {e}"))?;
+        let (host, stages) = planned_frame(&scene, &r.desc.name, f.start.frame_id)?;
+        let want = FrameStart::of(
+            f.start.frame_id,
+            0,
+            &scene,
+            &stages,
+            f.start.truth.timestamp_ns,
+            Some(ack.seq),
+        );
+        let bit_exact = host.pixels == f.pixels;
+        let truth_matches = want == f.start;
+        let png = crate::frame_png::encode_png(r.format, w as usize, h as usize, &f.pixels)?;
+        let df = DriveFrame {
+            index: k,
+            frame_id: f.start.frame_id,
+            command: ack.seq,
+            truth: f.start.truth,
+            bit_exact,
+            truth_matches,
+            instructions: f.end.cost,
+            round_trip_camera_ns: f.start.truth.timestamp_ns.saturating_sub(ack.timestamp_ns),
+            round_trip_wall_ms: a.first_byte.saturating_duration_since(sent).as_secs_f64() * 1e3,
+        };
+        outputs.write(&format!("frame-{k:05}.png"), &png)?;
+        let json = serde_json::to_vec_pretty(&df).map_err(|e| e.to_string())?;
+        outputs.write(&format!("frame-{k:05}.json"), &json)?;
+        frames.push(df);
+    }
+    let stat = |v: Vec<f64>| {
+        let n = v.len().max(1) as f64;
+        [v.iter().sum::<f64>() / n, v.iter().cloned().fold(0.0, f64::max)]
+    };
+    let report = DriveReport {
+        board: board.into(),
+        scene: r.desc.name.clone(),
+        frames_requested: poses.len(),
+        frames_received: frames.len(),
+        lost,
+        out_of_order,
+        bit_exact: frames.iter().filter(|f| f.bit_exact).count(),
+        truth_matches: frames.iter().filter(|f| f.truth_matches).count(),
+        resent: driver.resent,
+        round_trip_instructions: stat(
+            frames
+                .iter()
+                .map(|f| f.round_trip_camera_ns as f64 / instr_ns)
+                .collect(),
+        ),
+        round_trip_wall_ms: stat(frames.iter().map(|f| f.round_trip_wall_ms).collect()),
+        seconds: t_all.elapsed().as_secs_f64(),
+        link: driver.stats(),
+        frames,
+    };
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+    outputs.write("drive.json", &json)?;
+    outputs.commit()?;
+    Ok(report)
+}
+
+/// The poses of a drive: `poses_file` (JSON or CSV lines, see
+/// [`Trajectory::parse`]) sampled at `frames` points, or the scene's pose
+/// wobbled ([`Trajectory::wobble`]).
+pub fn poses(r: &Resolved, poses_file: Option<&Path>, frames: usize) -> Result<Vec<Pose>, String> {
+    let traj = match poses_file {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            Trajectory::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?
+        }
+        None => Trajectory::wobble(&scene_pose(r)?, 1.0),
+    };
+    Ok(traj.sample(frames))
+}
+
+/// Builds the camera firmware for `board` with `scene` alone, runs it in
+/// QEMU with UART0 on a Unix socket, and drives it ([`drive`]);
+/// `capture` receives the raw bytes the camera sent.
+pub fn drive_qemu(
+    board: Board,
+    scene: &Path,
+    poses_file: Option<&Path>,
+    frames: usize,
+    capture: Option<&Path>,
+    out: &Path,
+) -> Result<DriveReport, String> {
+    let r = load(scene)?;
+    let poses = poses(&r, poses_file, frames)?;
+    let elf = build_firmware_as(board, &[scene.to_path_buf()], &[], true)?;
+    let dir = tempfile_dir()?;
+    let sock = dir.join("uart.sock");
+    let mut child = spawn_qemu(board, &elf, &format!("unix:{},server=on,wait=on", sock.display()))?;
+    let result = (|| {
+        let t = Instant::now();
+        let stream = loop {
+            match std::os::unix::net::UnixStream::connect(&sock) {
+                Ok(s) => break s,
+                Err(_) if t.elapsed() < Duration::from_secs(20) => {
+                    std::thread::sleep(Duration::from_millis(20))
+                }
+                Err(e) => return Err(format!("connecting to QEMU's UART at {}: {e}", sock.display())),
+            }
+        };
+        let capture = capture
+            .map(|p| std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display())))
+            .transpose()?;
+        let reader = stream.try_clone().map_err(|e| e.to_string())?;
+        let mut driver = Driver::new(stream, spawn_reader(reader, capture));
+        drive(&mut driver, board.machine(), &r, &poses, 128.0, out)
+    })();
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+fn tempfile_dir() -> Result<PathBuf, String> {
+    let dir = std::env::temp_dir().join(format!("hilcam-drive-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    Ok(dir)
+}

@@ -1,0 +1,428 @@
+//! The host → camera direction: the receiver on arbitrary, corrupted,
+//! oversized and non-canonical bytes; the sequence rule (no command applied
+//! twice or out of order); refused commands leave the camera's last good
+//! state; the reply messages' bytes.
+
+use hilcam::control::{
+    Ack, Answer, Command, Control, Description, Mode, Reason, Receiver, Reject, Request, RxError,
+    MAX_PENDING, MAX_REQUEST,
+};
+use hilcam::link::{encode_message, wire_size, Encoder, Message, CRC32, PROTOCOL_VERSION};
+use hilcam::scene::Scene;
+use proptest::prelude::*;
+use std::path::Path;
+
+fn standard() -> Scene {
+    host_sim::scene_file::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/standard.toml"
+    )))
+    .expect("standard scene")
+    .core_scene()
+    .expect("core scene")
+}
+
+fn wire(req: &Request) -> Vec<u8> {
+    let mut buf = [0u8; MAX_REQUEST];
+    encode_message(req, &mut buf).expect("fits MAX_REQUEST").to_vec()
+}
+
+fn request(seq: u32, command: Command) -> Request {
+    Request {
+        version: PROTOCOL_VERSION,
+        seq,
+        command,
+    }
+}
+
+const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+fn feed<const N: usize>(rx: &mut Receiver<N>, bytes: &[u8]) -> Vec<Result<Request, RxError>> {
+    bytes.iter().filter_map(|b| rx.push(*b)).collect()
+}
+
+fn any_command() -> impl Strategy<Value = Command> {
+    let f = -2.0f64..2.0;
+    prop_oneof![
+        Just(Command::Describe),
+        (
+            proptest::array::uniform9(f.clone()),
+            proptest::array::uniform3(f.clone())
+        )
+            .prop_map(|(r, t)| {
+                Command::SetPose {
+                    rotation: [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]],
+                    translation: t,
+                }
+            }),
+        any::<f64>().prop_map(|k| Command::SetExposure { k }),
+        any::<u32>().prop_map(|period_us| Command::SetMode(Mode::FreeRun { period_us })),
+        Just(Command::SetMode(Mode::Triggered)),
+        any::<u16>().prop_map(|frames| Command::Trigger { frames }),
+        any::<u32>().prop_map(|id| Command::SelectScene { id }),
+    ]
+}
+
+/// The largest request, with every float at full width, fits MAX_REQUEST.
+#[test]
+fn the_largest_request_fits_the_receiver() {
+    let worst = request(
+        u32::MAX,
+        Command::SetPose {
+            rotation: [[f64::MIN; 3]; 3],
+            translation: [f64::MAX; 3],
+        },
+    );
+    let w = wire(&worst);
+    assert!(w.len() <= MAX_REQUEST, "{} bytes", w.len());
+    let mut rx = Receiver::<MAX_REQUEST>::new();
+    assert_eq!(feed(&mut rx, &w), vec![Ok(worst)]);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// Every request survives the trip, whatever garbage came before it
+    /// (ended by a delimiter).
+    #[test]
+    fn requests_round_trip_after_garbage(
+        seq in any::<u32>(),
+        command in any_command(),
+        garbage in proptest::collection::vec(any::<u8>(), 0..400),
+    ) {
+        let req = request(seq, command);
+        let mut rx = Receiver::<MAX_REQUEST>::new();
+        let mut bytes = garbage.clone();
+        bytes.push(0);
+        bytes.extend(wire(&req));
+        let got = feed(&mut rx, &bytes);
+        // f64 NaN != NaN: compare the encodings.
+        let last = got.last().cloned().expect("the request's delimiter");
+        let last = last.expect("the request decodes");
+        prop_assert_eq!(wire(&last), wire(&req));
+        prop_assert_eq!(rx.stats.bytes, bytes.len() as u64);
+    }
+
+    /// A corrupted request (bytes flipped) is never taken for another one:
+    /// it either fails or decodes to exactly what was sent.
+    #[test]
+    fn corrupted_requests_are_refused(
+        seq in any::<u32>(),
+        command in any_command(),
+        flips in proptest::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 1..4),
+    ) {
+        let req = request(seq, command);
+        let mut bytes = wire(&req);
+        let body = bytes.len() - 1;
+        for (i, x) in flips {
+            let i = i.index(body);
+            bytes[i] ^= x;
+        }
+        let mut rx = Receiver::<MAX_REQUEST>::new();
+        for r in feed(&mut rx, &bytes) {
+            if let Ok(got) = r {
+                prop_assert_eq!(wire(&got), wire(&req));
+            }
+        }
+    }
+
+    /// Arbitrary bytes never panic, never produce more requests than
+    /// delimiters, and the receiver stays usable.
+    #[test]
+    fn arbitrary_bytes_are_harmless(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
+        let mut rx = Receiver::<MAX_REQUEST>::new();
+        let got = feed(&mut rx, &bytes);
+        prop_assert!(got.len() <= bytes.iter().filter(|b| **b == 0).count());
+        let req = request(1, Command::Trigger { frames: 2 });
+        let mut tail = vec![0u8];
+        tail.extend(wire(&req));
+        prop_assert_eq!(feed(&mut rx, &tail).last().cloned(), Some(Ok(req)));
+    }
+}
+
+/// A message longer than the buffer is refused whole (not decoded from its
+/// first N bytes), and the next one decodes.
+#[test]
+fn oversized_messages_are_refused_and_the_next_decodes() {
+    let mut rx = Receiver::<MAX_REQUEST>::new();
+    let mut bytes = vec![0x55u8; MAX_REQUEST + 1];
+    bytes.push(0);
+    let req = request(5, Command::Describe);
+    bytes.extend(wire(&req));
+    assert_eq!(feed(&mut rx, &bytes), vec![Err(RxError::Oversize), Ok(req)]);
+    assert_eq!(rx.stats.errors, [1, 0, 0, 0]);
+}
+
+/// A body with a right CRC that is not the canonical encoding — a trailing
+/// byte, an over-long varint — is refused (docs/wire.md).
+#[test]
+fn non_canonical_requests_are_refused() {
+    let frame = |body: &[u8]| {
+        let mut msg = body.to_vec();
+        msg.extend_from_slice(&CRC32.checksum(body).to_le_bytes());
+        let mut out = vec![0u8; msg.len() + msg.len() / 254 + 2];
+        let k = cobs::encode(&msg, &mut out);
+        out.truncate(k);
+        out.push(0);
+        out
+    };
+    let req = request(7, Command::Trigger { frames: 3 });
+    let mut buf = [0u8; 16];
+    let body = postcard::to_slice(&req, &mut buf).expect("encodes").to_vec();
+    // version 2, seq 7, tag 4, frames 3.
+    assert_eq!(body, vec![PROTOCOL_VERSION, 7, 4, 3]);
+    let mut rx = Receiver::<MAX_REQUEST>::new();
+    assert_eq!(feed(&mut rx, &frame(&body)), vec![Ok(req)]);
+    let mut trailing = body.clone();
+    trailing.push(0);
+    assert_eq!(feed(&mut rx, &frame(&trailing)), vec![Err(RxError::Malformed)]);
+    // seq 7 as the two-byte varint 87 00.
+    let overlong = vec![PROTOCOL_VERSION, 0x87, 0x00, 4, 3];
+    assert_eq!(feed(&mut rx, &frame(&overlong)), vec![Err(RxError::Malformed)]);
+    // A wrong CRC.
+    let mut bad = frame(&body);
+    bad[2] ^= 1;
+    assert_eq!(feed(&mut rx, &bad), vec![Err(RxError::Crc)]);
+}
+
+fn no_scene(_: u32) -> Result<Scene, &'static str> {
+    Err("no other scene")
+}
+
+/// The sequence rule: the first number is free; then only the next one is
+/// applied; a repeat of the last is answered again without being applied;
+/// anything else is refused with the number expected. Describe is
+/// answered whatever its number and does not count.
+#[test]
+fn commands_apply_once_and_in_order() {
+    let mut scene = standard();
+    let mut c = Control::new();
+    let trig = |seq| request(seq, Command::Trigger { frames: 2 });
+    assert_eq!(c.handle(&trig(41), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!(c.pending, 2);
+    // A repeat (the ack was lost): answered, not applied again.
+    assert_eq!(c.handle(&trig(41), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!(c.pending, 2);
+    // Skipping one, or going back: refused, nothing applied.
+    for seq in [43, 40, 0, u32::MAX] {
+        assert_eq!(
+            c.handle(&trig(seq), &mut scene, 1, no_scene),
+            Answer::Reject(Reason::OutOfOrder { expected: 42 }, "seq")
+        );
+    }
+    assert_eq!(c.pending, 2);
+    assert_eq!(
+        c.handle(&request(9999, Command::Describe), &mut scene, 1, no_scene),
+        Answer::Describe
+    );
+    assert_eq!(c.handle(&trig(42), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!((c.pending, c.last_command()), (4, Some(42)));
+    // Another version: refused, not counted.
+    let v1 = Request {
+        version: 1,
+        ..trig(43)
+    };
+    assert_eq!(
+        c.handle(&v1, &mut scene, 1, no_scene),
+        Answer::Reject(
+            Reason::Version {
+                speaks: PROTOCOL_VERSION
+            },
+            "version"
+        )
+    );
+    assert_eq!(c.last_command(), Some(42));
+    // Numbers wrap.
+    let mut c = Control::new();
+    assert_eq!(c.handle(&trig(u32::MAX), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!(c.handle(&trig(0), &mut scene, 1, no_scene), Answer::Ack);
+}
+
+/// A refused command names its field and changes nothing: the camera keeps
+/// its last good pose, exposure, mode and scene.
+#[test]
+fn refused_commands_keep_the_last_good_state() {
+    let mut scene = standard();
+    let good = scene.clone();
+    let mut c = Control::new();
+    let cases: Vec<(Command, Reason, &str)> = vec![
+        (
+            Command::SetPose {
+                rotation: [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                translation: [0.0; 3],
+            },
+            Reason::Invalid,
+            "pose.rotation",
+        ),
+        (
+            Command::SetPose {
+                rotation: [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                translation: [0.0; 3],
+            },
+            Reason::Invalid,
+            "pose.rotation",
+        ),
+        (
+            Command::SetPose {
+                rotation: IDENTITY,
+                translation: [0.0, f64::NAN, 0.0],
+            },
+            Reason::Invalid,
+            "pose.translation",
+        ),
+        (
+            Command::SetPose {
+                rotation: IDENTITY,
+                translation: [1000.5, 0.0, 0.0],
+            },
+            Reason::Invalid,
+            "pose.translation",
+        ),
+        (Command::SetExposure { k: -1.0 }, Reason::Invalid, "exposure.k"),
+        (
+            Command::SetExposure { k: f64::NAN },
+            Reason::Invalid,
+            "exposure.k",
+        ),
+        (Command::SetExposure { k: 2e9 }, Reason::Invalid, "exposure.k"),
+        (Command::Trigger { frames: 0 }, Reason::Invalid, "trigger.frames"),
+        (Command::SelectScene { id: 1 }, Reason::Invalid, "scene.id"),
+    ];
+    for (seq, (cmd, reason, field)) in cases.into_iter().enumerate() {
+        let a = c.handle(&request(seq as u32, cmd), &mut scene, 1, no_scene);
+        assert_eq!(a, Answer::Reject(reason, field), "{cmd:?}");
+        assert_eq!(scene, good, "{cmd:?} changed the scene");
+        assert_eq!((c.mode, c.pending, c.scene_id), (Mode::Triggered, 0, 0));
+    }
+    // Pending frames are bounded.
+    let n = c.last_command().expect("counted") + 1;
+    assert_eq!(
+        c.handle(
+            &request(n, Command::Trigger { frames: u16::MAX }),
+            &mut scene,
+            1,
+            no_scene
+        ),
+        Answer::Ack
+    );
+    assert_eq!(
+        c.handle(
+            &request(n + 1, Command::Trigger { frames: 1 }),
+            &mut scene,
+            1,
+            no_scene
+        ),
+        Answer::Reject(Reason::Invalid, "trigger.frames")
+    );
+    assert_eq!(c.pending, MAX_PENDING);
+    // Trigger while free-running.
+    assert_eq!(
+        c.handle(
+            &request(n + 2, Command::SetMode(Mode::FreeRun { period_us: 1000 })),
+            &mut scene,
+            1,
+            no_scene
+        ),
+        Answer::Ack
+    );
+    assert_eq!(
+        c.handle(
+            &request(n + 3, Command::Trigger { frames: 1 }),
+            &mut scene,
+            1,
+            no_scene
+        ),
+        Answer::Reject(Reason::WrongMode, "mode")
+    );
+    // A good pose and exposure are applied.
+    let pose = Command::SetPose {
+        rotation: IDENTITY,
+        translation: [0.1, 0.2, -3.0],
+    };
+    assert_eq!(
+        c.handle(&request(n + 4, pose), &mut scene, 1, no_scene),
+        Answer::Ack
+    );
+    // Rounded to the position format (I24F40: half an LSB is 2⁻⁴¹ m).
+    let t = scene.camera.extrinsics.translation().to_f64();
+    for (got, want) in t.iter().zip([0.1, 0.2, -3.0]) {
+        assert!((got - want).abs() <= 2f64.powi(-41), "{t:?}");
+    }
+    assert_eq!(
+        c.handle(
+            &request(n + 5, Command::SetExposure { k: 123.5 }),
+            &mut scene,
+            1,
+            no_scene
+        ),
+        Answer::Ack
+    );
+    assert_eq!(scene.exposure.to_num::<f64>(), 123.5);
+}
+
+/// Frames due: one per trigger in triggered mode; in free run one a period
+/// (back to back when late).
+#[test]
+fn frames_are_due_as_the_mode_says() {
+    let mut scene = standard();
+    let mut c = Control::new();
+    assert!(!c.frame_due(0));
+    c.handle(
+        &request(0, Command::Trigger { frames: 2 }),
+        &mut scene,
+        1,
+        no_scene,
+    );
+    assert!(c.frame_due(5) && c.frame_due(5) && !c.frame_due(5));
+    c.handle(
+        &request(1, Command::SetMode(Mode::FreeRun { period_us: 10 })),
+        &mut scene,
+        1,
+        no_scene,
+    );
+    assert!(c.frame_due(100));
+    assert!(!c.frame_due(109_999 / 1000 + 100));
+    assert!(c.frame_due(100 + 10_000));
+    assert!(c.frame_due(1_000_000), "late: at once");
+}
+
+/// The answers' bytes: what the encoder sends equals the `Message` enum's
+/// encoding (tags 3, 4, 5), and the host decoder reads them back.
+#[test]
+fn replies_are_messages_three_to_five() {
+    let scene = standard();
+    let c = Control::new();
+    let ack = Ack {
+        seq: 3,
+        timestamp_ns: 1_000_000,
+    };
+    let reject = Reject {
+        seq: 4,
+        reason: Reason::Invalid,
+        field: "pose.rotation",
+    };
+    let desc: Description = c.describe(&scene, 1, 0);
+    let mut enc = Encoder::<host_sim::link::sim::Recorder, 64, { wire_size(64) }>::new(Default::default())
+        .expect("encoder");
+    enc.send_reply(&ack).expect("ack");
+    enc.send_reply(&reject).expect("reject");
+    enc.send_reply(&desc).expect("description");
+    let sent = enc.into_inner().bytes;
+    let mut want = Vec::new();
+    for m in [
+        Message::Ack(ack),
+        Message::Reject(reject),
+        Message::Description(desc),
+    ] {
+        let mut buf = [0u8; 256];
+        want.extend_from_slice(encode_message(&m, &mut buf).expect("encodes"));
+    }
+    assert_eq!(sent, want);
+    let mut dec = host_sim::link::decoder::Decoder::new(1 << 16, 1 << 20);
+    dec.push(&sent, &mut |_| {});
+    assert_eq!(dec.stats.replies, 3);
+    assert_eq!(
+        dec.replies.pop_front(),
+        Some(host_sim::link::decoder::Reply::Ack(ack))
+    );
+}
