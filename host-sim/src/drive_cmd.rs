@@ -44,7 +44,12 @@ pub fn spawn_reader(
                         return;
                     }
                 }
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                // Serial ports time out when idle: keep reading.
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::Interrupted | std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                    ) => {}
                 Err(_) => return,
             }
         }
@@ -71,6 +76,8 @@ pub struct Driver<W: Write> {
     seq: u32,
     /// How long to wait for an answer before sending a request again.
     pub timeout: Duration,
+    /// How long to wait for a triggered frame before counting it lost.
+    pub frame_timeout: Duration,
     /// Requests sent again after a silence.
     pub resent: u32,
 }
@@ -87,6 +94,7 @@ impl<W: Write> Driver<W> {
             started: HashMap::new(),
             seq: 0,
             timeout: Duration::from_secs(10),
+            frame_timeout: Duration::from_secs(120),
             resent: 0,
         }
     }
@@ -218,8 +226,12 @@ pub struct DriveReport {
     pub frames_received: usize,
     /// Frames asked for and never received.
     pub lost: usize,
-    /// Frames whose id did not follow the previous one's.
+    /// Frames whose id was not after the previous one's (lost frames only
+    /// skip ids).
     pub out_of_order: usize,
+    /// Frames of an earlier trigger that arrived after it was counted lost
+    /// (skipped).
+    pub late: usize,
     /// Frames byte-identical with the host render of their pose.
     pub bit_exact: usize,
     /// Frames whose ground truth matched.
@@ -293,7 +305,7 @@ pub fn drive<W: Write>(
     expect(driver.command(Command::SelectScene { id: 0 })?.0, "SelectScene")?;
     let mut scene = r.core_scene()?;
     let mut frames = Vec::new();
-    let (mut lost, mut out_of_order) = (0, 0);
+    let (mut lost, mut out_of_order, mut late) = (0, 0, 0);
     let mut next_id = d.next_frame;
     for (k, pose) in poses.iter().enumerate() {
         expect(
@@ -307,12 +319,23 @@ pub fn drive<W: Write>(
         )?;
         let (ack, sent) = driver.command(Command::Trigger { frames: 1 })?;
         let ack = expect(ack, &format!("Trigger {k}"))?;
-        let Some(a) = driver.next_frame(Duration::from_secs(120))? else {
+        // This trigger's frame: the first whose last command is the
+        // trigger (an older frame, already counted lost, is skipped).
+        let a = loop {
+            match driver.next_frame(driver.frame_timeout)? {
+                Some(a) if a.frame.start.truth.command.is_some_and(|c| c.wrapping_sub(ack.seq) > u32::MAX / 2) => {
+                    late += 1
+                }
+                other => break other,
+            }
+        };
+        let Some(a) = a else {
             lost += 1;
             continue;
         };
         let f = &a.frame;
-        if f.start.frame_id != next_id {
+        // Ids only move forward (by more than one past a lost frame).
+        if f.start.frame_id.wrapping_sub(next_id) > u32::MAX / 2 {
             out_of_order += 1;
         }
         next_id = f.start.frame_id.wrapping_add(1);
@@ -360,6 +383,7 @@ pub fn drive<W: Write>(
         frames_received: frames.len(),
         lost,
         out_of_order,
+        late,
         bit_exact: frames.iter().filter(|f| f.bit_exact).count(),
         truth_matches: frames.iter().filter(|f| f.truth_matches).count(),
         resent: driver.resent,

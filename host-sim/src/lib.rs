@@ -6,6 +6,7 @@
 //! checks something. Its modules mirror the core's (`extrinsics`,
 //! `projection`, `intrinsics`, `lens`).
 
+pub mod camera_cmd;
 pub mod costfit;
 pub mod demo;
 pub mod drive_cmd;

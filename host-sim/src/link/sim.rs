@@ -299,6 +299,40 @@ impl Channel {
     }
 }
 
+/// A `std::io::Write` behind a faulty link: each write is one message
+/// through a [`Channel`] (what survives is written on at once).
+pub struct FaultyWriter<W> {
+    /// The writer behind the faults.
+    pub inner: W,
+    channel: Channel,
+    /// Bytes any fault touched so far.
+    pub hits: usize,
+}
+
+impl<W> FaultyWriter<W> {
+    /// `inner` behind the faults `f`.
+    pub fn new(inner: W, f: &Faults) -> Self {
+        FaultyWriter {
+            inner,
+            channel: Channel::new(f),
+            hits: 0,
+        }
+    }
+}
+
+impl<W: std::io::Write> std::io::Write for FaultyWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let (mut out, mut hits) = (Vec::with_capacity(buf.len() + 16), Vec::new());
+        self.channel.send(buf, &[(0, buf.len())], &mut out, &mut hits);
+        self.hits += hits.len();
+        self.inner.write_all(&out)?;
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
 /// A `Vec<u8>` as an `embedded_io::Write` that remembers where each write
 /// (each message) begins and ends.
 #[derive(Default)]

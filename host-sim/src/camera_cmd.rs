@@ -1,0 +1,155 @@
+//! `host-sim camera`: the host as the camera. It obeys the commands a
+//! system under test (or `host-sim drive`) sends and streams the frames
+//! they ask for, with the same core pieces the firmware uses — the
+//! [`Receiver`], the command state [`Control`], the frame [`Encoder`] — and
+//! the default rendering path, so its frames are the firmware's, byte for
+//! byte.
+
+use crate::drive_cmd::spawn_reader;
+use crate::harness::planned_frame;
+use crate::scene_file::Resolved;
+use hilcam::control::{Ack, Answer, Control, Mode, Receiver, Reject, MAX_REQUEST};
+use hilcam::link::{wire_size, Encoder, FrameStart, DEFAULT_CHUNK};
+use hilcam::scene::Scene;
+use serde::Serialize;
+use std::io::{Read, Write};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// A `std::io::Write` as the `embedded_io::Write` the core's encoder
+/// writes to.
+pub struct IoWrite<W>(pub W);
+
+impl<W: Write> embedded_io::ErrorType for IoWrite<W> {
+    type Error = embedded_io::ErrorKind;
+}
+
+impl<W: Write> embedded_io::Write for IoWrite<W> {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        self.0.write(buf).map_err(|_| embedded_io::ErrorKind::Other)
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        self.0.flush().map_err(|_| embedded_io::ErrorKind::Other)
+    }
+}
+
+/// What the camera did.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct CameraStats {
+    /// Requests decoded.
+    pub requests: u32,
+    /// Messages refused by the receiver (oversize, COBS, CRC, malformed).
+    pub refused: [u32; 4],
+    /// Commands applied (acknowledged), repeats included.
+    pub acks: u32,
+    /// Commands refused.
+    pub rejects: u32,
+    /// Frames sent.
+    pub frames: u32,
+}
+
+/// Runs the camera over `scenes` (the first shown first), reading
+/// commands from `reader` and writing answers and frames to `writer`,
+/// until the input ends and no frame is pending.
+pub fn serve<R: Read + Send + 'static, W: Write>(
+    reader: R,
+    writer: W,
+    scenes: &[Resolved],
+) -> Result<CameraStats, String> {
+    let input = spawn_reader(reader, None);
+    serve_from(input, writer, scenes)
+}
+
+/// [`serve`] with the input already on a channel.
+pub fn serve_from<W: Write>(
+    input: mpsc::Receiver<(Instant, Vec<u8>)>,
+    writer: W,
+    scenes: &[Resolved],
+) -> Result<CameraStats, String> {
+    let build = |id: u32| -> Result<Scene, String> {
+        scenes
+            .get(id as usize)
+            .ok_or_else(|| format!("no scene {id}"))?
+            .core_scene()
+    };
+    let n = scenes.len() as u32;
+    let mut scene = build(0)?;
+    let mut control = Control::new();
+    let mut rx = Receiver::<MAX_REQUEST>::new();
+    let mut enc = Encoder::<_, DEFAULT_CHUNK, { wire_size(DEFAULT_CHUNK) }>::new(IoWrite(writer))
+        .map_err(|e| format!("encoder: {e:?}"))?;
+    let t0 = Instant::now();
+    let now_ns = || t0.elapsed().as_nanos() as u64;
+    let mut frame_id = 0u32;
+    let mut stats = CameraStats::default();
+    let mut open = true;
+    loop {
+        // Wait for input only as long as no frame is due.
+        let got = match control.mode {
+            _ if !open => Err(mpsc::RecvTimeoutError::Disconnected),
+            Mode::Triggered if control.pending == 0 => input.recv_timeout(Duration::from_millis(50)),
+            Mode::FreeRun { .. } => input.recv_timeout(Duration::from_millis(1)),
+            Mode::Triggered => input.try_recv().map_err(|e| match e {
+                mpsc::TryRecvError::Empty => mpsc::RecvTimeoutError::Timeout,
+                mpsc::TryRecvError::Disconnected => mpsc::RecvTimeoutError::Disconnected,
+            }),
+        };
+        match got {
+            Ok((_, bytes)) => {
+                for b in bytes {
+                    let Some(r) = rx.push(b) else { continue };
+                    let Ok(req) = r else { continue };
+                    let answer = control.handle(&req, &mut scene, n, |id| build(id).map_err(|_| "scene"));
+                    let sent = match answer {
+                        Answer::Ack => {
+                            stats.acks += 1;
+                            enc.send_reply(&Ack {
+                                seq: req.seq,
+                                timestamp_ns: now_ns(),
+                            })
+                        }
+                        Answer::Reject(reason, field) => {
+                            stats.rejects += 1;
+                            enc.send_reply(&Reject {
+                                seq: req.seq,
+                                reason,
+                                field,
+                            })
+                        }
+                        Answer::Describe => enc.send_reply(&control.describe(&scene, n, frame_id)),
+                    };
+                    sent.map_err(|e| format!("answering: {e:?}"))?;
+                }
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => open = false,
+        }
+        if !open && control.pending == 0 {
+            break;
+        }
+        if control.frame_due(now_ns()) {
+            let name = scenes
+                .get(control.scene_id as usize)
+                .map_or("scene", |r| r.desc.name.as_str());
+            let (core, stages) = planned_frame(&scene, name, frame_id)?;
+            let start = FrameStart::of(
+                frame_id,
+                control.scene_id,
+                &scene,
+                &stages,
+                now_ns(),
+                control.last_command(),
+            );
+            enc.begin_frame(start).map_err(|e| format!("sending: {e:?}"))?;
+            for line in core.pixels.chunks(start.line_bytes().max(1)) {
+                enc.push_line(line).map_err(|e| format!("sending: {e:?}"))?;
+            }
+            enc.end_frame(None).map_err(|e| format!("sending: {e:?}"))?;
+            frame_id = frame_id.wrapping_add(1);
+            stats.frames += 1;
+        }
+    }
+    stats.requests = rx.stats.requests;
+    stats.refused = rx.stats.errors;
+    Ok(stats)
+}
