@@ -4,7 +4,8 @@
 # prints one line of metrics a scene; streams the standard scene through the
 # simulated UART and USB links and runs the fault campaign; runs the firmware
 # in QEMU on both boards (installing QEMU when it can) and checks its frames
-# against the host render; the speed/accuracy sweep; then the demo camera's
+# against the host render; drives the camera firmware in QEMU along a
+# trajectory (the closed loop); the speed/accuracy sweep; then the demo camera's
 # projections and lens figures, core vs reference.
 #
 # Works on a fresh machine with only rustup (it installs the thumb targets).
@@ -45,6 +46,14 @@ if [ $qemu = 1 ]; then
   build_firmware
   ./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
   ./target/release/host-sim hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
+  # The closed loop: the camera build of the firmware driven over its UART
+  # (SetPose, Trigger) along a trajectory, every frame checked byte for byte
+  # against the host render of its pose and its ground truth against the
+  # pose sent.
+  loop_frames=300
+  [ $short = 1 ] && loop_frames=30
+  ./target/release/host-sim drive --board lm3s6965evb --scene scenes/standard.toml --frames $loop_frames \
+    --capture out/drive/camera.bin --out out/drive
 else
   echo "SKIPPED: the firmware-in-QEMU run (qemu-system-arm is not installed and could not be"
   echo "installed: run as root on Debian, or apt-get install qemu-system-arm, then rerun)."

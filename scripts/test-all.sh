@@ -29,7 +29,9 @@ echo "   thumbv7em-none-eabihf --features defmt: ok"
 
 echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (compile only)"
 build_firmware
-(cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings)
+(cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings &&
+  cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
+    --target thumbv7m-none-eabi -- -D warnings)
 
 echo "== tests"
 rm -rf target/tmp/accuracy
@@ -65,7 +67,7 @@ awk -F': ' '/"flash_bytes"/ { gsub(",", "", $2); if ($2 + 0 > 65536) { print "fl
 echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
 ./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
 if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
-[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 3 ] || { echo "a fuzz target did not run"; exit 1; }
+[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
 
 echo "== largest errors measured by the property tests (core vs f64 reference)"
 cat target/tmp/accuracy/*.txt

@@ -37,10 +37,21 @@ pub const CHUNK_HEADER_MAX: usize = 1 + 5 + 3 + 5 + 5;
 /// pixels per message, link efficiency above 0.98 for 160×120 Gray8.
 pub const DEFAULT_CHUNK: usize = 2048;
 
-/// The encoded size a chunk buffer of `chunk` bytes needs: the message, its
-/// CRC, COBS's overhead, and the delimiter.
+/// Largest body of any message but a [`Chunk`], bytes: a [`FrameStart`]
+/// with every varint at its longest (30 bytes of header, 180 of truth).
+/// Replies are shorter (a [`Reject`] names a field of at most 24 bytes).
+pub const MESSAGE_MAX: usize = 210;
+
+/// The encoded size a chunk buffer of `chunk` bytes needs: the largest
+/// message (a chunk's, or [`MESSAGE_MAX`]), its CRC, COBS's overhead, and
+/// the delimiter.
 pub const fn wire_size(chunk: usize) -> usize {
-    let msg = chunk + CHUNK_HEADER_MAX + 4;
+    let body = if chunk + CHUNK_HEADER_MAX > MESSAGE_MAX {
+        chunk + CHUNK_HEADER_MAX
+    } else {
+        MESSAGE_MAX
+    };
+    let msg = body + 4;
     msg + msg / 254 + 2
 }
 

@@ -426,3 +426,72 @@ fn replies_are_messages_three_to_five() {
         Some(host_sim::link::decoder::Reply::Ack(ack))
     );
 }
+
+/// MESSAGE_MAX bounds every message but a chunk: a FrameStart and the
+/// answers with every varint at its longest.
+#[test]
+fn message_max_bounds_every_header_and_answer() {
+    use hilcam::link::{FrameStart, Truth, WireFormat, WirePlan, MESSAGE_MAX};
+    let start = FrameStart {
+        version: u8::MAX,
+        frame_id: u32::MAX,
+        width: u16::MAX,
+        height: u16::MAX,
+        format: WireFormat::Gray16 { bits: u8::MAX },
+        scene_id: u32::MAX,
+        exposure: i64::MIN,
+        truth: Truth {
+            timestamp_ns: u64::MAX,
+            command: Some(u32::MAX),
+            rotation: [[f64::MAX; 3]; 3],
+            translation: [f64::MAX; 3],
+            focal_length: f64::MAX,
+            pitch: [f64::MAX; 2],
+            principal_point: [f64::MAX; 2],
+            distortion: [f64::MAX; 2],
+            plan: WirePlan {
+                arithmetic: u8::MAX,
+                model: u8::MAX,
+                distortion: u8::MAX,
+                table_entries: u16::MAX,
+                samples: u8::MAX,
+                adaptive: true,
+                aperture: u16::MAX,
+                noise: true,
+            },
+        },
+    };
+    let size = |m: &Message| {
+        postcard::serialize_with_flavor::<_, postcard::ser_flavors::Size, usize>(m, Default::default())
+            .expect("size")
+    };
+    assert_eq!(size(&Message::FrameStart(start)), MESSAGE_MAX);
+    let longest_field = "pose.translation.longest"; // 24 bytes: longer than any field named
+    assert_eq!(longest_field.len(), 24);
+    for m in [
+        Message::Reject(Reject {
+            seq: u32::MAX,
+            reason: Reason::OutOfOrder { expected: u32::MAX },
+            field: longest_field,
+        }),
+        Message::Ack(Ack {
+            seq: u32::MAX,
+            timestamp_ns: u64::MAX,
+        }),
+        Message::Description(Description {
+            version: u8::MAX,
+            scenes: u32::MAX,
+            scene_id: u32::MAX,
+            width: u16::MAX,
+            height: u16::MAX,
+            format: WireFormat::Gray16 { bits: u8::MAX },
+            mode: Mode::FreeRun { period_us: u32::MAX },
+            pending: u32::MAX,
+            last_command: Some(u32::MAX),
+            next_frame: u32::MAX,
+            max_request: u32::MAX,
+        }),
+    ] {
+        assert!(size(&m) <= MESSAGE_MAX, "{m:?}: {}", size(&m));
+    }
+}

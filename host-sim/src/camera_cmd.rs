@@ -33,6 +33,44 @@ impl<W: Write> embedded_io::Write for IoWrite<W> {
     }
 }
 
+/// A writer that copies everything it writes to a capture file.
+pub struct Tee<W> {
+    /// The writer.
+    pub inner: W,
+    /// The copy.
+    pub capture: Option<std::fs::File>,
+}
+
+impl<W: Write> Write for Tee<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        if let Some(f) = self.capture.as_mut() {
+            f.write_all(&buf[..n])?;
+        }
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Runs the camera on the serial device `path` (a real port or a pty)
+/// until the other end hangs up; `capture` receives the bytes it sends.
+pub fn serve_device(
+    path: &str,
+    baud: u32,
+    scenes: &[Resolved],
+    capture: Option<&std::path::Path>,
+) -> Result<CameraStats, String> {
+    let port = serialport::new(path, baud)
+        .timeout(Duration::from_millis(100))
+        .open()
+        .map_err(|e| format!("{path}: {e}"))?;
+    let reader = port.try_clone().map_err(|e| format!("{path}: {e}"))?;
+    let capture = capture.map(crate::drive_cmd::create_capture).transpose()?;
+    serve(reader, Tee { inner: port, capture }, scenes)
+}
+
 /// What the camera did.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct CameraStats {

@@ -48,7 +48,9 @@ pub fn spawn_reader(
                 Err(e)
                     if matches!(
                         e.kind(),
-                        std::io::ErrorKind::Interrupted | std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                        std::io::ErrorKind::Interrupted
+                            | std::io::ErrorKind::TimedOut
+                            | std::io::ErrorKind::WouldBlock
                     ) => {}
                 Err(_) => return,
             }
@@ -238,9 +240,11 @@ pub struct DriveReport {
     pub truth_matches: usize,
     /// Commands sent again after a silence.
     pub resent: u32,
-    /// Round trip in the camera's time, instructions (ns / 128 under
-    /// `-icount shift=7`): mean and largest.
-    pub round_trip_instructions: [f64; 2],
+    /// Round trip in the camera's time, ns: mean and largest.
+    pub round_trip_camera_ns: [f64; 2],
+    /// The same in instructions, where the camera's time counts them (QEMU
+    /// `-icount shift=7`: 128 ns an instruction): mean and largest.
+    pub round_trip_instructions: Option<[f64; 2]>,
     /// Round trip in host time, ms: mean and largest.
     pub round_trip_wall_ms: [f64; 2],
     /// Wall time of the whole drive, s.
@@ -274,14 +278,14 @@ pub fn scene_pose(r: &Resolved) -> Result<Pose, String> {
 
 /// Drives a camera whose only scene is `r` through `poses`; writes a PNG
 /// and a JSON sidecar (its ground truth) per frame and `drive.json` into
-/// `out`. `instr_ns`: ns of camera time an instruction (128 under QEMU
-/// `-icount shift=7`).
+/// `out`. `instr_ns`: ns of camera time an instruction, where it is fixed
+/// (128 under QEMU `-icount shift=7`).
 pub fn drive<W: Write>(
     driver: &mut Driver<W>,
     board: &str,
     r: &Resolved,
     poses: &[Pose],
-    instr_ns: f64,
+    instr_ns: Option<f64>,
     out: &Path,
 ) -> Result<DriveReport, String> {
     let mut outputs = crate::output::Outputs::prepare(out)?;
@@ -323,7 +327,13 @@ pub fn drive<W: Write>(
         // trigger (an older frame, already counted lost, is skipped).
         let a = loop {
             match driver.next_frame(driver.frame_timeout)? {
-                Some(a) if a.frame.start.truth.command.is_some_and(|c| c.wrapping_sub(ack.seq) > u32::MAX / 2) => {
+                Some(a)
+                    if a.frame
+                        .start
+                        .truth
+                        .command
+                        .is_some_and(|c| c.wrapping_sub(ack.seq) > u32::MAX / 2) =>
+                {
                     late += 1
                 }
                 other => break other,
@@ -387,12 +397,15 @@ pub fn drive<W: Write>(
         bit_exact: frames.iter().filter(|f| f.bit_exact).count(),
         truth_matches: frames.iter().filter(|f| f.truth_matches).count(),
         resent: driver.resent,
-        round_trip_instructions: stat(
-            frames
-                .iter()
-                .map(|f| f.round_trip_camera_ns as f64 / instr_ns)
-                .collect(),
-        ),
+        round_trip_camera_ns: stat(frames.iter().map(|f| f.round_trip_camera_ns as f64).collect()),
+        round_trip_instructions: instr_ns.map(|ns| {
+            stat(
+                frames
+                    .iter()
+                    .map(|f| f.round_trip_camera_ns as f64 / ns)
+                    .collect(),
+            )
+        }),
         round_trip_wall_ms: stat(frames.iter().map(|f| f.round_trip_wall_ms).collect()),
         seconds: t_all.elapsed().as_secs_f64(),
         link: driver.stats(),
@@ -446,12 +459,10 @@ pub fn drive_qemu(
                 Err(e) => return Err(format!("connecting to QEMU's UART at {}: {e}", sock.display())),
             }
         };
-        let capture = capture
-            .map(|p| std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display())))
-            .transpose()?;
+        let capture = capture.map(create_capture).transpose()?;
         let reader = stream.try_clone().map_err(|e| e.to_string())?;
         let mut driver = Driver::new(stream, spawn_reader(reader, capture));
-        drive(&mut driver, board.machine(), &r, &poses, 128.0, out)
+        drive(&mut driver, board.machine(), &r, &poses, Some(128.0), out)
     })();
     let _ = child.kill();
     let _ = child.wait();
@@ -459,8 +470,100 @@ pub fn drive_qemu(
     result
 }
 
+/// Drives the camera on the serial device `path` (a real port or a pty),
+/// whose scene 0 is `scene`.
+pub fn drive_device(
+    path: &str,
+    baud: u32,
+    scene: &Path,
+    poses_file: Option<&Path>,
+    frames: usize,
+    capture: Option<&Path>,
+    out: &Path,
+) -> Result<DriveReport, String> {
+    let r = load(scene)?;
+    let poses = poses(&r, poses_file, frames)?;
+    let port = serialport::new(path, baud)
+        .timeout(Duration::from_millis(100))
+        .open()
+        .map_err(|e| format!("{path}: {e}"))?;
+    let reader = port.try_clone().map_err(|e| format!("{path}: {e}"))?;
+    let capture = capture.map(create_capture).transpose()?;
+    let mut driver = Driver::new(port, spawn_reader(reader, capture));
+    drive(&mut driver, path, &r, &poses, None, out)
+}
+
+/// Creates a capture file (and its directory).
+pub fn create_capture(p: &Path) -> Result<std::fs::File, String> {
+    if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))
+}
+
 fn tempfile_dir() -> Result<PathBuf, String> {
     let dir = std::env::temp_dir().join(format!("hilcam-drive-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     Ok(dir)
+}
+
+/// `replay.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReplayReport {
+    /// Frames decoded intact.
+    pub frames: usize,
+    /// The answers to commands, in order.
+    pub replies: Vec<Reply>,
+    /// The decoder's counts.
+    pub link: Stats,
+}
+
+/// One replayed frame's sidecar.
+#[derive(Clone, Debug, Serialize)]
+struct ReplayFrame {
+    frame_id: u32,
+    scene_id: u32,
+    width: u16,
+    height: u16,
+    format: String,
+    exposure: f64,
+    truth: Truth,
+    instructions: Option<u64>,
+}
+
+/// Decodes a captured camera stream into `out`: `frame-N.png` and
+/// `frame-N.json` (its header and ground truth) per frame, `replay.json`.
+pub fn replay(capture: &Path, out: &Path) -> Result<ReplayReport, String> {
+    let bytes = std::fs::read(capture).map_err(|e| format!("{}: {e}", capture.display()))?;
+    let mut outputs = crate::output::Outputs::prepare(out)?;
+    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    let mut frames = Vec::new();
+    dec.push(&bytes, &mut |f| frames.push(f));
+    for (k, f) in frames.iter().enumerate() {
+        let s = &f.start;
+        let format = hilcam::scene::PixelFormat::from(s.format);
+        let png = crate::frame_png::encode_png(format, s.width as usize, s.height as usize, &f.pixels)?;
+        outputs.write(&format!("frame-{k:05}.png"), &png)?;
+        let side = ReplayFrame {
+            frame_id: s.frame_id,
+            scene_id: s.scene_id,
+            width: s.width,
+            height: s.height,
+            format: format.name().into(),
+            exposure: s.exposure as f64 / 2f64.powi(32),
+            truth: s.truth,
+            instructions: f.end.cost,
+        };
+        let json = serde_json::to_vec_pretty(&side).map_err(|e| e.to_string())?;
+        outputs.write(&format!("frame-{k:05}.json"), &json)?;
+    }
+    let report = ReplayReport {
+        frames: frames.len(),
+        replies: dec.replies.drain(..).collect(),
+        link: dec.stats,
+    };
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+    outputs.write("replay.json", &json)?;
+    outputs.commit()?;
+    Ok(report)
 }

@@ -117,7 +117,8 @@ enum Cmd {
         #[arg(long)]
         out: std::path::PathBuf,
     },
-    /// Print a complete small frame as it goes on the wire (docs/wire.md).
+    /// Print a complete small frame as it goes on the wire, then a few
+    /// commands and answers (docs/wire.md's examples).
     WireExample,
     /// Drive the camera firmware in QEMU (UART0 both ways) along a
     /// trajectory: SetPose and Trigger for each pose; check every frame byte
@@ -142,6 +143,42 @@ enum Cmd {
         /// Write the raw bytes the camera sent to this file.
         #[arg(long)]
         capture: Option<std::path::PathBuf>,
+        /// Drive the camera on this serial device (a real port or a pty)
+        /// instead of the firmware in QEMU; its scene 0 must be --scene.
+        #[arg(long)]
+        device: Option<String>,
+        /// Baud rate of --device.
+        #[arg(long, default_value_t = 115_200)]
+        baud: u32,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
+    /// Be the camera on a serial device (a real port or a pty): obey the
+    /// commands that arrive (docs/wire.md), stream the frames they ask for
+    /// with their ground truth, until the other end hangs up.
+    Camera {
+        /// Serial device.
+        #[arg(long)]
+        device: String,
+        /// Baud rate.
+        #[arg(long, default_value_t = 115_200)]
+        baud: u32,
+        /// The scenes it holds, in SelectScene id order (default: every
+        /// scene in scenes/, sorted by file name, as the firmware).
+        #[arg(long, num_args = 1..)]
+        scene: Vec<std::path::PathBuf>,
+        /// Write the raw bytes it sends to this file.
+        #[arg(long)]
+        capture: Option<std::path::PathBuf>,
+    },
+    /// Decode a captured stream (--capture of drive or camera): every
+    /// frame as frame-N.png with its ground truth in frame-N.json, the
+    /// answers and the decoder's counts in replay.json.
+    Replay {
+        /// The captured bytes.
+        #[arg(long)]
+        capture: std::path::PathBuf,
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
@@ -476,7 +513,11 @@ fn main() -> ExitCode {
                 ))
             }
         })()),
-        Cmd::WireExample => finish(host_sim::stream_cmd::wire_example().map(|s| s.trim_end().to_string())),
+        Cmd::WireExample => finish((|| {
+            let frame = host_sim::stream_cmd::wire_example()?;
+            let commands = host_sim::stream_cmd::command_example()?;
+            Ok(format!("{frame}\n{}", commands.trim_end()))
+        })()),
         Cmd::Tradeoff {
             out,
             tiny,
@@ -552,20 +593,32 @@ fn main() -> ExitCode {
             frames,
             poses,
             capture,
+            device,
+            baud,
             out,
         } => finish((|| {
-            let board = host_sim::hil_cmd::Board::parse(&board)?;
             if frames == 0 {
                 return Err("--frames: at least 1".into());
             }
-            let r = host_sim::drive_cmd::drive_qemu(
-                board,
-                &scene,
-                poses.as_deref(),
-                frames,
-                capture.as_deref(),
-                &out,
-            )?;
+            let r = match device {
+                Some(d) => host_sim::drive_cmd::drive_device(
+                    &d,
+                    baud,
+                    &scene,
+                    poses.as_deref(),
+                    frames,
+                    capture.as_deref(),
+                    &out,
+                )?,
+                None => host_sim::drive_cmd::drive_qemu(
+                    host_sim::hil_cmd::Board::parse(&board)?,
+                    &scene,
+                    poses.as_deref(),
+                    frames,
+                    capture.as_deref(),
+                    &out,
+                )?,
+            };
             let s = format!(
                 "{} {}: {} of {} frames received, {} bit-exact, {} with matching ground truth, {} lost, \
                  {} out of order, {} commands resent; round trip (Trigger -> first byte) mean {:.0} / max {:.0} \
@@ -579,8 +632,8 @@ fn main() -> ExitCode {
                 r.lost,
                 r.out_of_order,
                 r.resent,
-                r.round_trip_instructions[0],
-                r.round_trip_instructions[1],
+                r.round_trip_instructions.map_or(f64::NAN, |v| v[0]),
+                r.round_trip_instructions.map_or(f64::NAN, |v| v[1]),
                 r.round_trip_wall_ms[0],
                 r.round_trip_wall_ms[1],
                 r.seconds
@@ -590,6 +643,41 @@ fn main() -> ExitCode {
             } else {
                 Err(format!("{s}\nthe drive failed (see drive.json)"))
             }
+        })()),
+        Cmd::Camera {
+            device,
+            baud,
+            scene,
+            capture,
+        } => finish((|| {
+            let paths = if scene.is_empty() {
+                host_sim::hil_cmd::shipped_scenes()?
+            } else {
+                scene
+            };
+            let scenes = paths
+                .iter()
+                .map(|p| host_sim::scene_file::load(p))
+                .collect::<Result<Vec<_>, _>>()?;
+            let s = host_sim::camera_cmd::serve_device(&device, baud, &scenes, capture.as_deref())?;
+            Ok(format!(
+                "camera on {device}: {} requests ({} acknowledged, {} refused), {} frames sent; \
+                 {:?} messages refused (oversize, COBS, CRC, malformed)",
+                s.requests, s.acks, s.rejects, s.frames, s.refused
+            ))
+        })()),
+        Cmd::Replay { capture, out } => finish((|| {
+            let r = host_sim::drive_cmd::replay(&capture, &out)?;
+            Ok(format!(
+                "{}: {} frames, {} answers; {} bad messages (COBS {}, CRC {}, other {})",
+                capture.display(),
+                r.frames,
+                r.replies.len(),
+                r.link.bad_cobs + r.link.bad_crc + r.link.bad_message,
+                r.link.bad_cobs,
+                r.link.bad_crc,
+                r.link.bad_message
+            ))
         })()),
         Cmd::Hil {
             board,

@@ -324,7 +324,6 @@ fn example_truth() -> Truth {
 /// A complete small frame on the wire (4×2 Gray8), as annotated hex: the
 /// example `docs/wire.md` shows.
 pub fn wire_example() -> Result<String, String> {
-    use std::fmt::Write;
     let start = FrameStart {
         version: PROTOCOL_VERSION,
         frame_id: 7,
@@ -350,8 +349,81 @@ pub fn wire_example() -> Result<String, String> {
     let names = ["delimiter", "FrameStart", "Chunk", "FrameEnd"];
     let mut s = String::new();
     for (k, (a, b)) in rec.writes.iter().enumerate() {
-        let hex: Vec<String> = rec.bytes[*a..*b].iter().map(|x| format!("{x:02x}")).collect();
-        let _ = writeln!(s, "{:<10} {}", names.get(k).unwrap_or(&"?"), hex.join(" "));
+        hex_lines(&mut s, names.get(k).unwrap_or(&"?"), &rec.bytes[*a..*b]);
     }
     Ok(s)
+}
+
+/// The commands and answers of `docs/wire.md`'s examples, as annotated
+/// hex: a `SetPose`, a `Trigger` and a `Describe` (host → camera), then an
+/// `Ack`, a `Reject` and a `Description` (camera → host).
+pub fn command_example() -> Result<String, String> {
+    use hilcam::control::{Ack, Command, Description, Mode, Reason, Reject, Request};
+    let mut s = String::new();
+    let mut buf = [0u8; 256];
+    let req = |seq, command| Request {
+        version: PROTOCOL_VERSION,
+        seq,
+        command,
+    };
+    let requests = [
+        (
+            "SetPose",
+            req(
+                4,
+                Command::SetPose {
+                    rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                    translation: [0.5, 0.0, -2.0],
+                },
+            ),
+        ),
+        ("Trigger", req(5, Command::Trigger { frames: 1 })),
+        ("Describe", req(6, Command::Describe)),
+    ];
+    for (name, r) in requests {
+        let bytes = hilcam::link::encode_message(&r, &mut buf).ok_or("encode")?;
+        hex_lines(&mut s, name, bytes);
+    }
+    let mut enc = Encoder::<Recorder, 8, { hilcam::link::wire_size(8) }>::new(Recorder::default())
+        .map_err(|e| format!("{e:?}"))?;
+    enc.send_reply(&Ack {
+        seq: 5,
+        timestamp_ns: 2_000_000,
+    })
+    .map_err(|e| format!("{e:?}"))?;
+    enc.send_reply(&Reject {
+        seq: 6,
+        reason: Reason::OutOfOrder { expected: 5 },
+        field: "seq",
+    })
+    .map_err(|e| format!("{e:?}"))?;
+    enc.send_reply(&Description {
+        version: PROTOCOL_VERSION,
+        scenes: 8,
+        scene_id: 0,
+        width: 160,
+        height: 120,
+        format: WireFormat::Gray8,
+        mode: Mode::Triggered,
+        pending: 0,
+        last_command: Some(5),
+        next_frame: 1,
+        max_request: hilcam::control::MAX_REQUEST as u32,
+    })
+    .map_err(|e| format!("{e:?}"))?;
+    let rec = enc.into_inner();
+    for (name, (a, b)) in ["Ack", "Reject", "Description"].iter().zip(&rec.writes) {
+        hex_lines(&mut s, name, &rec.bytes[*a..*b]);
+    }
+    Ok(s)
+}
+
+/// `name` and `bytes` in hex, 24 bytes a line.
+fn hex_lines(s: &mut String, name: &str, bytes: &[u8]) {
+    use std::fmt::Write;
+    for (i, piece) in bytes.chunks(24).enumerate() {
+        let hex: Vec<String> = piece.iter().map(|x| format!("{x:02x}")).collect();
+        let label = if i == 0 { name } else { "" };
+        let _ = writeln!(s, "{label:<11} {}", hex.join(" "));
+    }
 }

@@ -6,14 +6,19 @@
 
 use host_sim::camera_cmd::serve;
 use host_sim::drive_cmd::{drive, poses, spawn_reader, DriveReport, Driver};
-use host_sim::link::sim::{FaultyWriter, Faults};
+use host_sim::link::sim::{Faults, FaultyWriter};
 use host_sim::scene_file::load;
+use serialport::SerialPort;
 use std::os::unix::net::UnixStream;
 use std::path::Path;
 use std::time::Duration;
 
 fn standard() -> host_sim::scene_file::Resolved {
-    load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/standard.toml"))).expect("standard")
+    load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/standard.toml"
+    )))
+    .expect("standard")
 }
 
 /// Drives the host camera through `n` poses of the standard scene's
@@ -32,7 +37,7 @@ fn run(n: usize, to_camera: Faults, to_host: Faults) -> (DriveReport, host_sim::
     driver.frame_timeout = Duration::from_secs(1);
     let out = std::env::temp_dir().join(format!("hilcam-loop-{}-{}", std::process::id(), to_host.seed));
     let poses = poses(&r, None, n).expect("poses");
-    let report = drive(&mut driver, "host", &r, &poses, 1.0, &out).expect("drive");
+    let report = drive(&mut driver, "host", &r, &poses, None, &out).expect("drive");
     // Closes the link (the reader thread holds a handle too): the camera
     // sees its input end and stops.
     hangup.shutdown(std::net::Shutdown::Both).expect("shutdown");
@@ -49,7 +54,10 @@ fn run(n: usize, to_camera: Faults, to_host: Faults) -> (DriveReport, host_sim::
 fn the_host_camera_follows_the_trajectory() {
     let (r, cam) = run(30, Faults::default(), Faults::default());
     assert!(r.passed(), "{r:#?}");
-    assert_eq!((r.frames_received, r.lost, r.out_of_order, r.resent), (30, 0, 0, 0));
+    assert_eq!(
+        (r.frames_received, r.lost, r.out_of_order, r.resent),
+        (30, 0, 0, 0)
+    );
     // Describe is answered, not counted; SelectScene, then SetPose and
     // Trigger a frame.
     assert_eq!((cam.acks, cam.rejects, cam.frames), (1 + 2 * 30, 0, 30));
@@ -96,9 +104,55 @@ fn faults_lose_frames_but_never_corrupt_them() {
         total_refused += cam.refused.iter().sum::<u32>();
     }
     // The faults did hit both ways (otherwise this test checks nothing).
-    assert!(total_lost > 0, "no frame was lost: the fault rates are too low to test anything");
+    assert!(
+        total_lost > 0,
+        "no frame was lost: the fault rates are too low to test anything"
+    );
     assert!(
         total_resent > 0 && total_refused > 0,
         "no command was hit: the fault rates are too low to test anything"
     );
+}
+
+/// `host-sim camera --device` on a pty: the driver on the master side
+/// drives the command-line camera through 10 poses; every frame arrives
+/// bit-exact with its truth; the camera stops when the driver hangs up.
+#[test]
+fn the_command_line_camera_obeys_over_a_pty() {
+    let r = standard();
+    let (master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let path = slave.name().expect("pty name");
+    let dir = std::env::temp_dir().join(format!("hilcam-pty-camera-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let capture = dir.join("camera.bin");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["camera", "--device", &path, "--scene"])
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/standard.toml"))
+        .arg("--capture")
+        .arg(&capture)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("host-sim camera");
+    let reader = master.try_clone_native().expect("clone");
+    let mut driver = Driver::new(master, spawn_reader(reader, None));
+    // Bytes written before the camera has the port open may be flushed by
+    // its opening: the driver sends again after a silence.
+    driver.timeout = Duration::from_millis(500);
+    driver.frame_timeout = Duration::from_secs(10);
+    let poses = poses(&r, None, 10).expect("poses");
+    let report = drive(&mut driver, "pty", &r, &poses, None, &dir.join("out"));
+    drop(driver);
+    drop(slave);
+    // The reader thread still holds the master: the camera may not see the
+    // hang-up; stop it.
+    std::thread::sleep(Duration::from_millis(200));
+    let _ = child.kill();
+    let out = child.wait_with_output().expect("camera exits");
+    let report = report.unwrap_or_else(|e| panic!("{e}\n{}", String::from_utf8_lossy(&out.stderr)));
+    assert!(report.passed(), "{report:#?}");
+    // What the camera captured replays to the same frames.
+    let replay = host_sim::drive_cmd::replay(&capture, &dir.join("replay")).expect("replay");
+    assert_eq!(replay.frames, 10);
+    let _ = std::fs::remove_dir_all(&dir);
 }

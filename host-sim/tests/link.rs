@@ -227,7 +227,8 @@ fn decoder_reads_a_pty() {
 fn wire_doc_example_is_current() {
     let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/wire.md"))
         .expect("docs/wire.md");
-    for line in wire_example().expect("example").lines() {
+    let all = wire_example().expect("example") + &host_sim::stream_cmd::command_example().expect("commands");
+    for line in all.lines() {
         assert!(doc.contains(line.trim_end()), "docs/wire.md lacks {line:?}");
     }
 }
