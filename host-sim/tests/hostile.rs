@@ -490,7 +490,7 @@ fn frame_headers_claiming_huge_frames_are_refused() {
     // send the pixels, nor have an encoder that holds such lines):
     // COBS(postcard ‖ CRC-32 LE) 0x00.
     let wire = |start: FrameStart| {
-        let mut body = [0u8; 64];
+        let mut body = [0u8; hilcam::link::MESSAGE_MAX];
         let n = postcard::to_slice(&hilcam::link::Message::FrameStart(start), &mut body)
             .expect("serializes")
             .len();
