@@ -10,6 +10,7 @@ pub mod camera_cmd;
 pub mod costfit;
 pub mod demo;
 pub mod drive_cmd;
+pub mod export;
 pub mod frame_png;
 pub mod harness;
 pub mod hil_cmd;

@@ -154,6 +154,19 @@ enum Cmd {
         #[arg(long)]
         out: std::path::PathBuf,
     },
+    /// Export a scene's camera for calibration tools: opencv.yaml (OpenCV
+    /// FileStorage: camera matrix, distortion refitted in OpenCV's direction,
+    /// rotation and translation), ros.yaml (ROS CameraInfo) and export.json
+    /// (the fit's largest residual in px, and world points with the pixels
+    /// the emulator images them at).
+    Export {
+        /// Scene file.
+        #[arg(long)]
+        scene: std::path::PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
     /// Be the camera on a serial device (a real port or a pty): obey the
     /// commands that arrive (docs/wire.md), stream the frames they ask for
     /// with their ground truth, until the other end hangs up.
@@ -664,6 +677,26 @@ fn main() -> ExitCode {
                 "camera on {device}: {} requests ({} acknowledged, {} refused), {} frames sent; \
                  {:?} messages refused (oversize, COBS, CRC, malformed)",
                 s.requests, s.acks, s.rejects, s.frames, s.refused
+            ))
+        })()),
+        Cmd::Export { scene, out } => finish((|| {
+            let r = host_sim::scene_file::load(&scene)?;
+            let e = host_sim::export::export(&r)?;
+            let mut o = Outputs::prepare(&out)?;
+            o.write("opencv.yaml", host_sim::export::opencv_yaml(&e).as_bytes())?;
+            o.write("ros.yaml", host_sim::export::ros_yaml(&e).as_bytes())?;
+            o.write(
+                "export.json",
+                &serde_json::to_vec_pretty(&e).map_err(|e| e.to_string())?,
+            )?;
+            o.commit()?;
+            Ok(format!(
+                "{}: {} with {} coefficients, largest residual {:.2e} px over r_d <= {:.4}",
+                e.camera,
+                e.distortion.model,
+                e.distortion.coefficients.len(),
+                e.distortion.residual_px,
+                e.distortion.r_max
             ))
         })()),
         Cmd::Replay { capture, out } => finish((|| {

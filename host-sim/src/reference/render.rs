@@ -463,6 +463,16 @@ impl RefScene {
         }
     }
 
+    /// The pose.
+    pub fn pose(&self) -> Pose {
+        self.pose
+    }
+
+    /// The radial distortion, if any.
+    pub fn radial(&self) -> Option<Radial> {
+        self.radial
+    }
+
     /// The camera-frame depth `z` of what the chief ray through pixel
     /// position `(xi, yi)` hits; `None` outside the lens field or if it
     /// hits nothing.
