@@ -42,7 +42,9 @@ pub struct Fit {
 }
 
 /// Least squares `min |A x − b|` by Householder QR (`A` is `m × n`,
-/// `m ≥ n`, row-major); `None` if `A` is rank-deficient.
+/// `m ≥ n`, row-major); `None` if `A` is rank-deficient. Written with
+/// indices, as the algorithm is.
+#[allow(clippy::needless_range_loop)]
 fn lstsq(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     let (m, n) = (a.len(), a.first()?.len());
     for k in 0..n {
