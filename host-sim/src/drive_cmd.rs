@@ -418,15 +418,18 @@ pub fn drive<W: Write>(
 }
 
 /// The poses of a drive: `poses_file` (JSON or CSV lines, see
-/// [`Trajectory::parse`]) sampled at `frames` points, or the scene's pose
-/// wobbled ([`Trajectory::wobble`]).
+/// [`Trajectory::parse`]) sampled at `frames` points, else the scene's
+/// `[[trajectory]]`, else the scene's pose wobbled ([`Trajectory::wobble`]).
 pub fn poses(r: &Resolved, poses_file: Option<&Path>, frames: usize) -> Result<Vec<Pose>, String> {
     let traj = match poses_file {
         Some(p) => {
             let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
             Trajectory::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?
         }
-        None => Trajectory::wobble(&scene_pose(r)?, 1.0),
+        None => match &r.trajectory {
+            Some(t) => t.clone(),
+            None => Trajectory::wobble(&scene_pose(r)?, 1.0),
+        },
     };
     Ok(traj.sample(frames))
 }

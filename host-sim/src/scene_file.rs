@@ -35,6 +35,12 @@ pub struct SceneDesc {
     /// Sensor noise (camera-model.md §9); off without it.
     #[serde(default)]
     pub noise: Option<NoiseDesc>,
+    /// `[[trajectory]]`: timed keyframes of the camera (`t` s, `position`
+    /// m, `quaternion` `[w, x, y, z]` of the camera-to-world rotation), for
+    /// runs that produce a sequence (`host-sim drive`); the pose above is
+    /// the still camera's.
+    #[serde(default)]
+    pub trajectory: Vec<crate::trajectory::Keyframe>,
 }
 
 /// `[sampling]`.
@@ -359,6 +365,8 @@ pub struct Resolved {
     pub primitives: Vec<ResolvedPrimitive>,
     /// Lights.
     pub lights: Vec<LightDesc>,
+    /// The camera's trajectory, if the file gives one.
+    pub trajectory: Option<crate::trajectory::Trajectory>,
 }
 
 /// The largest scene file read, bytes (docs/scenes.md): a scene of the
@@ -672,12 +680,29 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
         }
         lights.push(light);
     }
+    let trajectory = if desc.trajectory.is_empty() {
+        None
+    } else {
+        let t = crate::trajectory::Trajectory::new(desc.trajectory.clone())?;
+        if let Some(i) = desc
+            .trajectory
+            .iter()
+            .position(|k| k.position.iter().any(|v| v.abs() > hilcam::scene::MAX_EXTENT))
+        {
+            return Err(format!(
+                "trajectory keyframe {i}: position: beyond ±{} m",
+                hilcam::scene::MAX_EXTENT
+            ));
+        }
+        Some(t)
+    };
     let r = Resolved {
         desc,
         format,
         pose,
         primitives,
         lights,
+        trajectory,
     };
     // Build the core scene and prepare its default frame once, so that
     // every range check runs now, naming the field, rather than at render.

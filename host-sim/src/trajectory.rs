@@ -20,6 +20,7 @@ pub struct Pose {
 
 /// A keyframe.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Keyframe {
     /// Time, seconds.
     pub t: f64,
