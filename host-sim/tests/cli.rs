@@ -190,3 +190,93 @@ intensity = 0.5
     assert!(out_dir.join("metrics.json").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The closed loop's commands on bad input: a clear error naming what is
+/// wrong, a failing exit status, and nothing written.
+#[test]
+fn loop_commands_refuse_bad_input_naming_it() {
+    let dir = std::env::temp_dir().join(format!("hilcam-cli-loop-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let bad_poses = dir.join("bad-poses.csv");
+    std::fs::write(&bad_poses, "0,0,0,0,1,0,0,0\n0,1,0,0,1,0,0,0\n").expect("write");
+    let garbage = dir.join("garbage.bin");
+    std::fs::write(&garbage, [0x55u8; 1000]).expect("write");
+    let out_dir = dir.join("out");
+    let standard = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/standard.toml");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec!["drive".into(), "--frames".into(), "0".into()],
+            "--frames: at least 1",
+        ),
+        (vec!["drive".into(), "--board".into(), "pdp11".into()], "pdp11"),
+        (
+            vec![
+                "drive".into(),
+                "--device".into(),
+                "/dev/null".into(),
+                "--poses".into(),
+                bad_poses.display().to_string(),
+            ],
+            "keyframe 1: t",
+        ),
+        (
+            vec!["drive".into(), "--device".into(), "/nonexistent/tty".into()],
+            "/nonexistent/tty",
+        ),
+        (
+            vec!["camera".into(), "--device".into(), "/nonexistent/tty".into()],
+            "/nonexistent/tty",
+        ),
+        (
+            vec![
+                "replay".into(),
+                "--capture".into(),
+                "/nonexistent/capture.bin".into(),
+            ],
+            "/nonexistent/capture.bin",
+        ),
+        (
+            vec![
+                "export".into(),
+                "--scene".into(),
+                "/nonexistent/scene.toml".into(),
+            ],
+            "/nonexistent/scene.toml",
+        ),
+    ];
+    for (args, want) in cases {
+        let with_out = args[0] != "camera";
+        let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .args(&args)
+            .args(if with_out {
+                vec!["--out".to_string(), out_dir.display().to_string()]
+            } else {
+                vec![]
+            })
+            .args(if args[0] == "drive" {
+                vec!["--scene", standard]
+            } else {
+                vec![]
+            })
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(
+            !out_dir.exists() || std::fs::read_dir(&out_dir).expect("dir").next().is_none(),
+            "{args:?} wrote into {}",
+            out_dir.display()
+        );
+    }
+    // Garbage replays to nothing, and says how much was bad.
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["replay", "--capture"])
+        .arg(&garbage)
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .expect("runs");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("0 frames"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
