@@ -62,13 +62,16 @@ pub fn serve_device(
     scenes: &[Resolved],
     capture: Option<&std::path::Path>,
 ) -> Result<CameraStats, String> {
-    let port = serialport::new(path, baud)
-        .timeout(Duration::from_millis(100))
-        .open()
-        .map_err(|e| format!("{path}: {e}"))?;
-    let reader = port.try_clone().map_err(|e| format!("{path}: {e}"))?;
+    let (reader, writer) = crate::link::serial::open(path, baud)?;
     let capture = capture.map(crate::drive_cmd::create_capture).transpose()?;
-    serve(reader, Tee { inner: port, capture }, scenes)
+    serve(
+        reader,
+        Tee {
+            inner: writer,
+            capture,
+        },
+        scenes,
+    )
 }
 
 /// What the camera did.

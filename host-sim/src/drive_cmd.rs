@@ -434,50 +434,27 @@ pub fn poses(r: &Resolved, poses_file: Option<&Path>, frames: usize) -> Result<V
     Ok(traj.sample(frames))
 }
 
-/// Builds the camera firmware for `board` with `scene` alone, runs it in
-/// QEMU with UART0 on a Unix socket, and drives it ([`drive`]);
-/// `capture` receives the raw bytes the camera sent.
-pub fn drive_qemu(
-    board: Board,
-    scene: &Path,
-    poses_file: Option<&Path>,
-    frames: usize,
-    capture: Option<&Path>,
-    out: &Path,
-) -> Result<DriveReport, String> {
-    let r = load(scene)?;
-    let poses = poses(&r, poses_file, frames)?;
-    let elf = build_firmware_as(board, &[scene.to_path_buf()], &[], true)?;
-    let dir = tempfile_dir()?;
-    let sock = dir.join("uart.sock");
-    let mut child = spawn_qemu(board, &elf, &format!("unix:{},server=on,wait=on", sock.display()))?;
-    let result = (|| {
-        let t = Instant::now();
-        let stream = loop {
-            match std::os::unix::net::UnixStream::connect(&sock) {
-                Ok(s) => break s,
-                Err(_) if t.elapsed() < Duration::from_secs(20) => {
-                    std::thread::sleep(Duration::from_millis(20))
-                }
-                Err(e) => return Err(format!("connecting to QEMU's UART at {}: {e}", sock.display())),
-            }
-        };
-        let capture = capture.map(create_capture).transpose()?;
-        let reader = stream.try_clone().map_err(|e| e.to_string())?;
-        let mut driver = Driver::new(stream, spawn_reader(reader, capture));
-        drive(&mut driver, board.machine(), &r, &poses, Some(128.0), out)
-    })();
-    let _ = child.kill();
-    let _ = child.wait();
-    let _ = std::fs::remove_dir_all(&dir);
-    result
+/// The camera a drive talks to.
+#[derive(Clone, Debug)]
+pub enum Target {
+    /// The camera firmware for this board, built with the drive's scene
+    /// alone and run in QEMU with UART0 on a Unix socket.
+    Qemu(Board),
+    /// A camera on a serial device (a real port or a pty) whose scene 0 is
+    /// the drive's scene.
+    Device {
+        /// The device.
+        path: String,
+        /// Baud rate.
+        baud: u32,
+    },
 }
 
-/// Drives the camera on the serial device `path` (a real port or a pty),
-/// whose scene 0 is `scene`.
-pub fn drive_device(
-    path: &str,
-    baud: u32,
+/// Drives the camera at `target` showing `scene` ([`drive`]) through the
+/// poses of `poses_file` or the scene ([`poses`]); `capture` receives the
+/// raw bytes the camera sent.
+pub fn drive_target(
+    target: &Target,
     scene: &Path,
     poses_file: Option<&Path>,
     frames: usize,
@@ -486,14 +463,47 @@ pub fn drive_device(
 ) -> Result<DriveReport, String> {
     let r = load(scene)?;
     let poses = poses(&r, poses_file, frames)?;
-    let port = serialport::new(path, baud)
-        .timeout(Duration::from_millis(100))
-        .open()
-        .map_err(|e| format!("{path}: {e}"))?;
-    let reader = port.try_clone().map_err(|e| format!("{path}: {e}"))?;
-    let capture = capture.map(create_capture).transpose()?;
-    let mut driver = Driver::new(port, spawn_reader(reader, capture));
-    drive(&mut driver, path, &r, &poses, None, out)
+    let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns| {
+        let capture = capture.map(create_capture).transpose()?;
+        let mut driver = Driver::new(writer, spawn_reader(reader, capture));
+        drive(&mut driver, name, &r, &poses, instr_ns, out)
+    };
+    match target {
+        Target::Device { path, baud } => {
+            let (reader, writer) = crate::link::serial::open(path, *baud)?;
+            run(reader, writer, path, None)
+        }
+        Target::Qemu(board) => {
+            let elf = build_firmware_as(*board, &[scene.to_path_buf()], &[], true)?;
+            let dir = tempfile_dir()?;
+            let sock = dir.join("uart.sock");
+            let mut child = spawn_qemu(
+                *board,
+                &elf,
+                &format!("unix:{},server=on,wait=on", sock.display()),
+            )?;
+            let result = connect(&sock).and_then(|stream| {
+                let reader = stream.try_clone().map_err(|e| e.to_string())?;
+                run(Box::new(reader), Box::new(stream), board.machine(), Some(128.0))
+            });
+            let _ = child.kill();
+            let _ = child.wait();
+            let _ = std::fs::remove_dir_all(&dir);
+            result
+        }
+    }
+}
+
+/// Connects to QEMU's UART socket once QEMU has made it (20 s at most).
+fn connect(sock: &Path) -> Result<std::os::unix::net::UnixStream, String> {
+    let t = Instant::now();
+    loop {
+        match std::os::unix::net::UnixStream::connect(sock) {
+            Ok(s) => return Ok(s),
+            Err(_) if t.elapsed() < Duration::from_secs(20) => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => return Err(format!("connecting to QEMU's UART at {}: {e}", sock.display())),
+        }
+    }
 }
 
 /// Creates a capture file (and its directory).

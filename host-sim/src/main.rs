@@ -613,25 +613,19 @@ fn main() -> ExitCode {
             if frames == 0 {
                 return Err("--frames: at least 1".into());
             }
-            let r = match device {
-                Some(d) => host_sim::drive_cmd::drive_device(
-                    &d,
-                    baud,
-                    &scene,
-                    poses.as_deref(),
-                    frames,
-                    capture.as_deref(),
-                    &out,
-                )?,
-                None => host_sim::drive_cmd::drive_qemu(
-                    host_sim::hil_cmd::Board::parse(&board)?,
-                    &scene,
-                    poses.as_deref(),
-                    frames,
-                    capture.as_deref(),
-                    &out,
-                )?,
+            use host_sim::drive_cmd::{drive_target, Target};
+            let target = match device {
+                Some(path) => Target::Device { path, baud },
+                None => Target::Qemu(host_sim::hil_cmd::Board::parse(&board)?),
             };
+            let r = drive_target(
+                &target,
+                &scene,
+                poses.as_deref(),
+                frames,
+                capture.as_deref(),
+                &out,
+            )?;
             let s = format!(
                 "{} {}: {} of {} frames received, {} bit-exact, {} with matching ground truth, {} lost, \
                  {} out of order, {} commands resent; round trip (Trigger -> first byte) mean {:.0} / max {:.0} \

@@ -52,6 +52,21 @@ impl Ending {
     }
 }
 
+/// Both ends of a serial device: a reader and a writer.
+pub type Duplex = (Box<dyn Read + Send>, Box<dyn std::io::Write + Send>);
+
+/// Opens the serial device at `path` (a real port or a pty) for both
+/// directions: a reader (which times out when idle, every 100 ms) and a
+/// writer.
+pub fn open(path: &str, baud: u32) -> Result<Duplex, String> {
+    let port = serialport::new(path, baud)
+        .timeout(Duration::from_millis(100))
+        .open()
+        .map_err(|e| format!("{path}: {e}"))?;
+    let reader = port.try_clone().map_err(|e| format!("{path}: {e}"))?;
+    Ok((Box::new(reader), Box::new(port)))
+}
+
 /// Reads from the serial device at `path` until the limits say stop; hands
 /// every intact frame to `on_frame` as it completes.
 pub fn receive(
