@@ -46,7 +46,10 @@ pub struct Intrinsics {
     /// Focal length in pixels, `f/s_x`, `f/s_y`.
     fx: Gain,
     fy: Gain,
-    half_fov: (Angle, Angle),
+    /// `W s_x / 2f` and `H s_y / 2f` as f64 bits (computed from the given
+    /// values): the half-angles of view are their `atan`, taken when asked,
+    /// so that a renderer links no `atan`.
+    tan_half_fov: (u64, u64),
 }
 
 impl Intrinsics {
@@ -97,9 +100,9 @@ impl Intrinsics {
             inv_sy: to_fixed(1.0 / sy, Field::PitchY)?,
             fx: to_fixed(f / sx, Field::FocalLength)?,
             fy: to_fixed(f / sy, Field::FocalLength)?,
-            half_fov: (
-                to_fixed(libm::atan(f64::from(w) * sx / (2.0 * f)), Field::Width)?,
-                to_fixed(libm::atan(f64::from(h) * sy / (2.0 * f)), Field::Height)?,
+            tan_half_fov: (
+                (f64::from(w) * sx / (2.0 * f)).to_bits(),
+                (f64::from(h) * sy / (2.0 * f)).to_bits(),
             ),
         })
     }
@@ -126,9 +129,11 @@ impl Intrinsics {
     }
 
     /// The sensor's half-angles of view, `atan(W s_x / 2f)` and
-    /// `atan(H s_y / 2f)`, radians (computed once, at construction).
+    /// `atan(H s_y / 2f)`, radians, of the values the camera was built
+    /// from (`atan` taken when asked).
     pub fn half_angles_of_view(&self) -> (Angle, Angle) {
-        self.half_fov
+        let (x, y) = self.tan_half_fov;
+        (half_angle(x), half_angle(y))
     }
 
     /// Image plane → pixel: `x_im = o_x − x/s_x`, `y_im = o_y − y/s_y`.
@@ -211,4 +216,10 @@ impl Intrinsics {
             .zip(Wide::of(p.y).mul(f).narrow::<Len>())
             .map(|(x, y)| ImagePoint { x, y })
     }
+}
+
+/// `atan` of a positive, finite tangent given as f64 bits, as an [`Angle`]
+/// (in (0, π/2): always representable).
+pub(crate) fn half_angle(tan_bits: u64) -> Angle {
+    crate::num::from_f64::<Angle>(libm::atan(f64::from_bits(tan_bits))).unwrap_or(Angle::ZERO)
 }

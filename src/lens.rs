@@ -65,7 +65,7 @@ pub struct Lens {
     focus: Len,
     blur: Len,
     sensor: Len,
-    half_angle: Angle,
+    tan_half_angle: u64,
 }
 
 impl Lens {
@@ -107,7 +107,7 @@ impl Lens {
             focus: zx,
             blur: to_fixed(b, Field::TolerableBlur)?,
             sensor: Len::ZERO,
-            half_angle: to_fixed(libm::atan(d / (2.0 * f)), Field::Aperture)?,
+            tan_half_angle: (d / (2.0 * f)).to_bits(),
         };
         // ẑ' = f Z̃ / (Z̃ − f): must be representable.
         lens.sensor = match lens.image_distance(zx) {
@@ -140,9 +140,10 @@ impl Lens {
     }
 
     /// The notes' "field of view" `w = atan(d / 2f)`: the half-angle the
-    /// aperture subtends at the focus, radians (computed at construction).
+    /// aperture subtends at the focus, radians, of the values the lens was
+    /// built from (`atan` taken when asked, so that a renderer links none).
     pub fn aperture_half_angle(&self) -> Angle {
-        self.half_angle
+        crate::intrinsics::half_angle(self.tan_half_angle)
     }
 
     /// Sensor position when focused at `Z̃`: `ẑ' = f Z̃ / (Z̃ − f)`.

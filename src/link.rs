@@ -38,9 +38,9 @@ pub const CHUNK_HEADER_MAX: usize = 1 + 5 + 3 + 5 + 5;
 pub const DEFAULT_CHUNK: usize = 2048;
 
 /// Largest body of any message but a [`Chunk`], bytes: a [`FrameStart`]
-/// with every varint at its longest (30 bytes of header, 180 of truth).
+/// with every varint at its longest (30 bytes of header, 208 of truth).
 /// Replies are shorter (a [`Reject`] names a field of at most 24 bytes).
-pub const MESSAGE_MAX: usize = 210;
+pub const MESSAGE_MAX: usize = 238;
 
 /// The encoded size a chunk buffer of `chunk` bytes needs: the largest
 /// message (a chunk's, or [`MESSAGE_MAX`]), its CRC, COBS's overhead, and
@@ -103,7 +103,7 @@ impl WireFormat {
 }
 
 /// Opens a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FrameStart {
     /// [`PROTOCOL_VERSION`].
@@ -124,32 +124,37 @@ pub struct FrameStart {
     pub truth: Truth,
 }
 
-/// A frame's ground truth: the camera that formed it, as the core held it
-/// (each fixed-point value converted to the nearest f64), and the plan it
-/// was rendered with.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// A frame's ground truth: the camera that formed it, exactly as the core
+/// held it (each value the raw bits of its fixed-point format, so that a
+/// receiver can rebuild the very numbers the camera used; divide by the
+/// power of two given to get SI units), and the plan it was rendered with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Truth {
-    /// When rendering began, ns in the camera's time base (QEMU: virtual
-    /// time under `-icount`).
+    /// When the camera began sending the frame (after planning and
+    /// preparing it), ns in the camera's time base (QEMU: virtual time
+    /// under `-icount`).
     pub timestamp_ns: u64,
     /// Sequence number of the last command the camera had processed when
     /// the frame began (`None`: none yet). Every command up to it is in
     /// effect, none after it.
     pub command: Option<u32>,
-    /// `R` (rows: the camera's axes in world coordinates), camera-model.md §1.
-    pub rotation: [[f64; 3]; 3],
-    /// `T`, the centre of projection in world coordinates, metres.
-    pub translation: [f64; 3],
-    /// Focal length `f`, metres.
-    pub focal_length: f64,
-    /// Pixel pitch `(s_x, s_y)`, metres.
-    pub pitch: [f64; 2],
-    /// Principal point `(o_x, o_y)`, pixels (pixel centres at integers).
-    pub principal_point: [f64; 2],
+    /// `R` (rows: the camera's axes in world coordinates), camera-model.md
+    /// §1, I2F62: `R_ij = rotation[i][j] / 2⁶²`.
+    pub rotation: [[i64; 3]; 3],
+    /// `T`, the centre of projection in world coordinates, I24F40: metres
+    /// = value / 2⁴⁰.
+    pub translation: [i64; 3],
+    /// Focal length `f`, I24F40: metres = value / 2⁴⁰.
+    pub focal_length: i64,
+    /// Pixel pitch `(s_x, s_y)`, I4F60: metres = value / 2⁶⁰.
+    pub pitch: [i64; 2],
+    /// Principal point `(o_x, o_y)`, I16F16: pixels = value / 2¹⁶ (pixel
+    /// centres at integers).
+    pub principal_point: [i32; 2],
     /// Radial distortion `(k1, k2)` of camera-model.md §3 (distorted →
-    /// undistorted); `(0, 0)` without distortion.
-    pub distortion: [f64; 2],
+    /// undistorted), I16F48: value / 2⁴⁸; `(0, 0)` without distortion.
+    pub distortion: [i64; 2],
     /// How the frame was rendered.
     pub plan: WirePlan,
 }
@@ -206,21 +211,24 @@ impl From<&Stages> for WirePlan {
 
 impl Truth {
     /// The truth of a frame of `scene` rendered with `stages`.
+    #[inline(never)]
     pub fn of(scene: &Scene, stages: &Stages, timestamp_ns: u64, command: Option<u32>) -> Truth {
         let cam = &scene.camera;
         let i = &cam.intrinsics;
+        let e = &cam.extrinsics;
         let (sx, sy) = i.pitch();
         let (ox, oy) = i.principal_point();
         let (k1, k2) = scene.distortion.coefficients();
+        let t = e.translation();
         Truth {
             timestamp_ns,
             command,
-            rotation: cam.extrinsics.rotation().map(|row| row.map(|v| v.to_num())),
-            translation: cam.extrinsics.translation().to_f64(),
-            focal_length: i.focal_length().to_num(),
-            pitch: [sx.to_num(), sy.to_num()],
-            principal_point: [ox.to_num(), oy.to_num()],
-            distortion: [k1.to_num(), k2.to_num()],
+            rotation: e.rotation().map(|row| row.map(|v| v.to_bits())),
+            translation: [t.x.to_bits(), t.y.to_bits(), t.z.to_bits()],
+            focal_length: i.focal_length().to_bits(),
+            pitch: [sx.to_bits(), sy.to_bits()],
+            principal_point: [ox.to_bits(), oy.to_bits()],
+            distortion: [k1.to_bits(), k2.to_bits()],
             plan: WirePlan::from(stages),
         }
     }
@@ -229,6 +237,7 @@ impl Truth {
 impl FrameStart {
     /// The header of frame `frame_id` of scene `scene_id`, rendered with
     /// `stages`, its truth taken from `scene`.
+    #[inline(never)]
     pub fn of(
         frame_id: u32,
         scene_id: u32,
@@ -348,12 +357,29 @@ pub fn encode_message<'w, T: Serialize + ?Sized>(msg: &T, wire: &'w mut [u8]) ->
     postcard::serialize_with_flavor(msg, CrcModifier::new(cobs, CRC32.digest())).ok()
 }
 
+/// What the encoder keeps of an open frame.
+#[derive(Clone, Copy)]
+struct Open {
+    frame_id: u32,
+    height: u16,
+    line_bytes: usize,
+}
+
 /// One kind of [`Message`], encoded on its own: `Tagged(tag, value)` has
 /// the bytes of the `Message` variant `tag` holding `value` (postcard writes
 /// a variant index below 128 as that one byte, then the fields). A sender
 /// then holds the serializers of what it sends, not of every kind.
 #[derive(Serialize)]
 struct Tagged<'a, T: Serialize>(u8, &'a T);
+
+/// The messages of a frame (tags 0 to 2 of [`Message`], the same bytes):
+/// what the encoder sends through one serializer.
+#[derive(Serialize)]
+enum FrameMessage<'a> {
+    FrameStart(&'a FrameStart),
+    Chunk(&'a Chunk<'a>),
+    FrameEnd(&'a FrameEnd),
+}
 
 /// A message a camera sends outside frames: [`Ack`], [`Reject`],
 /// [`Description`].
@@ -375,6 +401,7 @@ impl Reply for Description {
 }
 
 /// Encodes `msg` into `wire` and writes it; returns the bytes written.
+#[inline(never)]
 fn write_message<W: embedded_io::Write, T: Serialize>(
     writer: &mut W,
     wire: &mut [u8],
@@ -392,7 +419,9 @@ pub struct Encoder<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize>
     chunk: [u8; CHUNK],
     fill: usize,
     wire: [u8; WIRE],
-    frame: Option<FrameStart>,
+    /// The open frame: its id, height and line bytes (all the encoder
+    /// needs of its header, which it does not keep).
+    frame: Option<Open>,
     crc: crc::Digest<'static, u32>,
     line: u16,
     chunk_first_line: u16,
@@ -435,8 +464,8 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         self.writer
     }
 
-    fn send<T: Serialize>(&mut self, tag: u8, msg: &T) -> Result<(), LinkError<W::Error>> {
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(tag, msg))?;
+    fn send(&mut self, msg: &FrameMessage<'_>) -> Result<(), LinkError<W::Error>> {
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, msg)?;
         Ok(())
     }
 
@@ -445,7 +474,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         if self.frame.is_some() {
             return Err(LinkError::Sequence);
         }
-        self.send(T::TAG, msg)?;
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(T::TAG, msg))?;
         self.writer.flush().map_err(LinkError::Write)
     }
 
@@ -457,8 +486,12 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         }
         self.writer.write_all(&[0]).map_err(LinkError::Write)?;
         self.bytes_written += 1;
-        self.send(0, &start)?;
-        self.frame = Some(start);
+        self.send(&FrameMessage::FrameStart(&start))?;
+        self.frame = Some(Open {
+            frame_id: start.frame_id,
+            height: start.height,
+            line_bytes: start.line_bytes(),
+        });
         self.crc = CRC32.digest();
         self.fill = 0;
         self.line = 0;
@@ -482,7 +515,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
             data,
         };
         // `send` would borrow all of `self` while `msg` borrows the chunk.
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(1, &msg))?;
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &FrameMessage::Chunk(&msg))?;
         self.pixel_bytes += self.fill as u64;
         self.offset += self.fill as u32;
         self.fill = 0;
@@ -496,7 +529,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         let Some(f) = self.frame else {
             return Err(LinkError::Sequence);
         };
-        if line.len() != f.line_bytes() || self.line >= f.height {
+        if line.len() != f.line_bytes || self.line >= f.height {
             return Err(LinkError::Sequence);
         }
         if self.fill + line.len() > CHUNK {
@@ -523,14 +556,11 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         }
         self.flush_chunk()?;
         let crc = core::mem::replace(&mut self.crc, CRC32.digest()).finalize();
-        self.send(
-            2,
-            &FrameEnd {
-                frame_id: f.frame_id,
-                crc,
-                cost,
-            },
-        )?;
+        self.send(&FrameMessage::FrameEnd(&FrameEnd {
+            frame_id: f.frame_id,
+            crc,
+            cost,
+        }))?;
         self.frame = None;
         self.writer.flush().map_err(LinkError::Write)?;
         Ok(crc)

@@ -441,12 +441,12 @@ fn message_max_bounds_every_header_and_answer() {
         truth: Truth {
             timestamp_ns: u64::MAX,
             command: Some(u32::MAX),
-            rotation: [[f64::MAX; 3]; 3],
-            translation: [f64::MAX; 3],
-            focal_length: f64::MAX,
-            pitch: [f64::MAX; 2],
-            principal_point: [f64::MAX; 2],
-            distortion: [f64::MAX; 2],
+            rotation: [[i64::MIN; 3]; 3],
+            translation: [i64::MIN; 3],
+            focal_length: i64::MIN,
+            pitch: [i64::MIN; 2],
+            principal_point: [i32::MIN; 2],
+            distortion: [i64::MIN; 2],
             plan: WirePlan {
                 arithmetic: u8::MAX,
                 model: u8::MAX,

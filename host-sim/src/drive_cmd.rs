@@ -190,6 +190,51 @@ impl<W: Write> Driver<W> {
     }
 }
 
+/// A frame's ground truth in SI units (each raw fixed-point value of the
+/// wire divided by its power of two, to the nearest f64), with the raw
+/// values beside: what the JSON sidecars hold.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TruthView {
+    /// Camera time, ns.
+    pub timestamp_ns: u64,
+    /// The last command in effect.
+    pub command: Option<u32>,
+    /// `R`, row by row.
+    pub rotation: [[f64; 3]; 3],
+    /// `T`, metres.
+    pub translation: [f64; 3],
+    /// `f`, metres.
+    pub focal_length: f64,
+    /// `(s_x, s_y)`, metres.
+    pub pitch: [f64; 2],
+    /// `(o_x, o_y)`, pixels.
+    pub principal_point: [f64; 2],
+    /// `(k1, k2)`, camera-model.md §3.
+    pub distortion: [f64; 2],
+    /// The plan.
+    pub plan: hilcam::link::WirePlan,
+    /// The values as the wire carries them.
+    pub raw: Truth,
+}
+
+impl From<&Truth> for TruthView {
+    fn from(t: &Truth) -> Self {
+        let s = |v: i64, frac: i32| v as f64 * 2f64.powi(-frac);
+        TruthView {
+            timestamp_ns: t.timestamp_ns,
+            command: t.command,
+            rotation: t.rotation.map(|row| row.map(|v| s(v, 62))),
+            translation: t.translation.map(|v| s(v, 40)),
+            focal_length: s(t.focal_length, 40),
+            pitch: t.pitch.map(|v| s(v, 60)),
+            principal_point: t.principal_point.map(|v| s(i64::from(v), 16)),
+            distortion: t.distortion.map(|v| s(v, 48)),
+            plan: t.plan,
+            raw: *t,
+        }
+    }
+}
+
 /// One frame of a drive.
 #[derive(Clone, Debug, Serialize)]
 pub struct DriveFrame {
@@ -200,7 +245,7 @@ pub struct DriveFrame {
     /// The `Trigger` command that asked for it.
     pub command: u32,
     /// Its ground truth as received.
-    pub truth: Truth,
+    pub truth: TruthView,
     /// Pixels byte-identical to the host's render of the same pose and
     /// frame id.
     pub bit_exact: bool,
@@ -370,7 +415,7 @@ pub fn drive<W: Write>(
             index: k,
             frame_id: f.start.frame_id,
             command: ack.seq,
-            truth: f.start.truth,
+            truth: TruthView::from(&f.start.truth),
             bit_exact,
             truth_matches,
             instructions: f.end.cost,
@@ -540,7 +585,7 @@ struct ReplayFrame {
     height: u16,
     format: String,
     exposure: f64,
-    truth: Truth,
+    truth: TruthView,
     instructions: Option<u64>,
 }
 
@@ -564,7 +609,7 @@ pub fn replay(capture: &Path, out: &Path) -> Result<ReplayReport, String> {
             height: s.height,
             format: format.name().into(),
             exposure: s.exposure as f64 / 2f64.powi(32),
-            truth: s.truth,
+            truth: TruthView::from(&s.truth),
             instructions: f.end.cost,
         };
         let json = serde_json::to_vec_pretty(&side).map_err(|e| e.to_string())?;

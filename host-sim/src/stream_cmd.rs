@@ -308,12 +308,12 @@ fn example_truth() -> Truth {
     Truth {
         timestamp_ns: 1_000_000,
         command: Some(3),
-        rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        translation: [0.0, 0.0, -1.0],
-        focal_length: 0.004,
-        pitch: [5e-6, 5e-6],
-        principal_point: [1.5, 0.5],
-        distortion: [0.0, 0.0],
+        rotation: [[1 << 62, 0, 0], [0, 1 << 62, 0], [0, 0, 1 << 62]],
+        translation: [0, 0, -(1 << 40)],
+        focal_length: hilcam::num::Len::from_num(0.004).to_bits(),
+        pitch: [hilcam::num::Pitch::from_num(5e-6).to_bits(); 2],
+        principal_point: [3 << 15, 1 << 15],
+        distortion: [0, 0],
         plan: WirePlan {
             samples: 1,
             ..WirePlan::default()
