@@ -13,7 +13,7 @@
 //! the renderer feeds it directly) and holds one chunk and one encoded message: RAM is
 //! `CHUNK + WIRE` bytes, whatever the frame height. No heap.
 
-use crate::control::{Ack, Description, Reject};
+use crate::control::{Ack, Answer, Description, Reject};
 use crate::render::{Arithmetic, DistortionEval, FrameInfo, FrameSink, RenderModel, Stages};
 use crate::scene::{PixelFormat, Scene};
 use postcard::ser_flavors::crc::CrcModifier;
@@ -476,6 +476,23 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         }
         self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(T::TAG, msg))?;
         self.writer.flush().map_err(LinkError::Write)
+    }
+
+    /// Sends the message `answer` calls for, for the request numbered
+    /// `seq`: an [`Ack`] stamped `timestamp_ns`, a [`Reject`], or the
+    /// camera's [`Description`] (made only when asked for).
+    pub fn send_answer(
+        &mut self,
+        seq: u32,
+        answer: Answer,
+        timestamp_ns: u64,
+        describe: impl FnOnce() -> Description,
+    ) -> Result<(), LinkError<W::Error>> {
+        match answer {
+            Answer::Ack => self.send_reply(&Ack { seq, timestamp_ns }),
+            Answer::Reject(reason, field) => self.send_reply(&Reject { seq, reason, field }),
+            Answer::Describe => self.send_reply(&describe()),
+        }
     }
 
     /// Opens a frame: a delimiter, then the [`FrameStart`] message. A frame

@@ -379,7 +379,8 @@ fn frames_are_due_as_the_mode_says() {
         no_scene,
     );
     assert!(c.frame_due(100));
-    assert!(!c.frame_due(109_999 / 1000 + 100));
+    // 10 µs after the frame that began at 100 ns: not 1 ns before.
+    assert!(!c.frame_due(100 + 10_000 - 1));
     assert!(c.frame_due(100 + 10_000));
     assert!(c.frame_due(1_000_000), "late: at once");
 }

@@ -189,7 +189,7 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
 #[cfg(feature = "camera")]
 mod camera {
     use super::{board, fail, ns, ticks, Enc, Run};
-    use hilcam::control::{Ack, Answer, Control, Receiver, Reject, MAX_REQUEST};
+    use hilcam::control::{Control, Receiver, MAX_REQUEST};
     use hilcam::planner::{plan, Budget};
 
     /// Bytes read from RX between two frames at most: a flood of input
@@ -212,18 +212,9 @@ mod camera {
                     continue;
                 };
                 let answer = control.handle(&req, &mut scene, scenes, |id| super::scenes::build(id as usize));
-                let sent = match answer {
-                    Answer::Ack => enc.send_reply(&Ack {
-                        seq: req.seq,
-                        timestamp_ns: ns(ticks()),
-                    }),
-                    Answer::Reject(reason, field) => enc.send_reply(&Reject {
-                        seq: req.seq,
-                        reason,
-                        field,
-                    }),
-                    Answer::Describe => enc.send_reply(&control.describe(&scene, scenes, frame_id)),
-                };
+                let sent = enc.send_answer(req.seq, answer, ns(ticks()), || {
+                    control.describe(&scene, scenes, frame_id)
+                });
                 if sent.is_err() {
                     fail("reply");
                 }

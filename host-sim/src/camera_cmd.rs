@@ -8,7 +8,7 @@
 use crate::drive_cmd::spawn_reader;
 use crate::harness::planned_frame;
 use crate::scene_file::Resolved;
-use hilcam::control::{Ack, Answer, Control, Mode, Receiver, Reject, MAX_REQUEST};
+use hilcam::control::{Answer, Control, Mode, Receiver, MAX_REQUEST};
 use hilcam::link::{wire_size, Encoder, FrameStart, DEFAULT_CHUNK};
 use hilcam::scene::Scene;
 use serde::Serialize;
@@ -141,24 +141,14 @@ pub fn serve_from<W: Write>(
                     let Some(r) = rx.push(b) else { continue };
                     let Ok(req) = r else { continue };
                     let answer = control.handle(&req, &mut scene, n, |id| build(id).map_err(|_| "scene"));
-                    let sent = match answer {
-                        Answer::Ack => {
-                            stats.acks += 1;
-                            enc.send_reply(&Ack {
-                                seq: req.seq,
-                                timestamp_ns: now_ns(),
-                            })
-                        }
-                        Answer::Reject(reason, field) => {
-                            stats.rejects += 1;
-                            enc.send_reply(&Reject {
-                                seq: req.seq,
-                                reason,
-                                field,
-                            })
-                        }
-                        Answer::Describe => enc.send_reply(&control.describe(&scene, n, frame_id)),
-                    };
+                    match answer {
+                        Answer::Ack => stats.acks += 1,
+                        Answer::Reject(..) => stats.rejects += 1,
+                        Answer::Describe => {}
+                    }
+                    let sent = enc.send_answer(req.seq, answer, now_ns(), || {
+                        control.describe(&scene, n, frame_id)
+                    });
                     sent.map_err(|e| format!("answering: {e:?}"))?;
                 }
             }

@@ -3,8 +3,10 @@
 //! next `0x00` after any error, and counts what it dropped and why. It never
 //! panics, whatever the bytes (a fuzz target and a proptest check it).
 
-use hilcam::control::{Ack, Description};
-use hilcam::link::{is_canonical, FrameEnd, FrameStart, Message, WireFormat, CRC32, PROTOCOL_VERSION};
+use hilcam::control::{Ack, Description, Reason};
+use hilcam::link::{
+    check_crc, is_canonical, FrameEnd, FrameStart, Message, WireFormat, CRC32, PROTOCOL_VERSION,
+};
 use serde::Serialize;
 use std::io::Read;
 
@@ -65,7 +67,7 @@ pub enum Reply {
         /// The command's sequence number.
         seq: u32,
         /// Why.
-        reason: String,
+        reason: Reason,
         /// The field at fault.
         field: String,
     },
@@ -172,18 +174,12 @@ impl Decoder {
     }
 
     fn message(&mut self, bytes: &[u8], deliver: &mut impl FnMut(Frame)) {
-        if bytes.len() < 4 {
+        let Some(body) = check_crc(bytes) else {
             self.stats.bad_crc += 1;
             return;
-        }
-        let (body, crc) = bytes.split_at(bytes.len() - 4);
-        let sum = CRC32.checksum(body);
-        if sum.to_le_bytes() != crc {
-            self.stats.bad_crc += 1;
-            return;
-        }
+        };
         if self.record {
-            self.received.push(sum);
+            self.received.push(CRC32.checksum(body));
         }
         // The body must be exactly the canonical encoding of what it
         // decodes to: no trailing bytes, no over-long varints
@@ -200,7 +196,7 @@ impl Decoder {
             Message::Ack(a) => Some(Reply::Ack(a)),
             Message::Reject(r) => Some(Reply::Reject {
                 seq: r.seq,
-                reason: format!("{:?}", r.reason),
+                reason: r.reason,
                 field: r.field.to_string(),
             }),
             Message::Description(d) => Some(Reply::Description(d)),
