@@ -1,9 +1,10 @@
-//! Picks the board's memory map, and turns every scene in ../scenes into
-//! Rust code that builds it with the core's scene builders — the same calls,
-//! with the same f64 values, that host-sim makes — so the firmware renders
-//! exactly what the host renders.
+//! Picks the board's memory map, and encodes every scene in ../scenes as
+//! scene data (`hilcam::scene_data`, postcard) — the blobs the firmware
+//! holds in flash and builds with the core at run time, from the same f64
+//! values host-sim builds its scenes from, so the firmware renders exactly
+//! what the host renders. No code is generated per scene.
 
-use host_sim::scene_file::{load, LightDesc, Pose};
+use host_sim::scene_file::load;
 use host_sim::variant::Variant;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -17,6 +18,9 @@ fn main() {
         "../memory.x"
     };
     std::fs::copy(memory, out.join("memory.x")).expect("memory map");
+    // cortex-m-rt's "device" feature includes device.x for the interrupt
+    // handlers' weak aliases: the firmware enables none (main.rs).
+    std::fs::write(out.join("device.x"), "/* no device interrupt handlers */\n").expect("device.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed={memory}");
     println!("cargo:rerun-if-changed=../scenes");
@@ -38,6 +42,7 @@ fn main() {
     };
     let mut code = String::new();
     let mut names = Vec::new();
+    let mut blobs = Vec::new();
     let (mut max_w, mut max_line) = (0usize, 0usize);
     for (i, p) in paths.iter().enumerate() {
         println!("cargo:rerun-if-changed={}", p.display());
@@ -46,124 +51,17 @@ fn main() {
         names.push(r.desc.name.clone());
         max_w = max_w.max(c.width as usize);
         max_line = max_line.max(c.width as usize * r.format.bytes_per_pixel());
-        let pitch = c.pitch.get();
-        let pose = match r.pose {
-            Pose::LookAt { eye, target, up } => format!("Extrinsics::look_at({eye:?}, {target:?}, {up:?})"),
-            Pose::Ypr { position, angles } => format!(
-                "Extrinsics::from_yaw_pitch_roll({:?}, {:?}, {:?}, {position:?})",
-                angles[0], angles[1], angles[2]
-            ),
-            Pose::Matrix { position, rotation } => {
-                format!("Extrinsics::from_matrix({rotation:?}, {position:?})")
-            }
-        };
-        let model = match c.orthographic_scale {
-            Some(m) if c.model == "orthographic" => {
-                format!("Model::orthographic({m:?}).map_err(|_| \"model\")?")
-            }
-            _ => "Model::Perspective".to_string(),
-        };
-        let aperture = match (c.f_number, c.aperture) {
-            (Some(n), _) => format!("Aperture::FNumber({n:?})"),
-            (None, Some(d)) => format!("Aperture::Diameter({d:?})"),
-            _ => unreachable!("validated by load"),
-        };
-        let distortion = match c.distortion {
-            Some([k1, k2]) => format!("Distortion::new({k1:?}, {k2:?}).map_err(|_| \"distortion\")?"),
-            None => "Distortion::NONE".to_string(),
-        };
-        let _ = writeln!(
-            code,
-            "#[inline(never)]\nfn scene_{i}() -> Result<Scene, &'static str> {{"
-        );
-        let _ = writeln!(
-            code,
-            "    let intr = IntrinsicsConfig {{ focal_length: {:?}, pitch: {:?}, size: ({}, {}), principal_point: {:?} }};",
-            c.focal_length,
-            pitch,
-            c.width,
-            c.height,
-            c.principal_point.map(|[x, y]| (x, y))
-        );
-        let _ = writeln!(code, "    let pose = {pose}.map_err(|_| \"pose\")?;");
-        let _ = writeln!(
-            code,
-            "    let lens = LensConfig {{ aperture: {aperture}, focus_distance: {:?}, tolerable_blur: {:?} }};",
-            c.focus_distance, c.tolerable_blur
-        );
-        let _ = writeln!(
-            code,
-            "    let camera = Camera::new(&intr, &lens, pose, {model}).map_err(|_| \"camera\")?;"
-        );
-        let env = &r.desc.environment;
-        let _ = writeln!(
-            code,
-            "    let mut s = Scene::new(camera, {distortion}, PixelFormat::{:?}, {:?}, {:?}, {:?}).map_err(|_| \"scene\")?;",
-            r.format,
-            r.desc.output.exposure,
-            env.ambient.rgb(),
-            env.background.rgb()
-        );
-        for m in &r.desc.materials {
-            let _ = writeln!(
-                code,
-                "    s.add_material({:?}, {:?}, {:?}, {}).map_err(|_| \"material\")?;",
-                m.albedo.rgb(),
-                m.specular.rgb(),
-                m.mix,
-                m.exponent
-            );
-        }
-        for p in &r.primitives {
-            let checker = match p.checker {
-                Some((cell, u_axis, m)) => {
-                    format!("Some(CheckerSpec {{ cell: {cell:?}, u_axis: {u_axis:?}, material: {m} }})")
-                }
-                None => "None".into(),
-            };
-            let _ = writeln!(
-                code,
-                "    s.add_primitive(ShapeSpec::{:?}, {}, {checker}).map_err(|_| \"primitive\")?;",
-                p.shape, p.material
-            );
-        }
-        for l in &r.lights {
-            match l {
-                LightDesc::Point { position, intensity } => {
-                    let _ = writeln!(
-                        code,
-                        "    s.add_point_light({position:?}, {:?}).map_err(|_| \"light\")?;",
-                        intensity.rgb()
-                    );
-                }
-                LightDesc::Directional {
-                    direction,
-                    irradiance,
-                } => {
-                    let _ = writeln!(
-                        code,
-                        "    s.add_directional_light({direction:?}, {:?}).map_err(|_| \"light\")?;",
-                        irradiance.rgb()
-                    );
-                }
-            }
-        }
-        if let Some(sm) = r.desc.sampling {
-            let _ = writeln!(
-                code,
-                "    s.set_sampling({:?}, {}).map_err(|_| \"sampling\")?;",
-                sm.edge_error, sm.adaptive
-            );
-        }
-        if let Some(n) = r.desc.noise {
-            let _ = writeln!(
-                code,
-                "    s.set_noise({:?}, {:?}, {:?}, {}).map_err(|_| \"noise\")?;",
-                n.saturation, n.dark_noise, n.dark_offset, n.seed
-            );
-        }
-        let _ = writeln!(code, "    Ok(s)\n}}\n");
+        let bytes = r.scene_bytes().unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        let file = format!("scene_{i}.bin");
+        std::fs::write(out.join(&file), bytes).expect("scene blob");
+        blobs.push(format!("include_bytes!(concat!(env!(\"OUT_DIR\"), \"/{file}\"))"));
     }
+    let _ = writeln!(
+        code,
+        "/// The scenes, encoded (`hilcam::scene_data`), in scene-id order.\npub static BLOBS: [&[u8]; {}] = [{}];",
+        blobs.len(),
+        blobs.join(", ")
+    );
     let _ = writeln!(
         code,
         "/// Scene names, in scene-id order (the sorted file names of scenes/)."
@@ -177,15 +75,6 @@ fn main() {
         code,
         "/// Longest line, bytes.\npub const MAX_LINE_BYTES: usize = {max_line};"
     );
-    let _ = writeln!(
-        code,
-        "/// Builds scene `i`.\npub fn build(i: usize) -> Result<Scene, &'static str> {{\n    match i {{"
-    );
-    for i in 0..names.len() {
-        let _ = writeln!(code, "        {i} => scene_{i}(),");
-    }
-    let _ = writeln!(code, "        _ => Err(\"no such scene\"),\n    }}\n}}");
-
     // HILCAM_VARIANTS: variant names (host-sim tradeoff), separated by commas
     // or newlines; otherwise the planned renderer only.
     println!("cargo:rerun-if-env-changed=HILCAM_VARIANTS");

@@ -50,13 +50,22 @@ if [ $qemu = 1 ]; then
   ./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
   ./target/release/host-sim hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
   # The closed loop: the camera build of the firmware driven over its UART
-  # (SetPose, Trigger) along a trajectory, every frame checked byte for byte
-  # against the host render of its pose and its ground truth against the
-  # pose sent.
+  # (LoadScene: the scene as data; then SetPose, Trigger) along a
+  # trajectory, every frame checked byte for byte against the host render
+  # of its pose and its ground truth against the pose sent.
   loop_frames=300
   [ $short = 1 ] && loop_frames=30
   ./target/release/host-sim drive --board lm3s6965evb --scene scenes/standard.toml --frames $loop_frames \
     --capture out/drive/camera.bin --out out/drive
+  # A scene the firmware was not built with (the standard scene in RGB565,
+  # a sphere moved and coloured): sent as data, driven the same way.
+  mkdir -p out/drive-new
+  sed -e 's/^name = "standard"/name = "not-shipped"/' -e 's/^format = "gray8"/format = "rgb565"/' \
+      -e 's/^albedo = 0.8$/albedo = [0.8, 0.5, 0.3]/' \
+      -e 's/^centre = \[-0.5, 0.4, 0.3\]/centre = [-0.3, 0.5, 0.6]/' scenes/standard.toml > out/drive-new/scene.toml
+  ! cmp -s scenes/standard.toml out/drive-new/scene.toml
+  ./target/release/host-sim drive --board lm3s6965evb --scene out/drive-new/scene.toml --frames 10 \
+    --out out/drive-new/frames
 else
   echo "SKIPPED: the firmware-in-QEMU run (qemu-system-arm is not installed and could not be"
   echo "installed: run as root on Debian, or apt-get install qemu-system-arm, then rerun)."

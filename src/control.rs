@@ -11,20 +11,29 @@
 
 use crate::extrinsics::Extrinsics;
 use crate::link::{check_crc, is_canonical, WireFormat, PROTOCOL_VERSION};
-use crate::scene::Scene;
+use crate::scene::{Item, Scene};
+use crate::scene_data::DataError;
 use serde::{Deserialize, Serialize};
 
 /// The largest encoded request a camera must accept, bytes (COBS, CRC and
 /// delimiter included): the receiver buffer the shipped cameras use. The
-/// largest request (`SetPose`, 12 f64) encodes to at most 108 bytes.
+/// largest requests (`SetPose`, 12 f64; `LoadScene` with
+/// [`MAX_SCENE_CHUNK`] bytes) encode to at most 116 bytes.
 pub const MAX_REQUEST: usize = 128;
+
+/// Most scene bytes one `LoadScene` carries.
+pub const MAX_SCENE_CHUNK: usize = 96;
+
+/// Longest field name a [`Reject`] carries, bytes
+/// (`primitives[15].checker.u_axis` is 29).
+pub const FIELD_MAX: usize = 40;
 
 /// Most frames one `Trigger` may ask for, and most frames pending at once.
 pub const MAX_PENDING: u32 = 65_535;
 
 /// A command with its envelope.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Request {
+pub struct Request<'a> {
     /// [`PROTOCOL_VERSION`]; a camera refuses any other.
     pub version: u8,
     /// Sequence number: a camera applies a command only if it follows the
@@ -34,12 +43,13 @@ pub struct Request {
     /// answered whatever its number and does not count.
     pub seq: u32,
     /// What to do.
-    pub command: Command,
+    #[serde(borrow)]
+    pub command: Command<'a>,
 }
 
 /// What a host asks of a camera.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Command {
+pub enum Command<'a> {
     /// Tag 0: answer with a [`Description`].
     Describe,
     /// Tag 1: the pose of the next frames: `R` (rows: the camera's axes in
@@ -70,6 +80,22 @@ pub enum Command {
     SelectScene {
         /// The camera's scene number (`Description::scenes` of them).
         id: u32,
+    },
+    /// Tag 6: part of a scene to show: bytes `offset..offset + len` of a
+    /// [`SceneData`] encoding of `total` bytes (at most
+    /// `Description::max_scene`), sent in order from offset 0, each at most
+    /// [`MAX_SCENE_CHUNK`] bytes. Offset 0 starts a new scene (dropping one
+    /// partly received); the part that completes it has the scene decoded,
+    /// checked and shown (its id: `Description::scenes − 1`), or refused
+    /// naming the field, the camera showing what it showed.
+    LoadScene {
+        /// The encoding's length, bytes.
+        total: u16,
+        /// Where these bytes go.
+        offset: u16,
+        /// The bytes.
+        #[serde(borrow, with = "serde_bytes")]
+        bytes: &'a [u8],
     },
 }
 
@@ -127,6 +153,10 @@ pub enum Reason {
     Invalid,
     /// Tag 3: not possible in the current mode (`Trigger` while free-running).
     WrongMode,
+    /// Tag 4: a valid scene this camera cannot render (wider than its line
+    /// buffer, a field of view beyond the renderer's, a stage its build
+    /// leaves out); `field` names the value.
+    Unsupported,
 }
 
 /// What a camera is and does now.
@@ -155,6 +185,8 @@ pub struct Description {
     pub next_frame: u32,
     /// The largest encoded request it accepts, bytes.
     pub max_request: u32,
+    /// The largest scene encoding `LoadScene` accepts, bytes (0: none).
+    pub max_scene: u32,
 }
 
 /// Why received bytes did not make a request (the receiver skips to the
@@ -219,8 +251,9 @@ impl<const N: usize> Receiver<N> {
     }
 
     /// Feeds one byte; at a delimiter, returns the request it ended (or why
-    /// there was none). Empty messages give `None`.
-    pub fn push(&mut self, byte: u8) -> Option<Result<Request, RxError>> {
+    /// there was none), borrowing the receiver's buffer until the next
+    /// byte. Empty messages give `None`.
+    pub fn push(&mut self, byte: u8) -> Option<Result<Request<'_>, RxError>> {
         self.stats.bytes += 1;
         if byte != 0 {
             match self.buf.get_mut(self.len) {
@@ -235,55 +268,226 @@ impl<const N: usize> Receiver<N> {
         let (len, overflow) = (self.len, self.overflow);
         self.len = 0;
         self.overflow = false;
-        if overflow {
-            return Some(self.count(Err(RxError::Oversize)));
-        }
-        if len == 0 {
+        if len == 0 && !overflow {
             return None;
         }
-        let r = self.decode(len);
-        Some(self.count(r))
+        let r = if overflow {
+            Err(RxError::Oversize)
+        } else {
+            decode(self.buf.get_mut(..len).unwrap_or_default())
+        };
+        self.stats.count(r.as_ref().err().copied());
+        Some(r)
     }
+}
 
-    fn decode(&mut self, len: usize) -> Result<Request, RxError> {
-        let msg = self.buf.get_mut(..len).ok_or(RxError::Oversize)?;
-        let n = cobs::decode_in_place(msg).map_err(|_| RxError::Cobs)?;
-        let body = check_crc(msg.get(..n).ok_or(RxError::Cobs)?).ok_or(RxError::Crc)?;
-        match postcard::from_bytes::<Request>(body) {
-            Ok(r) if is_canonical(&r, body) => Ok(r),
-            _ => Err(RxError::Malformed),
-        }
+fn decode(msg: &mut [u8]) -> Result<Request<'_>, RxError> {
+    let n = cobs::decode_in_place(msg).map_err(|_| RxError::Cobs)?;
+    let body = check_crc(msg.get(..n).ok_or(RxError::Cobs)?).ok_or(RxError::Crc)?;
+    match postcard::from_bytes::<Request>(body) {
+        Ok(r) if is_canonical(&r, body) => Ok(r),
+        _ => Err(RxError::Malformed),
     }
+}
 
-    fn count(&mut self, r: Result<Request, RxError>) -> Result<Request, RxError> {
-        match r {
-            Ok(_) => self.stats.requests += 1,
-            Err(e) => {
-                let i = match e {
-                    RxError::Oversize => 0,
-                    RxError::Cobs => 1,
-                    RxError::Crc => 2,
-                    RxError::Malformed => 3,
-                };
-                if let Some(c) = self.stats.errors.get_mut(i) {
-                    *c += 1;
-                }
+impl RxStats {
+    fn count(&mut self, error: Option<RxError>) {
+        let i = match error {
+            None => {
+                self.requests += 1;
+                return;
             }
+            Some(RxError::Oversize) => 0,
+            Some(RxError::Cobs) => 1,
+            Some(RxError::Crc) => 2,
+            Some(RxError::Malformed) => 3,
+        };
+        if let Some(c) = self.errors.get_mut(i) {
+            *c += 1;
         }
-        r
     }
 }
 
 /// The answer to a request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Answer {
     /// Applied: send an [`Ack`].
     Ack,
-    /// Refused: send a [`Reject`] naming `field`.
-    Reject(Reason, &'static str),
+    /// Refused: send a [`Reject`] naming the field.
+    Reject(Reason, Fault),
     /// Send a [`Description`].
     Describe,
+}
+
+/// The value a refused command was refused for: a field of the command
+/// (`"pose.rotation"`), or a value of the scene it loads
+/// (`"primitives[3].checker.cell"`: an item of the scene's lists and its
+/// key).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fault {
+    /// The list item, or [`Item::Scene`] for a command's field or a
+    /// scene-wide value.
+    pub item: Item,
+    /// The key.
+    pub field: &'static str,
+}
+
+impl Fault {
+    /// A command's field.
+    pub const fn field(field: &'static str) -> Fault {
+        Fault {
+            item: Item::Scene,
+            field,
+        }
+    }
+
+    /// The name as a [`Reject`] carries it (at most [`FIELD_MAX`] bytes;
+    /// the shipped keys are shorter).
+    pub fn name(&self) -> heapless::String<FIELD_MAX> {
+        let mut s = heapless::String::new();
+        let (list, i) = match self.item {
+            Item::Scene => ("", None),
+            Item::Material(i) => ("materials[", Some(i)),
+            Item::Primitive(i) => ("primitives[", Some(i)),
+            Item::Light(i) => ("lights[", Some(i)),
+        };
+        let _ = s.push_str(list);
+        if let Some(i) = i {
+            // Up to three digits, no formatting machinery.
+            for d in [100, 10, 1] {
+                if i >= d || d == 1 {
+                    let _ = s.push(char::from(b'0' + (i / d) % 10));
+                }
+            }
+            let _ = s.push_str("].");
+        }
+        let _ = s.push_str(self.field);
+        s
+    }
+}
+
+impl From<DataError> for Fault {
+    fn from(e: DataError) -> Self {
+        let (item, field) = e.field();
+        Fault { item, field }
+    }
+}
+
+/// The scenes a camera holds: built in (encoded [`SceneData`], e.g. in
+/// flash), then the last one loaded over the link into `N` bytes (at most
+/// [`crate::scene_data::MAX_SCENE_DATA`] are ever needed). Scene ids: the
+/// built-in ones from 0, the loaded one after them.
+pub struct Library<'a, const N: usize> {
+    builtin: &'a [&'a [u8]],
+    upload: [u8; N],
+    /// The length of the encoding being received (or received).
+    total: usize,
+    /// Bytes of it received.
+    have: usize,
+    /// The loaded scene is complete and valid.
+    loaded: bool,
+    max_width: u16,
+}
+
+impl<'a, const N: usize> Library<'a, N> {
+    /// A camera holding `builtin` scenes, rendering lines of at most
+    /// `max_width` pixels (wider scenes are refused).
+    pub const fn new(builtin: &'a [&'a [u8]], max_width: u16) -> Self {
+        Library {
+            builtin,
+            upload: [0; N],
+            total: 0,
+            have: 0,
+            loaded: false,
+            max_width,
+        }
+    }
+
+    /// Scenes held: the built-in ones and, once one was loaded, that one.
+    pub fn count(&self) -> u32 {
+        self.builtin.len() as u32 + u32::from(self.loaded)
+    }
+
+    /// The encoding of scene `id`.
+    pub fn get(&self, id: u32) -> Option<&[u8]> {
+        match self.builtin.get(id as usize) {
+            Some(b) => Some(b),
+            None if self.loaded && id as usize == self.builtin.len() => self.upload.get(..self.total),
+            None => None,
+        }
+    }
+
+    /// Builds scene `id` and checks that this camera can render it.
+    pub fn scene(&self, id: u32) -> Result<Scene, (Reason, Fault)> {
+        let bytes = self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))?;
+        let scene = build(bytes)?;
+        check(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
+        Ok(scene)
+    }
+
+    /// Takes a part of a scene being loaded; once it is complete, returns
+    /// the scene (built and checked), else `None`. A refused part leaves
+    /// the parts before it in place.
+    fn load(&mut self, total: u16, offset: u16, bytes: &[u8]) -> Result<Option<Scene>, (Reason, Fault)> {
+        let invalid = |f: &'static str| (Reason::Invalid, Fault::field(f));
+        let (total, offset) = (usize::from(total), usize::from(offset));
+        if offset == 0 {
+            if total == 0 || total > N {
+                return Err(invalid("load.total"));
+            }
+        } else if offset != self.have || total != self.total {
+            return Err(invalid("load.offset"));
+        }
+        let end = offset + bytes.len();
+        if bytes.is_empty() || bytes.len() > MAX_SCENE_CHUNK || end > total {
+            return Err(invalid("load.bytes"));
+        }
+        let slot = self.upload.get_mut(offset..end).ok_or(invalid("load.bytes"))?;
+        slot.copy_from_slice(bytes);
+        if offset == 0 {
+            // A new scene replaces the one loaded before, whatever follows.
+            self.loaded = false;
+            self.total = total;
+        }
+        self.have = end;
+        if end < total {
+            return Ok(None);
+        }
+        let data = self.upload.get(..total).unwrap_or_default();
+        let scene = build(data)?;
+        check(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
+        self.loaded = true;
+        Ok(Some(scene))
+    }
+}
+
+/// Builds an encoded scene.
+fn build(bytes: &[u8]) -> Result<Scene, (Reason, Fault)> {
+    crate::scene_data::load(bytes).map_err(|e| match e {
+        DataError::NotBuilt { .. } => (Reason::Unsupported, e.into()),
+        _ => (Reason::Invalid, e.into()),
+    })
+}
+
+/// Whether this camera renders `scene`: lines of at most `max_width`
+/// pixels, and the frame the planner picks prepares.
+#[inline(never)]
+fn check(scene: &Scene, max_width: u16) -> Result<(), Fault> {
+    use crate::render::RenderError as E;
+    if scene.camera.intrinsics.size().0 > max_width {
+        return Err(Fault::field("camera.width"));
+    }
+    crate::planner::check(scene).map_err(|e| {
+        Fault::field(match e {
+            E::FieldTooWide => "camera.focal_length",
+            E::DistortionOutOfRange => "camera.distortion",
+            E::NotBuilt if scene.noise.is_some() => "noise",
+            E::NotBuilt | E::OutsideFormat if scene.sampling.is_some() => "sampling",
+            E::NotBuilt | E::OutsideFormat => "camera.aperture",
+            E::BufferTooSmall => "camera.width",
+            E::Degenerate => "primitives",
+        })
+    })
 }
 
 /// The camera's command state: the sequence rule, the mode and the frames
@@ -324,22 +528,20 @@ impl Control {
         self.last.map(|(s, _)| s)
     }
 
-    /// Processes `req` against `scene` (the scene shown); `select(id)`
-    /// builds scene `id` of the `scenes` the camera holds. Returns the
-    /// answer to send.
-    pub fn handle(
+    /// Processes `req` against `scene` (the scene shown) and the camera's
+    /// `library`. Returns the answer to send.
+    pub fn handle<const N: usize>(
         &mut self,
         req: &Request,
         scene: &mut Scene,
-        scenes: u32,
-        select: impl FnOnce(u32) -> Result<Scene, &'static str>,
+        library: &mut Library<'_, N>,
     ) -> Answer {
         if req.version != PROTOCOL_VERSION {
             return Answer::Reject(
                 Reason::Version {
                     speaks: PROTOCOL_VERSION,
                 },
-                "version",
+                Fault::field("version"),
             );
         }
         if req.command == Command::Describe {
@@ -352,27 +554,26 @@ impl Control {
                     Reason::OutOfOrder {
                         expected: s.wrapping_add(1),
                     },
-                    "seq",
+                    Fault::field("seq"),
                 )
             }
             _ => {}
         }
-        let answer = match self.apply(&req.command, scene, scenes, select) {
+        let answer = match self.apply(&req.command, scene, library) {
             Ok(()) => Answer::Ack,
-            Err((reason, field)) => Answer::Reject(reason, field),
+            Err((reason, fault)) => Answer::Reject(reason, fault),
         };
         self.last = Some((req.seq, answer));
         answer
     }
 
-    fn apply(
+    fn apply<const N: usize>(
         &mut self,
         c: &Command,
         scene: &mut Scene,
-        scenes: u32,
-        select: impl FnOnce(u32) -> Result<Scene, &'static str>,
-    ) -> Result<(), (Reason, &'static str)> {
-        let invalid = |f: &'static str| (Reason::Invalid, f);
+        library: &mut Library<'_, N>,
+    ) -> Result<(), (Reason, Fault)> {
+        let invalid = |f: &'static str| (Reason::Invalid, Fault::field(f));
         match *c {
             Command::Describe => Ok(()),
             Command::SetPose {
@@ -395,7 +596,7 @@ impl Control {
             }
             Command::Trigger { frames } => {
                 if self.mode != Mode::Triggered {
-                    return Err((Reason::WrongMode, "mode"));
+                    return Err((Reason::WrongMode, Fault::field("mode")));
                 }
                 let total = self.pending + u32::from(frames);
                 if frames == 0 || total > MAX_PENDING {
@@ -405,11 +606,15 @@ impl Control {
                 Ok(())
             }
             Command::SelectScene { id } => {
-                if id >= scenes {
-                    return Err(invalid("scene.id"));
-                }
-                *scene = select(id).map_err(|_| invalid("scene.id"))?;
+                *scene = library.scene(id)?;
                 self.scene_id = id;
+                Ok(())
+            }
+            Command::LoadScene { total, offset, bytes } => {
+                if let Some(s) = library.load(total, offset, bytes)? {
+                    *scene = s;
+                    self.scene_id = library.count() - 1;
+                }
                 Ok(())
             }
         }
@@ -437,13 +642,18 @@ impl Control {
         }
     }
 
-    /// The [`Description`] of a camera showing `scene`, holding `scenes`,
+    /// The [`Description`] of a camera showing `scene` from `library`,
     /// whose next frame will be `next_frame`.
-    pub fn describe(&self, scene: &Scene, scenes: u32, next_frame: u32) -> Description {
+    pub fn describe<const N: usize>(
+        &self,
+        scene: &Scene,
+        library: &Library<'_, N>,
+        next_frame: u32,
+    ) -> Description {
         let (width, height) = scene.camera.intrinsics.size();
         Description {
             version: PROTOCOL_VERSION,
-            scenes,
+            scenes: library.count(),
             scene_id: self.scene_id,
             width,
             height,
@@ -453,6 +663,7 @@ impl Control {
             last_command: self.last_command(),
             next_frame,
             max_request: MAX_REQUEST as u32,
+            max_scene: N as u32,
         }
     }
 }

@@ -99,20 +99,26 @@ pub enum Error {
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", self.field().name())?;
+        self.why(f)
+    }
+}
+
+impl Error {
+    /// What is wrong, without the field's name.
+    pub fn why(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::NotFinite(x) => write!(f, "{}: not a finite number", x.name()),
-            Error::NotPositive(x) => write!(f, "{}: must be greater than zero", x.name()),
-            Error::OutOfRange(x) => write!(f, "{}: outside the supported range", x.name()),
+            Error::NotFinite(_) => write!(f, "not a finite number"),
+            Error::NotPositive(_) => write!(f, "must be greater than zero"),
+            Error::OutOfRange(_) => write!(f, "outside the supported range"),
             Error::NotOrthonormal => write!(
                 f,
-                "rotation: not orthonormal within the tolerance {:e}",
+                "not orthonormal within the tolerance {:e}",
                 crate::extrinsics::ROTATION_TOLERANCE
             ),
-            Error::Reflection => write!(f, "rotation: determinant is -1 (a reflection)"),
-            Error::Degenerate(x) => write!(f, "{}: degenerate look-at geometry", x.name()),
-            Error::FocusInsideFocalLength => {
-                write!(f, "focus_distance: must exceed the focal length")
-            }
+            Error::Reflection => write!(f, "determinant is -1 (a reflection)"),
+            Error::Degenerate(_) => write!(f, "degenerate look-at geometry"),
+            Error::FocusInsideFocalLength => write!(f, "must exceed the focal length"),
         }
     }
 }

@@ -105,48 +105,14 @@ impl Extrinsics {
     /// From yaw, pitch and roll (radians; see the module docs for the
     /// convention) and the centre of projection `T` (metres).
     pub fn from_yaw_pitch_roll(yaw: f64, pitch: f64, roll: f64, t: [f64; 3]) -> Result<Self, Error> {
-        finite3([yaw, pitch, roll], Field::Angle)?;
-        let (sy, cy) = (libm::sin(yaw), libm::cos(yaw));
-        let (sp, cp) = (libm::sin(-pitch), libm::cos(-pitch));
-        let (sr, cr) = (libm::sin(roll), libm::cos(roll));
-        let ry = [[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]];
-        let rx = [[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]];
-        let rz = [[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]];
-        let m = mat_mul(&mat_mul(&ry, &rx), &rz);
-        Self::from_matrix(transpose(&m), t)
+        Self::from_matrix(yaw_pitch_roll_matrix(yaw, pitch, roll)?, t)
     }
 
     /// A camera at `eye` looking at `target`, with `up` giving the image's up
-    /// direction (world coordinates, metres). The optic axis is
-    /// `z = (target − eye)/|target − eye|`, `x = up × z` normalized, `y = z × x`.
-    ///
-    /// Errors: the target within 1 µm of the eye, or `up` within 10⁻⁶ rad of
-    /// the optic axis (or zero).
+    /// direction (world coordinates, metres): [`look_at_matrix`].
     pub fn look_at(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> Result<Self, Error> {
         let eye = finite3(eye, Field::Translation)?;
-        let target = finite3(target, Field::Target)?;
-        let up = finite3(up, Field::Up)?;
-        let v = [target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]];
-        // Scaled by its largest component first, so that a target as far
-        // as f64 reaches (|v|² overflowing) still gives the direction.
-        let m = v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
-        if !m.is_finite() {
-            return Err(Error::OutOfRange(Field::Target));
-        }
-        if m <= 1e-6 / 2.0 || m * norm(div(v, m)) <= 1e-6 {
-            return Err(Error::Degenerate(Field::Target));
-        }
-        let v = div(v, m);
-        let z = div(v, norm(v));
-        let un = norm(up);
-        let x = cross(up, z);
-        let xn = norm(x);
-        if un <= 0.0 || xn <= 1e-6 * un {
-            return Err(Error::Degenerate(Field::Up));
-        }
-        let x = div(x, xn);
-        let y = cross(z, x);
-        Self::from_matrix([x, y, z], eye)
+        Self::from_matrix(look_at_matrix(eye, target, up)?, eye)
     }
 
     /// `R`, as stored (I2F30 entries).
@@ -202,4 +168,53 @@ impl Extrinsics {
             .zip((z + Wide::of(self.t.z)).narrow())
             .map(|((x, y), z)| WorldPoint { x, y, z })
     }
+}
+
+/// The `R` (f64, rows: the camera's axes in world coordinates) of yaw,
+/// pitch and roll (radians; see the module docs for the convention): what
+/// [`Extrinsics::from_yaw_pitch_roll`] builds its pose from.
+pub fn yaw_pitch_roll_matrix(yaw: f64, pitch: f64, roll: f64) -> Result<[[f64; 3]; 3], Error> {
+    finite3([yaw, pitch, roll], Field::Angle)?;
+    let (sy, cy) = (libm::sin(yaw), libm::cos(yaw));
+    let (sp, cp) = (libm::sin(-pitch), libm::cos(-pitch));
+    let (sr, cr) = (libm::sin(roll), libm::cos(roll));
+    let ry = [[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]];
+    let rx = [[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]];
+    let rz = [[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]];
+    let m = mat_mul(&mat_mul(&ry, &rx), &rz);
+    Ok(transpose(&m))
+}
+
+/// The `R` (f64) of a camera at `eye` looking at `target` with `up` giving
+/// the image's up direction: the optic axis is
+/// `z = (target − eye)/|target − eye|`, `x = up × z` normalized,
+/// `y = z × x`. What [`Extrinsics::look_at`] builds its pose from.
+///
+/// Errors: the target within 1 µm of the eye, or `up` within 10⁻⁶ rad of
+/// the optic axis (or zero).
+pub fn look_at_matrix(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> Result<[[f64; 3]; 3], Error> {
+    let eye = finite3(eye, Field::Translation)?;
+    let target = finite3(target, Field::Target)?;
+    let up = finite3(up, Field::Up)?;
+    let v = [target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]];
+    // Scaled by its largest component first, so that a target as far
+    // as f64 reaches (|v|² overflowing) still gives the direction.
+    let m = v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if !m.is_finite() {
+        return Err(Error::OutOfRange(Field::Target));
+    }
+    if m <= 1e-6 / 2.0 || m * norm(div(v, m)) <= 1e-6 {
+        return Err(Error::Degenerate(Field::Target));
+    }
+    let v = div(v, m);
+    let z = div(v, norm(v));
+    let un = norm(up);
+    let x = cross(up, z);
+    let xn = norm(x);
+    if un <= 0.0 || xn <= 1e-6 * un {
+        return Err(Error::Degenerate(Field::Up));
+    }
+    let x = div(x, xn);
+    let y = cross(z, x);
+    Ok([x, y, z])
 }

@@ -17,7 +17,7 @@ pub const FOCUS_RANGE: (f64, f64) = (1e-4, 1e6);
 pub const BLUR_RANGE: (f64, f64) = (1e-7, 1e-2);
 
 /// How the aperture is given.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub enum Aperture {
     /// Effective diameter `d`, metres.
     Diameter(f64),

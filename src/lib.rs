@@ -17,6 +17,7 @@
 //! - [`lens`]: thin lens, blur circle, depth of field;
 //! - [`distortion`]: radial distortion, its table and inverse;
 //! - [`scene`]: the compact scene;
+//! - [`scene_data`]: a scene as data (what a camera stores and receives);
 //! - [`shading`]: the mixed BRDF and lights;
 //! - [`vignetting`]: cos⁴ fall-off, exposure and quantization;
 //! - [`render`]: the line renderer (rays, intersection, and the stages above);
@@ -53,6 +54,7 @@ pub mod render;
 pub mod sampling;
 pub mod scalar;
 pub mod scene;
+pub mod scene_data;
 pub mod shading;
 mod vec3;
 pub mod vignetting;

@@ -39,7 +39,8 @@ pub const DEFAULT_CHUNK: usize = 2048;
 
 /// Largest body of any message but a [`Chunk`], bytes: a [`FrameStart`]
 /// with every varint at its longest (30 bytes of header, 208 of truth).
-/// Replies are shorter (a [`Reject`] names a field of at most 24 bytes).
+/// Replies are shorter (a [`Reject`] names a field of at most
+/// [`crate::control::FIELD_MAX`] bytes).
 pub const MESSAGE_MAX: usize = 238;
 
 /// The encoded size a chunk buffer of `chunk` bytes needs: the largest
@@ -490,7 +491,11 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
     ) -> Result<(), LinkError<W::Error>> {
         match answer {
             Answer::Ack => self.send_reply(&Ack { seq, timestamp_ns }),
-            Answer::Reject(reason, field) => self.send_reply(&Reject { seq, reason, field }),
+            Answer::Reject(reason, fault) => self.send_reply(&Reject {
+                seq,
+                reason,
+                field: &fault.name(),
+            }),
             Answer::Describe => self.send_reply(&describe()),
         }
     }

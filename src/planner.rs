@@ -231,6 +231,13 @@ fn ray_model_and_bound(scene: &Scene, budget: &Budget) -> (RenderModel, Option<(
     (model, wp)
 }
 
+/// Whether the frame [`plan`] picks for `scene` with the default budget
+/// prepares: what a camera checks before it shows a scene it was sent.
+pub fn check(scene: &Scene) -> Result<(), crate::render::RenderError> {
+    let opts = plan(scene, &Budget::default()).options;
+    crate::render::Frame::<crate::scene::Q>::empty().prepare(scene, &opts)
+}
+
 /// Plans `scene` within `budget`.
 pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let cam = &scene.camera;

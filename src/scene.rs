@@ -427,7 +427,7 @@ fn norm3(v: [f64; 3]) -> [Norm; 3] {
 
 /// A checker texture as given: cell size and the `u` direction (projected
 /// into the plane), and the odd cells' material.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct CheckerSpec {
     /// Cell size, metres.
     pub cell: f64,
@@ -438,7 +438,7 @@ pub struct CheckerSpec {
 }
 
 /// A primitive's geometry as given (f64, SI units).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub enum ShapeSpec {
     /// Infinite plane.
     Plane {

@@ -4,22 +4,26 @@
 //! state; the reply messages' bytes.
 
 use hilcam::control::{
-    Ack, Answer, Command, Control, Description, Mode, Reason, Receiver, Reject, Request, RxError,
-    MAX_PENDING, MAX_REQUEST,
+    Ack, Answer, Command, Control, Description, Fault, Library, Mode, Reason, Receiver, Reject, Request,
+    RxError, FIELD_MAX, MAX_PENDING, MAX_REQUEST, MAX_SCENE_CHUNK,
 };
 use hilcam::link::{encode_message, wire_size, Encoder, Message, CRC32, PROTOCOL_VERSION};
 use hilcam::scene::Scene;
+use hilcam::scene_data::MAX_SCENE_DATA;
 use proptest::prelude::*;
 use std::path::Path;
 
+fn resolved(name: &str) -> host_sim::scene_file::Resolved {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    host_sim::scene_file::load(&p).expect("scene")
+}
+
 fn standard() -> Scene {
-    host_sim::scene_file::load(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/standard.toml"
-    )))
-    .expect("standard scene")
-    .core_scene()
-    .expect("core scene")
+    resolved("standard.toml").core_scene().expect("core scene")
+}
+
+fn standard_bytes() -> Vec<u8> {
+    resolved("standard.toml").scene_bytes().expect("scene data")
 }
 
 fn wire(req: &Request) -> Vec<u8> {
@@ -37,11 +41,16 @@ fn request(seq: u32, command: Command) -> Request {
 
 const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
-fn feed<const N: usize>(rx: &mut Receiver<N>, bytes: &[u8]) -> Vec<Result<Request, RxError>> {
-    bytes.iter().filter_map(|b| rx.push(*b)).collect()
+/// What the receiver made of `bytes`: each request as its encoding (a
+/// request borrows the receiver's buffer until the next byte).
+fn feed<const N: usize>(rx: &mut Receiver<N>, bytes: &[u8]) -> Vec<Result<Vec<u8>, RxError>> {
+    bytes
+        .iter()
+        .filter_map(|b| rx.push(*b).map(|r| r.map(|req| wire(&req))))
+        .collect()
 }
 
-fn any_command() -> impl Strategy<Value = Command> {
+fn any_command() -> impl Strategy<Value = Command<'static>> {
     let f = -2.0f64..2.0;
     prop_oneof![
         Just(Command::Describe),
@@ -60,6 +69,16 @@ fn any_command() -> impl Strategy<Value = Command> {
         Just(Command::SetMode(Mode::Triggered)),
         any::<u16>().prop_map(|frames| Command::Trigger { frames }),
         any::<u32>().prop_map(|id| Command::SelectScene { id }),
+        (
+            any::<u16>(),
+            any::<u16>(),
+            proptest::collection::vec(any::<u8>(), 0..=MAX_SCENE_CHUNK)
+        )
+            .prop_map(|(total, offset, v)| Command::LoadScene {
+                total,
+                offset,
+                bytes: Box::leak(v.into_boxed_slice()),
+            }),
     ]
 }
 
@@ -76,7 +95,7 @@ fn the_largest_request_fits_the_receiver() {
     let w = wire(&worst);
     assert!(w.len() <= MAX_REQUEST, "{} bytes", w.len());
     let mut rx = Receiver::<MAX_REQUEST>::new();
-    assert_eq!(feed(&mut rx, &w), vec![Ok(worst)]);
+    assert_eq!(feed(&mut rx, &w), vec![Ok(wire(&worst))]);
 }
 
 proptest! {
@@ -99,7 +118,7 @@ proptest! {
         // f64 NaN != NaN: compare the encodings.
         let last = got.last().cloned().expect("the request's delimiter");
         let last = last.expect("the request decodes");
-        prop_assert_eq!(wire(&last), wire(&req));
+        prop_assert_eq!(last, wire(&req));
         prop_assert_eq!(rx.stats.bytes, bytes.len() as u64);
     }
 
@@ -120,7 +139,7 @@ proptest! {
         }
         let mut rx = Receiver::<MAX_REQUEST>::new();
         for got in feed(&mut rx, &bytes).into_iter().flatten() {
-            prop_assert_eq!(wire(&got), wire(&req));
+            prop_assert_eq!(got, wire(&req));
         }
     }
 
@@ -134,7 +153,7 @@ proptest! {
         let req = request(1, Command::Trigger { frames: 2 });
         let mut tail = vec![0u8];
         tail.extend(wire(&req));
-        prop_assert_eq!(feed(&mut rx, &tail).last().cloned(), Some(Ok(req)));
+        prop_assert_eq!(feed(&mut rx, &tail).last().cloned(), Some(Ok(wire(&req))));
     }
 }
 
@@ -147,7 +166,10 @@ fn oversized_messages_are_refused_and_the_next_decodes() {
     bytes.push(0);
     let req = request(5, Command::Describe);
     bytes.extend(wire(&req));
-    assert_eq!(feed(&mut rx, &bytes), vec![Err(RxError::Oversize), Ok(req)]);
+    assert_eq!(
+        feed(&mut rx, &bytes),
+        vec![Err(RxError::Oversize), Ok(wire(&req))]
+    );
     assert_eq!(rx.stats.errors, [1, 0, 0, 0]);
 }
 
@@ -170,7 +192,7 @@ fn non_canonical_requests_are_refused() {
     // version 2, seq 7, tag 4, frames 3.
     assert_eq!(body, vec![PROTOCOL_VERSION, 7, 4, 3]);
     let mut rx = Receiver::<MAX_REQUEST>::new();
-    assert_eq!(feed(&mut rx, &frame(&body)), vec![Ok(req)]);
+    assert_eq!(feed(&mut rx, &frame(&body)), vec![Ok(wire(&req))]);
     let mut trailing = body.clone();
     trailing.push(0);
     assert_eq!(feed(&mut rx, &frame(&trailing)), vec![Err(RxError::Malformed)]);
@@ -183,8 +205,10 @@ fn non_canonical_requests_are_refused() {
     assert_eq!(feed(&mut rx, &bad), vec![Err(RxError::Crc)]);
 }
 
-fn no_scene(_: u32) -> Result<Scene, &'static str> {
-    Err("no other scene")
+/// A camera library holding the standard scene (id 0).
+fn lib() -> Library<'static, MAX_SCENE_DATA> {
+    let blob: &'static [u8] = Box::leak(standard_bytes().into_boxed_slice());
+    Library::new(Box::leak(Box::new([blob])), 640)
 }
 
 /// The sequence rule: the first number is free; then only the next one is
@@ -194,26 +218,27 @@ fn no_scene(_: u32) -> Result<Scene, &'static str> {
 #[test]
 fn commands_apply_once_and_in_order() {
     let mut scene = standard();
+    let mut lib = lib();
     let mut c = Control::new();
     let trig = |seq| request(seq, Command::Trigger { frames: 2 });
-    assert_eq!(c.handle(&trig(41), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!(c.handle(&trig(41), &mut scene, &mut lib), Answer::Ack);
     assert_eq!(c.pending, 2);
     // A repeat (the ack was lost): answered, not applied again.
-    assert_eq!(c.handle(&trig(41), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!(c.handle(&trig(41), &mut scene, &mut lib), Answer::Ack);
     assert_eq!(c.pending, 2);
     // Skipping one, or going back: refused, nothing applied.
     for seq in [43, 40, 0, u32::MAX] {
         assert_eq!(
-            c.handle(&trig(seq), &mut scene, 1, no_scene),
-            Answer::Reject(Reason::OutOfOrder { expected: 42 }, "seq")
+            c.handle(&trig(seq), &mut scene, &mut lib),
+            Answer::Reject(Reason::OutOfOrder { expected: 42 }, Fault::field("seq"))
         );
     }
     assert_eq!(c.pending, 2);
     assert_eq!(
-        c.handle(&request(9999, Command::Describe), &mut scene, 1, no_scene),
+        c.handle(&request(9999, Command::Describe), &mut scene, &mut lib),
         Answer::Describe
     );
-    assert_eq!(c.handle(&trig(42), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!(c.handle(&trig(42), &mut scene, &mut lib), Answer::Ack);
     assert_eq!((c.pending, c.last_command()), (4, Some(42)));
     // Another version: refused, not counted.
     let v1 = Request {
@@ -221,19 +246,19 @@ fn commands_apply_once_and_in_order() {
         ..trig(43)
     };
     assert_eq!(
-        c.handle(&v1, &mut scene, 1, no_scene),
+        c.handle(&v1, &mut scene, &mut lib),
         Answer::Reject(
             Reason::Version {
                 speaks: PROTOCOL_VERSION
             },
-            "version"
+            Fault::field("version")
         )
     );
     assert_eq!(c.last_command(), Some(42));
     // Numbers wrap.
     let mut c = Control::new();
-    assert_eq!(c.handle(&trig(u32::MAX), &mut scene, 1, no_scene), Answer::Ack);
-    assert_eq!(c.handle(&trig(0), &mut scene, 1, no_scene), Answer::Ack);
+    assert_eq!(c.handle(&trig(u32::MAX), &mut scene, &mut lib), Answer::Ack);
+    assert_eq!(c.handle(&trig(0), &mut scene, &mut lib), Answer::Ack);
 }
 
 /// A refused command names its field and changes nothing: the camera keeps
@@ -241,6 +266,7 @@ fn commands_apply_once_and_in_order() {
 #[test]
 fn refused_commands_keep_the_last_good_state() {
     let mut scene = standard();
+    let mut lib = lib();
     let good = scene.clone();
     let mut c = Control::new();
     let cases: Vec<(Command, Reason, &str)> = vec![
@@ -287,8 +313,8 @@ fn refused_commands_keep_the_last_good_state() {
         (Command::SelectScene { id: 1 }, Reason::Invalid, "scene.id"),
     ];
     for (seq, (cmd, reason, field)) in cases.into_iter().enumerate() {
-        let a = c.handle(&request(seq as u32, cmd), &mut scene, 1, no_scene);
-        assert_eq!(a, Answer::Reject(reason, field), "{cmd:?}");
+        let a = c.handle(&request(seq as u32, cmd), &mut scene, &mut lib);
+        assert_eq!(a, Answer::Reject(reason, Fault::field(field)), "{cmd:?}");
         assert_eq!(scene, good, "{cmd:?} changed the scene");
         assert_eq!((c.mode, c.pending, c.scene_id), (Mode::Triggered, 0, 0));
     }
@@ -298,8 +324,7 @@ fn refused_commands_keep_the_last_good_state() {
         c.handle(
             &request(n, Command::Trigger { frames: u16::MAX }),
             &mut scene,
-            1,
-            no_scene
+            &mut lib
         ),
         Answer::Ack
     );
@@ -307,10 +332,9 @@ fn refused_commands_keep_the_last_good_state() {
         c.handle(
             &request(n + 1, Command::Trigger { frames: 1 }),
             &mut scene,
-            1,
-            no_scene
+            &mut lib
         ),
-        Answer::Reject(Reason::Invalid, "trigger.frames")
+        Answer::Reject(Reason::Invalid, Fault::field("trigger.frames"))
     );
     assert_eq!(c.pending, MAX_PENDING);
     // Trigger while free-running.
@@ -318,8 +342,7 @@ fn refused_commands_keep_the_last_good_state() {
         c.handle(
             &request(n + 2, Command::SetMode(Mode::FreeRun { period_us: 1000 })),
             &mut scene,
-            1,
-            no_scene
+            &mut lib
         ),
         Answer::Ack
     );
@@ -327,20 +350,16 @@ fn refused_commands_keep_the_last_good_state() {
         c.handle(
             &request(n + 3, Command::Trigger { frames: 1 }),
             &mut scene,
-            1,
-            no_scene
+            &mut lib
         ),
-        Answer::Reject(Reason::WrongMode, "mode")
+        Answer::Reject(Reason::WrongMode, Fault::field("mode"))
     );
     // A good pose and exposure are applied.
     let pose = Command::SetPose {
         rotation: IDENTITY,
         translation: [0.1, 0.2, -3.0],
     };
-    assert_eq!(
-        c.handle(&request(n + 4, pose), &mut scene, 1, no_scene),
-        Answer::Ack
-    );
+    assert_eq!(c.handle(&request(n + 4, pose), &mut scene, &mut lib), Answer::Ack);
     // Rounded to the position format (I24F40: half an LSB is 2⁻⁴¹ m).
     let t = scene.camera.extrinsics.translation().to_f64();
     for (got, want) in t.iter().zip([0.1, 0.2, -3.0]) {
@@ -350,8 +369,7 @@ fn refused_commands_keep_the_last_good_state() {
         c.handle(
             &request(n + 5, Command::SetExposure { k: 123.5 }),
             &mut scene,
-            1,
-            no_scene
+            &mut lib
         ),
         Answer::Ack
     );
@@ -363,20 +381,15 @@ fn refused_commands_keep_the_last_good_state() {
 #[test]
 fn frames_are_due_as_the_mode_says() {
     let mut scene = standard();
+    let mut lib = lib();
     let mut c = Control::new();
     assert!(!c.frame_due(0));
-    c.handle(
-        &request(0, Command::Trigger { frames: 2 }),
-        &mut scene,
-        1,
-        no_scene,
-    );
+    c.handle(&request(0, Command::Trigger { frames: 2 }), &mut scene, &mut lib);
     assert!(c.frame_due(5) && c.frame_due(5) && !c.frame_due(5));
     c.handle(
         &request(1, Command::SetMode(Mode::FreeRun { period_us: 10 })),
         &mut scene,
-        1,
-        no_scene,
+        &mut lib,
     );
     assert!(c.frame_due(100));
     // 10 µs after the frame that began at 100 ns: not 1 ns before.
@@ -400,7 +413,7 @@ fn replies_are_messages_three_to_five() {
         reason: Reason::Invalid,
         field: "pose.rotation",
     };
-    let desc: Description = c.describe(&scene, 1, 0);
+    let desc: Description = c.describe(&scene, &lib(), 0);
     let mut enc = Encoder::<host_sim::link::sim::Recorder, 64, { wire_size(64) }>::new(Default::default())
         .expect("encoder");
     enc.send_reply(&ack).expect("ack");
@@ -465,8 +478,7 @@ fn message_max_bounds_every_header_and_answer() {
             .expect("size")
     };
     assert_eq!(size(&Message::FrameStart(start)), MESSAGE_MAX);
-    let longest_field = "pose.translation.longest"; // 24 bytes: longer than any field named
-    assert_eq!(longest_field.len(), 24);
+    let longest_field = &"x".repeat(FIELD_MAX);
     for m in [
         Message::Reject(Reject {
             seq: u32::MAX,
@@ -489,8 +501,154 @@ fn message_max_bounds_every_header_and_answer() {
             last_command: Some(u32::MAX),
             next_frame: u32::MAX,
             max_request: u32::MAX,
+            max_scene: u32::MAX,
         }),
     ] {
         assert!(size(&m) <= MESSAGE_MAX, "{m:?}: {}", size(&m));
     }
+}
+
+/// Sends `bytes` as LoadScene parts of `chunk` bytes from sequence number
+/// `seq`; returns every answer.
+fn load_parts(
+    c: &mut Control,
+    scene: &mut Scene,
+    lib: &mut Library<'_, MAX_SCENE_DATA>,
+    seq: u32,
+    bytes: &[u8],
+    chunk: usize,
+) -> Vec<Answer> {
+    bytes
+        .chunks(chunk)
+        .enumerate()
+        .map(|(i, part)| {
+            let cmd = Command::LoadScene {
+                total: bytes.len() as u16,
+                offset: (i * chunk) as u16,
+                bytes: part,
+            };
+            let req = request(seq + i as u32, cmd);
+            // Every part fits the receiver.
+            assert!(wire(&req).len() <= MAX_REQUEST);
+            c.handle(&req, scene, lib)
+        })
+        .collect()
+}
+
+/// A scene sent as data in parts is built, checked and shown, as the host
+/// builds it; it becomes the last scene id, and can be selected again.
+#[test]
+fn a_scene_loaded_in_parts_is_shown() {
+    let mut scene = standard();
+    let mut lib = lib();
+    let mut c = Control::new();
+    let barrel = resolved("checkerboard-barrel.toml");
+    let bytes = barrel.scene_bytes().expect("scene data");
+    let answers = load_parts(&mut c, &mut scene, &mut lib, 0, &bytes, MAX_SCENE_CHUNK);
+    assert!(answers.len() > 1, "several parts");
+    assert!(answers.iter().all(|a| *a == Answer::Ack), "{answers:?}");
+    assert_eq!(scene, barrel.core_scene().expect("core scene"));
+    assert_eq!((c.scene_id, lib.count()), (1, 2));
+    assert_eq!(c.describe(&scene, &lib, 0).scenes, 2);
+    let n = answers.len() as u32;
+    assert_eq!(
+        c.handle(&request(n, Command::SelectScene { id: 0 }), &mut scene, &mut lib),
+        Answer::Ack
+    );
+    assert_eq!(scene, standard());
+    assert_eq!(
+        c.handle(
+            &request(n + 1, Command::SelectScene { id: 1 }),
+            &mut scene,
+            &mut lib
+        ),
+        Answer::Ack
+    );
+    assert_eq!(scene, barrel.core_scene().expect("core scene"));
+}
+
+/// A scene that fails is refused at its last part, naming the value; the
+/// camera shows what it showed. Parts out of place are refused.
+#[test]
+fn a_bad_scene_is_refused_naming_the_field_and_the_camera_keeps_its_scene() {
+    let good = standard();
+    let mut data = resolved("standard.toml").scene_data().expect("scene data");
+    data.materials[1].albedo = hilcam::scene_data::Colour::Gray(1.5);
+    let mut buf = vec![0u8; MAX_SCENE_DATA];
+    let bad = data.encode(&mut buf).expect("fits").to_vec();
+    let cases: Vec<(Vec<u8>, u16, Reason, &str)> = vec![
+        (bad, 640, Reason::Invalid, "materials[1].albedo"),
+        // 160 pixels wide, the camera's lines 100.
+        (standard_bytes(), 100, Reason::Unsupported, "camera.width"),
+        (vec![0xff; 40], 640, Reason::Invalid, "scene"),
+    ];
+    for (bytes, width, reason, field) in cases {
+        let blob: &'static [u8] = Box::leak(standard_bytes().into_boxed_slice());
+        let mut lib = Library::<MAX_SCENE_DATA>::new(Box::leak(Box::new([blob])), width);
+        let mut scene = good.clone();
+        let mut c = Control::new();
+        let answers = load_parts(&mut c, &mut scene, &mut lib, 0, &bytes, 64);
+        let (last, before) = answers.split_last().expect("parts");
+        assert!(before.iter().all(|a| *a == Answer::Ack));
+        match last {
+            Answer::Reject(r, f) => {
+                assert_eq!((*r, f.name().as_str()), (reason, field));
+            }
+            other => panic!("{field}: {other:?}"),
+        }
+        assert_eq!(scene, good, "{field}: the scene changed");
+        assert_eq!((c.scene_id, lib.count()), (0, 1));
+    }
+    // Parts out of place.
+    let mut scene = good.clone();
+    let mut lib = lib();
+    let mut c = Control::new();
+    let part = [0u8; 8];
+    let load = |total, offset, bytes| Command::LoadScene { total, offset, bytes };
+    let cases: Vec<(Command, &str)> = vec![
+        (load(MAX_SCENE_DATA as u16 + 1, 0, &part[..]), "load.total"),
+        (load(0, 0, &part[..]), "load.total"),
+        (load(16, 8, &part[..]), "load.offset"),
+        (load(4, 0, &part[..]), "load.bytes"),
+        (load(16, 0, &[][..]), "load.bytes"),
+    ];
+    for (seq, (cmd, field)) in cases.into_iter().enumerate() {
+        assert_eq!(
+            c.handle(&request(seq as u32, cmd), &mut scene, &mut lib),
+            Answer::Reject(Reason::Invalid, Fault::field(field)),
+            "{cmd:?}"
+        );
+    }
+    // A part skipped: the next is refused; starting again works.
+    let bytes = standard_bytes();
+    let n = 5;
+    let first = load(bytes.len() as u16, 0, &bytes[..32]);
+    assert_eq!(c.handle(&request(n, first), &mut scene, &mut lib), Answer::Ack);
+    let third = load(bytes.len() as u16, 64, &bytes[64..96]);
+    assert_eq!(
+        c.handle(&request(n + 1, third), &mut scene, &mut lib),
+        Answer::Reject(Reason::Invalid, Fault::field("load.offset"))
+    );
+    let answers = load_parts(&mut c, &mut scene, &mut lib, n + 2, &bytes, MAX_SCENE_CHUNK);
+    assert!(answers.iter().all(|a| *a == Answer::Ack), "{answers:?}");
+    assert_eq!((c.scene_id, lib.count()), (1, 2));
+}
+
+/// The longest LoadScene (every varint at its longest, a full part) fits
+/// the receiver.
+#[test]
+fn the_largest_load_part_fits_the_receiver() {
+    let part = [0xffu8; MAX_SCENE_CHUNK];
+    let worst = request(
+        u32::MAX,
+        Command::LoadScene {
+            total: u16::MAX,
+            offset: u16::MAX,
+            bytes: &part,
+        },
+    );
+    let w = wire(&worst);
+    assert!(w.len() <= MAX_REQUEST, "{} bytes", w.len());
+    let mut rx = Receiver::<MAX_REQUEST>::new();
+    assert_eq!(feed(&mut rx, &w), vec![Ok(w.clone())]);
 }

@@ -1,13 +1,13 @@
-//! hilcam firmware: renders every shipped scene (built in flash from
-//! `scenes/`) with the core and streams the frames over UART0 with the link
-//! protocol. Each frame's cost — instructions, counted with SysTick under
+//! hilcam firmware: renders every shipped scene (held in flash as scene
+//! data, encoded from `scenes/` at build time, built by the core at run
+//! time) and streams the frames over UART0 with the link protocol. Each frame's cost — instructions, counted with SysTick under
 //! QEMU `-icount` — goes in its `FrameEnd`, its ground truth in its
 //! `FrameStart`. Status goes to semihosting; a panic reports there and
 //! exits non-zero.
 //!
 //! With the `camera` feature it is a camera the host drives instead: it
-//! reads commands on UART0 RX (`hilcam::control`), answers each, and
-//! renders the frames they ask for, forever.
+//! reads commands on UART0 RX (`hilcam::control`), answers each, takes
+//! new scenes as data, and renders the frames they ask for, forever.
 #![no_std]
 #![no_main]
 
@@ -15,13 +15,25 @@ mod board;
 
 #[allow(clippy::all, unused_imports, dead_code)]
 mod scenes {
-    use hilcam::distortion::Distortion;
-    use hilcam::lens::{Aperture, LensConfig};
     use hilcam::render::{DistortionEval, Options, Override};
-    use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec};
-    use hilcam::{Camera, Extrinsics, IntrinsicsConfig, Model};
     include!(concat!(env!("OUT_DIR"), "/scenes.rs"));
 }
+
+/// Widest line rendered, pixels: the widest scene held, and for a driven
+/// camera at least 640 (a scene loaded wider is refused).
+#[cfg(feature = "camera")]
+const MAX_WIDTH: usize = if scenes::MAX_WIDTH > 640 {
+    scenes::MAX_WIDTH
+} else {
+    640
+};
+#[cfg(not(feature = "camera"))]
+const MAX_WIDTH: usize = scenes::MAX_WIDTH;
+/// Longest line, bytes (two bytes a pixel at most).
+#[cfg(feature = "camera")]
+const MAX_LINE_BYTES: usize = 2 * MAX_WIDTH;
+#[cfg(not(feature = "camera"))]
+const MAX_LINE_BYTES: usize = scenes::MAX_LINE_BYTES;
 
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
@@ -49,6 +61,19 @@ macro_rules! status {
 
 /// The `-icount` shift `host-sim hil` runs QEMU with: 2^7 ns an instruction.
 const ICOUNT_SHIFT: u32 = 7;
+
+/// The device-interrupt part of the vector table. The firmware enables no
+/// interrupt (the UART is polled, SysTick is a core exception), so 16
+/// entries to the default handler stand for the 240 that cortex-m-rt
+/// reserves without a device crate (960 B of flash).
+#[link_section = ".vector_table.interrupts"]
+#[no_mangle]
+static __INTERRUPTS: [unsafe extern "C" fn(); 16] = [DefaultHandler; 16];
+
+extern "C" {
+    /// cortex-m-rt's default handler.
+    fn DefaultHandler();
+}
 
 static WRAPS: AtomicU32 = AtomicU32::new(0);
 
@@ -141,8 +166,8 @@ fn main() -> ! {
         Ok(e) => e,
         Err(_) => fail("encoder"),
     };
-    let mut line = [0u8; scenes::MAX_LINE_BYTES];
-    let mut flags = [0u8; scenes::MAX_WIDTH];
+    let mut line = [0u8; MAX_LINE_BYTES];
+    let mut flags = [0u8; MAX_WIDTH];
     #[cfg(feature = "camera")]
     camera::run(&mut enc, &mut line, &mut flags);
     #[cfg(not(feature = "camera"))]
@@ -152,8 +177,8 @@ fn main() -> ! {
 /// Renders every embedded scene with every variant, once, and exits.
 #[cfg(not(feature = "camera"))]
 fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
-    for (id, name) in scenes::NAMES.iter().enumerate() {
-        let scene = scenes::build(id).unwrap_or_else(|e| fail(e));
+    for (id, blob) in scenes::BLOBS.iter().enumerate() {
+        let scene = build(blob);
         // The planner's choice; a firmware whose variants all force the
         // arithmetic and the distortion evaluation needs only its ray model
         // (and leaves the rest of the planner out of flash).
@@ -162,7 +187,8 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
         } else {
             Options::new(ray_model(&scene, &Budget::default()), 2).with_scene_sampling(&scene)
         };
-        for (v, variant) in scenes::VARIANTS.iter().enumerate() {
+        // Names only in status lines (a build without them holds none).
+        for v in 0..scenes::VARIANTS.len() {
             let mut run = Run {
                 scene: &scene,
                 enc,
@@ -173,8 +199,14 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
                 command: None,
             };
             let ins = scenes::render_variant(v, &opts, &mut run).unwrap_or_else(|e| fail(e));
-            status!("frame {} {} {}: {} instructions", id, name, variant, ins);
-            let _ = (name, variant, ins);
+            status!(
+                "frame {} {} {}: {} instructions",
+                id,
+                scenes::NAMES.get(id).unwrap_or(&"?"),
+                scenes::VARIANTS.get(v).unwrap_or(&"?"),
+                ins
+            );
+            let _ = ins;
         }
     }
     status!("stack_peak_bytes {}", stack::peak());
@@ -188,9 +220,10 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
 /// The driven camera: commands in on UART0 RX, answers and frames out.
 #[cfg(feature = "camera")]
 mod camera {
-    use super::{board, fail, ns, ticks, Enc, Run};
-    use hilcam::control::{Control, Receiver, MAX_REQUEST};
+    use super::{board, fail, ns, ticks, Enc, Run, MAX_WIDTH};
+    use hilcam::control::{Control, Library, Receiver, MAX_REQUEST};
     use hilcam::planner::{plan, Budget};
+    use hilcam::scene_data::MAX_SCENE_DATA;
 
     /// Bytes read from RX between two frames at most: a flood of input
     /// delays a promised frame by at most this much decoding.
@@ -198,8 +231,8 @@ mod camera {
 
     /// Runs the camera forever (starting on scene 0, triggered).
     pub fn run(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
-        let scenes = super::scenes::NAMES.len() as u32;
-        let mut scene = super::scenes::build(0).unwrap_or_else(|e| fail(e));
+        let mut library = Library::<MAX_SCENE_DATA>::new(&super::scenes::BLOBS, MAX_WIDTH as u16);
+        let mut scene = library.scene(0).unwrap_or_else(|_| fail("scene 0"));
         let mut control = Control::new();
         let mut rx = Receiver::<MAX_REQUEST>::new();
         let mut frame_id = 0u32;
@@ -211,9 +244,10 @@ mod camera {
                 let Some(Ok(req)) = rx.push(byte) else {
                     continue;
                 };
-                let answer = control.handle(&req, &mut scene, scenes, |id| super::scenes::build(id as usize));
-                let sent = enc.send_answer(req.seq, answer, ns(ticks()), || {
-                    control.describe(&scene, scenes, frame_id)
+                let seq = req.seq;
+                let answer = control.handle(&req, &mut scene, &mut library);
+                let sent = enc.send_answer(seq, answer, ns(ticks()), || {
+                    control.describe(&scene, &library, frame_id)
                 });
                 if sent.is_err() {
                     fail("reply");
@@ -237,6 +271,13 @@ mod camera {
             }
         }
     }
+}
+
+/// Builds an embedded scene (they were checked when the firmware was
+/// built).
+#[cfg(not(feature = "camera"))]
+fn build(blob: &[u8]) -> Scene {
+    hilcam::scene_data::load(blob).unwrap_or_else(|_| fail("scene data"))
 }
 
 /// Renders a scene in a chosen scalar type and streams the frame.

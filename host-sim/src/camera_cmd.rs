@@ -8,9 +8,9 @@
 use crate::drive_cmd::spawn_reader;
 use crate::harness::planned_frame;
 use crate::scene_file::Resolved;
-use hilcam::control::{Answer, Control, Mode, Receiver, MAX_REQUEST};
+use hilcam::control::{Answer, Control, Library, Mode, Receiver, MAX_REQUEST};
 use hilcam::link::{wire_size, Encoder, FrameStart, DEFAULT_CHUNK};
-use hilcam::scene::Scene;
+use hilcam::scene_data::MAX_SCENE_DATA;
 use serde::Serialize;
 use std::io::{Read, Write};
 use std::sync::mpsc;
@@ -107,14 +107,16 @@ pub fn serve_from<W: Write>(
     writer: W,
     scenes: &[Resolved],
 ) -> Result<CameraStats, String> {
-    let build = |id: u32| -> Result<Scene, String> {
-        scenes
-            .get(id as usize)
-            .ok_or_else(|| format!("no scene {id}"))?
-            .core_scene()
-    };
-    let n = scenes.len() as u32;
-    let mut scene = build(0)?;
+    // The scenes as data, as a firmware holds them.
+    let blobs = scenes
+        .iter()
+        .map(Resolved::scene_bytes)
+        .collect::<Result<Vec<_>, _>>()?;
+    let blobs: Vec<&[u8]> = blobs.iter().map(Vec::as_slice).collect();
+    let mut library = Library::<MAX_SCENE_DATA>::new(&blobs, u16::MAX);
+    let mut scene = library
+        .scene(0)
+        .map_err(|(_, f)| format!("scene 0: {}", f.name()))?;
     let mut control = Control::new();
     let mut rx = Receiver::<MAX_REQUEST>::new();
     let mut enc = Encoder::<_, DEFAULT_CHUNK, { wire_size(DEFAULT_CHUNK) }>::new(IoWrite(writer))
@@ -140,14 +142,15 @@ pub fn serve_from<W: Write>(
                 for b in bytes {
                     let Some(r) = rx.push(b) else { continue };
                     let Ok(req) = r else { continue };
-                    let answer = control.handle(&req, &mut scene, n, |id| build(id).map_err(|_| "scene"));
+                    let seq = req.seq;
+                    let answer = control.handle(&req, &mut scene, &mut library);
                     match answer {
                         Answer::Ack => stats.acks += 1,
                         Answer::Reject(..) => stats.rejects += 1,
                         Answer::Describe => {}
                     }
-                    let sent = enc.send_answer(req.seq, answer, now_ns(), || {
-                        control.describe(&scene, n, frame_id)
+                    let sent = enc.send_answer(seq, answer, now_ns(), || {
+                        control.describe(&scene, &library, frame_id)
                     });
                     sent.map_err(|e| format!("answering: {e:?}"))?;
                 }
@@ -161,7 +164,7 @@ pub fn serve_from<W: Write>(
         if control.frame_due(now_ns()) {
             let name = scenes
                 .get(control.scene_id as usize)
-                .map_or("scene", |r| r.desc.name.as_str());
+                .map_or("loaded", |r| r.desc.name.as_str());
             let (core, stages) = planned_frame(&scene, name, frame_id)?;
             let start = FrameStart::of(
                 frame_id,

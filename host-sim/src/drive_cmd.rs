@@ -9,7 +9,7 @@ use crate::hil_cmd::{build_firmware_as, spawn_qemu, Board};
 use crate::link::decoder::{Decoder, Frame, Reply, Stats};
 use crate::scene_file::{load, Resolved};
 use crate::trajectory::{Pose, Trajectory};
-use hilcam::control::{Command, Request, MAX_REQUEST};
+use hilcam::control::{Command, Request, MAX_REQUEST, MAX_SCENE_CHUNK};
 use hilcam::link::{encode_message, FrameStart, Truth, PROTOCOL_VERSION};
 use hilcam::Extrinsics;
 use serde::Serialize;
@@ -176,6 +176,25 @@ impl<W: Write> Driver<W> {
         Err(format!("no answer to command {seq} ({command:?}) after 4 tries"))
     }
 
+    /// Sends `data` (an encoded scene) in `LoadScene` parts; returns the
+    /// answer to the last part, or the first refusal.
+    pub fn load_scene(&mut self, data: &[u8]) -> Result<Reply, String> {
+        let total = u16::try_from(data.len()).map_err(|_| format!("scene data of {} bytes", data.len()))?;
+        let mut last = Err("empty scene data".to_string());
+        for (k, part) in data.chunks(MAX_SCENE_CHUNK).enumerate() {
+            let command = Command::LoadScene {
+                total,
+                offset: (k * MAX_SCENE_CHUNK) as u16,
+                bytes: part,
+            };
+            match self.command(command)?.0 {
+                a @ Reply::Ack(_) => last = Ok(a),
+                other => return Ok(other),
+            }
+        }
+        last
+    }
+
     /// The next frame, waiting up to `timeout`.
     pub fn next_frame(&mut self, timeout: Duration) -> Result<Option<Arrived>, String> {
         let deadline = Instant::now() + timeout;
@@ -321,7 +340,9 @@ pub fn scene_pose(r: &Resolved) -> Result<Pose, String> {
     })
 }
 
-/// Drives a camera whose only scene is `r` through `poses`; writes a PNG
+/// Drives a camera through `poses` of the scene `r`, which it sends as
+/// data first (`LoadScene`: the camera needs no firmware made for it);
+/// writes a PNG
 /// and a JSON sidecar (its ground truth) per frame and `drive.json` into
 /// `out`. `instr_ns`: ns of camera time an instruction, where it is fixed
 /// (128 under QEMU `-icount shift=7`).
@@ -339,19 +360,32 @@ pub fn drive<W: Write>(
     let Reply::Description(d) = d else {
         return Err(format!("Describe answered with {d:?}"));
     };
-    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
-    if (d.width, d.height) != (w, h) || d.scenes < 1 {
-        return Err(format!(
-            "the camera shows {}x{} ({} scenes), the scene is {w}x{h}",
-            d.width, d.height, d.scenes
-        ));
-    }
     driver.set_next_seq(d.last_command.map_or(0, |l| l.wrapping_add(1)));
     let expect = |reply: Reply, what: &str| match reply {
         Reply::Ack(a) => Ok(a),
         other => Err(format!("{what}: {other:?}")),
     };
-    expect(driver.command(Command::SelectScene { id: 0 })?.0, "SelectScene")?;
+    let data = r.scene_bytes()?;
+    if data.len() > d.max_scene as usize {
+        return Err(format!(
+            "the camera takes scenes of at most {} bytes as data; {} is {} bytes",
+            d.max_scene,
+            r.desc.name,
+            data.len()
+        ));
+    }
+    expect(driver.load_scene(&data)?, &format!("LoadScene {}", r.desc.name))?;
+    let (d, _) = driver.command(Command::Describe)?;
+    let Reply::Description(d) = d else {
+        return Err(format!("Describe answered with {d:?}"));
+    };
+    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
+    if (d.width, d.height) != (w, h) {
+        return Err(format!(
+            "the camera shows {}x{} after loading the scene, which is {w}x{h}",
+            d.width, d.height
+        ));
+    }
     let mut scene = r.core_scene()?;
     let mut frames = Vec::new();
     let (mut lost, mut out_of_order, mut late) = (0, 0, 0);
@@ -402,7 +436,7 @@ pub fn drive<W: Write>(
         let (host, stages) = planned_frame(&scene, &r.desc.name, f.start.frame_id)?;
         let want = FrameStart::of(
             f.start.frame_id,
-            0,
+            d.scene_id,
             &scene,
             &stages,
             f.start.truth.timestamp_ns,
@@ -519,7 +553,9 @@ pub fn drive_target(
             run(reader, writer, path, None)
         }
         Target::Qemu(board) => {
-            let elf = build_firmware_as(*board, &[scene.to_path_buf()], &[], true)?;
+            // The camera firmware as built with the shipped scenes: the
+            // scene driven goes over the link as data.
+            let elf = build_firmware_as(*board, &[], &[], true)?;
             let dir = tempfile_dir()?;
             let sock = dir.join("uart.sock");
             let mut child = spawn_qemu(

@@ -129,7 +129,8 @@ enum Cmd {
         /// lm3s6965evb (Cortex-M3) or mps2-an386 (Cortex-M4F).
         #[arg(long, default_value = "lm3s6965evb")]
         board: String,
-        /// The scene (the camera is built with it alone).
+        /// The scene, sent to the camera as data (LoadScene) before the
+        /// poses: any scene file, shipped or not.
         #[arg(long, default_value = "scenes/standard.toml")]
         scene: std::path::PathBuf,
         /// Frames (poses sampled evenly over the trajectory).
@@ -144,7 +145,7 @@ enum Cmd {
         #[arg(long)]
         capture: Option<std::path::PathBuf>,
         /// Drive the camera on this serial device (a real port or a pty)
-        /// instead of the firmware in QEMU; its scene 0 must be --scene.
+        /// instead of the firmware in QEMU.
         #[arg(long)]
         device: Option<String>,
         /// Baud rate of --device.

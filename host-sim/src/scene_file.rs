@@ -2,9 +2,11 @@
 //! rejected. One parsed [`SceneDesc`] builds both the core's fixed-point
 //! scene and the reference's f64 scene, so both render the same input.
 
-use hilcam::lens::{Aperture, LensConfig};
-use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec};
-use hilcam::{Camera, Extrinsics, IntrinsicsConfig, Model};
+use hilcam::lens::Aperture;
+use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
+use hilcam::scene_data::{
+    CameraData, LightData, MaterialData, NoiseData, PrimitiveData, SamplingData, SceneData, SpecularData,
+};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -200,6 +202,33 @@ pub enum Pose {
     },
 }
 
+impl Pose {
+    /// `R` and `T` as the core makes them of this pose (what scene data
+    /// carries). Errors name the scene file's key.
+    pub fn matrix(&self) -> Result<([[f64; 3]; 3], [f64; 3]), String> {
+        use hilcam::extrinsics::{look_at_matrix, yaw_pitch_roll_matrix};
+        let key = |e: hilcam::Error| {
+            let k = match (self, e.field()) {
+                (_, hilcam::Field::Target) => "camera.pose.target",
+                (_, hilcam::Field::Up) => "camera.pose.up",
+                (_, hilcam::Field::Translation) => "camera.pose.eye",
+                _ => "camera.pose.yaw_pitch_roll",
+            };
+            let text = e.to_string();
+            let why = text.split_once(": ").map_or(text.as_str(), |(_, w)| w);
+            format!("{k}: {why}")
+        };
+        match *self {
+            Pose::LookAt { eye, target, up } => Ok((look_at_matrix(eye, target, up).map_err(key)?, eye)),
+            Pose::Ypr { position, angles } => Ok((
+                yaw_pitch_roll_matrix(angles[0], angles[1], angles[2]).map_err(key)?,
+                position,
+            )),
+            Pose::Matrix { position, rotation } => Ok((rotation, position)),
+        }
+    }
+}
+
 /// `[environment]`.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -230,9 +259,14 @@ impl Default for Colour {
 impl Colour {
     /// Per channel.
     pub fn rgb(self) -> [f64; 3] {
+        self.data().rgb()
+    }
+
+    /// As scene data carries it.
+    pub fn data(self) -> hilcam::scene_data::Colour {
         match self {
-            Colour::Gray(v) => [v; 3],
-            Colour::Rgb(c) => c,
+            Colour::Gray(v) => hilcam::scene_data::Colour::Gray(v),
+            Colour::Rgb(c) => hilcam::scene_data::Colour::Rgb(c),
         }
     }
 }
@@ -712,61 +746,11 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
 }
 
 impl Resolved {
-    /// The camera's lens settings.
-    fn lens(&self) -> Result<LensConfig, String> {
-        let c = &self.desc.camera;
-        let aperture = match (c.f_number, c.aperture) {
-            (Some(n), None) => Aperture::FNumber(n),
-            (None, Some(d)) => Aperture::Diameter(d),
-            _ => return Err("camera: give exactly one of f_number and aperture".into()),
-        };
-        Ok(LensConfig {
-            aperture,
-            focus_distance: c.focus_distance,
-            tolerable_blur: c.tolerable_blur,
-        })
-    }
-
     /// Aperture diameter, metres.
     pub fn aperture_diameter(&self) -> f64 {
         let c = &self.desc.camera;
         c.aperture
             .unwrap_or_else(|| c.focal_length / c.f_number.unwrap_or(1.0))
-    }
-
-    /// A core construction error, naming the scene file's key (the core
-    /// names its own parameters: `pitch_x` is the file's `camera.pitch`).
-    fn field_error(&self, e: hilcam::Error) -> String {
-        use hilcam::error::Field as F;
-        let pose = |k: &str| format!("camera.pose.{k}");
-        let key = match e.field() {
-            F::FocalLength => "camera.focal_length".into(),
-            F::PitchX | F::PitchY => "camera.pitch".into(),
-            F::Width => "camera.width".into(),
-            F::Height => "camera.height".into(),
-            F::PrincipalX | F::PrincipalY => "camera.principal_point".into(),
-            F::Rotation => match self.pose {
-                Pose::Ypr { .. } => pose("yaw_pitch_roll"),
-                _ => pose("rotation"),
-            },
-            F::Translation => match self.pose {
-                Pose::LookAt { .. } => pose("eye"),
-                _ => pose("position"),
-            },
-            F::Angle => pose("yaw_pitch_roll"),
-            F::Target => pose("target"),
-            F::Up => pose("up"),
-            F::Aperture => "camera.aperture".into(),
-            F::FNumber => "camera.f_number".into(),
-            F::FocusDistance => "camera.focus_distance".into(),
-            F::TolerableBlur => "camera.tolerable_blur".into(),
-            F::OrthographicScale => "camera.orthographic_scale".into(),
-            F::Distortion => "camera.distortion".into(),
-            F::MeanDepth | F::Point => "camera".to_string(),
-        };
-        let text = e.to_string();
-        let why = text.split_once(": ").map_or(text.as_str(), |(_, w)| w);
-        format!("{key}: {why}")
     }
 
     /// Prepares the frame the planner picks by default, so that a camera
@@ -809,27 +793,18 @@ impl Resolved {
         })
     }
 
-    /// The core's scene. Errors name the field.
-    pub fn core_scene(&self) -> Result<Scene, String> {
+    /// The scene as data (what a camera stores and receives). Errors name
+    /// the field.
+    pub fn scene_data(&self) -> Result<SceneData, String> {
         let c = &self.desc.camera;
-        let cam_err = |e: hilcam::Error| self.field_error(e);
-        let intr = IntrinsicsConfig {
-            focal_length: c.focal_length,
-            pitch: c.pitch.get(),
-            size: (c.width, c.height),
-            principal_point: c.principal_point.map(|[x, y]| (x, y)),
+        let aperture = match (c.f_number, c.aperture) {
+            (Some(n), None) => Aperture::FNumber(n),
+            (None, Some(d)) => Aperture::Diameter(d),
+            _ => return Err("camera: give exactly one of f_number and aperture".into()),
         };
-        let pose = match self.pose {
-            Pose::LookAt { eye, target, up } => Extrinsics::look_at(eye, target, up),
-            Pose::Ypr { position, angles } => {
-                Extrinsics::from_yaw_pitch_roll(angles[0], angles[1], angles[2], position)
-            }
-            Pose::Matrix { position, rotation } => Extrinsics::from_matrix(rotation, position),
-        }
-        .map_err(cam_err)?;
-        let model = match (c.model.as_str(), c.orthographic_scale) {
-            ("perspective", None) => Model::Perspective,
-            ("orthographic", Some(m)) => Model::orthographic(m).map_err(cam_err)?,
+        let orthographic_scale = match (c.model.as_str(), c.orthographic_scale) {
+            ("perspective", None) => None,
+            ("orthographic", Some(m)) => Some(m),
             ("orthographic", None) => return Err("camera.orthographic_scale: missing".into()),
             ("perspective", Some(_)) => return Err("camera.orthographic_scale: only for orthographic".into()),
             (other, _) => {
@@ -838,56 +813,116 @@ impl Resolved {
                 ))
             }
         };
-        let camera = Camera::new(&intr, &self.lens()?, pose, model).map_err(cam_err)?;
-        let distortion = match c.distortion {
-            Some([k1, k2]) => hilcam::distortion::Distortion::new(k1, k2).map_err(cam_err)?,
-            None => hilcam::distortion::Distortion::NONE,
-        };
+        let (sx, sy) = c.pitch.get();
+        let (rotation, position) = self.pose.matrix()?;
+        let index = |i: usize, what: &str| u8::try_from(i).map_err(|_| format!("{what}: more than 255"));
+        let too_many = |what: &str, max: usize| format!("{what}: more than {max} (the core's limit)");
         let env = &self.desc.environment;
-        let mut scene = Scene::new(
-            camera,
-            distortion,
-            self.format,
-            self.desc.output.exposure,
-            env.ambient.rgb(),
-            env.background.rgb(),
-        )
-        .map_err(|e| e.to_string())?;
+        let mut d = SceneData {
+            camera: CameraData {
+                width: c.width,
+                height: c.height,
+                focal_length: c.focal_length,
+                pitch: [sx, sy],
+                principal_point: c.principal_point,
+                orthographic_scale,
+                aperture,
+                focus_distance: c.focus_distance,
+                tolerable_blur: c.tolerable_blur,
+                distortion: c.distortion,
+                rotation,
+                position,
+            },
+            format: self.format.into(),
+            exposure: self.desc.output.exposure,
+            ambient: env.ambient.data(),
+            background: env.background.data(),
+            materials: heapless::Vec::new(),
+            primitives: heapless::Vec::new(),
+            lights: heapless::Vec::new(),
+            sampling: self.desc.sampling.map(|s| SamplingData {
+                edge_error: s.edge_error,
+                adaptive: s.adaptive,
+            }),
+            noise: self.desc.noise.map(|n| NoiseData {
+                saturation: n.saturation,
+                dark_noise: n.dark_noise,
+                dark_offset: n.dark_offset,
+                seed: n.seed,
+            }),
+        };
         for m in &self.desc.materials {
-            scene
-                .add_material(m.albedo.rgb(), m.specular.rgb(), m.mix, m.exponent)
-                .map_err(|e| e.to_string())?;
+            // Lambertian (the defaults) without a lobe: the same values.
+            let lambertian = m.specular.rgb() == [0.0; 3] && m.mix == 1.0 && m.exponent == 0;
+            let m = MaterialData {
+                albedo: m.albedo.data(),
+                specular: (!lambertian).then(|| SpecularData {
+                    albedo: m.specular.data(),
+                    mix: m.mix,
+                    exponent: m.exponent,
+                }),
+            };
+            d.materials
+                .push(m)
+                .map_err(|_| too_many("materials", MAX_MATERIALS))?;
         }
-        for p in &self.primitives {
-            let checker = p.checker.map(|(cell, u_axis, m)| CheckerSpec {
-                cell,
-                u_axis,
-                material: m as u8,
-            });
-            scene
-                .add_primitive(p.shape, p.material as u8, checker)
-                .map_err(|e| e.to_string())?;
+        for (i, p) in self.primitives.iter().enumerate() {
+            let checker = match p.checker {
+                Some((cell, u_axis, m)) => Some(CheckerSpec {
+                    cell,
+                    u_axis,
+                    material: index(m, &format!("primitives[{i}].checker.material"))?,
+                }),
+                None => None,
+            };
+            let p = PrimitiveData {
+                shape: p.shape,
+                material: index(p.material, &format!("primitives[{i}].material"))?,
+                checker,
+            };
+            d.primitives
+                .push(p)
+                .map_err(|_| too_many("primitives", MAX_PRIMITIVES))?;
         }
         for l in &self.lights {
-            match l {
-                LightDesc::Point { position, intensity } => scene.add_point_light(*position, intensity.rgb()),
+            let l = match *l {
+                LightDesc::Point { position, intensity } => LightData::Point {
+                    position,
+                    intensity: intensity.data(),
+                },
                 LightDesc::Directional {
                     direction,
                     irradiance,
-                } => scene.add_directional_light(*direction, irradiance.rgb()),
+                } => LightData::Directional {
+                    direction,
+                    irradiance: irradiance.data(),
+                },
+            };
+            d.lights.push(l).map_err(|_| too_many("lights", MAX_LIGHTS))?;
+        }
+        Ok(d)
+    }
+
+    /// The scene data postcard-encoded, as a camera stores and receives it.
+    pub fn scene_bytes(&self) -> Result<Vec<u8>, String> {
+        postcard::to_stdvec(&self.scene_data()?).map_err(|e| format!("encoding the scene: {e}"))
+    }
+
+    /// The core's scene, built from [`Resolved::scene_bytes`] as a camera
+    /// builds it ([`hilcam::scene_data::load`]). Errors name the field.
+    pub fn core_scene(&self) -> Result<Scene, String> {
+        hilcam::scene_data::load(&self.scene_bytes()?).map_err(|e| {
+            // The data carries the pose as R and T: name the file's keys.
+            let key = match (e.field().1, self.pose) {
+                ("camera.pose.rotation", Pose::Ypr { .. }) => Some("camera.pose.yaw_pitch_roll"),
+                ("camera.pose.position", Pose::LookAt { .. }) => Some("camera.pose.eye"),
+                _ => None,
+            };
+            let text = e.to_string();
+            match (key, text.split_once(": ")) {
+                (Some(k), Some((_, why))) => format!("{k}: {why}"),
+                _ => text,
             }
-            .map_err(|e| e.to_string())?;
-        }
-        if let Some(sm) = self.desc.sampling {
-            scene
-                .set_sampling(sm.edge_error, sm.adaptive)
-                .map_err(|e| e.to_string())?;
-        }
-        if let Some(n) = self.desc.noise {
-            scene
-                .set_noise(n.saturation, n.dark_noise, n.dark_offset, u64::from(n.seed))
-                .map_err(|e| e.to_string())?;
-        }
-        Ok(scene)
+        })
     }
 }

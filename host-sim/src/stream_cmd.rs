@@ -354,6 +354,57 @@ pub fn wire_example() -> Result<String, String> {
     Ok(s)
 }
 
+/// The scene of `docs/wire.md`'s scene-data example: a 4×3 Gray8 camera
+/// 1 m in front of a gray sphere lit from the camera's side.
+pub fn example_scene_data() -> hilcam::scene_data::SceneData {
+    use hilcam::scene::ShapeSpec;
+    use hilcam::scene_data::{
+        CameraData, Colour, FormatData, LightData, MaterialData, PrimitiveData, SceneData,
+    };
+    let mut d = SceneData {
+        camera: CameraData {
+            width: 4,
+            height: 3,
+            focal_length: 0.004,
+            pitch: [1e-5, 1e-5],
+            principal_point: None,
+            orthographic_scale: None,
+            aperture: hilcam::Aperture::FNumber(2.0),
+            focus_distance: 1.0,
+            tolerable_blur: 1e-5,
+            distortion: None,
+            rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            position: [0.0, 0.0, -1.0],
+        },
+        format: FormatData::Gray8,
+        exposure: 800.0,
+        ambient: Colour::Gray(0.0),
+        background: Colour::Gray(0.5),
+        materials: heapless::Vec::new(),
+        primitives: heapless::Vec::new(),
+        lights: heapless::Vec::new(),
+        sampling: None,
+        noise: None,
+    };
+    let _ = d.materials.push(MaterialData {
+        albedo: Colour::Gray(0.5),
+        specular: None,
+    });
+    let _ = d.primitives.push(PrimitiveData {
+        shape: ShapeSpec::Sphere {
+            centre: [0.0; 3],
+            radius: 0.25,
+        },
+        material: 0,
+        checker: None,
+    });
+    let _ = d.lights.push(LightData::Directional {
+        direction: [0.0, 0.0, -1.0],
+        irradiance: Colour::Gray(1000.0),
+    });
+    d
+}
+
 /// The commands and answers of `docs/wire.md`'s examples, as annotated
 /// hex: a `SetPose`, a `Trigger` and a `Describe` (host → camera), then an
 /// `Ack`, a `Reject` and a `Description` (camera → host).
@@ -384,6 +435,23 @@ pub fn command_example() -> Result<String, String> {
         let bytes = hilcam::link::encode_message(&r, &mut buf).ok_or("encode")?;
         hex_lines(&mut s, name, bytes);
     }
+    // A scene sent as data in LoadScene parts of at most MAX_SCENE_CHUNK.
+    let scene = example_scene_data();
+    let data = postcard::to_stdvec(&scene).map_err(|e| e.to_string())?;
+    hex_lines(&mut s, "SceneData", &data);
+    let parts = data.chunks(hilcam::control::MAX_SCENE_CHUNK);
+    for (k, part) in (0u32..).zip(parts) {
+        let r = req(
+            7 + k,
+            Command::LoadScene {
+                total: data.len() as u16,
+                offset: (k as usize * hilcam::control::MAX_SCENE_CHUNK) as u16,
+                bytes: part,
+            },
+        );
+        let bytes = hilcam::link::encode_message(&r, &mut buf).ok_or("encode")?;
+        hex_lines(&mut s, "LoadScene", bytes);
+    }
     let mut enc = Encoder::<Recorder, 8, { hilcam::link::wire_size(8) }>::new(Recorder::default())
         .map_err(|e| format!("{e:?}"))?;
     enc.send_reply(&Ack {
@@ -409,6 +477,7 @@ pub fn command_example() -> Result<String, String> {
         last_command: Some(5),
         next_frame: 1,
         max_request: hilcam::control::MAX_REQUEST as u32,
+        max_scene: hilcam::scene_data::MAX_SCENE_DATA as u32,
     })
     .map_err(|e| format!("{e:?}"))?;
     let rec = enc.into_inner();

@@ -4,6 +4,7 @@
 //! faults in both directions. The firmware in QEMU runs the same loop in
 //! the test command (`host-sim drive`).
 
+use hilcam::control::MAX_SCENE_CHUNK;
 use host_sim::camera_cmd::serve;
 use host_sim::drive_cmd::{drive, poses, spawn_reader, DriveReport, Driver};
 use host_sim::link::sim::{Faults, FaultyWriter};
@@ -28,7 +29,13 @@ fn run(n: usize, to_camera: Faults, to_host: Faults) -> (DriveReport, host_sim::
     let r = standard();
     let (host, cam) = UnixStream::pair().expect("socket pair");
     let cam_reader = cam.try_clone().expect("clone");
-    let scenes = vec![r.clone()];
+    // The camera holds another scene: the drive sends the standard one as
+    // data (LoadScene), through the faults too.
+    let scenes = vec![load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/calibration-board.toml"
+    )))
+    .expect("scene")];
     let camera = std::thread::spawn(move || serve(cam_reader, FaultyWriter::new(cam, &to_host), &scenes));
     let reader = host.try_clone().expect("clone");
     let hangup = host.try_clone().expect("clone");
@@ -58,9 +65,15 @@ fn the_host_camera_follows_the_trajectory() {
         (r.frames_received, r.lost, r.out_of_order, r.resent),
         (30, 0, 0, 0)
     );
-    // Describe is answered, not counted; SelectScene, then SetPose and
-    // Trigger a frame.
-    assert_eq!((cam.acks, cam.rejects, cam.frames), (1 + 2 * 30, 0, 30));
+    // Describe is answered, not counted; the scene's LoadScene parts, then
+    // SetPose and Trigger a frame.
+    let parts = standard()
+        .scene_bytes()
+        .expect("data")
+        .len()
+        .div_ceil(MAX_SCENE_CHUNK) as u32;
+    assert!(parts > 1);
+    assert_eq!((cam.acks, cam.rejects, cam.frames), (parts + 2 * 30, 0, 30));
     // The poses differ from frame to frame (the loop moves the camera).
     let t0 = r.frames[0].truth.translation;
     assert!(r.frames.iter().any(|f| f.truth.translation != t0));
