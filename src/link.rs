@@ -293,8 +293,60 @@ pub struct FrameEnd {
     pub frame_id: u32,
     /// CRC-32 of all the frame's pixel bytes, in order.
     pub crc: u32,
+    /// Pixels outside the lens field ([`crate::render::FLAG_OUTSIDE_FIELD`]),
+    /// as the frame's [`LineFlags`] messages gave them (0: none, and no
+    /// such message).
+    pub outside: u32,
     /// What the frame cost the device (instructions), when it knows.
     pub cost: Option<u64>,
+}
+
+/// The pixels of one line outside the lens field (`camera-model.md`: beyond
+/// the distortion's fold radius, their value 0): sent inside a frame, after
+/// that line's [`FrameStart`] and before its [`FrameEnd`], for each line
+/// that has any (a scene without them sends none).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LineFlags<'a> {
+    /// The frame's id.
+    pub frame_id: u32,
+    /// The line.
+    pub line: u16,
+    /// One bit a pixel, `⌈width/8⌉` bytes: pixel `i` is bit `i mod 8`
+    /// (least significant first) of byte `i / 8`; bits past the width 0.
+    #[serde(borrow, with = "serde_bytes")]
+    pub bits: &'a [u8],
+}
+
+/// A line's flags (a byte a pixel) sent as [`LineFlags`], packed while
+/// serialized: the same bytes, no buffer.
+struct FlagsOut<'a> {
+    frame_id: u32,
+    line: u16,
+    flags: &'a [u8],
+}
+
+/// The packed bits of a flags line, as postcard writes a byte string
+/// (length, then the bytes).
+struct PackedBits<'a>(&'a [u8]);
+
+impl Serialize for PackedBits<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let mut seq = s.serialize_seq(Some(self.0.len().div_ceil(8)))?;
+        for eight in self.0.chunks(8) {
+            let byte = eight.iter().enumerate().fold(0u8, |b, (i, f)| {
+                b | (u8::from(*f & crate::render::FLAG_OUTSIDE_FIELD != 0) << i)
+            });
+            seq.serialize_element(&byte)?;
+        }
+        seq.end()
+    }
+}
+
+impl Serialize for FlagsOut<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (self.frame_id, self.line, PackedBits(self.flags)).serialize(s)
+    }
 }
 
 /// A message on the wire, camera → host.
@@ -314,6 +366,9 @@ pub enum Message<'a> {
     Reject(Reject<'a>),
     /// Tag 5: the camera describes itself (answer to `Describe`).
     Description(Description),
+    /// Tag 6: a line's pixels outside the lens field (inside a frame).
+    #[serde(borrow)]
+    Flags(LineFlags<'a>),
 }
 
 /// Whether `body`, which decodes to `value`, is `value`'s one encoding
@@ -362,8 +417,11 @@ pub fn encode_message<'w, T: Serialize + ?Sized>(msg: &T, wire: &'w mut [u8]) ->
 #[derive(Clone, Copy)]
 struct Open {
     frame_id: u32,
+    width: u16,
     height: u16,
     line_bytes: usize,
+    /// Pixels flagged outside the field so far.
+    outside: u32,
 }
 
 /// One kind of [`Message`], encoded on its own: `Tagged(tag, value)` has
@@ -511,8 +569,10 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         self.send(&FrameMessage::FrameStart(&start))?;
         self.frame = Some(Open {
             frame_id: start.frame_id,
+            width: start.width,
             height: start.height,
             line_bytes: start.line_bytes(),
+            outside: 0,
         });
         self.crc = CRC32.digest();
         self.fill = 0;
@@ -568,6 +628,33 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         Ok(())
     }
 
+    /// The flags of the line just added (a byte a pixel, at least the
+    /// width): if any pixel is outside the lens field, sends its
+    /// [`LineFlags`] (the frame's [`FrameEnd`] counts them).
+    pub fn push_flags(&mut self, flags: &[u8]) -> Result<(), LinkError<W::Error>> {
+        let Some(f) = self.frame.as_mut() else {
+            return Err(LinkError::Sequence);
+        };
+        let (Some(line), Some(flags)) = (self.line.checked_sub(1), flags.get(..usize::from(f.width))) else {
+            return Err(LinkError::Sequence);
+        };
+        let n = flags
+            .iter()
+            .filter(|b| **b & crate::render::FLAG_OUTSIDE_FIELD != 0)
+            .count() as u32;
+        if n == 0 {
+            return Ok(());
+        }
+        f.outside += n;
+        let msg = FlagsOut {
+            frame_id: f.frame_id,
+            line,
+            flags,
+        };
+        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(6, &msg))?;
+        Ok(())
+    }
+
     /// Sends the last chunk and the [`FrameEnd`]; returns the frame's CRC-32.
     pub fn end_frame(&mut self, cost: Option<u64>) -> Result<u32, LinkError<W::Error>> {
         let Some(f) = self.frame else {
@@ -581,6 +668,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         self.send(&FrameMessage::FrameEnd(&FrameEnd {
             frame_id: f.frame_id,
             crc,
+            outside: f.outside,
             cost,
         }))?;
         self.frame = None;
@@ -609,8 +697,9 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> FrameSink for
         }
         self.enc.begin_frame(s)
     }
-    fn line(&mut self, _y: u16, pixels: &[u8], _flags: &[u8]) -> Result<(), Self::Error> {
-        self.enc.push_line(pixels)
+    fn line(&mut self, _y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
+        self.enc.push_line(pixels)?;
+        self.enc.push_flags(flags)
     }
     fn end(&mut self, cost: Option<u64>) -> Result<(), Self::Error> {
         self.enc.end_frame(cost).map(|_| ())

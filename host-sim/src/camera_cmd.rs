@@ -175,8 +175,10 @@ pub fn serve_from<W: Write>(
                 control.last_command(),
             );
             enc.begin_frame(start).map_err(|e| format!("sending: {e:?}"))?;
-            for line in core.pixels.chunks(start.line_bytes().max(1)) {
+            let lines = core.pixels.chunks(start.line_bytes().max(1));
+            for (line, flags) in lines.zip(core.flags.chunks(usize::from(start.width).max(1))) {
                 enc.push_line(line).map_err(|e| format!("sending: {e:?}"))?;
+                enc.push_flags(flags).map_err(|e| format!("sending: {e:?}"))?;
             }
             enc.end_frame(None).map_err(|e| format!("sending: {e:?}"))?;
             frame_id = frame_id.wrapping_add(1);

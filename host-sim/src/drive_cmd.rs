@@ -265,8 +265,10 @@ pub struct DriveFrame {
     pub command: u32,
     /// Its ground truth as received.
     pub truth: TruthView,
-    /// Pixels byte-identical to the host's render of the same pose and
-    /// frame id.
+    /// Pixels outside the lens field (the frame's `Flags` messages).
+    pub outside_field: u32,
+    /// Pixels and out-of-field flags byte-identical to the host's render of
+    /// the same pose and frame id.
     pub bit_exact: bool,
     /// The truth equals the host's: the pose sent, the camera, the plan.
     pub truth_matches: bool,
@@ -442,7 +444,7 @@ pub fn drive<W: Write>(
             f.start.truth.timestamp_ns,
             Some(ack.seq),
         );
-        let bit_exact = host.pixels == f.pixels;
+        let bit_exact = host.pixels == f.pixels && crate::link::decoder::wire_flags(&host.flags) == f.flags;
         let truth_matches = want == f.start;
         let png = crate::frame_png::encode_png(r.format, w as usize, h as usize, &f.pixels)?;
         let df = DriveFrame {
@@ -450,6 +452,7 @@ pub fn drive<W: Write>(
             frame_id: f.start.frame_id,
             command: ack.seq,
             truth: TruthView::from(&f.start.truth),
+            outside_field: f.end.outside,
             bit_exact,
             truth_matches,
             instructions: f.end.cost,

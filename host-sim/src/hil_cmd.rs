@@ -275,9 +275,11 @@ pub struct HilReport {
 struct HostBytes;
 
 impl FrameUser for HostBytes {
-    type Out = Vec<u8>;
-    fn use_frame<S: Scalar>(self, _: &Plan, _: &Frame<S>, core: Collect) -> Vec<u8> {
-        core.pixels
+    /// Pixels, and the flags the wire carries ([`crate::link::decoder::wire_flags`]).
+    type Out = (Vec<u8>, Vec<u8>);
+    fn use_frame<S: Scalar>(self, _: &Plan, _: &Frame<S>, core: Collect) -> Self::Out {
+        let flags = crate::link::decoder::wire_flags(&core.flags);
+        (core.pixels, flags)
     }
 }
 
@@ -342,8 +344,10 @@ pub fn hil_variants(
             all_exact = false;
             continue;
         }
-        let host = v.render_frame(r, &Budget::default(), f.start.frame_id, HostBytes)?;
+        // Pixels and out-of-field flags, byte for byte.
+        let (host, flags) = v.render_frame(r, &Budget::default(), f.start.frame_id, HostBytes)?;
         let exact = host == f.pixels
+            && flags == f.flags
             && r.desc.camera.width == f.start.width
             && r.desc.camera.height == f.start.height;
         all_exact &= exact;

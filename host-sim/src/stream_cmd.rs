@@ -324,6 +324,7 @@ fn example_truth() -> Truth {
 /// A complete small frame on the wire (4×2 Gray8), as annotated hex: the
 /// example `docs/wire.md` shows.
 pub fn wire_example() -> Result<String, String> {
+    use hilcam::render::FLAG_OUTSIDE_FIELD;
     let start = FrameStart {
         version: PROTOCOL_VERSION,
         frame_id: 7,
@@ -334,19 +335,22 @@ pub fn wire_example() -> Result<String, String> {
         exposure: 800i64 << 32,
         truth: example_truth(),
     };
-    let pixels = [0x00, 0x01, 0x7f, 0x80, 0xff, 0x00, 0x10, 0x20];
+    // Line 1's last two pixels lie outside the lens field (value 0).
+    let pixels = [0x00, 0x01, 0x7f, 0x80, 0xff, 0x10, 0x00, 0x00];
+    let flags = [0, 0, 0, 0, 0, 0, FLAG_OUTSIDE_FIELD, FLAG_OUTSIDE_FIELD];
     let mut enc =
         hilcam::link::Encoder::<crate::link::sim::Recorder, 8, { hilcam::link::wire_size(8) }>::new(
             crate::link::sim::Recorder::default(),
         )
         .map_err(|e| format!("{e:?}"))?;
     enc.begin_frame(start).map_err(|e| format!("{e:?}"))?;
-    for l in pixels.chunks(4) {
+    for (l, f) in pixels.chunks(4).zip(flags.chunks(4)) {
         enc.push_line(l).map_err(|e| format!("{e:?}"))?;
+        enc.push_flags(f).map_err(|e| format!("{e:?}"))?;
     }
     enc.end_frame(Some(1234)).map_err(|e| format!("{e:?}"))?;
     let rec = enc.into_inner();
-    let names = ["delimiter", "FrameStart", "Chunk", "FrameEnd"];
+    let names = ["delimiter", "FrameStart", "Flags", "Chunk", "FrameEnd"];
     let mut s = String::new();
     for (k, (a, b)) in rec.writes.iter().enumerate() {
         hex_lines(&mut s, names.get(k).unwrap_or(&"?"), &rec.bytes[*a..*b]);

@@ -370,3 +370,79 @@ fn non_canonical_bodies_are_refused() {
     long.extend_from_slice(&body[3..]);
     assert_eq!(wire(&long), (0, 1), "an over-long varint");
 }
+
+/// A frame rendered and streamed as the firmware does it (the core's
+/// `Stream` sink), decoded by the host.
+fn streamed(scene_text: &str) -> (Vec<u8>, Vec<u8>, Recorder) {
+    use hilcam::link::Stream;
+    use hilcam::planner::{plan, Budget};
+    use hilcam::render::Frame as Prepared;
+    let r = host_sim::scene_file::parse(scene_text).expect("scene");
+    let scene = r.core_scene().expect("core scene");
+    let p = plan(&scene, &Budget::default());
+    let frame = Prepared::new(&scene, &p.options).expect("prepares");
+    let w = r.desc.camera.width as usize;
+    let (mut line, mut flags) = (vec![0u8; w * 2], vec![0u8; w]);
+    let mut enc = Encoder::<Recorder, 2048, { hilcam::link::wire_size(2048) }>::new(Recorder::default())
+        .expect("encoder");
+    let start = FrameStart::of(0, 0, &scene, &frame.stages(), 0, None);
+    frame
+        .render(&mut line, &mut flags, &mut Stream { enc: &mut enc, start })
+        .expect("renders");
+    let host = host_sim::harness::planned_frame(&scene, "s", 0)
+        .expect("host render")
+        .0;
+    (host.pixels, host.flags, enc.into_inner())
+}
+
+fn standard_text() -> String {
+    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/standard.toml")).expect("read")
+}
+
+/// A frame with pixels beyond the distortion's fold carries them: its
+/// Flags messages give exactly the renderer's out-of-field pixels, the
+/// FrameEnd their count; a lost Flags message drops the frame rather than
+/// deliver it without them. A frame without such pixels sends none.
+#[test]
+fn out_of_field_flags_travel_with_the_frame() {
+    let folded = standard_text().replace("distortion = [0.15, 0.05]", "distortion = [-2.0, 0.0]");
+    let (pixels, flags, rec) = streamed(&folded);
+    let (frames, dec) = decode_all(&rec.bytes);
+    assert_eq!(frames.len(), 1, "{:?}", dec.stats);
+    let f = &frames[0];
+    assert_eq!(f.pixels, pixels);
+    let outside = flags
+        .iter()
+        .filter(|b| **b & hilcam::render::FLAG_OUTSIDE_FIELD != 0)
+        .count();
+    assert!(outside > 1000, "the fold lies inside the sensor: {outside}");
+    assert_eq!(f.end.outside as usize, outside);
+    assert_eq!(f.flags, host_sim::link::decoder::wire_flags(&flags));
+    // Lose one Flags message (tag 6 after COBS: the message's second byte).
+    let flag_msgs: Vec<usize> = rec
+        .writes
+        .iter()
+        .enumerate()
+        .filter(|(_, (a, b))| b - a > 2 && rec.bytes[a + 1] == 6)
+        .map(|(k, _)| k)
+        .collect();
+    assert!(flag_msgs.len() > 10, "{} lines flagged", flag_msgs.len());
+    let (a, b) = rec.writes[flag_msgs[3]];
+    let mut lost = rec.bytes[..a].to_vec();
+    lost.extend_from_slice(&rec.bytes[b..]);
+    let (frames, dec) = decode_all(&lost);
+    assert!(frames.is_empty());
+    assert_eq!(dec.stats.frames_dropped_flags, 1);
+    // The shipped standard scene has no such pixels: no Flags message.
+    let (_, flags, rec) = streamed(&standard_text());
+    assert!(flags.iter().all(|b| *b == 0));
+    assert!(rec
+        .writes
+        .iter()
+        .all(|(a, b)| b - a <= 2 || rec.bytes[a + 1] != 6));
+    let (frames, _) = decode_all(&rec.bytes);
+    assert_eq!(
+        (frames.len(), frames[0].end.outside, frames[0].flags.len()),
+        (1, 0, 0)
+    );
+}

@@ -17,8 +17,23 @@ pub struct Frame {
     pub start: FrameStart,
     /// All its pixel bytes.
     pub pixels: Vec<u8>,
-    /// Its end message (CRC, device cost).
+    /// Its end message (CRC, pixels outside the field, device cost).
     pub end: FrameEnd,
+    /// A byte a pixel, `FLAG_OUTSIDE_FIELD` where the frame's `Flags`
+    /// messages said the pixel is outside the lens field; empty when none
+    /// is.
+    pub flags: Vec<u8>,
+}
+
+/// The flags a frame's `Flags` messages carry for the renderer's `flags`
+/// (a byte a pixel): the out-of-field bit alone, and nothing when no pixel
+/// has it — what [`Frame::flags`] holds for a frame rendered with them.
+pub fn wire_flags(flags: &[u8]) -> Vec<u8> {
+    let out = hilcam::render::FLAG_OUTSIDE_FIELD;
+    if flags.iter().all(|f| f & out == 0) {
+        return Vec::new();
+    }
+    flags.iter().map(|f| f & out).collect()
 }
 
 /// What the decoder saw, and dropped, and why.
@@ -50,6 +65,9 @@ pub struct Stats {
     pub frames_dropped_unfinished: u64,
     /// Frames dropped because the whole-frame CRC did not match.
     pub frames_dropped_crc: u64,
+    /// Frames dropped because their flags messages did not add up to the
+    /// `FrameEnd`'s count (one was lost), or one was malformed.
+    pub frames_dropped_flags: u64,
     /// Frames refused at their start (size, version, or Gray16 `bits`
     /// outside 9 to 16).
     pub frames_refused: u64,
@@ -79,6 +97,9 @@ struct Assembly {
     start: FrameStart,
     pixels: Vec<u8>,
     broken: bool,
+    flags: Vec<u8>,
+    outside: u32,
+    bad_flags: bool,
 }
 
 /// The decoder. Feed it bytes with [`Decoder::push`].
@@ -228,6 +249,9 @@ impl Decoder {
                     start: s,
                     pixels: Vec::with_capacity(s.frame_bytes()),
                     broken: false,
+                    flags: Vec::new(),
+                    outside: 0,
+                    bad_flags: false,
                 });
             }
             Message::Chunk(c) => match &mut self.open {
@@ -252,12 +276,15 @@ impl Decoder {
                         self.stats.frames_dropped_gap += 1;
                     } else if CRC32.checksum(&a.pixels) != e.crc {
                         self.stats.frames_dropped_crc += 1;
+                    } else if a.bad_flags || a.outside != e.outside {
+                        self.stats.frames_dropped_flags += 1;
                     } else {
                         self.stats.frames_delivered += 1;
                         deliver(Frame {
                             start: a.start,
                             pixels: a.pixels,
                             end: e,
+                            flags: a.flags,
                         });
                     }
                 }
@@ -268,6 +295,29 @@ impl Decoder {
                     }
                     self.stats.orphans += 1;
                 }
+            },
+            Message::Flags(f) => match &mut self.open {
+                Some(a) if a.start.frame_id == f.frame_id => {
+                    let w = a.start.width as usize;
+                    let line = f.line as usize;
+                    let fits = line < a.start.height as usize && f.bits.len() == w.div_ceil(8);
+                    // Bits past the width must be 0.
+                    let tail = f.bits.last().is_some_and(|b| w % 8 != 0 && b >> (w % 8) != 0);
+                    if !fits || tail {
+                        a.bad_flags = true;
+                        return;
+                    }
+                    if a.flags.is_empty() {
+                        a.flags = vec![0; a.start.width as usize * a.start.height as usize];
+                    }
+                    for i in 0..w {
+                        if f.bits[i / 8] >> (i % 8) & 1 == 1 {
+                            a.flags[line * w + i] = hilcam::render::FLAG_OUTSIDE_FIELD;
+                            a.outside += 1;
+                        }
+                    }
+                }
+                _ => self.stats.orphans += 1,
             },
             Message::Ack(_) | Message::Reject(_) | Message::Description(_) => {}
         }
