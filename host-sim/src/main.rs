@@ -628,7 +628,8 @@ fn main() -> ExitCode {
                 &out,
             )?;
             let s = format!(
-                "{} {}: {} of {} frames received, {} bit-exact, {} with matching ground truth, {} lost, \
+                "{} {}: {} of {} frames received, {} bit-exact ({} pixels outside the lens field, flagged), \
+                 {} with matching ground truth, {} lost, \
                  {} out of order, {} commands resent; round trip (Trigger -> first byte) mean {:.0} / max {:.0} \
                  instructions, mean {:.1} / max {:.1} ms wall; {:.1} s",
                 r.board,
@@ -636,6 +637,7 @@ fn main() -> ExitCode {
                 r.frames_received,
                 r.frames_requested,
                 r.bit_exact,
+                r.frames.iter().map(|f| u64::from(f.outside_field)).sum::<u64>(),
                 r.truth_matches,
                 r.lost,
                 r.out_of_order,

@@ -302,7 +302,10 @@ impl Decoder {
                     let line = f.line as usize;
                     let fits = line < a.start.height as usize && f.bits.len() == w.div_ceil(8);
                     // Bits past the width must be 0.
-                    let tail = f.bits.last().is_some_and(|b| w % 8 != 0 && b >> (w % 8) != 0);
+                    let tail = f
+                        .bits
+                        .last()
+                        .is_some_and(|b| !w.is_multiple_of(8) && b >> (w % 8) != 0);
                     if !fits || tail {
                         a.bad_flags = true;
                         return;
