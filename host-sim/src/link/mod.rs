@@ -2,5 +2,7 @@
 //! links with fault injection, and a reader for real serial ports.
 
 pub mod decoder;
+#[cfg(feature = "cli")]
 pub mod serial;
+#[cfg(feature = "cli")]
 pub mod sim;
