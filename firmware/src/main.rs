@@ -222,6 +222,7 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
 mod camera {
     use super::{board, fail, ns, ticks, Enc, Run, MAX_WIDTH};
     use hilcam::control::{Control, Library, Receiver, MAX_REQUEST};
+    use hilcam::link::DEFAULT_CHUNK;
     use hilcam::planner::{plan, Budget};
     use hilcam::scene_data::MAX_SCENE_DATA;
 
@@ -231,7 +232,10 @@ mod camera {
 
     /// Runs the camera forever (starting on scene 0, triggered).
     pub fn run(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
-        let mut library = Library::<MAX_SCENE_DATA>::new(&super::scenes::BLOBS, MAX_WIDTH as u16);
+        // Lines the line buffer and one encoder chunk hold (two bytes a
+        // pixel at most): a wider scene is refused when it is loaded.
+        let widest = MAX_WIDTH.min(DEFAULT_CHUNK / 2) as u16;
+        let mut library = Library::<MAX_SCENE_DATA>::new(&super::scenes::BLOBS, widest);
         let mut scene = library.scene(0).unwrap_or_else(|_| fail("scene 0"));
         let mut control = Control::new();
         let mut rx = Receiver::<MAX_REQUEST>::new();

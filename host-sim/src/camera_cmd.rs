@@ -113,7 +113,10 @@ pub fn serve_from<W: Write>(
         .map(Resolved::scene_bytes)
         .collect::<Result<Vec<_>, _>>()?;
     let blobs: Vec<&[u8]> = blobs.iter().map(Vec::as_slice).collect();
-    let mut library = Library::<MAX_SCENE_DATA>::new(&blobs, u16::MAX);
+    // Lines of at most one encoder chunk (two bytes a pixel at most): a
+    // wider scene is refused when it is loaded.
+    let widest = (DEFAULT_CHUNK / 2) as u16;
+    let mut library = Library::<MAX_SCENE_DATA>::new(&blobs, widest);
     let mut scene = library
         .scene(0)
         .map_err(|(_, f)| format!("scene 0: {}", f.name()))?;
