@@ -5,7 +5,7 @@
 use hilcam::lens::Aperture;
 use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
 use hilcam::scene_data::{
-    CameraData, LightData, MaterialData, NoiseData, PrimitiveData, SamplingData, SceneData, SpecularData,
+    CameraData, MaterialData, NoiseData, PrimitiveData, SamplingData, SceneData, SpecularData,
 };
 use serde::Deserialize;
 use std::path::Path;
@@ -314,24 +314,9 @@ pub struct LightEntry {
     pub irradiance: Option<Colour>,
 }
 
-/// A light, resolved.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum LightDesc {
-    /// Point light.
-    Point {
-        /// Position, metres.
-        position: [f64; 3],
-        /// Intensity, W/sr.
-        intensity: Colour,
-    },
-    /// Directional light.
-    Directional {
-        /// Direction towards the light.
-        direction: [f64; 3],
-        /// Irradiance `E₀`, W/m².
-        irradiance: Colour,
-    },
-}
+/// A light, resolved: the core's scene data (the colour as the file gave
+/// it, one value or one a channel).
+pub use hilcam::scene_data::LightData;
 
 /// `[[primitives]]`.
 #[derive(Clone, Debug, Deserialize)]
@@ -398,7 +383,7 @@ pub struct Resolved {
     /// Primitives.
     pub primitives: Vec<ResolvedPrimitive>,
     /// Lights.
-    pub lights: Vec<LightDesc>,
+    pub lights: Vec<LightData>,
     /// The camera's trajectory, if the file gives one.
     pub trajectory: Option<crate::trajectory::Trajectory>,
 }
@@ -679,11 +664,11 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
     let mut lights = Vec::new();
     for (i, l) in desc.lights.iter().enumerate() {
         let f = |name: &str| format!("lights[{i}].{name}");
-        let (light, unused): (LightDesc, [(&str, bool); 2]) = match l.kind.as_str() {
+        let (light, unused): (LightData, [(&str, bool); 2]) = match l.kind.as_str() {
             "point" => (
-                LightDesc::Point {
+                LightData::Point {
                     position: need(l.position, &f("position"))?,
-                    intensity: need(l.intensity, &f("intensity"))?,
+                    intensity: need(l.intensity, &f("intensity"))?.data(),
                 },
                 [
                     ("direction", l.direction.is_some()),
@@ -691,9 +676,9 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
                 ],
             ),
             "directional" => (
-                LightDesc::Directional {
+                LightData::Directional {
                     direction: need(l.direction, &f("direction"))?,
-                    irradiance: need(l.irradiance, &f("irradiance"))?,
+                    irradiance: need(l.irradiance, &f("irradiance"))?.data(),
                 },
                 [
                     ("position", l.position.is_some()),
@@ -885,20 +870,7 @@ impl Resolved {
                 .map_err(|_| too_many("primitives", MAX_PRIMITIVES))?;
         }
         for l in &self.lights {
-            let l = match *l {
-                LightDesc::Point { position, intensity } => LightData::Point {
-                    position,
-                    intensity: intensity.data(),
-                },
-                LightDesc::Directional {
-                    direction,
-                    irradiance,
-                } => LightData::Directional {
-                    direction,
-                    irradiance: irradiance.data(),
-                },
-            };
-            d.lights.push(l).map_err(|_| too_many("lights", MAX_LIGHTS))?;
+            d.lights.push(*l).map_err(|_| too_many("lights", MAX_LIGHTS))?;
         }
         Ok(d)
     }

@@ -15,7 +15,7 @@ use super::sampling::Pattern;
 use super::shading::{self, Light, Material};
 use super::vignetting;
 use super::{cross, dot, unit, V3};
-use crate::scene_file::{LightDesc, Pose as PoseSpec, Resolved};
+use crate::scene_file::{LightData, Pose as PoseSpec, Resolved};
 use hilcam::scene::{PixelFormat, ShapeSpec};
 
 /// A shape in the world frame.
@@ -251,11 +251,11 @@ impl RefScene {
             .lights
             .iter()
             .map(|l| match l {
-                LightDesc::Point { position, intensity } => Light::Point {
+                LightData::Point { position, intensity } => Light::Point {
                     position: *position,
                     intensity: intensity.rgb(),
                 },
-                LightDesc::Directional {
+                LightData::Directional {
                     direction,
                     irradiance,
                 } => Light::Directional {
