@@ -42,6 +42,7 @@ fn main() {
     };
     let mut code = String::new();
     let mut names = Vec::new();
+    let mut resolved = Vec::new();
     let mut blobs = Vec::new();
     let (mut max_w, mut max_line) = (0usize, 0usize);
     for (i, p) in paths.iter().enumerate() {
@@ -55,6 +56,7 @@ fn main() {
         let file = format!("scene_{i}.bin");
         std::fs::write(out.join(&file), bytes).expect("scene blob");
         blobs.push(format!("include_bytes!(concat!(env!(\"OUT_DIR\"), \"/{file}\"))"));
+        resolved.push(r);
     }
     let _ = writeln!(
         code,
@@ -87,6 +89,24 @@ fn main() {
             .collect(),
         _ => vec![Variant::PLANNED],
     };
+    // The distortion table the frame holds: the most entries any scene's
+    // variant renders with (0: none). Planning within that many gives the
+    // plans the host makes with the default budget (their tables fit).
+    let mut table = 0usize;
+    for r in &resolved {
+        for v in &variants {
+            let budget = hilcam::planner::Budget::default();
+            if let Ok((_, _, f)) =
+                host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| v.options(o))
+            {
+                table = table.max(f.stages().distortion_lut.unwrap_or(0));
+            }
+        }
+    }
+    let _ = writeln!(
+        code,
+        "/// Most distortion-table entries any scene's variant renders with.\npub const TABLE: usize = {table};"
+    );
     let needs_plan = variants.iter().any(Variant::needs_plan);
     let _ = writeln!(
         code,

@@ -376,8 +376,10 @@ impl From<DataError> for Fault {
 /// The scenes a camera holds: built in (encoded [`SceneData`], e.g. in
 /// flash), then the last one loaded over the link into `N` bytes (at most
 /// [`crate::scene_data::MAX_SCENE_DATA`] are ever needed). Scene ids: the
-/// built-in ones from 0, the loaded one after them.
-pub struct Library<'a, const N: usize> {
+/// built-in ones from 0, the loaded one after them. A scene is checked
+/// against a frame holding distortion tables of at most `T` entries (the
+/// camera's [`crate::render::Frame`]).
+pub struct Library<'a, const N: usize, const T: usize = { crate::distortion::MAX_LUT }> {
     builtin: &'a [&'a [u8]],
     upload: [u8; N],
     /// The length of the encoding being received (or received).
@@ -389,7 +391,7 @@ pub struct Library<'a, const N: usize> {
     max_width: u16,
 }
 
-impl<'a, const N: usize> Library<'a, N> {
+impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
     /// A camera holding `builtin` scenes, rendering lines of at most
     /// `max_width` pixels (wider scenes are refused).
     pub const fn new(builtin: &'a [&'a [u8]], max_width: u16) -> Self {
@@ -421,7 +423,7 @@ impl<'a, const N: usize> Library<'a, N> {
     pub fn scene(&self, id: u32) -> Result<Scene, (Reason, Fault)> {
         let bytes = self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))?;
         let scene = build(bytes)?;
-        check(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
+        check::<T>(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
         Ok(scene)
     }
 
@@ -455,7 +457,7 @@ impl<'a, const N: usize> Library<'a, N> {
         }
         let data = self.upload.get(..total).unwrap_or_default();
         let scene = build(data)?;
-        check(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
+        check::<T>(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
         self.loaded = true;
         Ok(Some(scene))
     }
@@ -472,15 +474,15 @@ fn build(bytes: &[u8]) -> Result<Scene, (Reason, Fault)> {
 /// Whether this camera renders `scene`: lines of at most `max_width`
 /// pixels, and the frame the planner picks prepares.
 #[inline(never)]
-fn check(scene: &Scene, max_width: u16) -> Result<(), Fault> {
+fn check<const T: usize>(scene: &Scene, max_width: u16) -> Result<(), Fault> {
     use crate::render::RenderError as E;
     if scene.camera.intrinsics.size().0 > max_width {
         return Err(Fault::field("camera.width"));
     }
-    crate::planner::check(scene).map_err(|e| {
+    crate::planner::check::<T>(scene).map_err(|e| {
         Fault::field(match e {
             E::FieldTooWide => "camera.focal_length",
-            E::DistortionOutOfRange => "camera.distortion",
+            E::DistortionOutOfRange | E::TableTooLarge => "camera.distortion",
             E::NotBuilt if scene.noise.is_some() => "noise",
             E::NotBuilt | E::OutsideFormat if scene.sampling.is_some() => "sampling",
             E::NotBuilt | E::OutsideFormat => "camera.aperture",
@@ -530,11 +532,11 @@ impl Control {
 
     /// Processes `req` against `scene` (the scene shown) and the camera's
     /// `library`. Returns the answer to send.
-    pub fn handle<const N: usize>(
+    pub fn handle<const N: usize, const T: usize>(
         &mut self,
         req: &Request,
         scene: &mut Scene,
-        library: &mut Library<'_, N>,
+        library: &mut Library<'_, N, T>,
     ) -> Answer {
         if req.version != PROTOCOL_VERSION {
             return Answer::Reject(
@@ -567,11 +569,11 @@ impl Control {
         answer
     }
 
-    fn apply<const N: usize>(
+    fn apply<const N: usize, const T: usize>(
         &mut self,
         c: &Command,
         scene: &mut Scene,
-        library: &mut Library<'_, N>,
+        library: &mut Library<'_, N, T>,
     ) -> Result<(), (Reason, Fault)> {
         let invalid = |f: &'static str| (Reason::Invalid, Fault::field(f));
         match *c {
@@ -644,10 +646,10 @@ impl Control {
 
     /// The [`Description`] of a camera showing `scene` from `library`,
     /// whose next frame will be `next_frame`.
-    pub fn describe<const N: usize>(
+    pub fn describe<const N: usize, const T: usize>(
         &self,
         scene: &Scene,
-        library: &Library<'_, N>,
+        library: &Library<'_, N, T>,
         next_frame: u32,
     ) -> Description {
         let (width, height) = scene.camera.intrinsics.size();

@@ -180,7 +180,13 @@ impl Distortion {
     /// `g` beyond even I16F16 (|g| ≥ 32 768, a lens far outside any real one)
     /// is flagged saturated, and the renderer refuses the frame.
     pub fn lut(&self, u_max: I32F32, entries: usize) -> Sat<Lut> {
-        let n = entries.clamp(2, MAX_LUT);
+        self.lut_in(u_max, entries)
+    }
+
+    /// [`Distortion::lut`] in a table of capacity `N` (`4 N` bytes): at
+    /// most `N` entries (2 to `N`; a caller that needs more checks first).
+    pub fn lut_in<const N: usize>(&self, u_max: I32F32, entries: usize) -> Sat<Lut<N>> {
+        let n = entries.clamp(2, N.max(2));
         let u_max = if u_max > I32F32::ZERO {
             u_max
         } else {
@@ -195,7 +201,8 @@ impl Distortion {
             let u = Wide::of(step).mul(Wide::int(i as i64));
             let g = self.g_wide(u).mul(Wide::int(1i64 << frac)).narrow::<I32F0>();
             saturated |= g.saturated;
-            // n ≤ MAX_LUT = capacity, so the push cannot fail.
+            // Beyond the capacity (N < 2) the push fails: the table is
+            // then shorter than 2 and gives g = 1 (callers check first).
             let _ = table.push(g.value.to_bits());
         }
         Sat {
@@ -259,18 +266,19 @@ fn smallest_positive_root(a: f64, b: f64, c: f64) -> Option<f64> {
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.min(r))))
 }
 
-/// A table of `g(u)` over `u ∈ [0, u_max]`, for the per-pixel path.
+/// A table of `g(u)` over `u ∈ [0, u_max]`, for the per-pixel path, of at
+/// most `N` entries.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Lut {
+pub struct Lut<const N: usize = MAX_LUT> {
     u_max: I32F32,
     /// `(entries − 1) / u_max`.
     scale: I32F32,
     /// Entries are i32 with `32 − shift` fractional bits.
     shift: u32,
-    table: heapless::Vec<i32, MAX_LUT>,
+    table: heapless::Vec<i32, N>,
 }
 
-impl Lut {
+impl<const N: usize> Lut<N> {
     /// Entries in the table.
     pub fn len(&self) -> usize {
         self.table.len()

@@ -786,11 +786,31 @@ pub(crate) struct Input<'a> {
     /// Render the specular lobe of every material (even one whose `ks` is
     /// 0: every stage kept).
     pub specular_all: bool,
-    pub prims: &'a [crate::render::CamPrimQ],
-    pub lights: &'a [ShadingLight],
-    pub materials: &'a [Brdf],
+    /// The scene: its primitives, lights and materials are moved into the
+    /// camera frame and folded one at a time (no copy of them all).
+    pub scene: &'a crate::scene::Scene,
     pub background: V3,
     pub gain: V3,
+}
+
+impl Input<'_> {
+    /// The scene's primitives in the camera frame (culled unless every
+    /// stage is kept).
+    fn prims(&self) -> impl Iterator<Item = crate::render::CamPrimQ> + '_ {
+        let cull = !self.specular_all;
+        (self.scene.primitives.iter())
+            .map(move |p| crate::render::cam_prim(self.scene, p, self.origin_scale, cull, None))
+    }
+
+    /// The scene's lights in the camera frame.
+    fn lights(&self) -> impl Iterator<Item = ShadingLight> + '_ {
+        (self.scene.lights.iter()).map(|l| crate::render::shading_light(self.scene, l))
+    }
+
+    /// The scene's materials, folded with its ambient light.
+    fn materials(&self) -> impl Iterator<Item = Brdf> + '_ {
+        (self.scene.materials.iter()).map(|m| Brdf::new(m, self.scene.ambient))
+    }
 }
 
 fn v_len(v: V3) -> Q {
@@ -835,7 +855,7 @@ impl Mix32 {
         // The unit: content within 8 U.
         let mut extent = Q::ZERO;
         let mut grow = |v: Q| extent = extent.max(v.abs());
-        for p in f.prims {
+        for p in f.prims() {
             match p.shape {
                 S::Plane { dist, .. } => grow(dist),
                 S::Sphere { c, r2, .. } => grow(v_len(c).saturating_add(isqrt_q(r2))),
@@ -846,9 +866,9 @@ impl Mix32 {
                 grow(v_len(k.origin));
             }
         }
-        for l in f.lights {
+        for l in f.lights() {
             if let ShadingLight::Point { p, .. } = l {
-                grow(v_len(*p));
+                grow(v_len(p));
             }
         }
         // U = 2^e with extent ≤ 8 U, e in [−20, 20].
@@ -867,7 +887,7 @@ impl Mix32 {
 
         let prims = &mut self.prims;
         prims.clear();
-        for p in f.prims {
+        for p in f.prims() {
             let shape = match p.shape {
                 S::Plane { n, dist } => MixShape::Plane {
                     n: u3(n),
@@ -945,8 +965,8 @@ impl Mix32 {
         // I/r² with r in U: I / U² = I 2^(−2e).
         let lights = &mut self.lights;
         lights.clear();
-        for l in f.lights {
-            let m = match *l {
+        for l in f.lights() {
+            let m = match l {
                 ShadingLight::Point { p, i } => MixLight::Point {
                     p: p.map(l18),
                     i: i.map(|v| {
@@ -966,7 +986,7 @@ impl Mix32 {
         self.ka = [[0u64; 3]; crate::scene::MAX_MATERIALS];
         self.ks = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
         self.lobe = [None; crate::scene::MAX_MATERIALS];
-        for (i, m) in f.materials.iter().enumerate() {
+        for (i, m) in f.materials().enumerate() {
             let (Some(kd), Some(ka), Some(ks), Some(lobe)) = (
                 self.kd.get_mut(i),
                 self.ka.get_mut(i),

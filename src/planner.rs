@@ -44,6 +44,9 @@ pub struct Budget {
     pub max_geom_err_px: f64,
     /// Largest error in pixel value, LSB, over smooth pixels.
     pub max_lsb: f64,
+    /// Most distortion-table entries the device holds (its frame's `T`; 2
+    /// to [`crate::distortion::MAX_LUT`], fewer than 2: no table).
+    pub max_table_entries: usize,
 }
 
 impl Default for Budget {
@@ -52,6 +55,7 @@ impl Default for Budget {
         Budget {
             max_geom_err_px: 1.0 / 256.0,
             max_lsb: 1.0,
+            max_table_entries: crate::distortion::MAX_LUT,
         }
     }
 }
@@ -233,9 +237,13 @@ fn ray_model_and_bound(scene: &Scene, budget: &Budget) -> (RenderModel, Option<(
 
 /// Whether the frame [`plan`] picks for `scene` with the default budget
 /// prepares: what a camera checks before it shows a scene it was sent.
-pub fn check(scene: &Scene) -> Result<(), crate::render::RenderError> {
-    let opts = plan(scene, &Budget::default()).options;
-    crate::render::Frame::<crate::scene::Q>::empty().prepare(scene, &opts)
+pub fn check<const T: usize>(scene: &Scene) -> Result<(), crate::render::RenderError> {
+    let budget = Budget {
+        max_table_entries: T,
+        ..Budget::default()
+    };
+    let opts = plan(scene, &budget).options;
+    crate::render::Frame::<crate::scene::Q, T>::empty().prepare(scene, &opts)
 }
 
 /// Plans `scene` within `budget`.
@@ -265,8 +273,9 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             let _ = evals.push((None, 0));
         } else {
             let _ = evals.push((Some(DistortionEval::Polynomial), 0));
-            if arithmetic == Arithmetic::Wide {
-                let _ = evals.push((Some(DistortionEval::Linear), table_entries(scene, &g, half)));
+            let entries = table_entries(scene, &g, half);
+            if arithmetic == Arithmetic::Wide && entries <= budget.max_table_entries {
+                let _ = evals.push((Some(DistortionEval::Linear), entries));
             }
         }
         // What the distortion evaluation does not change, once.

@@ -369,6 +369,9 @@ pub enum RenderError {
     /// The frame needs pixel-area sampling, defocus or sensor noise, and
     /// the core's `sensor` feature is off.
     NotBuilt,
+    /// The distortion table asked for has more entries than the frame holds
+    /// (its `T`).
+    TableTooLarge,
 }
 
 /// The error of [`Frame::render`]: the renderer's or the sink's.
@@ -408,6 +411,21 @@ pub struct Stages {
 }
 
 impl Stages {
+    /// No stages (a frame of no pixels).
+    const NONE: Stages = Stages {
+        model: RenderModel::Perspective,
+        distortion: None,
+        distortion_lut: None,
+        vignetting: false,
+        specular: false,
+        format: PixelFormat::Gray8,
+        arithmetic: Arithmetic::Wide,
+        samples: 1,
+        adaptive: false,
+        aperture: 0,
+        noise: false,
+    };
+
     /// Stage names, in pipeline order.
     pub fn names(&self) -> heapless::Vec<&'static str, 12> {
         let mut v = heapless::Vec::new();
@@ -574,9 +592,37 @@ impl CamPrim<Q> {
     }
 }
 
-/// A frame prepared for rendering, with per-pixel values in `S`.
+/// A frame prepared for rendering, with per-pixel values in `S`: one of
+/// the two arithmetics' per-frame state (never both), the distortion table
+/// (if the plan uses one) holding at most `T` entries.
+///
+/// `T` is the table storage the frame reserves (`4 T` bytes): a device sizes
+/// it to the tables its scenes' plans use ([`crate::planner::Budget`]'s
+/// `max_table_entries`), 0 if none.
 #[derive(Clone, Debug)]
-pub struct Frame<S: Scalar = Q> {
+pub struct Frame<S: Scalar = Q, const T: usize = MAX_LUT> {
+    width: u16,
+    height: u16,
+    format: PixelFormat,
+    stages: Stages,
+    path: Path<S, T>,
+}
+
+/// The per-frame state of the arithmetic that renders the frame (no heap to
+/// box the larger one in: the enum is what keeps one, not both).
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)]
+enum Path<S: Scalar, const T: usize> {
+    /// The wide arithmetic, generic over `S`.
+    Wide(WideFrame<S, T>),
+    /// The 32-bit arithmetic with a format per quantity.
+    #[cfg(feature = "mix32")]
+    Fast(crate::mix32::Mix32),
+}
+
+/// The wide arithmetic's per-frame state.
+#[derive(Clone, Debug)]
+struct WideFrame<S: Scalar, const T: usize> {
     width: u16,
     height: u16,
     format: PixelFormat,
@@ -589,7 +635,7 @@ pub struct Frame<S: Scalar = Q> {
     dy: i128,
     /// `g` at the table's nodes, i32 entries converted per lookup (a shift
     /// in fixed point): one table serves every scalar type.
-    lut: Option<Lut>,
+    lut: Option<Lut<T>>,
     /// [`Lut::scale`] in `S`.
     lut_scale: S,
     /// `k1`, `k2` for [`DistortionEval::Polynomial`].
@@ -630,9 +676,6 @@ pub struct Frame<S: Scalar = Q> {
     /// The scene's noise and the stage made of it for [`Frame::set_frame_id`].
     noise_spec: Option<crate::scene::Noise>,
     noise: Option<crate::noise::Stage<S>>,
-    /// The [`crate::mix32`] path, when the options ask for it.
-    #[cfg(feature = "mix32")]
-    mix: Option<crate::mix32::Mix32>,
 }
 
 fn q(w: Wide) -> Q {
@@ -663,59 +706,22 @@ impl Frame<Q> {
     }
 }
 
-impl<S: Scalar> Frame<S> {
+impl<S: Scalar, const T: usize> Frame<S, T> {
     /// Prepares `scene` for rendering with `opts`, per-pixel values in `S`.
-    pub fn build(scene: &Scene, opts: &Options) -> Result<Frame<S>, RenderError> {
+    pub fn build(scene: &Scene, opts: &Options) -> Result<Frame<S, T>, RenderError> {
         let mut f = Frame::empty();
         f.prepare(scene, opts)?;
         Ok(f)
     }
 
     /// A frame of no pixels, to be prepared in place by [`Frame::prepare`].
-    pub fn empty() -> Frame<S> {
+    pub fn empty() -> Frame<S, T> {
         Frame {
             width: 0,
             height: 0,
             format: PixelFormat::Gray8,
-            stages: Stages {
-                model: RenderModel::Perspective,
-                distortion: None,
-                distortion_lut: None,
-                vignetting: false,
-                specular: false,
-                format: PixelFormat::Gray8,
-                arithmetic: Arithmetic::Wide,
-                samples: 1,
-                adaptive: false,
-                aperture: 0,
-                noise: false,
-            },
-            x0: 0,
-            dx: 0,
-            y0: 0,
-            dy: 0,
-            lut: None,
-            lut_scale: S::ZERO,
-            poly: [S::ZERO; 2],
-            limit: S::MAX,
-            k_origin: S::ZERO,
-            prims: heapless::Vec::new(),
-            lights: heapless::Vec::new(),
-            materials: [Brdf::default().to(); crate::scene::MAX_MATERIALS],
-            background: [S::ZERO; 3],
-            gain: [S::ZERO; 3],
-            sub_x: [0; crate::sampling::MAX_GRID as usize],
-            sub_y: [0; crate::sampling::MAX_GRID as usize],
-            half: (0, 0),
-            inv_n2: S::ONE,
-            ap_r: S::ZERO,
-            ap_rz: S::ZERO,
-            ap_shift: 0,
-            inv_m: S::ONE,
-            noise_spec: None,
-            noise: None,
-            #[cfg(feature = "mix32")]
-            mix: None,
+            stages: Stages::NONE,
+            path: Path::Wide(WideFrame::EMPTY),
         }
     }
 
@@ -733,6 +739,208 @@ impl<S: Scalar> Frame<S> {
 
     #[inline(never)]
     fn prepare_inner(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+        // The wide state holds what both arithmetics start from.
+        if !matches!(self.path, Path::Wide(_)) {
+            self.path = Path::Wide(WideFrame::EMPTY);
+        }
+        // (Irrefutable without the fast path.)
+        #[allow(irrefutable_let_patterns)]
+        let Path::Wide(w) = &mut self.path
+        else {
+            return Err(RenderError::Degenerate);
+        };
+        let fast = w.prepare(scene, opts)?;
+        (self.width, self.height, self.format, self.stages) = (w.width, w.height, w.format, w.stages);
+        match fast {
+            None => Ok(()),
+            Some(fast) => self.prepare_mix32(scene, &fast),
+        }
+    }
+
+    /// Prepares the [`crate::mix32`] path from the scene's I32F32 values
+    /// (the wide state it replaces gave the frame's geometry).
+    #[cfg(feature = "mix32")]
+    #[inline(never)]
+    fn prepare_mix32(&mut self, scene: &Scene, fast: &FastInput) -> Result<(), RenderError> {
+        let input = crate::mix32::Input {
+            width: self.width,
+            height: self.height,
+            format: scene.format,
+            x0: fast.x0,
+            dx: fast.dx,
+            y0: fast.y0,
+            dy: fast.dy,
+            distortion: fast.distortion,
+            vignetting: self.stages.vignetting,
+            origin_scale: fast.origin_scale,
+            specular_all: fast.specular_all,
+            scene,
+            background: scene.background,
+            gain: fast.gain,
+        };
+        self.path = Path::Fast(crate::mix32::Mix32::EMPTY);
+        let Path::Fast(m) = &mut self.path else {
+            return Err(RenderError::OutsideFormat);
+        };
+        m.fill(&input)
+    }
+
+    /// Without the `mix32` feature the path is not built in.
+    #[cfg(not(feature = "mix32"))]
+    fn prepare_mix32(&mut self, _: &Scene, _: &FastInput) -> Result<(), RenderError> {
+        Err(RenderError::OutsideFormat)
+    }
+
+    /// Sets the frame id the noise is keyed by (0 after preparation).
+    pub fn set_frame_id(&mut self, id: u32) {
+        #[allow(irrefutable_let_patterns)]
+        if let Path::Wide(w) = &mut self.path {
+            w.set_frame_id(id);
+        }
+    }
+
+    /// The stages this frame runs.
+    pub fn stages(&self) -> Stages {
+        self.stages
+    }
+
+    /// Sensor size.
+    pub fn size(&self) -> (u16, u16) {
+        (self.width, self.height)
+    }
+
+    /// Bytes a line occupies.
+    pub fn line_bytes(&self) -> usize {
+        self.width as usize * self.format.bytes_per_pixel()
+    }
+
+    /// Fractional bits of the distortion table's i32 entries, if any.
+    pub fn table_frac_bits(&self) -> Option<u32> {
+        match &self.path {
+            Path::Wide(w) => w.lut.as_ref().map(Lut::entry_frac_bits),
+            #[cfg(feature = "mix32")]
+            Path::Fast(_) => None,
+        }
+    }
+
+    /// Distortion table bytes (0 without a table).
+    pub fn table_bytes(&self) -> usize {
+        match &self.path {
+            Path::Wide(w) => w.lut.as_ref().map_or(0, Lut::bytes),
+            #[cfg(feature = "mix32")]
+            Path::Fast(_) => 0,
+        }
+    }
+
+    /// The undistorted normalized point `(x̂, ŷ)` the renderer uses for
+    /// pixel `(i, j)`, or `None` outside the lens field — the same code path
+    /// as the pixel loop.
+    pub fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
+        match &self.path {
+            Path::Wide(w) => w.undistorted(i, j),
+            #[cfg(feature = "mix32")]
+            Path::Fast(m) => m.undistorted(i, j).map(|(x, y)| (S::from_q(x), S::from_q(y))),
+        }
+    }
+
+    /// Renders line `j` into `pixels` (at least [`Frame::line_bytes`]) and
+    /// `flags` (at least the width).
+    pub fn render_line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
+        if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
+            return Err(RenderError::BufferTooSmall);
+        }
+        // Per-frame dispatch to one of the three loops.
+        match &self.path {
+            #[cfg(feature = "mix32")]
+            Path::Fast(m) => m.line(j, pixels, flags),
+            // Through the aperture, a sample's chief ray is a pinhole ray:
+            // one loop for both (a third copy would cost flash).
+            Path::Wide(w) if matches!(self.stages.model, RenderModel::Perspective) => {
+                w.line::<PINHOLE>(j, pixels, flags)
+            }
+            Path::Wide(w) => w.line::<PARALLEL>(j, pixels, flags),
+        }
+        Ok(())
+    }
+
+    /// Renders every line through `sink`, reusing the caller's line buffers.
+    pub fn render<K: FrameSink>(
+        &self,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        sink: &mut K,
+    ) -> Result<(), FrameError<K::Error>> {
+        let info = FrameInfo {
+            width: self.width,
+            height: self.height,
+            format: self.format,
+        };
+        sink.begin(&info).map_err(FrameError::Sink)?;
+        for j in 0..self.height {
+            self.render_line(j, pixels, flags).map_err(FrameError::Render)?;
+            let n = self.line_bytes();
+            let (p, f) = (pixels.get(..n), flags.get(..self.width as usize));
+            if let (Some(p), Some(f)) = (p, f) {
+                sink.line(j, p, f).map_err(FrameError::Sink)?;
+            }
+        }
+        sink.end(None).map_err(FrameError::Sink)
+    }
+}
+
+/// What the fast path is prepared from, beyond the scene: the wide
+/// preparation's geometry and constants (I32F32, camera frame).
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+struct FastInput {
+    x0: i128,
+    dx: i128,
+    y0: i128,
+    dy: i128,
+    /// `k1`, `k2` and the `u` limit, if distortion is modelled (polynomial).
+    distortion: Option<([Q; 2], Q)>,
+    origin_scale: Option<Q>,
+    specular_all: bool,
+    gain: V3,
+}
+
+impl<S: Scalar, const T: usize> WideFrame<S, T> {
+    /// A frame of no pixels.
+    const EMPTY: WideFrame<S, T> = WideFrame {
+        width: 0,
+        height: 0,
+        format: PixelFormat::Gray8,
+        stages: Stages::NONE,
+        x0: 0,
+        dx: 0,
+        y0: 0,
+        dy: 0,
+        lut: None,
+        lut_scale: S::ZERO,
+        poly: [S::ZERO; 2],
+        limit: S::MAX,
+        k_origin: S::ZERO,
+        prims: heapless::Vec::new(),
+        lights: heapless::Vec::new(),
+        materials: [Brdf::ZERO; crate::scene::MAX_MATERIALS],
+        background: [S::ZERO; 3],
+        gain: [S::ZERO; 3],
+        sub_x: [0; crate::sampling::MAX_GRID as usize],
+        sub_y: [0; crate::sampling::MAX_GRID as usize],
+        half: (0, 0),
+        inv_n2: S::ONE,
+        ap_r: S::ZERO,
+        ap_rz: S::ZERO,
+        ap_shift: 0,
+        inv_m: S::ONE,
+        noise_spec: None,
+        noise: None,
+    };
+
+    /// Prepares the frame's geometry and, for the wide arithmetic, its
+    /// primitives, lights and materials; for the fast arithmetic it returns
+    /// what that path is prepared from instead.
+    #[inline(always)]
+    fn prepare(&mut self, scene: &Scene, opts: &Options) -> Result<Option<FastInput>, RenderError> {
         let intr = &scene.camera.intrinsics;
         let (w, h) = intr.size();
         let (fx, fy) = intr.focal_px();
@@ -807,11 +1015,7 @@ impl<S: Scalar> Frame<S> {
         self.limit = S::MAX;
         self.prims.clear();
         self.lights.clear();
-        self.materials = [Brdf::default().to(); crate::scene::MAX_MATERIALS];
-        #[cfg(feature = "mix32")]
-        {
-            self.mix = None;
-        }
+        self.materials = [Brdf::ZERO; crate::scene::MAX_MATERIALS];
         let mut poly_q = None;
         // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
         // every stage kept, a lens without distortion runs the identity
@@ -836,7 +1040,10 @@ impl<S: Scalar> Frame<S> {
                 poly_q = Some((k, limit));
                 self.poly = k.map(S::from_q);
             } else {
-                let lut = dist.lut(u_max, opts.lut_entries);
+                if opts.lut_entries.clamp(2, MAX_LUT) > T {
+                    return Err(RenderError::TableTooLarge);
+                }
+                let lut = dist.lut_in::<T>(u_max, opts.lut_entries);
                 if lut.saturated {
                     return Err(RenderError::DistortionOutOfRange);
                 }
@@ -883,7 +1090,16 @@ impl<S: Scalar> Frame<S> {
             }
             // The fast path prepares its own primitives, lights and
             // materials: the wide ones are not built.
-            return self.prepare_mix32(scene, poly_q, gain, origin_scale, opts.keep_all_stages);
+            return Ok(Some(FastInput {
+                x0: self.x0,
+                dx: self.dx,
+                y0: self.y0,
+                dy: self.dy,
+                distortion: poly_q,
+                origin_scale,
+                specular_all: opts.keep_all_stages,
+                gain,
+            }));
         }
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
             *dst = Brdf::new(m, scene.ambient).to();
@@ -903,103 +1119,7 @@ impl<S: Scalar> Frame<S> {
         for l in &scene.lights {
             let _ = self.lights.push(shading_light(scene, l).to());
         }
-        Ok(())
-    }
-
-    /// Prepares the [`crate::mix32`] path from the scene's I32F32 values.
-    #[cfg(feature = "mix32")]
-    #[inline(never)]
-    fn prepare_mix32(
-        &mut self,
-        scene: &Scene,
-        distortion: Option<([Q; 2], Q)>,
-        gain: V3,
-        origin_scale: Option<Q>,
-        specular_all: bool,
-    ) -> Result<(), RenderError> {
-        let mut materials = [Brdf::default(); crate::scene::MAX_MATERIALS];
-        for (m, dst) in scene.materials.iter().zip(materials.iter_mut()) {
-            *dst = Brdf::new(m, scene.ambient);
-        }
-        let mut prims: heapless::Vec<CamPrimQ, { crate::scene::MAX_PRIMITIVES }> = heapless::Vec::new();
-        for p in &scene.primitives {
-            let _ = prims.push(cam_prim(scene, p, origin_scale, !specular_all, None));
-        }
-        let mut lights: heapless::Vec<ShadingLight, { crate::scene::MAX_LIGHTS }> = heapless::Vec::new();
-        for l in &scene.lights {
-            let _ = lights.push(shading_light(scene, l));
-        }
-        let filled = self
-            .mix
-            .insert(crate::mix32::Mix32::EMPTY)
-            .fill(&crate::mix32::Input {
-                width: self.width,
-                height: self.height,
-                format: scene.format,
-                x0: self.x0,
-                dx: self.dx,
-                y0: self.y0,
-                dy: self.dy,
-                distortion,
-                vignetting: self.stages.vignetting,
-                origin_scale,
-                specular_all,
-                prims: &prims,
-                lights: &lights,
-                materials: &materials,
-                background: scene.background,
-                gain,
-            });
-        if filled.is_err() {
-            self.mix = None;
-        }
-        filled
-    }
-
-    /// Without the `mix32` feature the path is not built in.
-    #[cfg(not(feature = "mix32"))]
-    fn prepare_mix32(
-        &mut self,
-        _: &Scene,
-        _: Option<([Q; 2], Q)>,
-        _: V3,
-        _: Option<Q>,
-        _: bool,
-    ) -> Result<(), RenderError> {
-        Err(RenderError::OutsideFormat)
-    }
-
-    /// Sets the frame id the noise is keyed by (0 after preparation).
-    pub fn set_frame_id(&mut self, id: u32) {
-        self.noise = match self.noise_spec {
-            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, self.format, id)),
-            _ => None,
-        };
-    }
-
-    /// The stages this frame runs.
-    pub fn stages(&self) -> Stages {
-        self.stages
-    }
-
-    /// Sensor size.
-    pub fn size(&self) -> (u16, u16) {
-        (self.width, self.height)
-    }
-
-    /// Bytes a line occupies.
-    pub fn line_bytes(&self) -> usize {
-        self.width as usize * self.format.bytes_per_pixel()
-    }
-
-    /// Fractional bits of the distortion table's i32 entries, if any.
-    pub fn table_frac_bits(&self) -> Option<u32> {
-        self.lut.as_ref().map(Lut::entry_frac_bits)
-    }
-
-    /// Distortion table bytes (0 without a table).
-    pub fn table_bytes(&self) -> usize {
-        self.lut.as_ref().map_or(0, Lut::bytes)
+        Ok(None)
     }
 
     #[inline(always)]
@@ -1015,11 +1135,7 @@ impl<S: Scalar> Frame<S> {
     /// The undistorted normalized point `(x̂, ŷ)` the renderer uses for
     /// pixel `(i, j)`, or `None` outside the lens field — the same code path
     /// as the pixel loop.
-    pub fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
-        #[cfg(feature = "mix32")]
-        if let Some(m) = &self.mix {
-            return m.undistorted(i, j).map(|(x, y)| (S::from_q(x), S::from_q(y)));
-        }
+    fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
         let (xd, yd) = (S::from_q(self.xd_q(i)), S::from_q(self.yd_q(j)));
         match self.stages.distortion {
             Some(_) => self.undistort(xd, yd),
@@ -1044,50 +1160,12 @@ impl<S: Scalar> Frame<S> {
         Some((xd.mul(g), yd.mul(g)))
     }
 
-    /// Renders line `j` into `pixels` (at least [`Frame::line_bytes`]) and
-    /// `flags` (at least the width).
-    pub fn render_line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
-        if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
-            return Err(RenderError::BufferTooSmall);
-        }
-        // Per-frame dispatch to one of the three loops.
-        #[cfg(feature = "mix32")]
-        if let Some(m) = &self.mix {
-            m.line(j, pixels, flags);
-            return Ok(());
-        }
-        // Through the aperture, a sample's chief ray is a pinhole ray: one
-        // loop for both (a third copy would cost flash).
-        if matches!(self.stages.model, RenderModel::Perspective) {
-            self.line::<PINHOLE>(j, pixels, flags);
-        } else {
-            self.line::<PARALLEL>(j, pixels, flags);
-        }
-        Ok(())
-    }
-
-    /// Renders every line through `sink`, reusing the caller's line buffers.
-    pub fn render<K: FrameSink>(
-        &self,
-        pixels: &mut [u8],
-        flags: &mut [u8],
-        sink: &mut K,
-    ) -> Result<(), FrameError<K::Error>> {
-        let info = FrameInfo {
-            width: self.width,
-            height: self.height,
-            format: self.format,
+    /// Sets the frame id the noise is keyed by.
+    fn set_frame_id(&mut self, id: u32) {
+        self.noise = match self.noise_spec {
+            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, self.format, id)),
+            _ => None,
         };
-        sink.begin(&info).map_err(FrameError::Sink)?;
-        for j in 0..self.height {
-            self.render_line(j, pixels, flags).map_err(FrameError::Render)?;
-            let n = self.line_bytes();
-            let (p, f) = (pixels.get(..n), flags.get(..self.width as usize));
-            if let (Some(p), Some(f)) = (p, f) {
-                sink.line(j, p, f).map_err(FrameError::Sink)?;
-            }
-        }
-        sink.end(None).map_err(FrameError::Sink)
     }
 
     #[inline(never)]
@@ -1592,7 +1670,7 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
 }
 
 /// A light in the camera frame, I32F32.
-fn shading_light(scene: &Scene, l: &Light) -> ShadingLight {
+pub(crate) fn shading_light(scene: &Scene, l: &Light) -> ShadingLight {
     match *l {
         Light::Point { position, intensity } => ShadingLight::Point {
             p: v3_world_to_cam(scene, position),
@@ -1608,7 +1686,7 @@ fn shading_light(scene: &Scene, l: &Light) -> ShadingLight {
 /// A primitive in the camera frame, with its slope-space bounds when
 /// `cull` (for rays of parallel-ray origin scale `origin_scale`, or
 /// perspective rays, through the aperture with `blur`: [`slope_bounds`]).
-fn cam_prim(
+pub(crate) fn cam_prim(
     scene: &Scene,
     p: &Primitive,
     origin_scale: Option<Q>,

@@ -94,6 +94,16 @@ impl ShadingLight {
     }
 }
 
+impl<S: Scalar> Brdf<S> {
+    /// All constants 0 (no light leaves the surface).
+    pub const ZERO: Brdf<S> = Brdf {
+        kd: [S::ZERO; 3],
+        ks: [S::ZERO; 3],
+        ka: [S::ZERO; 3],
+        exponent: 0,
+    };
+}
+
 impl Brdf {
     /// The same constants in `S` (folded in I32F32, converted once a frame).
     pub fn to<S: Scalar>(&self) -> Brdf<S> {

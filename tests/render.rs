@@ -138,6 +138,7 @@ fn planner_prediction_bounds_measurement_and_budget_sets_table_size() {
             &Budget {
                 max_geom_err_px: 0.1,
                 max_lsb: 1.0,
+                ..Budget::default()
             },
         );
         let tight = plan(
@@ -145,6 +146,7 @@ fn planner_prediction_bounds_measurement_and_budget_sets_table_size() {
             &Budget {
                 max_geom_err_px: 1e-4,
                 max_lsb: 1.0,
+                ..Budget::default()
             },
         );
         let table = |p: &hilcam::planner::Plan| {

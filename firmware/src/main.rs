@@ -29,6 +29,22 @@ const MAX_WIDTH: usize = if scenes::MAX_WIDTH > 640 {
 };
 #[cfg(not(feature = "camera"))]
 const MAX_WIDTH: usize = scenes::MAX_WIDTH;
+/// Distortion-table entries a frame holds (4 bytes each): the most any
+/// held scene's variant renders with; a driven camera, whose scenes come
+/// over the link, the largest table the planner may pick.
+#[cfg(feature = "camera")]
+const TABLE: usize = hilcam::distortion::MAX_LUT;
+#[cfg(not(feature = "camera"))]
+const TABLE: usize = scenes::TABLE;
+
+/// The planner's budget: the default, within the frame's table.
+fn budget() -> Budget {
+    Budget {
+        max_table_entries: TABLE,
+        ..Budget::default()
+    }
+}
+
 /// Longest line, bytes (two bytes a pixel at most).
 #[cfg(feature = "camera")]
 const MAX_LINE_BYTES: usize = 2 * MAX_WIDTH;
@@ -42,8 +58,9 @@ use cortex_m_semihosting::debug;
 #[cfg(feature = "status")]
 use cortex_m_semihosting::hprintln;
 use hilcam::link::{wire_size, Encoder, FrameStart, Stream, DEFAULT_CHUNK};
+use hilcam::planner::Budget;
 #[cfg(not(feature = "camera"))]
-use hilcam::planner::{plan, ray_model, Budget};
+use hilcam::planner::{plan, ray_model};
 use hilcam::render::{Frame, Options, Timed};
 use hilcam::scalar::Scalar;
 use hilcam::scene::Scene;
@@ -135,8 +152,8 @@ mod stack {
         }
     }
 
-    /// Deepest stack use so far, bytes.
-    #[cfg_attr(not(feature = "status"), allow(dead_code))]
+    /// Deepest stack use so far, bytes (the sweep reports it).
+    #[cfg_attr(any(not(feature = "status"), feature = "camera"), allow(dead_code))]
     pub fn peak() -> usize {
         let (lo, top) = bounds();
         let mut p = lo;
@@ -183,7 +200,7 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
         // arithmetic and the distortion evaluation needs only its ray model
         // (and leaves the rest of the planner out of flash).
         let opts = if scenes::NEEDS_PLAN {
-            plan(&scene, &Budget::default()).options
+            plan(&scene, &budget()).options
         } else {
             Options::new(ray_model(&scene, &Budget::default()), 2).with_scene_sampling(&scene)
         };
@@ -220,10 +237,10 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
 /// The driven camera: commands in on UART0 RX, answers and frames out.
 #[cfg(feature = "camera")]
 mod camera {
-    use super::{board, fail, ns, ticks, Enc, Run, MAX_WIDTH};
+    use super::{board, budget, fail, ns, ticks, Enc, Run, MAX_WIDTH, TABLE};
     use hilcam::control::{Control, Library, Receiver, MAX_REQUEST};
     use hilcam::link::DEFAULT_CHUNK;
-    use hilcam::planner::{plan, Budget};
+    use hilcam::planner::plan;
     use hilcam::scene_data::MAX_SCENE_DATA;
 
     /// Bytes read from RX between two frames at most: a flood of input
@@ -235,7 +252,7 @@ mod camera {
         // Lines the line buffer and one encoder chunk hold (two bytes a
         // pixel at most): a wider scene is refused when it is loaded.
         let widest = MAX_WIDTH.min(DEFAULT_CHUNK / 2) as u16;
-        let mut library = Library::<MAX_SCENE_DATA>::new(&super::scenes::BLOBS, widest);
+        let mut library = Library::<MAX_SCENE_DATA, TABLE>::new(&super::scenes::BLOBS, widest);
         let mut scene = library.scene(0).unwrap_or_else(|_| fail("scene 0"));
         let mut control = Control::new();
         let mut rx = Receiver::<MAX_REQUEST>::new();
@@ -258,7 +275,7 @@ mod camera {
                 }
             }
             if control.frame_due(ns(ticks())) {
-                let opts = plan(&scene, &Budget::default()).options;
+                let opts = plan(&scene, &budget()).options;
                 let mut run = Run {
                     scene: &scene,
                     enc,
@@ -309,7 +326,7 @@ impl Runner for Run<'_> {
     fn run<S: Scalar>(&mut self, opts: &Options) -> Result<u64, &'static str> {
         let scene = self.scene;
         let t0 = ticks();
-        let mut frame = Frame::<S>::empty();
+        let mut frame = Frame::<S, TABLE>::empty();
         frame.prepare(scene, opts).map_err(|_| "frame")?;
         // The frame id on the wire keys the sensor noise (camera-model.md §9).
         frame.set_frame_id(self.frame_id);

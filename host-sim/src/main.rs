@@ -334,6 +334,7 @@ fn main() -> ExitCode {
                 let budget = hilcam::planner::Budget {
                     max_geom_err_px,
                     max_lsb,
+                    ..Default::default()
                 };
                 if !(max_geom_err_px > 0.0 && max_geom_err_px <= 1e3) {
                     return Err("--max-geom-err-px: must lie in (0, 1000] px".into());
