@@ -10,8 +10,10 @@
 //! frame never merges into the next.
 //!
 //! The [`Encoder`] is fed line by line (through a [`Stream`], a frame sink,
-//! the renderer feeds it directly) and holds one chunk and one encoded message: RAM is
-//! `CHUNK + WIRE` bytes, whatever the frame height. No heap.
+//! the renderer feeds it directly) and holds one chunk of pixels; a message
+//! is COBS-encoded and written as it is serialized, a block (≤ 255 bytes) at
+//! a time ([`write_encoded`]): RAM is `CHUNK` bytes and one block, whatever
+//! the frame height. No heap.
 
 use crate::control::{Ack, Answer, Description, Reject};
 use crate::render::{Arithmetic, DistortionEval, FrameInfo, FrameSink, RenderModel, Stages};
@@ -394,7 +396,7 @@ pub fn check_crc(decoded: &[u8]) -> Option<&[u8]> {
 pub enum LinkError<E> {
     /// The writer failed.
     Write(E),
-    /// `WIRE` is below [`wire_size`]`(CHUNK)`.
+    /// The chunk buffer holds nothing (`CHUNK` is 0).
     BufferTooSmall,
     /// A line does not fit the chunk buffer.
     LineTooLong,
@@ -459,25 +461,98 @@ impl Reply for Description {
     const TAG: u8 = 5;
 }
 
-/// Encodes `msg` into `wire` and writes it; returns the bytes written.
+/// Writes `msg` encoded as [`encode_message`] encodes it (the same bytes),
+/// COBS-encoding it while it is serialized and writing each COBS block as
+/// it completes: no buffer for the whole message. Returns the bytes
+/// written. A write error may leave a partial message on the link (its
+/// receiver drops it: no delimiter, or a bad CRC).
 #[inline(never)]
-fn write_message<W: embedded_io::Write, T: Serialize>(
+pub fn write_encoded<W: embedded_io::Write, T: Serialize + ?Sized>(
     writer: &mut W,
-    wire: &mut [u8],
     msg: &T,
 ) -> Result<u64, LinkError<W::Error>> {
-    let bytes = encode_message(msg, wire).ok_or(LinkError::Encode)?;
-    writer.write_all(bytes).map_err(LinkError::Write)?;
-    Ok(bytes.len() as u64)
+    let mut failed = None;
+    let stream = CobsStream {
+        writer,
+        failed: &mut failed,
+        block: [0; 255],
+        fill: 1,
+        written: 0,
+    };
+    let r = postcard::serialize_with_flavor(msg, CrcModifier::new(stream, CRC32.digest()));
+    match (r, failed) {
+        (_, Some(e)) => Err(LinkError::Write(e)),
+        (Ok(n), None) => Ok(n),
+        (Err(_), None) => Err(LinkError::Encode),
+    }
+}
+
+/// A postcard flavor that COBS-encodes its bytes into blocks and writes
+/// each block to `writer` when it is complete: a block is its code byte
+/// (`fill`: one more than its non-zero bytes) and up to 254 non-zero bytes,
+/// ended by a zero (implied) or by being full (code 255).
+struct CobsStream<'w, W: embedded_io::Write> {
+    writer: &'w mut W,
+    /// The first write error (the serializer only sees that it failed).
+    failed: &'w mut Option<W::Error>,
+    block: [u8; 255],
+    /// Bytes of `block` in use, its code byte included (1 to 255).
+    fill: usize,
+    written: u64,
+}
+
+impl<W: embedded_io::Write> CobsStream<'_, W> {
+    /// Writes the block so far and starts the next one.
+    fn emit(&mut self) -> postcard::Result<()> {
+        let n = self.fill;
+        if let Some(code) = self.block.first_mut() {
+            *code = n as u8;
+        }
+        let block = self.block.get(..n).unwrap_or_default();
+        if let Err(e) = self.writer.write_all(block) {
+            *self.failed = Some(e);
+            return Err(postcard::Error::SerializeBufferFull);
+        }
+        self.written += n as u64;
+        self.fill = 1;
+        Ok(())
+    }
+}
+
+impl<W: embedded_io::Write> postcard::ser_flavors::Flavor for CobsStream<'_, W> {
+    type Output = u64;
+
+    fn try_push(&mut self, data: u8) -> postcard::Result<()> {
+        if data == 0 {
+            return self.emit();
+        }
+        if let Some(slot) = self.block.get_mut(self.fill) {
+            *slot = data;
+        }
+        self.fill += 1;
+        if self.fill == self.block.len() {
+            self.emit()?;
+        }
+        Ok(())
+    }
+
+    fn finalize(mut self) -> postcard::Result<u64> {
+        self.emit()?;
+        if let Err(e) = self.writer.write_all(&[0]) {
+            *self.failed = Some(e);
+            return Err(postcard::Error::SerializeBufferFull);
+        }
+        Ok(self.written + 1)
+    }
 }
 
 /// The frame encoder: writes frames to `W`, fed line by line, holding one
-/// chunk (`CHUNK` bytes of pixels) and one encoded message (`WIRE` bytes).
-pub struct Encoder<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> {
+/// chunk (`CHUNK` bytes of pixels); messages are encoded as they are
+/// written ([`write_encoded`]).
+pub struct Encoder<W: embedded_io::Write, const CHUNK: usize> {
     writer: W,
     chunk: [u8; CHUNK],
     fill: usize,
-    wire: [u8; WIRE],
     /// The open frame: its id, height and line bytes (all the encoder
     /// needs of its header, which it does not keep).
     frame: Option<Open>,
@@ -491,18 +566,16 @@ pub struct Encoder<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize>
     pub pixel_bytes: u64,
 }
 
-impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CHUNK, WIRE> {
-    /// An encoder over `writer`; `WIRE` must be at least
-    /// [`wire_size`]`(CHUNK)`.
+impl<W: embedded_io::Write, const CHUNK: usize> Encoder<W, CHUNK> {
+    /// An encoder over `writer` (`CHUNK` at least 1).
     pub fn new(writer: W) -> Result<Self, LinkError<W::Error>> {
-        if WIRE < wire_size(CHUNK) || CHUNK == 0 {
+        if CHUNK == 0 {
             return Err(LinkError::BufferTooSmall);
         }
         Ok(Encoder {
             writer,
             chunk: [0; CHUNK],
             fill: 0,
-            wire: [0; WIRE],
             frame: None,
             crc: CRC32.digest(),
             line: 0,
@@ -524,7 +597,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
     }
 
     fn send(&mut self, msg: &FrameMessage<'_>) -> Result<(), LinkError<W::Error>> {
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, msg)?;
+        self.bytes_written += write_encoded(&mut self.writer, msg)?;
         Ok(())
     }
 
@@ -533,7 +606,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
         if self.frame.is_some() {
             return Err(LinkError::Sequence);
         }
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(T::TAG, msg))?;
+        self.bytes_written += write_encoded(&mut self.writer, &Tagged(T::TAG, msg))?;
         self.writer.flush().map_err(LinkError::Write)
     }
 
@@ -597,7 +670,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
             data,
         };
         // `send` would borrow all of `self` while `msg` borrows the chunk.
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &FrameMessage::Chunk(&msg))?;
+        self.bytes_written += write_encoded(&mut self.writer, &FrameMessage::Chunk(&msg))?;
         self.pixel_bytes += self.fill as u64;
         self.offset += self.fill as u32;
         self.fill = 0;
@@ -651,7 +724,7 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
             line,
             flags,
         };
-        self.bytes_written += write_message(&mut self.writer, &mut self.wire, &Tagged(6, &msg))?;
+        self.bytes_written += write_encoded(&mut self.writer, &Tagged(6, &msg))?;
         Ok(())
     }
 
@@ -681,14 +754,14 @@ impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> Encoder<W, CH
 /// feeds directly (`Frame::render(.., &mut Stream { enc, start })`): `begin`
 /// sends `start` (whose size and format must be the frame's), each line a
 /// chunk's worth at a time, `end` the [`FrameEnd`] with the cost.
-pub struct Stream<'a, W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> {
+pub struct Stream<'a, W: embedded_io::Write, const CHUNK: usize> {
     /// The encoder.
-    pub enc: &'a mut Encoder<W, CHUNK, WIRE>,
+    pub enc: &'a mut Encoder<W, CHUNK>,
     /// The frame's header.
     pub start: FrameStart,
 }
 
-impl<W: embedded_io::Write, const CHUNK: usize, const WIRE: usize> FrameSink for Stream<'_, W, CHUNK, WIRE> {
+impl<W: embedded_io::Write, const CHUNK: usize> FrameSink for Stream<'_, W, CHUNK> {
     type Error = LinkError<W::Error>;
     fn begin(&mut self, info: &FrameInfo) -> Result<(), Self::Error> {
         let s = self.start;

@@ -7,7 +7,7 @@ use hilcam::control::{
     Ack, Answer, Command, Control, Description, Fault, Library, Mode, Reason, Receiver, Reject, Request,
     RxError, FIELD_MAX, MAX_PENDING, MAX_REQUEST, MAX_SCENE_CHUNK,
 };
-use hilcam::link::{encode_message, wire_size, Encoder, Message, CRC32, PROTOCOL_VERSION};
+use hilcam::link::{encode_message, Encoder, Message, CRC32, PROTOCOL_VERSION};
 use hilcam::scene::Scene;
 use hilcam::scene_data::MAX_SCENE_DATA;
 use proptest::prelude::*;
@@ -414,8 +414,7 @@ fn replies_are_messages_three_to_five() {
         field: "pose.rotation",
     };
     let desc: Description = c.describe(&scene, &lib(), 0);
-    let mut enc = Encoder::<host_sim::link::sim::Recorder, 64, { wire_size(64) }>::new(Default::default())
-        .expect("encoder");
+    let mut enc = Encoder::<host_sim::link::sim::Recorder, 64>::new(Default::default()).expect("encoder");
     enc.send_reply(&ack).expect("ack");
     enc.send_reply(&reject).expect("reject");
     enc.send_reply(&desc).expect("description");

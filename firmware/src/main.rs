@@ -57,7 +57,7 @@ use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
 #[cfg(feature = "status")]
 use cortex_m_semihosting::hprintln;
-use hilcam::link::{wire_size, Encoder, FrameStart, Stream, DEFAULT_CHUNK};
+use hilcam::link::{Encoder, FrameStart, Stream, DEFAULT_CHUNK};
 use hilcam::planner::Budget;
 #[cfg(not(feature = "camera"))]
 use hilcam::planner::{plan, ray_model};
@@ -65,7 +65,7 @@ use hilcam::render::{Frame, Options, Timed};
 use hilcam::scalar::Scalar;
 use hilcam::scene::Scene;
 
-type Enc = Encoder<board::Uart0, DEFAULT_CHUNK, { wire_size(DEFAULT_CHUNK) }>;
+type Enc = Encoder<board::Uart0, DEFAULT_CHUNK>;
 
 /// Status text over semihosting (QEMU, probe-rs), unless the `status`
 /// feature is off; the exit code is always reported through semihosting.
@@ -195,19 +195,16 @@ fn main() -> ! {
 #[cfg(not(feature = "camera"))]
 fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
     for (id, blob) in scenes::BLOBS.iter().enumerate() {
-        let scene = build(blob);
-        // The planner's choice; a firmware whose variants all force the
-        // arithmetic and the distortion evaluation needs only its ray model
-        // (and leaves the rest of the planner out of flash).
-        let opts = if scenes::NEEDS_PLAN {
-            plan(&scene, &budget()).options
-        } else {
-            Options::new(ray_model(&scene, &Budget::default()), 2).with_scene_sampling(&scene)
+        // Used in place (a scene is 4.7 KB: no copy of it).
+        let loaded = hilcam::scene_data::load(blob);
+        let Ok(scene) = &loaded else {
+            fail("scene data");
         };
+        let opts = options(scene);
         // Names only in status lines (a build without them holds none).
         for v in 0..scenes::VARIANTS.len() {
             let mut run = Run {
-                scene: &scene,
+                scene,
                 enc,
                 line,
                 flags,
@@ -294,11 +291,18 @@ mod camera {
     }
 }
 
-/// Builds an embedded scene (they were checked when the firmware was
-/// built).
+/// The planner's choice; a firmware whose variants all force the
+/// arithmetic and the distortion evaluation needs only its ray model (and
+/// leaves the rest of the planner out of flash). Out of line: the planner's
+/// working state (4 KB) is not held while the frame renders.
 #[cfg(not(feature = "camera"))]
-fn build(blob: &[u8]) -> Scene {
-    hilcam::scene_data::load(blob).unwrap_or_else(|_| fail("scene data"))
+#[inline(never)]
+fn options(scene: &Scene) -> Options {
+    if scenes::NEEDS_PLAN {
+        plan(scene, &budget()).options
+    } else {
+        Options::new(ray_model(scene, &Budget::default()), 2).with_scene_sampling(scene)
+    }
 }
 
 /// Renders a scene in a chosen scalar type and streams the frame.

@@ -9,7 +9,7 @@ use crate::drive_cmd::spawn_reader;
 use crate::harness::planned_frame;
 use crate::scene_file::Resolved;
 use hilcam::control::{Answer, Control, Library, Mode, Receiver, MAX_REQUEST};
-use hilcam::link::{wire_size, Encoder, FrameStart, DEFAULT_CHUNK};
+use hilcam::link::{Encoder, FrameStart, DEFAULT_CHUNK};
 use hilcam::scene_data::MAX_SCENE_DATA;
 use serde::Serialize;
 use std::io::{Read, Write};
@@ -122,8 +122,7 @@ pub fn serve_from<W: Write>(
         .map_err(|(_, f)| format!("scene 0: {}", f.name()))?;
     let mut control = Control::new();
     let mut rx = Receiver::<MAX_REQUEST>::new();
-    let mut enc = Encoder::<_, DEFAULT_CHUNK, { wire_size(DEFAULT_CHUNK) }>::new(IoWrite(writer))
-        .map_err(|e| format!("encoder: {e:?}"))?;
+    let mut enc = Encoder::<_, DEFAULT_CHUNK>::new(IoWrite(writer)).map_err(|e| format!("encoder: {e:?}"))?;
     let t0 = Instant::now();
     let now_ns = || t0.elapsed().as_nanos() as u64;
     let mut frame_id = 0u32;

@@ -80,8 +80,7 @@ pub struct Run {
 /// time: memory does not grow with `n`.
 pub fn run(base: &[u8], start: FrameStart, n: u32, faults: &Faults) -> Result<Run, String> {
     let mut enc =
-        Encoder::<Recorder, HOST_CHUNK, { hilcam::link::wire_size(HOST_CHUNK) }>::new(Recorder::default())
-            .map_err(|e| format!("encoder: {e:?}"))?;
+        Encoder::<Recorder, HOST_CHUNK>::new(Recorder::default()).map_err(|e| format!("encoder: {e:?}"))?;
     let mut channel = Channel::new(faults);
     // Each sent message's identity: the CRC-32 of its body, from a clean
     // decode of the sent bytes (in order, one per non-empty message).
@@ -95,8 +94,7 @@ pub fn run(base: &[u8], start: FrameStart, n: u32, faults: &Faults) -> Result<Ru
     for k in 0..n {
         let pixels = frame_pixels(base, line, k);
         let rec = enc.writer();
-        rec.bytes.clear();
-        rec.writes.clear();
+        rec.clear();
         enc.begin_frame(FrameStart { frame_id: k, ..start })
             .map_err(|e| format!("encoder: {e:?}"))?;
         for l in pixels.chunks_exact(line) {
@@ -339,10 +337,8 @@ pub fn wire_example() -> Result<String, String> {
     let pixels = [0x00, 0x01, 0x7f, 0x80, 0xff, 0x10, 0x00, 0x00];
     let flags = [0, 0, 0, 0, 0, 0, FLAG_OUTSIDE_FIELD, FLAG_OUTSIDE_FIELD];
     let mut enc =
-        hilcam::link::Encoder::<crate::link::sim::Recorder, 8, { hilcam::link::wire_size(8) }>::new(
-            crate::link::sim::Recorder::default(),
-        )
-        .map_err(|e| format!("{e:?}"))?;
+        hilcam::link::Encoder::<crate::link::sim::Recorder, 8>::new(crate::link::sim::Recorder::default())
+            .map_err(|e| format!("{e:?}"))?;
     enc.begin_frame(start).map_err(|e| format!("{e:?}"))?;
     for (l, f) in pixels.chunks(4).zip(flags.chunks(4)) {
         enc.push_line(l).map_err(|e| format!("{e:?}"))?;
@@ -456,8 +452,7 @@ pub fn command_example() -> Result<String, String> {
         let bytes = hilcam::link::encode_message(&r, &mut buf).ok_or("encode")?;
         hex_lines(&mut s, "LoadScene", bytes);
     }
-    let mut enc = Encoder::<Recorder, 8, { hilcam::link::wire_size(8) }>::new(Recorder::default())
-        .map_err(|e| format!("{e:?}"))?;
+    let mut enc = Encoder::<Recorder, 8>::new(Recorder::default()).map_err(|e| format!("{e:?}"))?;
     enc.send_reply(&Ack {
         seq: 5,
         timestamp_ns: 2_000_000,

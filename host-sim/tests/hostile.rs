@@ -455,8 +455,7 @@ fn repeated_frame_ids_do_not_overwrite_each_other() {
 fn gray16_bits_outside_9_to_16_are_refused() {
     for bits in [0u8, 8, 17, 255] {
         let start = header(WireFormat::Gray16 { bits });
-        let mut enc = Encoder::<Recorder, 64, { hilcam::link::wire_size(64) }>::new(Recorder::default())
-            .expect("encoder");
+        let mut enc = Encoder::<Recorder, 64>::new(Recorder::default()).expect("encoder");
         enc.begin_frame(start).expect("begin");
         for _ in 0..4 {
             enc.push_line(&[0xff; 32]).expect("line");

@@ -333,14 +333,27 @@ impl<W: std::io::Write> std::io::Write for FaultyWriter<W> {
     }
 }
 
-/// A `Vec<u8>` as an `embedded_io::Write` that remembers where each write
-/// (each message) begins and ends.
+/// A `Vec<u8>` as an `embedded_io::Write` that remembers where each
+/// message (or lone delimiter) begins and ends: each range ends with its
+/// `0x00` delimiter, however the encoder split its writes (it writes a
+/// message a COBS block at a time).
 #[derive(Default)]
 pub struct Recorder {
     /// Everything written.
     pub bytes: Vec<u8>,
-    /// Byte range of each write.
+    /// Byte range of each message, delimiter included.
     pub writes: Vec<(usize, usize)>,
+    /// Where the message being written began.
+    open: usize,
+}
+
+impl Recorder {
+    /// Forgets everything written.
+    pub fn clear(&mut self) {
+        self.bytes.clear();
+        self.writes.clear();
+        self.open = 0;
+    }
 }
 
 impl embedded_io::ErrorType for Recorder {
@@ -349,9 +362,13 @@ impl embedded_io::ErrorType for Recorder {
 
 impl embedded_io::Write for Recorder {
     fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
-        let a = self.bytes.len();
-        self.bytes.extend_from_slice(buf);
-        self.writes.push((a, self.bytes.len()));
+        for &b in buf {
+            self.bytes.push(b);
+            if b == 0 {
+                self.writes.push((self.open, self.bytes.len()));
+                self.open = self.bytes.len();
+            }
+        }
         Ok(buf.len())
     }
     fn flush(&mut self) -> Result<(), Self::Error> {
@@ -388,8 +405,7 @@ pub fn frame_pixels(base: &[u8], line: usize, k: u32) -> Vec<u8> {
 /// every byte (so that no two frames are alike), all with `start`'s header.
 pub fn send_frames(base: &[u8], start: FrameStart, n: u32, cost: Option<u64>) -> Result<Sent, String> {
     let mut enc =
-        Encoder::<Recorder, HOST_CHUNK, { hilcam::link::wire_size(HOST_CHUNK) }>::new(Recorder::default())
-            .map_err(|e| format!("encoder: {e:?}"))?;
+        Encoder::<Recorder, HOST_CHUNK>::new(Recorder::default()).map_err(|e| format!("encoder: {e:?}"))?;
     let line = start.line_bytes();
     let mut frames = Vec::with_capacity(n as usize);
     for k in 0..n {
