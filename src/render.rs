@@ -721,7 +721,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             height: 0,
             format: PixelFormat::Gray8,
             stages: Stages::NONE,
-            path: Path::Wide(WideFrame::EMPTY),
+            path: Path::Wide(WideFrame::empty()),
         }
     }
 
@@ -741,7 +741,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     fn prepare_inner(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
         // The wide state holds what both arithmetics start from.
         if !matches!(self.path, Path::Wide(_)) {
-            self.path = Path::Wide(WideFrame::EMPTY);
+            self.path = Path::Wide(WideFrame::empty());
         }
         // (Irrefutable without the fast path.)
         #[allow(irrefutable_let_patterns)]
@@ -904,37 +904,42 @@ struct FastInput {
 }
 
 impl<S: Scalar, const T: usize> WideFrame<S, T> {
-    /// A frame of no pixels.
-    const EMPTY: WideFrame<S, T> = WideFrame {
-        width: 0,
-        height: 0,
-        format: PixelFormat::Gray8,
-        stages: Stages::NONE,
-        x0: 0,
-        dx: 0,
-        y0: 0,
-        dy: 0,
-        lut: None,
-        lut_scale: S::ZERO,
-        poly: [S::ZERO; 2],
-        limit: S::MAX,
-        k_origin: S::ZERO,
-        prims: heapless::Vec::new(),
-        lights: heapless::Vec::new(),
-        materials: [Brdf::ZERO; crate::scene::MAX_MATERIALS],
-        background: [S::ZERO; 3],
-        gain: [S::ZERO; 3],
-        sub_x: [0; crate::sampling::MAX_GRID as usize],
-        sub_y: [0; crate::sampling::MAX_GRID as usize],
-        half: (0, 0),
-        inv_n2: S::ONE,
-        ap_r: S::ZERO,
-        ap_rz: S::ZERO,
-        ap_shift: 0,
-        inv_m: S::ONE,
-        noise_spec: None,
-        noise: None,
-    };
+    /// A frame of no pixels. A function, not a constant: a constant this
+    /// size is copied from flash (7 KB of it), a function's value is built
+    /// by stores.
+    #[inline(always)]
+    fn empty() -> WideFrame<S, T> {
+        WideFrame {
+            width: 0,
+            height: 0,
+            format: PixelFormat::Gray8,
+            stages: Stages::NONE,
+            x0: 0,
+            dx: 0,
+            y0: 0,
+            dy: 0,
+            lut: None,
+            lut_scale: S::ZERO,
+            poly: [S::ZERO; 2],
+            limit: S::MAX,
+            k_origin: S::ZERO,
+            prims: heapless::Vec::new(),
+            lights: heapless::Vec::new(),
+            materials: [Brdf::ZERO; crate::scene::MAX_MATERIALS],
+            background: [S::ZERO; 3],
+            gain: [S::ZERO; 3],
+            sub_x: [0; crate::sampling::MAX_GRID as usize],
+            sub_y: [0; crate::sampling::MAX_GRID as usize],
+            half: (0, 0),
+            inv_n2: S::ONE,
+            ap_r: S::ZERO,
+            ap_rz: S::ZERO,
+            ap_shift: 0,
+            inv_m: S::ONE,
+            noise_spec: None,
+            noise: None,
+        }
+    }
 
     /// Prepares the frame's geometry and, for the wide arithmetic, its
     /// primitives, lights and materials; for the fast arithmetic it returns
