@@ -465,8 +465,11 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
 
 /// Builds an encoded scene.
 fn build(bytes: &[u8]) -> Result<Scene, (Reason, Fault)> {
+    use crate::scene::Problem;
     crate::scene_data::load(bytes).map_err(|e| match e {
+        // A stage left out of the build, or more items than it holds.
         DataError::NotBuilt { .. } => (Reason::Unsupported, e.into()),
+        DataError::Scene(s) if s.problem == Problem::TooMany => (Reason::Unsupported, e.into()),
         _ => (Reason::Invalid, e.into()),
     })
 }

@@ -20,12 +20,31 @@ use fixed::types::I32F32;
 /// Renderer scalar: I32F32 (±2.1·10⁹, resolution 2.3·10⁻¹⁰).
 pub type Q = I32F32;
 
-/// Most materials in a scene.
-pub const MAX_MATERIALS: usize = 16;
-/// Most primitives in a scene.
-pub const MAX_PRIMITIVES: usize = 16;
-/// Most lights in a scene.
-pub const MAX_LIGHTS: usize = 8;
+/// Most materials in a scene: 16, or fewer where the build sets
+/// `HILCAM_MAX_MATERIALS` (1 to 16) — a device holds the scenes it is built
+/// for, and its RAM follows (a scene and a frame reserve each item).
+pub const MAX_MATERIALS: usize = capacity(option_env!("HILCAM_MAX_MATERIALS"), 16);
+/// Most primitives in a scene: 16, or `HILCAM_MAX_PRIMITIVES` (1 to 16).
+pub const MAX_PRIMITIVES: usize = capacity(option_env!("HILCAM_MAX_PRIMITIVES"), 16);
+/// Most lights in a scene: 8, or `HILCAM_MAX_LIGHTS` (1 to 8).
+pub const MAX_LIGHTS: usize = capacity(option_env!("HILCAM_MAX_LIGHTS"), 8);
+
+/// A capacity set at build time (`value`, decimal), `most` if unset. A
+/// value that is not a number from 1 to `most` stops the build.
+const fn capacity(value: Option<&str>, most: usize) -> usize {
+    let Some(v) = value else {
+        return most;
+    };
+    let mut b = v.as_bytes();
+    let mut n = 0usize;
+    while let [d, rest @ ..] = b {
+        assert!(d.is_ascii_digit() && n < 1000, "HILCAM_MAX_*: not a number");
+        n = n * 10 + (*d - b'0') as usize;
+        b = rest;
+    }
+    assert!(n >= 1 && n <= most, "HILCAM_MAX_*: out of range");
+    n
+}
 /// Largest distance of any scene position (and the camera) from the origin,
 /// metres, per coordinate.
 pub const MAX_EXTENT: f64 = 1000.0;

@@ -519,8 +519,9 @@ pub fn poses(r: &Resolved, poses_file: Option<&Path>, frames: usize) -> Result<V
 /// The camera a drive talks to.
 #[derive(Clone, Debug)]
 pub enum Target {
-    /// The camera firmware for this board, built with the drive's scene
-    /// alone and run in QEMU with UART0 on a Unix socket.
+    /// The camera firmware for this board, built with the shipped scenes
+    /// (sized to hold the drive's scene too) and run in QEMU with UART0 on
+    /// a Unix socket.
     Qemu(Board),
     /// A camera on a serial device (a real port or a pty) whose scene 0 is
     /// the drive's scene.
@@ -557,8 +558,9 @@ pub fn drive_target(
         }
         Target::Qemu(board) => {
             // The camera firmware as built with the shipped scenes: the
-            // scene driven goes over the link as data.
-            let elf = build_firmware_as(*board, &[], &[], true)?;
+            // scene driven goes over the link as data (the camera sized to
+            // hold it too).
+            let elf = build_firmware_as(*board, &[], &[], true, &[scene.to_path_buf()])?;
             let dir = tempfile_dir()?;
             let sock = dir.join("uart.sock");
             let mut child = spawn_qemu(

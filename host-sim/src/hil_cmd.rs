@@ -85,18 +85,49 @@ pub fn shipped_scenes() -> Result<Vec<PathBuf>, String> {
 /// `scenes/` when empty), rendering each with every one of `variants` (the
 /// planned renderer when empty); returns the ELF path.
 pub fn build_firmware(board: Board, scenes: &[PathBuf], variants: &[Variant]) -> Result<PathBuf, String> {
-    build_firmware_as(board, scenes, variants, false)
+    build_firmware_as(board, scenes, variants, false, &[])
+}
+
+/// The capacities a firmware holding `scenes` (and sent `sent`) is built
+/// with: the most materials, primitives and lights any of them has (the
+/// core's `HILCAM_MAX_*`; a scene and a frame reserve each).
+pub fn capacities(scenes: &[PathBuf], sent: &[PathBuf]) -> Result<[(&'static str, usize); 3], String> {
+    let mut most = [
+        ("HILCAM_MAX_MATERIALS", 1),
+        ("HILCAM_MAX_PRIMITIVES", 1),
+        ("HILCAM_MAX_LIGHTS", 1),
+    ];
+    for p in scenes.iter().chain(sent) {
+        let r = crate::scene_file::load(p)?;
+        let n = [
+            r.desc.materials.len(),
+            r.desc.primitives.len(),
+            r.desc.lights.len(),
+        ];
+        for ((_, m), n) in most.iter_mut().zip(n) {
+            *m = (*m).max(n);
+        }
+    }
+    Ok(most)
 }
 
 /// [`build_firmware`], or with `camera` the driven camera (feature
 /// `camera`, without the semihosting status lines, which it has no flash
-/// left for on the M3).
+/// left for on the M3) that will also be sent the scenes `sent`. Sized
+/// ([`capacities`]) for the scenes it holds and is sent.
 pub fn build_firmware_as(
     board: Board,
     scenes: &[PathBuf],
     variants: &[Variant],
     camera: bool,
+    sent: &[PathBuf],
 ) -> Result<PathBuf, String> {
+    let held = if scenes.is_empty() {
+        shipped_scenes()?
+    } else {
+        scenes.to_vec()
+    };
+    let caps = capacities(&held, sent)?;
     let features = if camera {
         format!("{},camera,mix32,sensor", board.feature())
     } else {
@@ -113,6 +144,7 @@ pub fn build_firmware_as(
         .collect::<Result<_, _>>()?;
     let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(&dir)
+        .envs(caps.iter().map(|(k, v)| (k, v.to_string())))
         .env("HILCAM_SCENES", list.join("\n"))
         .env(
             "HILCAM_VARIANTS",
