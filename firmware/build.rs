@@ -11,9 +11,11 @@ use std::path::PathBuf;
 
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
-    let mps2 = std::env::var_os("CARGO_FEATURE_BOARD_MPS2_AN386").is_some();
-    let memory = if mps2 {
+    let feature = |f: &str| std::env::var_os(format!("CARGO_FEATURE_BOARD_{f}")).is_some();
+    let memory = if feature("MPS2_AN386") {
         "memory-mps2-an386.x"
+    } else if feature("MICROBIT") {
+        "memory-microbit.x"
     } else {
         "../memory.x"
     };

@@ -49,6 +49,8 @@ if [ $qemu = 1 ]; then
   build_firmware
   ./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
   ./target/release/host-sim hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
+  # The Cortex-M0 with 16 KiB of RAM (QEMU microbit, nRF51 UART).
+  ./target/release/host-sim hil --board microbit --elf firmware/target/thumbv6m-none-eabi/release/hilcam-firmware --out out/hil/microbit
   # The closed loop: the camera build of the firmware driven over its UART
   # (LoadScene: the scene as data; then SetPose, Trigger) along a
   # trajectory, every frame checked byte for byte against the host render

@@ -30,5 +30,5 @@ build_firmware() {
   (cd firmware &&
     cargo build -q --release --features board-lm3s6965 --target thumbv7m-none-eabi &&
     cargo build -q --release --features board-mps2-an386 --target thumbv7em-none-eabihf &&
-    CARGO_PROFILE_RELEASE_OPT_LEVEL=s cargo build -q --release --features board-lm3s6965 --target thumbv6m-none-eabi)
+    cargo build -q --release --features board-microbit --target thumbv6m-none-eabi)
 }

@@ -6,59 +6,124 @@
 
 use core::convert::Infallible;
 
+/// A volatile read of a documented device register.
+#[inline(always)]
+fn read(addr: usize) -> u32 {
+    // SAFETY: `addr` is one of the fixed register addresses below.
+    unsafe { core::ptr::read_volatile(addr as *const u32) }
+}
+
+/// A volatile write of a documented device register.
+#[inline(always)]
+fn write(addr: usize, value: u32) {
+    // SAFETY: `addr` is one of the fixed register addresses below.
+    unsafe { core::ptr::write_volatile(addr as *mut u32, value) }
+}
+
 #[cfg(feature = "board-lm3s6965")]
 mod regs {
+    use super::{read, write};
     /// PL011 UART0 of the LM3S6965.
-    pub const BASE: usize = 0x4000_C000;
+    const BASE: usize = 0x4000_C000;
     /// Data register.
-    pub const DATA: usize = BASE;
+    const DATA: usize = BASE;
     /// Flag register; bit 5 = transmit FIFO full, bit 4 = receive FIFO
     /// empty.
-    pub const STATUS: usize = BASE + 0x018;
-    pub const TX_FULL: u32 = 1 << 5;
-    /// Bit set in `STATUS` while a received byte waits.
-    pub const RX_READY: u32 = 1 << 4;
-    /// `RX_READY` is set when no byte waits (PL011's RXFE).
-    pub const RX_READY_INVERTED: bool = true;
-    /// SysTick clock period on lm3s6965evb, ns (12.5 MHz).
-    pub const SYSTICK_NS: u64 = 80;
+    const STATUS: usize = BASE + 0x018;
+    const TX_FULL: u32 = 1 << 5;
+    const RX_EMPTY: u32 = 1 << 4;
+    /// SysTick clock period on lm3s6965evb, ps (12.5 MHz).
+    pub const SYSTICK_PS: u64 = 80_000;
     pub fn init() {}
+    pub fn put(b: u8) {
+        while read(STATUS) & TX_FULL != 0 {}
+        write(DATA, b as u32);
+    }
+    pub fn get() -> Option<u8> {
+        (read(STATUS) & RX_EMPTY == 0).then(|| read(DATA) as u8)
+    }
 }
 
 #[cfg(feature = "board-mps2-an386")]
 mod regs {
+    use super::{read, write};
     /// CMSDK APB UART0 of the MPS2+ AN386.
-    pub const BASE: usize = 0x4000_4000;
+    const BASE: usize = 0x4000_4000;
     /// Data register.
-    pub const DATA: usize = BASE;
+    const DATA: usize = BASE;
     /// State register; bit 0 = transmit buffer full, bit 1 = receive
     /// buffer full.
-    pub const STATUS: usize = BASE + 0x004;
-    pub const TX_FULL: u32 = 1;
-    pub const RX_READY: u32 = 1 << 1;
-    pub const RX_READY_INVERTED: bool = false;
+    const STATUS: usize = BASE + 0x004;
+    const TX_FULL: u32 = 1;
+    const RX_FULL: u32 = 1 << 1;
     const CTRL: usize = BASE + 0x008;
     const BAUDDIV: usize = BASE + 0x010;
-    /// SysTick clock period on mps2-an386, ns (25 MHz).
-    pub const SYSTICK_NS: u64 = 40;
+    /// SysTick clock period on mps2-an386, ps (25 MHz).
+    pub const SYSTICK_PS: u64 = 40_000;
     /// The CMSDK UART needs a divider of at least 16, and TX and RX
     /// enabled.
     pub fn init() {
-        // SAFETY: documented registers of the CMSDK UART0 at a fixed address.
-        unsafe {
-            core::ptr::write_volatile(BAUDDIV as *mut u32, 16);
-            core::ptr::write_volatile(CTRL as *mut u32, 0b11);
-        }
+        write(BAUDDIV, 16);
+        write(CTRL, 0b11);
+    }
+    /// Waits while the transmitter is full (the CMSDK UART drops bytes
+    /// otherwise).
+    pub fn put(b: u8) {
+        while read(STATUS) & TX_FULL != 0 {}
+        write(DATA, b as u32);
+    }
+    pub fn get() -> Option<u8> {
+        (read(STATUS) & RX_FULL != 0).then(|| read(DATA) as u8)
     }
 }
 
-#[cfg(not(any(feature = "board-lm3s6965", feature = "board-mps2-an386")))]
-compile_error!("pick a board: --features board-lm3s6965 or board-mps2-an386");
+#[cfg(feature = "board-microbit")]
+mod regs {
+    use super::{read, write};
+    /// The nRF51822's UART (QEMU microbit).
+    const BASE: usize = 0x4000_2000;
+    /// Tasks: start the receiver, the transmitter.
+    const STARTRX: usize = BASE + 0x000;
+    const STARTTX: usize = BASE + 0x008;
+    /// Events: a byte was received, a byte was sent.
+    const RXDRDY: usize = BASE + 0x108;
+    const TXDRDY: usize = BASE + 0x11C;
+    /// 4 enables the UART.
+    const ENABLE: usize = BASE + 0x500;
+    const RXD: usize = BASE + 0x518;
+    const TXD: usize = BASE + 0x51C;
+    /// SysTick on the core clock, ps (16 MHz).
+    pub const SYSTICK_PS: u64 = 62_500;
+    pub fn init() {
+        write(ENABLE, 4);
+        write(STARTTX, 1);
+        write(STARTRX, 1);
+    }
+    /// Sends one byte and waits until it has left.
+    pub fn put(b: u8) {
+        write(TXDRDY, 0);
+        write(TXD, b as u32);
+        while read(TXDRDY) == 0 {}
+    }
+    pub fn get() -> Option<u8> {
+        if read(RXDRDY) == 0 {
+            return None;
+        }
+        write(RXDRDY, 0);
+        Some(read(RXD) as u8)
+    }
+}
 
-pub use regs::SYSTICK_NS;
+#[cfg(not(any(
+    feature = "board-lm3s6965",
+    feature = "board-mps2-an386",
+    feature = "board-microbit"
+)))]
+compile_error!("pick a board: --features board-lm3s6965, board-mps2-an386 or board-microbit");
 
-/// UART0, blocking: waits while the transmitter is full (the CMSDK UART drops
-/// bytes otherwise).
+pub use regs::SYSTICK_PS;
+
+/// UART0, blocking.
 pub struct Uart0(());
 
 impl Uart0 {
@@ -72,14 +137,7 @@ impl Uart0 {
 /// The byte UART0 has received, if one waits (never blocks).
 #[cfg_attr(not(feature = "camera"), allow(dead_code))]
 pub fn read_byte() -> Option<u8> {
-    // SAFETY: documented UART registers at a fixed address.
-    unsafe {
-        let status = core::ptr::read_volatile(regs::STATUS as *const u32);
-        if (status & regs::RX_READY != 0) == regs::RX_READY_INVERTED {
-            return None;
-        }
-        Some(core::ptr::read_volatile(regs::DATA as *const u32) as u8)
-    }
+    regs::get()
 }
 
 impl embedded_io::ErrorType for Uart0 {
@@ -89,11 +147,7 @@ impl embedded_io::ErrorType for Uart0 {
 impl embedded_io::Write for Uart0 {
     fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
         for &b in buf {
-            // SAFETY: documented UART registers at a fixed address.
-            unsafe {
-                while core::ptr::read_volatile(regs::STATUS as *const u32) & regs::TX_FULL != 0 {}
-                core::ptr::write_volatile(regs::DATA as *mut u32, b as u32);
-            }
+            regs::put(b);
         }
         Ok(buf.len())
     }

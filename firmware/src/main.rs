@@ -113,12 +113,12 @@ fn ticks() -> u64 {
 
 /// Ticks → ns of the camera's time (virtual time under `-icount`).
 fn ns(ticks: u64) -> u64 {
-    ticks * board::SYSTICK_NS
+    ticks * board::SYSTICK_PS / 1000
 }
 
 /// Ticks → instructions under `-icount shift=7`.
 fn instructions(ticks: u64) -> u64 {
-    ticks * board::SYSTICK_NS / (1 << ICOUNT_SHIFT)
+    ticks * board::SYSTICK_PS / (1000 << ICOUNT_SHIFT)
 }
 
 /// Stack painting: the RAM between the end of the statics (`__sheap`) and

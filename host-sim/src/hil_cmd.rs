@@ -25,15 +25,20 @@ pub enum Board {
     Lm3s6965evb,
     /// Arm MPS2+ AN386: Cortex-M4F, CMSDK UART0.
     Mps2An386,
+    /// BBC micro:bit v1: Cortex-M0 (nRF51822), 16 KiB of RAM, its UART.
+    Microbit,
 }
 
 impl Board {
-    /// `lm3s6965evb` or `mps2-an386`.
+    /// `lm3s6965evb`, `mps2-an386` or `microbit`.
     pub fn parse(s: &str) -> Result<Board, String> {
         match s {
             "lm3s6965evb" => Ok(Board::Lm3s6965evb),
             "mps2-an386" => Ok(Board::Mps2An386),
-            _ => Err(format!("--board: expected lm3s6965evb or mps2-an386, got {s:?}")),
+            "microbit" => Ok(Board::Microbit),
+            _ => Err(format!(
+                "--board: expected lm3s6965evb, mps2-an386 or microbit, got {s:?}"
+            )),
         }
     }
     /// QEMU machine name.
@@ -41,12 +46,14 @@ impl Board {
         match self {
             Board::Lm3s6965evb => "lm3s6965evb",
             Board::Mps2An386 => "mps2-an386",
+            Board::Microbit => "microbit",
         }
     }
     fn cpu(self) -> &'static str {
         match self {
             Board::Lm3s6965evb => "cortex-m3",
             Board::Mps2An386 => "cortex-m4",
+            Board::Microbit => "cortex-m0",
         }
     }
     /// Rust target.
@@ -54,12 +61,14 @@ impl Board {
         match self {
             Board::Lm3s6965evb => "thumbv7m-none-eabi",
             Board::Mps2An386 => "thumbv7em-none-eabihf",
+            Board::Microbit => "thumbv6m-none-eabi",
         }
     }
     fn feature(self) -> &'static str {
         match self {
             Board::Lm3s6965evb => "board-lm3s6965",
             Board::Mps2An386 => "board-mps2-an386",
+            Board::Microbit => "board-microbit",
         }
     }
 }

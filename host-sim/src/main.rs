@@ -201,7 +201,8 @@ enum Cmd {
     /// with the host render (bit-exact) and the f64 reference; writes hil.json
     /// and the frames as PNGs.
     Hil {
-        /// lm3s6965evb (Cortex-M3) or mps2-an386 (Cortex-M4F).
+        /// lm3s6965evb (Cortex-M3), mps2-an386 (Cortex-M4F) or microbit
+        /// (Cortex-M0, 16 KiB of RAM).
         #[arg(long)]
         board: String,
         /// Scenes to embed (default: every scene in scenes/).
