@@ -647,7 +647,7 @@ impl Scene {
         };
         self.materials
             .push(m)
-            .map_err(|_| c.err("materials", Problem::TooMany))?;
+            .map_err(|_| Check { item: Item::Scene }.err("materials", Problem::TooMany))?;
         Ok(i)
     }
 
@@ -743,7 +743,7 @@ impl Scene {
                 material,
                 checker,
             })
-            .map_err(|_| c.err("primitives", Problem::TooMany))?;
+            .map_err(|_| Check { item: Item::Scene }.err("primitives", Problem::TooMany))?;
         Ok(i)
     }
 
@@ -757,7 +757,7 @@ impl Scene {
         };
         self.lights
             .push(l)
-            .map_err(|_| c.err("lights", Problem::TooMany))?;
+            .map_err(|_| Check { item: Item::Scene }.err("lights", Problem::TooMany))?;
         Ok(i)
     }
 
@@ -776,7 +776,7 @@ impl Scene {
         };
         self.lights
             .push(l)
-            .map_err(|_| c.err("lights", Problem::TooMany))?;
+            .map_err(|_| Check { item: Item::Scene }.err("lights", Problem::TooMany))?;
         Ok(i)
     }
 

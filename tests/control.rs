@@ -566,6 +566,36 @@ fn a_scene_loaded_in_parts_is_shown() {
     assert_eq!(scene, barrel.core_scene().expect("core scene"));
 }
 
+/// The standard scene with [`hilcam::scene::MAX_PRIMITIVES`] + 1 copies of
+/// its first primitive, encoded (SceneData holds at most the maximum: the
+/// encoding of the maximum, its list length raised by one and one more
+/// copy of the primitive inserted).
+fn one_primitive_too_many() -> Vec<u8> {
+    let mut data = resolved("standard.toml").scene_data().expect("scene data");
+    let first = data.primitives[0];
+    let encode = |data: &hilcam::scene_data::SceneData| {
+        let mut buf = vec![0u8; MAX_SCENE_DATA];
+        data.encode(&mut buf).expect("fits").to_vec()
+    };
+    let max = hilcam::scene::MAX_PRIMITIVES;
+    data.primitives.clear();
+    for _ in 0..max {
+        data.primitives.push(first).expect("room");
+    }
+    let full = encode(&data);
+    data.primitives.pop();
+    let less = encode(&data);
+    // The list's length is the first byte that differs (one byte below 128).
+    let at = full.iter().zip(&less).position(|(a, b)| a != b).expect("differ");
+    assert_eq!((full[at], less[at]), (max as u8, max as u8 - 1));
+    let item = full[at + 1..at + 1 + full.len() - less.len()].to_vec();
+    let mut more = full[..at].to_vec();
+    more.push(max as u8 + 1);
+    more.extend_from_slice(&item);
+    more.extend_from_slice(&full[at + 1..]);
+    more
+}
+
 /// A scene that fails is refused at its last part, naming the value; the
 /// camera shows what it showed. Parts out of place are refused.
 #[test]
@@ -577,6 +607,8 @@ fn a_bad_scene_is_refused_naming_the_field_and_the_camera_keeps_its_scene() {
     let bad = data.encode(&mut buf).expect("fits").to_vec();
     let cases: Vec<(Vec<u8>, u16, Reason, &str)> = vec![
         (bad, 640, Reason::Invalid, "materials[1].albedo"),
+        // One primitive more than the camera's build holds.
+        (one_primitive_too_many(), 640, Reason::Unsupported, "primitives"),
         // 160 pixels wide, the camera's lines 100.
         (standard_bytes(), 100, Reason::Unsupported, "camera.width"),
         (vec![0xff; 40], 640, Reason::Invalid, "scene"),
