@@ -28,7 +28,7 @@ done
 cargo build -q --lib --release --target thumbv7em-none-eabihf --features defmt
 echo "   thumbv7em-none-eabihf --features defmt: ok"
 
-echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (compile only)"
+echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit)"
 build_firmware
 (cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings &&
   cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
