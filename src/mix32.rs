@@ -346,6 +346,39 @@ fn zip3<A: Copy, B: Copy, R>(a: [A; 3], b: [B; 3], f: impl Fn(A, B) -> R) -> [R;
     [f(a[0], b[0]), f(a[1], b[1]), f(a[2], b[2])]
 }
 
+/// `a · b`, exact, in 64 bits: one `SMULL` on the Cortex-M3/M4. The
+/// Cortex-M0 (ARMv6-M, the Arm target without atomics) has only a
+/// 32 × 32 → 32 multiply, and the compiler's `i64` product there is a
+/// 64 × 64 library call; this is four 16 × 16 products instead.
+#[inline(always)]
+#[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+fn wmul(a: i32, b: i32) -> i64 {
+    a as i64 * b as i64
+}
+
+/// [`wmul`] on the Cortex-M0: out of line (inlined, its 25 uses would
+/// not fit the micro:bit's flash).
+#[inline(never)]
+#[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+fn wmul(a: i32, b: i32) -> i64 {
+    wmul16(a, b)
+}
+
+/// `a · b` from 16 × 16-bit products: `a = a_h 2¹⁶ + a_l` (`a_h` signed,
+/// `a_l` unsigned 16 bits), the same for `b`; the cross terms fit `i32`.
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn wmul16(a: i32, b: i32) -> i64 {
+    let (ah, al) = (a >> 16, a & 0xFFFF);
+    let (bh, bl) = (b >> 16, b & 0xFFFF);
+    let low = (al as u32 * bl as u32) as i64;
+    let cross = (ah * bl) as i64 + (al * bh) as i64;
+    (((ah * bh) as i64) << 32) + (cross << 16) + low
+}
+
 #[inline(always)]
 fn sat32(v: i64) -> i32 {
     v.clamp(i32::MIN as i64, i32::MAX as i64) as i32
@@ -524,16 +557,13 @@ impl Ray {
     fn new<const PERSP: bool>(x: i32, y: i32, k: i32) -> Ray {
         // a = 1 + x² + y², S20 (≤ 513: the slopes are below 16): d·d for
         // perspective rays, and cos⁴α = 1/a² for both.
-        let a = (1 << 20) + ((x as i64 * x as i64 + y as i64 * y as i64) >> 32) as i32;
+        let a = (1 << 20) + ((wmul(x, x) + wmul(y, y)) >> 32) as i32;
         let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
         let (ox, oy) = if PERSP {
             (0, 0)
         } else {
             // S26 · S24 → S18; |o| ≤ 64 U, checked per frame.
-            (
-                ((x as i64 * k as i64) >> 32) as i32,
-                ((y as i64 * k as i64) >> 32) as i32,
-            )
+            (((wmul(x, k)) >> 32) as i32, ((wmul(y, k)) >> 32) as i32)
         };
         Ray {
             x,
@@ -574,8 +604,7 @@ impl Ray {
     fn plane_t<const PERSP: bool>(&self, n: [i32; 3], dist: i32, rz: (u32, u32)) -> Option<(i32, bool)> {
         if PERSP {
             // n·d S56 → S24; t = dist / (n·d) in S18.
-            let den = ((n[0] as i64 * self.x as i64 + n[1] as i64 * self.y as i64 + ((n[2] as i64) << 26))
-                >> 32) as i32;
+            let den = ((wmul(n[0], self.x) + wmul(n[1], self.y) + ((n[2] as i64) << 26)) >> 32) as i32;
             // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
             let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
             let t = mul_shr_var(dist, r, 44 - z);
@@ -587,7 +616,7 @@ impl Ray {
             if n[2] == 0 {
                 return None;
             }
-            let no = ((n[0] as i64 * self.ox as i64 + n[1] as i64 * self.oy as i64) >> 24) as i32;
+            let no = ((wmul(n[0], self.ox) + wmul(n[1], self.oy)) >> 24) as i32;
             let t = mul_shr_var(dist.saturating_sub(no), rz.0, 38 - rz.1);
             let t = if n[2] < 0 { t.saturating_neg() } else { t };
             (t > 0).then_some((t.min(T_MAX), n[2] > 0))
@@ -647,7 +676,7 @@ impl MixPrim {
                             k(c0 - x * c[2] as i64),
                             k(x * c[1] as i64 - y * c[0] as i64),
                         );
-                        let disc = r.a as i64 * *r2_24 as i64 - (k0 * k0 + k1 * k1 + k2 * k2);
+                        let disc = wmul(r.a, *r2_24) - (k0 * k0 + k1 * k1 + k2 * k2);
                         if disc < 0 {
                             continue;
                         }
@@ -721,11 +750,7 @@ impl MixPrim {
                         continue;
                     }
                     let rel = zip3(r.point::<PERSP>(t), *c18, i32::saturating_sub);
-                    let dot = |a: [i32; 3]| {
-                        rel[0] as i64 * a[0] as i64
-                            + rel[1] as i64 * a[1] as i64
-                            + rel[2] as i64 * a[2] as i64
-                    };
+                    let dot = |a: [i32; 3]| wmul(rel[0], a[0]) + wmul(rel[1], a[1]) + wmul(rel[2], a[2]);
                     if dot(*u).abs() <= *hu && dot(*v).abs() <= *hv {
                         r.keep(t, index, away);
                     }
@@ -882,8 +907,7 @@ impl Mix32 {
         let l24 = |q: Q| len_s(q, e, 24);
         let l18 = |q: Q| len_s(q, e, 18);
         let u3 = |v: V3| v.map(unit_s30);
-        let dot48 =
-            |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| *x as i64 * y as i64).sum() };
+        let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
 
         let prims = &mut self.prims;
         prims.clear();
@@ -1072,17 +1096,14 @@ impl Mix32 {
             return Some((xd, yd));
         };
         // u S20 = (xd² + yd²) S52 >> 32.
-        let u = ((xd as i64 * xd as i64 + yd2) >> 32) as i32;
+        let u = ((wmul(xd, xd) + yd2) >> 32) as i32;
         if u > self.limit {
             return None;
         }
         // g − 1 = u (k1 + k2 u), S28; bounded per frame.
-        let s = k1 + ((k2 as i64 * u as i64) >> 20) as i32;
-        let g = (1 << 28) + ((s as i64 * u as i64) >> 20) as i32;
-        Some((
-            ((xd as i64 * g as i64) >> 28) as i32,
-            ((yd as i64 * g as i64) >> 28) as i32,
-        ))
+        let s = k1 + ((wmul(k2, u)) >> 20) as i32;
+        let g = (1 << 28) + ((wmul(s, u)) >> 20) as i32;
+        Some((((wmul(xd, g)) >> 28) as i32, ((wmul(yd, g)) >> 28) as i32))
     }
 
     /// The undistorted point of pixel `(i, j)` in I32F32, or `None` outside
@@ -1090,7 +1111,7 @@ impl Mix32 {
     pub fn undistorted(&self, i: u16, j: u16) -> Option<(Q, Q)> {
         let xd = ((self.x0 - self.dx * i as i64) >> 32) as i32;
         let yd = self.yd(j);
-        let (x, y) = self.undistort(xd, yd, yd as i64 * yd as i64)?;
+        let (x, y) = self.undistort(xd, yd, wmul(yd, yd))?;
         Some((Q::from_bits((x as i64) << 6), Q::from_bits((y as i64) << 6)))
     }
 
@@ -1121,7 +1142,7 @@ impl Mix32 {
             return;
         };
         let yd = self.yd(j);
-        let yd2 = yd as i64 * yd as i64;
+        let yd2 = wmul(yd, yd);
         let mut acc = self.x0;
         let korigin = self.parallel.unwrap_or(0);
         // kd · E per light for the material of the last shaded pixel.
@@ -1212,10 +1233,7 @@ impl Mix32 {
         let mut m = p.material as usize;
         if let Some(k) = &p.checker {
             let cell = |axis: [i32; 3], o: i64| -> i64 {
-                let w = pt[0] as i64 * axis[0] as i64
-                    + pt[1] as i64 * axis[1] as i64
-                    + pt[2] as i64 * axis[2] as i64
-                    - o;
+                let w = wmul(pt[0], axis[0]) + wmul(pt[1], axis[1]) + wmul(pt[2], axis[2]) - o;
                 // S48 → S18 (saturating), times 1/cell → floor.
                 (shr_sat::<30>(w) as i64 * k.inv_cell.0 as i64) >> k.inv_cell.1
             };
@@ -1287,7 +1305,7 @@ impl Mix32 {
         let nt = if away { n.map(i32::saturating_neg) } else { n };
         let view = k.lobe.map(|_| Self::view::<PERSP>(r));
         let dot30 = |a: [i32; 3], b: [i32; 3]| -> i32 {
-            ((a[0] as i64 * b[0] as i64 + a[1] as i64 * b[1] as i64 + a[2] as i64 * b[2] as i64) >> 30) as i32
+            ((wmul(a[0], b[0]) + wmul(a[1], b[1]) + wmul(a[2], b[2])) >> 30) as i32
         };
         let mut sum = ka;
         for ((l, kl), ksl) in self.lights.iter().zip(&k.k).zip(&k.ks) {
@@ -1295,14 +1313,12 @@ impl Mix32 {
                 MixLight::Point { p, .. } => {
                     let lv = zip3(*p, pt, i32::saturating_sub);
                     // n·l, S48 U.
-                    let nl = nt[0] as i64 * lv[0] as i64
-                        + nt[1] as i64 * lv[1] as i64
-                        + nt[2] as i64 * lv[2] as i64;
+                    let nl = wmul(nt[0], lv[0]) + wmul(nt[1], lv[1]) + wmul(nt[2], lv[2]);
                     if nl <= 0 {
                         continue;
                     }
                     // r², S36 U², exact (> 0: n·l is).
-                    let sq = |v: i32| (v as i64 * v as i64) as u64;
+                    let sq = |v: i32| (wmul(v, v)) as u64;
                     let r2 = sq(lv[0]) + sq(lv[1]) + sq(lv[2]);
                     let (_, y, z) = rsqrt_norm(r2);
                     // l̂ = l/r in S30 (only for the lobe): 1/r = y 2^((z − 28)/2)
@@ -1480,5 +1496,40 @@ mod tests {
         assert_eq!(a.mul_to_sum(Pf::new(1, -80), 0), 0);
         assert_eq!(Pf::new(1, -40).to_sum(0), 0);
         assert_eq!((Pf::default() * a).to_sum(15), 0);
+    }
+}
+
+#[cfg(test)]
+mod wmul_tests {
+    /// The Cortex-M0's product is the exact one, at the extremes and on a
+    /// spread of values.
+    #[test]
+    fn wmul16_is_exact() {
+        let edges = [
+            i32::MIN,
+            i32::MIN + 1,
+            -65_537,
+            -65_536,
+            -65_535,
+            -1,
+            0,
+            1,
+            65_535,
+            65_536,
+            i32::MAX,
+        ];
+        let mut x = 0x9E37_79B9u32;
+        let mut values: [i32; 64] = [0; 64];
+        for v in values.iter_mut() {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            *v = x as i32;
+        }
+        for a in edges.iter().chain(values.iter()) {
+            for b in edges.iter().chain(values.iter()) {
+                assert_eq!(super::wmul16(*a, *b), *a as i64 * *b as i64, "{a} x {b}");
+            }
+        }
     }
 }
