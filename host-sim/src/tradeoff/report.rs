@@ -259,11 +259,11 @@ pub(super) fn recommend(
         });
         out.push(Recommendation {
             target: "M0".into(),
-            reason:
-                "not measured (no QEMU M0 board with a UART the firmware drives): the M3's choice, since the \
-                     M0 has no FPU either; without a 32 × 32 → 64-bit multiply each of the fixed-point \
-                     products takes several 32-bit multiplies there, and soft-float costs it more as well"
-                    .into(),
+            reason: "the sweep does not run on the M0 (`host-sim hil --board microbit` measures the planned \
+                     renderer there): the M3's choice, since the M0 has no FPU either; without a \
+                     32 × 32 → 64-bit multiply each fixed-point product takes four 16 × 16 ones there, and \
+                     soft-float costs it more as well"
+                .into(),
             variant: v,
         });
     }
