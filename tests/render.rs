@@ -158,6 +158,28 @@ fn planner_prediction_bounds_measurement_and_budget_sets_table_size() {
         let (loose, tight) = (table(&loose), table(&tight));
         assert!(loose.lut_entries < tight.lut_entries, "{name}");
         assert!(loose.geom_err_px <= 0.05 && tight.geom_err_px <= 5e-5);
+        // A device holding smaller tables: the planner considers none
+        // larger, and a frame refuses a table it cannot hold.
+        let small = Budget {
+            max_geom_err_px: 1e-4,
+            max_table_entries: tight.lut_entries - 1,
+            ..Budget::default()
+        };
+        let p = plan(&s, &small);
+        assert!(
+            p.candidates.iter().all(|c| c.lut_entries < tight.lut_entries),
+            "{name}"
+        );
+        let opts = tight_options(&s);
+        assert_eq!(
+            Frame::<hilcam::scalar::I32F32, 16>::build(&s, &opts).err(),
+            Some(RenderError::TableTooLarge),
+            "{name}"
+        );
+        assert!(
+            Frame::<hilcam::scalar::I32F32, 1024>::build(&s, &opts).is_ok(),
+            "{name}"
+        );
     }
     // Weak perspective is refused when the budget is below its error.
     let s = scene("standard").core_scene().expect("valid");
@@ -165,6 +187,18 @@ fn planner_prediction_bounds_measurement_and_budget_sets_table_size() {
         plan(&s, &Budget::default()).options.model,
         RenderModel::Perspective
     );
+}
+
+/// The wide arithmetic with a linear table of 256 entries.
+fn tight_options(s: &hilcam::scene::Scene) -> hilcam::render::Options {
+    use hilcam::render::{Arithmetic, DistortionEval, Override};
+    plan(s, &Budget::default())
+        .options
+        .with(Override::Table {
+            entries: 256,
+            eval: DistortionEval::Linear,
+        })
+        .with_arithmetic(Arithmetic::Wide)
 }
 
 /// A lens that folds inside the sensor (k1 < 0 folds at u = −1/(3 k1): 1/6
