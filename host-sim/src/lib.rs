@@ -9,36 +9,21 @@
 //! Without the default `cli` feature only [`scene_file`], [`trajectory`]
 //! and the link's decoder are built (what the fuzz targets need).
 
-#[cfg(feature = "cli")]
-pub mod camera_cmd;
-#[cfg(feature = "cli")]
-pub mod costfit;
-#[cfg(feature = "cli")]
-pub mod demo;
-#[cfg(feature = "cli")]
-pub mod drive_cmd;
-#[cfg(feature = "cli")]
-pub mod export;
-#[cfg(feature = "cli")]
-pub mod frame_png;
-#[cfg(feature = "cli")]
-pub mod harness;
-#[cfg(feature = "cli")]
-pub mod hil_cmd;
 pub mod link;
-#[cfg(feature = "cli")]
-pub mod output;
-#[cfg(feature = "cli")]
-pub mod reference;
-#[cfg(feature = "cli")]
-pub mod render_cmd;
 pub mod scene_file;
-#[cfg(feature = "cli")]
-pub mod stream_cmd;
-#[cfg(feature = "cli")]
-pub mod tradeoff;
 pub mod trajectory;
-#[cfg(feature = "cli")]
-pub mod truth;
-#[cfg(feature = "cli")]
-pub mod variant;
+
+/// Modules built only with the `cli` feature.
+macro_rules! cli_modules {
+    ($($m:ident),* $(,)?) => {
+        $(
+            #[cfg(feature = "cli")]
+            pub mod $m;
+        )*
+    };
+}
+
+cli_modules!(
+    camera_cmd, costfit, demo, drive_cmd, export, frame_png, harness, hil_cmd, output, reference, render_cmd,
+    stream_cmd, tradeoff, truth, variant,
+);
