@@ -58,7 +58,7 @@
 
 use crate::render::from_acc;
 use crate::render::{RenderError, FLAG_OUTSIDE_FIELD};
-use crate::scalar::{mul32, shr_sat};
+use crate::scalar::shr_sat;
 use crate::scene::{PixelFormat, Q};
 use crate::shading::{Brdf, ShadingLight, V3};
 use core::num::NonZeroU32;
@@ -78,9 +78,9 @@ impl Pf {
         if v == 0 {
             return Pf::default();
         }
-        let z = v.leading_zeros();
+        let z = clz64(v);
         Pf {
-            m: ((v << z) >> 32) as u32,
+            m: (shl64(v, z) >> 32) as u32,
             e: e + 32 - z as i32,
         }
     }
@@ -91,7 +91,7 @@ impl Pf {
         if v == 0 {
             return Pf::default();
         }
-        let z = v.leading_zeros();
+        let z = clz32(v);
         Pf {
             m: v << z,
             e: e - z as i32,
@@ -123,7 +123,7 @@ impl Pf {
     #[inline(always)]
     pub fn mul_to_sum(self, o: Pf, frac: i32) -> u64 {
         // p in [2^30, 2^32) (or 0); value · 2^frac = p · 2^s.
-        let p = ((self.m as u64 * o.m as u64) >> 32) as u32;
+        let p = (umul(self.m, o.m) >> 32) as u32;
         let s = self.e + o.e + frac + 32;
         if s <= 0 {
             // 32-bit shifts: the common case.
@@ -156,8 +156,13 @@ pub const SUM_CAP: u64 = 1 << 47;
 fn vignette_dn(sum: u64, c4: u32) -> u64 {
     // (hi 2^32 + lo) c4 + 2^45 over 2^46 = (hi c4 + ⌊(lo c4 + 2^45) / 2^32⌋) / 2^14
     // (nested floors of integers); hi c4 < 2^46.
-    let (hi, lo) = (sum >> 32, sum & 0xFFFF_FFFF);
-    (hi * c4 as u64 + ((lo * c4 as u64 + (1 << 45)) >> 32)) >> 14
+    let (hi, lo) = ((sum >> 32) as u32, sum as u32);
+    // hi < 2^16 below the cap: a 16-bit product.
+    let hc = match u16::try_from(hi) {
+        Ok(h) => umul_h(c4, h),
+        Err(_) => umul(hi, c4),
+    };
+    (hc + ((umul(lo, c4) + (1 << 45)) >> 32)) >> 14
 }
 
 /// The pixel word of channel values (each ≤ `dn_max`) for `C` channels:
@@ -197,7 +202,7 @@ impl core::ops::Mul for Pf {
     fn mul(self, o: Pf) -> Pf {
         // Two normalized mantissas: the product is in [2^62, 2^64), one
         // shift from normalized (or 0).
-        let p = self.m as u64 * o.m as u64;
+        let p = umul(self.m, o.m);
         let (hi, lo) = ((p >> 32) as u32, p as u32);
         let n = (hi >> 31) ^ 1; // 1: one shift left
         Pf {
@@ -228,14 +233,15 @@ const RECIP_SEED: [u16; 1024] = {
 /// seed, two 32 × 32 products, no division.
 #[inline(always)]
 pub fn recip(d: NonZeroU32) -> (u32, u32) {
-    let z = d.leading_zeros();
+    let z = clz32(d.get());
     let dn = d.get() << z; // v = dn / 2^32 in [½, 1)
                            // dn >> 21 is in [1024, 2048): its low ten bits index the seed.
     let idx = (dn >> 21) as usize & 1023;
-    let r = (RECIP_SEED.get(idx).copied().unwrap_or(1 << 15) as u32) << 16;
+    // r = seed 2^16: both products are by the 16-bit seed.
+    let seed = RECIP_SEED.get(idx).copied().unwrap_or(1 << 15);
     // r (2 − v r), Q2.30.
-    let vr = ((dn as u64 * r as u64) >> 32) as u32;
-    let r = ((r as u64 * (1u32 << 31).wrapping_sub(vr) as u64) >> 30) as u32;
+    let vr = (umul_h(dn, seed) >> 16) as u32;
+    let r = (umul_h((1u32 << 31).wrapping_sub(vr), seed) >> 14) as u32;
     (r, z)
 }
 
@@ -244,13 +250,13 @@ pub fn recip(d: NonZeroU32) -> (u32, u32) {
 #[inline(always)]
 fn mul_shr_var(v: i32, r: u32, sh: u32) -> i32 {
     // |v r| ≤ 2^62: the quotient by 2^31 always fits.
-    let q = ((v as i64 * r as i64) >> 31) as i32;
+    let q = (smul_u(v, r) >> 31) as i32;
     if sh >= 31 {
         q >> (sh - 31).min(31)
     } else {
         // Left by 31 − sh, saturating.
         let l = 31 - sh;
-        if q.unsigned_abs().leading_zeros() > l {
+        if clz32(q.unsigned_abs()) > l {
             q << l
         } else if q < 0 {
             i32::MIN
@@ -279,15 +285,16 @@ const SEED: [u16; 768] = {
 /// Newton step from a 768-entry seed, three products.
 #[inline]
 fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
-    let z = x.leading_zeros() & !1;
-    let m = x << z;
+    let z = clz64(x) & !1;
+    let m = shl64(x, z);
     let idx = ((m >> 54) as usize).saturating_sub(256);
-    let y = (SEED.get(idx).copied().unwrap_or(1 << 14) as u32) << 16;
+    // y = seed 2^16: y² and the last product are by the 16-bit seed.
+    let seed = SEED.get(idx).copied().unwrap_or(1 << 14);
     let m32 = (m >> 32) as u32;
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
-    let y2 = ((y as u64 * y as u64) >> 31) as u32;
-    let my2 = ((m32 as u64 * y2 as u64) >> 31) as u32;
-    let y = ((y as u64 * (3u32 << 30).saturating_sub(my2) as u64) >> 31) as u32;
+    let y2 = (seed as u32 * seed as u32) << 1;
+    let my2 = (umul(m32, y2) >> 31) as u32;
+    let y = (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32;
     (m, y, z)
 }
 
@@ -322,10 +329,10 @@ pub fn cos_over_r2(nl: u64, r2: u64) -> Pf {
 fn cos_over_r3(nl: u64, y: u32, z: u32) -> Pf {
     // 1/r³ = y3 2^(3z/2 − 70) with y² in Q3.29, y³ in Q5.28; n·l's top
     // word q: n·l ≈ q 2^(32 − z/2) 2⁻⁴⁸. Product: q y3 2^(z − 86).
-    let q = ((nl << (z / 2)) >> 32) as u32;
-    let y2 = ((y as u64 * y as u64) >> 31) as u32;
-    let y3 = ((y2 as u64 * y as u64) >> 31) as u32;
-    Pf::new(q as u64 * y3 as u64, z as i32 - 86)
+    let q = (shl64(nl, z / 2) >> 32) as u32;
+    let y2 = (umul(y, y) >> 31) as u32;
+    let y3 = (umul(y2, y) >> 31) as u32;
+    Pf::new(umul(q, y3), z as i32 - 86)
 }
 
 /// `√(x · 2⁻⁴⁴)` in S22 for `x < 2⁶²`, within 2⁻¹⁹ relative and one unit.
@@ -336,7 +343,7 @@ fn sqrt_s44_to_s22(x: u64) -> i32 {
     }
     let (m, y, z) = rsqrt_norm(x);
     // √(m/2^64) = (m/2^64) · y in Q0.32; √x_real = that · 2^((20 − z)/2).
-    let s = (((m >> 32) * y as u64) >> 30).min(u32::MAX as u64);
+    let s = (umul((m >> 32) as u32, y) >> 30).min(u32::MAX as u64);
     (s >> (z / 2)).min(i32::MAX as u64) as i32
 }
 
@@ -346,23 +353,120 @@ fn zip3<A: Copy, B: Copy, R>(a: [A; 3], b: [B; 3], f: impl Fn(A, B) -> R) -> [R;
     [f(a[0], b[0]), f(a[1], b[1]), f(a[2], b[2])]
 }
 
-/// `a · b`, exact, in 64 bits: one `SMULL` on the Cortex-M3/M4. The
-/// Cortex-M0 (ARMv6-M, the Arm target without atomics) has only a
-/// 32 × 32 → 32 multiply, and the compiler's `i64` product there is a
-/// 64 × 64 library call; this is four 16 × 16 products instead.
+// Products and bit counts. Cortex-M0 (ARMv6-M, the Arm target without
+// atomics) has only a 32 × 32 → 32 multiply and no count of leading
+// zeros: the compiler's 64-bit product there is a 64 × 64 library call and
+// its `leading_zeros` a library loop. On the M0 these are 16 × 16-bit
+// products and a byte table instead; elsewhere the one instruction. The
+// results are the same bits on every target.
+
+/// `a · b`, exact (i32 × i32 → i64).
 #[inline(always)]
 #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
 fn wmul(a: i32, b: i32) -> i64 {
     a as i64 * b as i64
 }
 
-/// [`wmul`] on the Cortex-M0: out of line (inlined, its 25 uses would
-/// not fit the micro:bit's flash).
+/// [`wmul`] on the Cortex-M0: out of line where it is used in the sphere
+/// test and the rare paths (inlined everywhere, the registers it needs made
+/// the standard scene slower: 1 500 against 1 428 instructions a pixel);
+/// [`wmul_px`] inlines it where every pixel needs it.
 #[inline(never)]
 #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
 fn wmul(a: i32, b: i32) -> i64 {
     wmul16(a, b)
 }
+
+/// [`wmul`] inlined on the Cortex-M0 too: for the products every pixel
+/// makes (the call costs the M0 a third of the product).
+#[inline(always)]
+fn wmul_px(a: i32, b: i32) -> i64 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        wmul16(a, b)
+    } else {
+        a as i64 * b as i64
+    }
+}
+
+/// `a · b`, exact (u32 × u32 → u64).
+#[inline(always)]
+fn umul(a: u32, b: u32) -> u64 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        umul16(a, b)
+    } else {
+        a as u64 * b as u64
+    }
+}
+
+/// `a · b` for a 16-bit `b` (u32 × u16 → u64).
+#[inline(always)]
+fn umul_h(a: u32, b: u16) -> u64 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        umul_h16(a, b)
+    } else {
+        a as u64 * b as u64
+    }
+}
+
+/// The saturating product of raw 32-bit fixed-point values with `F`
+/// fractional bits, rounded down (as `saturating_mul`): one `SMULL` and a
+/// check that the high word is the sign extension of the result.
+#[inline(always)]
+fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
+    shr_sat::<F>(wmul_px(a, b))
+}
+
+/// `a²`, exact (three 16 × 16-bit products on the M0).
+#[inline(always)]
+fn wsq(a: i32) -> u64 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        usq16(a)
+    } else {
+        (a as i64 * a as i64) as u64
+    }
+}
+
+/// `a · b` for an unsigned `b` (i32 × u32 → i64; `|a b| ≤ 2⁶³`).
+#[inline(always)]
+fn smul_u(a: i32, b: u32) -> i64 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        smul_u16(a, b)
+    } else {
+        a as i64 * b as i64
+    }
+}
+
+/// `v << z` for `z` < 64 (bits shifted out are lost).
+#[inline(always)]
+fn shl64(v: u64, z: u32) -> u64 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        shl64_words(v, z)
+    } else {
+        v << z
+    }
+}
+
+/// Leading zeros of a `u32` (32 for 0).
+#[inline(always)]
+fn clz32(x: u32) -> u32 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        clz32_table(x)
+    } else {
+        x.leading_zeros()
+    }
+}
+
+/// Leading zeros of a `u64` (64 for 0).
+#[inline(always)]
+fn clz64(x: u64) -> u32 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        clz64_table(x)
+    } else {
+        x.leading_zeros()
+    }
+}
+
+// The M0's versions, compiled everywhere so that the tests check them.
 
 /// `a · b` from 16 × 16-bit products: `a = a_h 2¹⁶ + a_l` (`a_h` signed,
 /// `a_l` unsigned 16 bits), the same for `b`; the cross terms fit `i32`.
@@ -379,12 +483,128 @@ fn wmul16(a: i32, b: i32) -> i64 {
     (((ah * bh) as i64) << 32) + (cross << 16) + low
 }
 
+/// [`wmul16`] unsigned: the cross terms' sum may carry into bit 32.
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn umul16(a: u32, b: u32) -> u64 {
+    let (ah, al) = (a >> 16, a & 0xFFFF);
+    let (bh, bl) = (b >> 16, b & 0xFFFF);
+    let cross = (ah * bl) as u64 + (al * bh) as u64;
+    (((ah * bh) as u64) << 32) + (cross << 16) + (al * bl) as u64
+}
+
+/// [`umul_h`] from two 32-bit products.
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn umul_h16(a: u32, b: u16) -> u64 {
+    ((((a >> 16) * b as u32) as u64) << 16) + ((a & 0xFFFF) * b as u32) as u64
+}
+
+/// [`wsq`] from `|a| = h 2¹⁶ + l`: `h² 2³² + h l 2¹⁷ + l²`.
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn usq16(a: i32) -> u64 {
+    let u = a.unsigned_abs();
+    let (h, l) = (u >> 16, u & 0xFFFF);
+    (((h * h) as u64) << 32) + (((h * l) as u64) << 17) + (l * l) as u64
+}
+
+/// [`smul_u`] from the unsigned product of `|a|` and `b`.
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn smul_u16(a: i32, b: u32) -> i64 {
+    let p = umul(a.unsigned_abs(), b) as i64;
+    if a < 0 {
+        p.wrapping_neg()
+    } else {
+        p
+    }
+}
+
+/// [`shl64`] in 32-bit words (the M0's 64-bit shift is a library call).
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn shl64_words(v: u64, z: u32) -> u64 {
+    let (hi, lo) = ((v >> 32) as u32, v as u32);
+    if z >= 32 {
+        (lo.checked_shl(z - 32).unwrap_or(0) as u64) << 32
+    } else {
+        let top = (hi << z) | lo.checked_shr(32 - z).unwrap_or(0);
+        ((top as u64) << 32) | (lo << z) as u64
+    }
+}
+
+/// [`clz32`]: the highest non-zero byte's count from a table.
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn clz32_table(x: u32) -> u32 {
+    let (byte, n) = if x >> 16 != 0 {
+        if x >> 24 != 0 {
+            (x >> 24, 0)
+        } else {
+            (x >> 16, 8)
+        }
+    } else if x >> 8 != 0 {
+        (x >> 8, 16)
+    } else {
+        (x, 24)
+    };
+    n + CLZ8.get(byte as usize).copied().unwrap_or(0) as u32
+}
+
+/// [`clz64`] from [`clz32_table`].
+#[inline(always)]
+#[cfg_attr(
+    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
+    allow(dead_code)
+)]
+fn clz64_table(x: u64) -> u32 {
+    let hi = (x >> 32) as u32;
+    if hi == 0 {
+        32 + clz32_table(x as u32)
+    } else {
+        clz32_table(hi)
+    }
+}
+
+/// Leading zeros of a byte (8 for 0), for [`clz32`] on the M0.
+#[allow(clippy::indexing_slicing)]
+const CLZ8: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut i = 0;
+    while i < 256 {
+        t[i] = (i as u8).leading_zeros() as u8;
+        i += 1;
+    }
+    t
+};
+
 #[inline(always)]
 fn sat32(v: i64) -> i32 {
     v.clamp(i32::MIN as i64, i32::MAX as i64) as i32
 }
 
-/// A length in U, S24 / S18, from metres (I32F32), saturating.
+/// A length in U, S24 / S18, from metres (I32F32), saturating. Per frame:
+/// out of line (inlined at its many uses it cost the M0 8 KB of flash).
+#[inline(never)]
 fn len_s(q: Q, unit_exp: i32, frac: i32) -> i32 {
     // q_bits 2^-32 m = q_bits 2^(-32 - e) U → S(frac): shift by frac - 32 - e.
     let sh = frac - 32 - unit_exp;
@@ -557,7 +777,7 @@ impl Ray {
     fn new<const PERSP: bool>(x: i32, y: i32, k: i32) -> Ray {
         // a = 1 + x² + y², S20 (≤ 513: the slopes are below 16): d·d for
         // perspective rays, and cos⁴α = 1/a² for both.
-        let a = (1 << 20) + ((wmul(x, x) + wmul(y, y)) >> 32) as i32;
+        let a = (1 << 20) + ((wsq(x) + wsq(y)) >> 32) as i32;
         let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
         let (ox, oy) = if PERSP {
             (0, 0)
@@ -604,7 +824,7 @@ impl Ray {
     fn plane_t<const PERSP: bool>(&self, n: [i32; 3], dist: i32, rz: (u32, u32)) -> Option<(i32, bool)> {
         if PERSP {
             // n·d S56 → S24; t = dist / (n·d) in S18.
-            let den = ((wmul(n[0], self.x) + wmul(n[1], self.y) + ((n[2] as i64) << 26)) >> 32) as i32;
+            let den = ((wmul_px(n[0], self.x) + wmul_px(n[1], self.y) + ((n[2] as i64) << 26)) >> 32) as i32;
             // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
             let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
             let t = mul_shr_var(dist, r, 44 - z);
@@ -667,16 +887,16 @@ impl MixPrim {
                         // (Lagrange's identity: no cancellation of b²
                         // against a |c|² next to the silhouette), S44 from
                         // the cross product's components in S22.
-                        let (x, y) = (r.x as i64, r.y as i64);
-                        let b = ((x * c[0] as i64 + y * c[1] as i64 + *cz50) >> 28) as i32;
-                        let k = |v: i64| (v >> 28) as i32 as i64;
+                        let (x, y) = (r.x, r.y);
+                        let b = ((wmul(x, c[0]) + wmul(y, c[1]) + *cz50) >> 28) as i32;
+                        let k = |v: i64| (v >> 28) as i32;
                         let (c0, c1) = ((c[0] as i64) << 26, (c[1] as i64) << 26);
                         let (k0, k1, k2) = (
-                            k(y * c[2] as i64 - c1),
-                            k(c0 - x * c[2] as i64),
-                            k(x * c[1] as i64 - y * c[0] as i64),
+                            k(wmul(y, c[2]) - c1),
+                            k(c0 - wmul(x, c[2])),
+                            k(wmul(x, c[1]) - wmul(y, c[0])),
                         );
-                        let disc = wmul(r.a, *r2_24) - (k0 * k0 + k1 * k1 + k2 * k2);
+                        let disc = wmul(r.a, *r2_24) - (wsq(k0) + wsq(k1) + wsq(k2)) as i64;
                         if disc < 0 {
                             continue;
                         }
@@ -721,12 +941,9 @@ impl MixPrim {
                     if t >= r.t {
                         continue;
                     }
-                    let d2: u64 = zip3(r.point::<PERSP>(t), *c18, |p, c| {
-                        let d = p.saturating_sub(c) as i64;
-                        (d * d) as u64
-                    })
-                    .iter()
-                    .sum();
+                    let d2: u64 = zip3(r.point::<PERSP>(t), *c18, |p, c| wsq(p.saturating_sub(c)))
+                        .iter()
+                        .sum();
                     if d2 <= *r2 {
                         r.keep(t, index, away);
                     }
@@ -838,6 +1055,7 @@ impl Input<'_> {
     }
 }
 
+#[inline(never)]
 fn v_len(v: V3) -> Q {
     // |v| ≤ 8.4·10⁶ m for scene content: √ of the I32F32 square sum in f64-free
     // integer form (one-off, per frame).
@@ -1096,14 +1314,14 @@ impl Mix32 {
             return Some((xd, yd));
         };
         // u S20 = (xd² + yd²) S52 >> 32.
-        let u = ((wmul(xd, xd) + yd2) >> 32) as i32;
+        let u = ((wsq(xd) as i64 + yd2) >> 32) as i32;
         if u > self.limit {
             return None;
         }
         // g − 1 = u (k1 + k2 u), S28; bounded per frame.
-        let s = k1 + ((wmul(k2, u)) >> 20) as i32;
-        let g = (1 << 28) + ((wmul(s, u)) >> 20) as i32;
-        Some((((wmul(xd, g)) >> 28) as i32, ((wmul(yd, g)) >> 28) as i32))
+        let s = k1 + ((wmul_px(k2, u)) >> 20) as i32;
+        let g = (1 << 28) + ((wmul_px(s, u)) >> 20) as i32;
+        Some((((wmul_px(xd, g)) >> 28) as i32, ((wmul_px(yd, g)) >> 28) as i32))
     }
 
     /// The undistorted point of pixel `(i, j)` in I32F32, or `None` outside
@@ -1199,7 +1417,7 @@ impl Mix32 {
         // cos⁴α = (1/a)², S31 (1/a_real = r 2^(z − 42), z ≤ 11).
         let c4 = if self.vignetting {
             let inv = r.ra.0 >> (11u32.saturating_sub(r.ra.1));
-            ((inv as u64 * inv as u64) >> 31) as u32
+            (umul(inv, inv) >> 31) as u32
         } else {
             1 << 31
         };
@@ -1227,7 +1445,7 @@ impl Mix32 {
             MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
             MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
                 let rel = p.saturating_sub(c);
-                sat32((rel as i64 * inv_r.0 as i64) >> inv_r.1)
+                sat32(smul_u(rel, inv_r.0) >> inv_r.1)
             }),
         };
         let mut m = p.material as usize;
@@ -1235,7 +1453,7 @@ impl Mix32 {
             let cell = |axis: [i32; 3], o: i64| -> i64 {
                 let w = wmul(pt[0], axis[0]) + wmul(pt[1], axis[1]) + wmul(pt[2], axis[2]) - o;
                 // S48 → S18 (saturating), times 1/cell → floor.
-                (shr_sat::<30>(w) as i64 * k.inv_cell.0 as i64) >> k.inv_cell.1
+                smul_u(shr_sat::<30>(w), k.inv_cell.0) >> k.inv_cell.1
             };
             if (cell(k.u, k.ou) + cell(k.v, k.ov)) & 1 != 0 {
                 m = k.material as usize;
@@ -1255,8 +1473,8 @@ impl Mix32 {
         let (y, z) = rsqrt_fine(r.a as u64);
         let sh = 26 + (44 - z.min(44)) / 2;
         [
-            -(((r.x as i64 * y as i64) >> sh) as i32),
-            -(((r.y as i64 * y as i64) >> sh) as i32),
+            -((smul_u(r.x, y) >> sh) as i32),
+            -((smul_u(r.y, y) >> sh) as i32),
             -((y >> ((44 - z.min(44)) / 2)) as i32),
         ]
     }
@@ -1313,19 +1531,18 @@ impl Mix32 {
                 MixLight::Point { p, .. } => {
                     let lv = zip3(*p, pt, i32::saturating_sub);
                     // n·l, S48 U.
-                    let nl = wmul(nt[0], lv[0]) + wmul(nt[1], lv[1]) + wmul(nt[2], lv[2]);
+                    let nl = wmul_px(nt[0], lv[0]) + wmul_px(nt[1], lv[1]) + wmul_px(nt[2], lv[2]);
                     if nl <= 0 {
                         continue;
                     }
                     // r², S36 U², exact (> 0: n·l is).
-                    let sq = |v: i32| (wmul(v, v)) as u64;
-                    let r2 = sq(lv[0]) + sq(lv[1]) + sq(lv[2]);
+                    let r2 = wsq(lv[0]) + wsq(lv[1]) + wsq(lv[2]);
                     let (_, y, z) = rsqrt_norm(r2);
                     // l̂ = l/r in S30 (only for the lobe): 1/r = y 2^((z − 28)/2)
                     // with lv in S18.
                     let ldir = view.map(|_| {
                         let (y, z) = rsqrt_fine(r2);
-                        lv.map(|c| ((c as i64 * y as i64) >> (32 - z / 2)) as i32)
+                        lv.map(|c| (smul_u(c, y) >> (32 - z / 2)) as i32)
                     });
                     (cos_over_r3(nl as u64, y, z), ldir)
                 }
@@ -1501,10 +1718,41 @@ mod tests {
 
 #[cfg(test)]
 mod wmul_tests {
-    /// The Cortex-M0's product is the exact one, at the extremes and on a
-    /// spread of values.
     #[test]
-    fn wmul16_is_exact() {
+    fn mul32_equals_the_fixed_crate() {
+        use fixed::types::{I16F16, I6F26};
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Magnitudes spread over every bit length.
+            let v = (x as u32) >> (x >> 59);
+            if x & (1 << 40) != 0 {
+                (v as i32).wrapping_neg()
+            } else {
+                v as i32
+            }
+        };
+        for _ in 0..200_000 {
+            let (a, b) = (next(), next());
+            assert_eq!(
+                super::mul32::<16>(a, b),
+                I16F16::from_bits(a)
+                    .saturating_mul(I16F16::from_bits(b))
+                    .to_bits()
+            );
+            assert_eq!(
+                super::mul32::<26>(a, b),
+                I6F26::from_bits(a).saturating_mul(I6F26::from_bits(b)).to_bits()
+            );
+        }
+    }
+
+    /// The Cortex-M0's products and counts of leading zeros are the exact
+    /// ones, at the extremes and on a spread of values.
+    #[test]
+    fn m0_products_and_counts_are_exact() {
         let edges = [
             i32::MIN,
             i32::MIN + 1,
@@ -1529,6 +1777,19 @@ mod wmul_tests {
         for a in edges.iter().chain(values.iter()) {
             for b in edges.iter().chain(values.iter()) {
                 assert_eq!(super::wmul16(*a, *b), *a as i64 * *b as i64, "{a} x {b}");
+                let (a, b) = (*a as u32, *b as u32);
+                assert_eq!(super::umul16(a, b), a as u64 * b as u64, "{a} x {b}");
+                assert_eq!(super::smul_u16(a as i32, b), a as i32 as i64 * b as i64);
+                assert_eq!(super::usq16(a as i32), (a as i32 as i64 * a as i32 as i64) as u64);
+                assert_eq!(super::umul_h16(a, b as u16), a as u64 * (b as u16) as u64);
+                assert_eq!(super::clz32_table(a), a.leading_zeros(), "{a}");
+                for z in [0, 1, b % 64, 31, 32, 33, 63] {
+                    let v = (a as u64) << 32 | b as u64;
+                    assert_eq!(super::shl64_words(v, z), v << z, "{v} << {z}");
+                }
+                let w = (a as u64) << 32 | b as u64;
+                assert_eq!(super::clz64_table(w), w.leading_zeros(), "{w}");
+                assert_eq!(super::clz64_table(b as u64), (b as u64).leading_zeros());
             }
         }
     }

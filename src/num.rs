@@ -161,7 +161,9 @@ pub struct Wide {
 }
 
 /// Shifts right by `s` with rounding to nearest (ties towards +∞).
-/// `m` must have at most 126 significant bits.
+/// `m` must have at most 126 significant bits. Out of line: per frame only,
+/// and inlined its 128-bit shifts cost the M0 12 KB of flash.
+#[inline(never)]
 fn shr_round(m: i128, s: u32) -> i128 {
     if s == 0 {
         m

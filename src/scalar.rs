@@ -256,15 +256,6 @@ fixed_scalar!(
     powi63,
     scale63
 );
-/// The saturating product of raw 32-bit fixed-point values with `F`
-/// fractional bits, rounded down (as `saturating_mul`): one `SMULL` and a
-/// check that the high word is the sign extension of the result.
-#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
-#[inline(always)]
-pub(crate) fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
-    shr_sat::<F>(a as i64 * b as i64)
-}
-
 /// `p >> SH` saturated to i32 (`SH` in 1..=32): the high word says whether
 /// it fits, without a 64-bit compare.
 #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
@@ -372,8 +363,7 @@ mod tests {
     }
 
     #[test]
-    fn mul32_equals_the_fixed_crate() {
-        use fixed::types::{I16F16, I6F26};
+    fn mul_q_equals_the_fixed_crate() {
         let mut x = 0x2545_f491_4f6c_dd1du64;
         let mut next = || {
             x ^= x << 13;
@@ -402,16 +392,6 @@ mod tests {
                 let (p, q) = (I32F32::from_bits(p), I32F32::from_bits(q));
                 assert_eq!(mul_q(p, q), p.saturating_mul(q), "{p:?} * {q:?}");
             }
-            assert_eq!(
-                mul32::<16>(a, b),
-                I16F16::from_bits(a)
-                    .saturating_mul(I16F16::from_bits(b))
-                    .to_bits()
-            );
-            assert_eq!(
-                mul32::<26>(a, b),
-                I6F26::from_bits(a).saturating_mul(I6F26::from_bits(b)).to_bits()
-            );
         }
     }
 
