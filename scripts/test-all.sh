@@ -55,6 +55,12 @@ for j in out/hil/lm3s6965evb/hil.json out/hil/mps2-an386/hil.json out/hil/microb
     { echo "$j: peak RAM over 16 KiB (or not measured)"; exit 1; }
 done
 
+echo "== the M0 within 3x the M3 on the standard scene (instructions/pixel under QEMU -icount, the default build)"
+m0=$(awk -F': ' '/^  "instructions_per_pixel"/ { gsub(",", "", $2); print $2 }' out/hil/microbit/hil.json)
+m3=$(awk -F': ' '/^  "instructions_per_pixel"/ { gsub(",", "", $2); print $2 }' out/hil/lm3s6965evb/hil.json)
+awk -v m0="$m0" -v m3="$m3" 'BEGIN { r = (m3 > 0) ? m0 / m3 : 0; printf "M0 %.0f / M3 %.0f = %.2f\n", m0, m3, r; exit !(m3 > 0 && r <= 3) }' ||
+  { echo "the M0 is over 3x the M3 on the standard scene (or not measured)"; exit 1; }
+
 echo "== firmware built for size (opt-level z, no status): the M3 image within 64 KiB of flash, still bit-exact"
 # Without the fast arithmetic (the core's mix32 feature): the wide one, which
 # the host renders as the variant i32f32-poly. Without the sensor stages too

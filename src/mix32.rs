@@ -157,10 +157,10 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
     // (hi 2^32 + lo) c4 + 2^45 over 2^46 = (hi c4 + ⌊(lo c4 + 2^45) / 2^32⌋) / 2^14
     // (nested floors of integers); hi c4 < 2^46.
     let (hi, lo) = ((sum >> 32) as u32, sum as u32);
-    // hi < 2^16 below the cap: a 16-bit product.
+    // hi < 2^16 below the cap: a 16-bit product on the M0.
     let hc = match u16::try_from(hi) {
-        Ok(h) => umul_h(c4, h),
-        Err(_) => umul(hi, c4),
+        Ok(h) if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) => umul_h(c4, h),
+        _ => umul(hi, c4),
     };
     (hc + ((umul(lo, c4) + (1 << 45)) >> 32)) >> 14
 }
@@ -240,7 +240,12 @@ pub fn recip(d: NonZeroU32) -> (u32, u32) {
     // r = seed 2^16: both products are by the 16-bit seed.
     let seed = RECIP_SEED.get(idx).copied().unwrap_or(1 << 15);
     // r (2 − v r), Q2.30.
-    let vr = (umul_h(dn, seed) >> 16) as u32;
+    let vr = if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        (umul_h(dn, seed) >> 16) as u32
+    } else {
+        // The product's high word: no shift on the M3.
+        ((dn as u64 * ((seed as u64) << 16)) >> 32) as u32
+    };
     let r = (umul_h((1u32 << 31).wrapping_sub(vr), seed) >> 14) as u32;
     (r, z)
 }

@@ -83,7 +83,7 @@ mod regs {
     /// The nRF51822's UART (QEMU microbit).
     const BASE: usize = 0x4000_2000;
     /// Tasks: start the receiver, the transmitter.
-    const STARTRX: usize = BASE + 0x000;
+    const STARTRX: usize = BASE; // offset 0x000
     const STARTTX: usize = BASE + 0x008;
     /// Events: a byte was received, a byte was sent.
     const RXDRDY: usize = BASE + 0x108;
