@@ -165,6 +165,60 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
     (hc + ((umul(lo, c4) + (1 << 45)) >> 32)) >> 14
 }
 
+/// The noise-free value `sum · cos⁴α` (DN, before rounding) as I32F32,
+/// exactly (saturated far above any full scale): the value
+/// [`vignette_dn`] rounds.
+#[inline(always)]
+fn vignette_q(sum: u64, c4: u32) -> Q {
+    // sum 2^-15 · c4 2^-31 = (hi c4 2^32 + lo c4) 2^-46, in units of 2^-32.
+    let (hi, lo) = ((sum >> 32) as u32, sum as u32);
+    let a = umul(hi, c4);
+    let bits = if a >= 1 << 44 {
+        i64::MAX
+    } else {
+        ((a << 18) + (umul(lo, c4) >> 14)) as i64
+    };
+    Q::from_bits(bits)
+}
+
+/// The recorded values of a pixel whose channels' sums before `cos⁴α` are
+/// `sum` (S15 DN), with sensor noise: the EMVA 1288 stage
+/// ([`crate::noise`]) on the exact noise-free value `μ`, its
+/// `σ = √(K_sys μ + (K_sys σ_d)²)` from [`rsqrt_norm`] (2⁻¹⁹ relative, then
+/// truncated to 2⁻¹⁶ DN: below 10⁻³ DN times the draw's `|z| ≤ 6` where
+/// `σ < 64 DN`) instead of a bitwise square root. Out of line: the
+/// noiseless pixel loop stays lean.
+#[inline(never)]
+fn noisy<const C: usize>(
+    z: &crate::noise::Stage<Q>,
+    sum: [u64; 3],
+    c4: u32,
+    index: u32,
+    dn_max: [u64; 3],
+) -> [u32; 3] {
+    let mut dn = [0u32; 3];
+    for (c, ((d, s), max)) in dn.iter_mut().zip(sum).zip(dn_max).take(C).enumerate() {
+        let (k, var, off) = z.channel(c);
+        let mu = vignette_q(s, c4);
+        // σ², I32F32 DN² (≥ 0: K and the variance are).
+        let s2 = k.saturating_mul(mu).saturating_add(var).to_bits().max(0) as u64;
+        // √(s2 2^-32) 2^16 = √(m/2^64) 2^(32 − z/2): (m/2^64)·y in Q2.62.
+        let sigma16 = if s2 == 0 {
+            0
+        } else {
+            let (m, y, zz) = rsqrt_norm(s2);
+            (umul((m >> 32) as u32, y) >> (30 + zz / 2)).min(u32::MAX as u64)
+        };
+        // σ (S16) · z (S16) → S32; |z| < 2^19: within i64.
+        let draw = crate::noise::normal_q16(z.key(), index, c as u8) as i64;
+        let v = mu
+            .saturating_add(Q::from_bits(sigma16 as i64 * draw))
+            .saturating_add(off);
+        *d = (v.to_bits() >> 32).clamp(0, max as i64) as u32;
+    }
+    dn
+}
+
 /// The pixel word of channel values (each ≤ `dn_max`) for `C` channels:
 /// the gray value, or RGB565's `r << 11 | g << 5 | b`. [`put`] writes it.
 #[inline(always)]
@@ -1012,6 +1066,10 @@ pub struct Mix32 {
     lobe: [Option<u16>; crate::scene::MAX_MATERIALS],
     /// Background, S15 DN (capped).
     bg: [u64; 3],
+    /// The scene's sensor noise, and its stage for the current frame id
+    /// (camera-model.md §9; `None` without the `sensor` feature).
+    noise_spec: Option<crate::scene::Noise>,
+    noise: Option<crate::noise::Stage<Q>>,
 }
 
 /// What [`Mix32::new`] takes from the frame the generic path prepared (all
@@ -1092,6 +1150,8 @@ impl Mix32 {
         ks: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_MATERIALS],
         lobe: [None; crate::scene::MAX_MATERIALS],
         bg: [0; 3],
+        noise_spec: None,
+        noise: None,
     };
 
     /// Converts a prepared frame in place (the path's state is kilobytes:
@@ -1303,7 +1363,17 @@ impl Mix32 {
         self.limit = limit;
         self.vignetting = f.vignetting;
         self.bg = bg;
+        self.noise_spec = f.scene.noise;
+        self.set_frame_id(0);
         Ok(())
+    }
+
+    /// Sets the frame id the noise is keyed by (0 after preparation).
+    pub fn set_frame_id(&mut self, id: u32) {
+        self.noise = match self.noise_spec {
+            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, self.format, id)),
+            _ => None,
+        };
     }
 
     /// `ŷ_d` of line `j`, S26.
@@ -1373,6 +1443,8 @@ impl Mix32 {
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let mut rays = Rays::default();
         let mut words = [0u16; CHUNK];
+        // The index of the chunk's first pixel in the frame (the noise's key).
+        let mut index = j as u32 * self.width as u32;
         for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
             let Some(rays) = rays.first(flags.len()) else {
                 return;
@@ -1398,7 +1470,8 @@ impl Mix32 {
                 p.nearest::<PERSP>(i as u8, rays);
             }
             for ((r, out), flag) in rays.iter().zip(words.iter_mut()).zip(flags.iter_mut()) {
-                *out = self.pixel::<C, PERSP>(r, dn_max, flag, &mut k);
+                *out = self.pixel::<C, PERSP>(r, dn_max, flag, &mut k, index);
+                index = index.wrapping_add(1);
             }
             put(&words, b, pixels);
         }
@@ -1413,6 +1486,7 @@ impl Mix32 {
         dn_max: [u64; 3],
         flag: &mut u8,
         k: &mut KCache,
+        index: u32,
     ) -> u16 {
         if r.t == 0 {
             *flag = FLAG_OUTSIDE_FIELD;
@@ -1431,7 +1505,10 @@ impl Mix32 {
             None => self.bg,
         };
         // Channels past C are not packed: the compiler drops them.
-        let dn = zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32);
+        let dn = match &self.noise {
+            Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
+            None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
+        };
         word::<C>(dn)
     }
 

@@ -85,15 +85,27 @@ impl<S: Scalar> Stage<S> {
         st
     }
 
+    /// Channel `c`'s `K_sys` (DN/e⁻), `(K_sys σ_d)²` (DN²) and dark
+    /// offset plus ½ (DN).
+    #[inline]
+    pub fn channel(&self, c: usize) -> (S, S, S) {
+        (
+            self.ksys.get(c).copied().unwrap_or(S::ZERO),
+            self.dark_var.get(c).copied().unwrap_or(S::ZERO),
+            self.offset.get(c).copied().unwrap_or(S::HALF),
+        )
+    }
+
+    /// The frame's key ([`frame_key`]).
+    pub fn key(&self) -> u64 {
+        self.key
+    }
+
     /// The recorded value of channel `c` of pixel `p` whose noise-free value
     /// is `mu` DN (before rounding), clamped to `[0, dn_max]`.
     #[inline]
     pub fn apply(&self, mu: S, pixel: u32, c: usize, dn_max: u32) -> u32 {
-        let (k, var, off) = (
-            self.ksys.get(c).copied().unwrap_or(S::ZERO),
-            self.dark_var.get(c).copied().unwrap_or(S::ZERO),
-            self.offset.get(c).copied().unwrap_or(S::HALF),
-        );
+        let (k, var, off) = self.channel(c);
         let mu = if mu > S::ZERO { mu } else { S::ZERO };
         let sigma = k.mul(mu).add(var).sqrt().unwrap_or(S::ZERO);
         let z = S::from_q(Q::from_bits(

@@ -77,8 +77,8 @@ pub enum Unfit {
     /// The fast arithmetic is not built in (the core's `mix32` feature is
     /// off).
     NotBuilt,
-    /// The scene asks for pixel-area sampling or sensor noise, or needs
-    /// defocus, which run in the wide arithmetic only.
+    /// The scene asks for pixel-area sampling or needs defocus, which run
+    /// in the wide arithmetic only.
     SensorStages,
 }
 
@@ -92,9 +92,7 @@ impl Unfit {
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
-            Unfit::SensorStages => {
-                "pixel-area sampling, defocus and sensor noise run in the wide arithmetic only"
-            }
+            Unfit::SensorStages => "pixel-area sampling and defocus run in the wide arithmetic only",
         }
     }
 }
@@ -265,7 +263,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         m => APERTURE_COST.0 + f64::from(m) * APERTURE_COST.1,
     };
     let spp = samples_per_pixel(scene, &g, samples, adaptive) * through;
-    let sensor_stages = samples > 1 || scene.noise.is_some() || df.points > 0;
+    let sensor_stages = samples > 1 || df.points > 0;
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
         let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
@@ -392,18 +390,26 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
     let (k1, k2) = scene.distortion.coefficients();
     let gain = 1.0 + (libm::fabs(k1.to_num::<f64>()) + libm::fabs(k2.to_num::<f64>()) * u) * u;
     let (xs, ys) = (x0 * gain, y0 * gain);
+    // A plane's inverse depths over the field box: `w = n̂·(x̂, ŷ, 1) / (n̂·c)`
+    // is linear in the slopes, so its extremes are at the box's corners;
+    // `None` for a plane through the lens centre (seen edge on).
+    let plane_w = |n: [f64; 3], c: [f64; 3]| -> Option<(f64, f64)> {
+        let dist = dot3(n, c);
+        if libm::fabs(dist) < 1e-12 {
+            return None;
+        }
+        let w =
+            [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)].map(|(x, y)| (n[0] * x + n[1] * y + n[2]) / dist);
+        Some(w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        }))
+    };
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in &g.prims {
         if let Shape::Plane { .. } = p.shape {
-            let dist = dot3(p.n, p.c);
-            if libm::fabs(dist) < 1e-12 {
+            let Some((wmin, wmax)) = plane_w(p.n, p.c) else {
                 continue;
-            }
-            let w = [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)]
-                .map(|(x, y)| (p.n[0] * x + p.n[1] * y + p.n[2]) / dist);
-            let (wmin, wmax) = w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(*v), b.max(*v))
-            });
+            };
             if wmax <= 0.0 {
                 continue;
             }
@@ -411,13 +417,24 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
             hi = hi.max(wmax);
             continue;
         }
+        // A disc or rectangle lies in its plane: its inverse depths are
+        // within the plane's over the field too (finite where its bounding
+        // sphere reaches the lens plane).
+        let flat = match p.shape {
+            Shape::Disc { .. } | Shape::Rectangle { .. } => plane_w(p.n, p.c),
+            _ => None,
+        };
+        if flat.is_some_and(|(_, wmax)| wmax <= 0.0) {
+            continue;
+        }
+        let (flat_lo, flat_hi) = flat.map_or((0.0, f64::INFINITY), |(a, b)| (a.max(0.0), b));
         // The radius widened by 1 nm: the scene's positions are rounded
         // to 2⁻³² m.
         let (c, r) = (p.c, p.r + 1e-9);
         if c[2] + r <= 0.0 {
             continue;
         }
-        if c[2] > r {
+        let near = if c[2] > r {
             // The bounding sphere's tangent slopes against the field.
             let zz = c[2] * c[2] - r * r;
             let meets = |cx: f64, half: f64| {
@@ -427,11 +444,12 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
             if !(meets(c[0], xs) && meets(c[1], ys)) {
                 continue;
             }
-            hi = hi.max(1.0 / (c[2] - r));
+            1.0 / (c[2] - r)
         } else {
-            hi = f64::INFINITY;
-        }
-        lo = lo.min(1.0 / (c[2] + r));
+            f64::INFINITY
+        };
+        hi = hi.max(near.min(flat_hi));
+        lo = lo.min((1.0 / (c[2] + r)).max(flat_lo));
     }
     if lo > hi {
         return Defocus {
@@ -1116,6 +1134,9 @@ pub struct Features {
     /// covers (sampled): where a primitive is tested for every pixel, not
     /// culled by its screen bound.
     pub bounded_area: f64,
+    /// Channels that draw sensor noise (the scene's channels if it has
+    /// noise, else 0): the noise stage runs on every pixel in the field.
+    pub noise_channels: f64,
 }
 
 impl Features {
@@ -1159,6 +1180,11 @@ impl Features {
         f.parallel = if g.origin_scale.is_some() { 1.0 } else { 0.0 };
         f.coverage = g.coverage;
         f.bounded_area = g.bounded_area;
+        f.noise_channels = if scene.noise.is_some() {
+            scene.format.channels() as f64
+        } else {
+            0.0
+        };
         f
     }
 
@@ -1182,12 +1208,13 @@ impl Features {
             c,
             self.bounded_area,
             self.bounded_area * self.parallel,
+            self.noise_channels,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 16;
+pub const COST_TERMS: usize = 17;
 
 /// M3 instructions a pixel as a linear function of [`Features`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1223,7 +1250,8 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        123.1, 51.5, 5.1, 12.1, -5.0, 31.5, 172.2, 69.0, 10.0, 0.0, 226.7, 69.6, 11.7, 95.4, 122.5, -38.5,
+        149.1, 39.1, -0.7, -2.7, -16.1, 31.7, 179.0, 71.1, 35.5, 0.0, 266.7, 87.5, 37.7, 63.7, 175.6, -80.6,
+        291.6,
     ],
 };
 
@@ -1231,8 +1259,8 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        2865.3, 2684.7, 24.4, -126.2, -117.4, 253.0, 3150.6, 326.6, 347.3, 397.8, 5203.4, 294.9, -2443.9,
-        199.2, 3547.7, 1081.1,
+        2918.2, 2702.4, 25.7, -117.3, -113.0, 248.6, 3145.4, 326.5, 321.8, 374.7, 5092.6, 304.4, -2393.6,
+        273.2, 3526.6, 1079.6, 806.5,
     ],
 };
 

@@ -364,7 +364,7 @@ pub enum RenderError {
     DistortionOutOfRange,
     /// The [`crate::mix32`] path cannot render the frame: it needs a stage
     /// that path leaves out (a distortion table, pixel-area sampling,
-    /// sensor noise) or values beyond its formats.
+    /// defocus) or values beyond its formats.
     OutsideFormat,
     /// The frame needs pixel-area sampling, defocus or sensor noise, and
     /// the core's `sensor` feature is off.
@@ -793,9 +793,10 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
 
     /// Sets the frame id the noise is keyed by (0 after preparation).
     pub fn set_frame_id(&mut self, id: u32) {
-        #[allow(irrefutable_let_patterns)]
-        if let Path::Wide(w) = &mut self.path {
-            w.set_frame_id(id);
+        match &mut self.path {
+            Path::Wide(w) => w.set_frame_id(id),
+            #[cfg(feature = "mix32")]
+            Path::Fast(m) => m.set_frame_id(id),
         }
     }
 
@@ -1090,7 +1091,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         if opts.arithmetic == Arithmetic::Fast {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
-            if table || self.stages.samples > 1 || self.stages.noise || aperture {
+            if table || self.stages.samples > 1 || aperture {
                 return Err(RenderError::OutsideFormat);
             }
             // The fast path prepares its own primitives, lights and

@@ -55,6 +55,7 @@ pub const TERMS: [&str; COST_TERMS] = [
     "coverage",
     "bounded_area",
     "bounded_area_parallel",
+    "noise_channels",
 ];
 
 /// What one calibration scene holds beyond the base (a floor plane, one
@@ -80,6 +81,8 @@ struct Spec {
     /// A target 20 m away through a 25 mm lens (the planner picks parallel
     /// rays): a checkered rectangle, with a disc and spheres in front.
     far: Option<(usize, usize)>,
+    /// Sensor noise (EMVA 1288).
+    noise: bool,
 }
 
 fn spec_list() -> Vec<(&'static str, Spec)> {
@@ -271,6 +274,25 @@ fn spec_list() -> Vec<(&'static str, Spec)> {
                 ..d()
             },
         ),
+        ("noise", Spec { noise: true, ..d() }),
+        (
+            "noise-rgb",
+            Spec {
+                noise: true,
+                rgb: true,
+                ..d()
+            },
+        ),
+        (
+            "noise-mix",
+            Spec {
+                noise: true,
+                spheres: 2,
+                distortion: true,
+                dir_lights: 1,
+                ..d()
+            },
+        ),
         (
             "mix-d",
             Spec {
@@ -314,6 +336,10 @@ fn scene_text(name: &str, s: &Spec) -> String {
     }
     t.push_str("pose = { eye = [0.0, 1.2, -3.0], target = [0.0, 0.4, 0.0], up = [0.0, 1.0, 0.0] }\n\n");
     t.push_str("[environment]\nambient = 0.2\nbackground = 1.0\n\n");
+    if s.noise {
+        // A dark offset within RGB565's 5-bit channels.
+        t.push_str("[noise]\nsaturation = 4000.0\ndark_noise = 6.0\ndark_offset = 2.0\nseed = 1\n\n");
+    }
     t.push_str("[[materials]]\nname = \"floor\"\nalbedo = 0.6\n");
     if s.specular {
         t.push_str("specular = 0.6\nmix = 0.5\nexponent = 20\n");
@@ -644,7 +670,10 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
             Arithmetic::Fast => &fast,
             Arithmetic::Wide => &wide,
         }
-        .predict(&Features::of_options(&scene, &plan.options));
+        .predict(&Features::of_options(&scene, &plan.options))
+            // Samples a pixel (pixel-area grid, aperture points), as the
+            // planner scales it.
+            * plan.predicted_samples_per_pixel;
         let measured = f.instructions_per_pixel.ok_or("no instruction count")?;
         let _ = writeln!(
             s,

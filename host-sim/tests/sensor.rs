@@ -4,7 +4,9 @@
 //!   noise within 2 %;
 //! - pixel-area sampling (§7) and noise: the core against the f64
 //!   reference, which applies the same pattern, rule and generator, on
-//!   random poses of a checkerboard.
+//!   random poses of a checkerboard;
+//! - noise on the fast arithmetic (a scene without sampling or defocus):
+//!   the planner's choice, against the reference.
 
 use hilcam::planner::Budget;
 use hilcam::scalar::I32F32;
@@ -237,5 +239,62 @@ fn sampled_and_noisy_frames_match_the_reference() {
             s.rms_dn <= 150.0 * hilcam::sampling::edge_error(want),
             "case {k}: sampling error {s:?}"
         );
+    }
+}
+
+/// Noise without sampling or defocus runs on the fast arithmetic (the
+/// planner's choice: it is cheaper and within budget), and its frames
+/// match the reference's — which draws the same `z` and takes `σ` in f64 —
+/// within the fidelity targets, at every exposure from dark to
+/// saturating, in gray16 and RGB565.
+#[test]
+fn noise_on_the_fast_arithmetic_matches_the_reference() {
+    let base = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/low-light.toml"))
+        .expect("scenes/low-light.toml");
+    assert!(base.contains("exposure = 2000.0") && base.contains("[noise]"));
+    for (k, (exposure, rgb)) in [
+        (0.0, false),
+        (300.0, false),
+        (2000.0, false),
+        (40000.0, false),
+        (2000.0, true),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut text = base.replace("exposure = 2000.0", &format!("exposure = {exposure:.1}"));
+        if rgb {
+            // RGB565: 5 bits of red and blue, so a dark offset within them.
+            text = text
+                .replace("format = \"gray16\"", "format = \"rgb565\"")
+                .replace("bits = 12\n", "")
+                .replace("dark_offset = 40.0", "dark_offset = 2.0");
+        }
+        let r = parse(&text).expect("scene");
+        let out = host_sim::harness::render(&r, &Budget::default()).expect("renders");
+        let m = &out.metrics;
+        assert_eq!(m.plan.arithmetic, "fast", "case {k}: the planner's arithmetic");
+        println!(
+            "fast noise case {k} (exposure {exposure}, rgb {rgb}): smooth max {} LSB, exact {:.4}, psnr {:?} dB, edges differing {:.5} %",
+            m.max_abs_lsb_smooth,
+            m.exact_fraction_smooth,
+            m.psnr_db_smooth,
+            100.0 * m.edge_pixels_differing_fraction
+        );
+        assert!(
+            m.max_abs_lsb_smooth <= 1,
+            "case {k}: {} LSB",
+            m.max_abs_lsb_smooth
+        );
+        assert!(
+            m.exact_fraction_smooth >= 0.99,
+            "case {k}: exact {}",
+            m.exact_fraction_smooth
+        );
+        assert!(
+            m.edge_pixels_differing_fraction <= 0.0005,
+            "case {k}: edges differ"
+        );
+        assert_eq!(m.field_flags_differing, 0, "case {k}: field flags");
     }
 }
