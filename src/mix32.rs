@@ -1441,6 +1441,7 @@ impl Mix32 {
         // kd · E per light for the material of the last shaded pixel.
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
+        let noise = self.noise.as_ref();
         let mut rays = Rays::default();
         let mut words = [0u16; CHUNK];
         // The index of the chunk's first pixel in the frame (the noise's key).
@@ -1470,7 +1471,7 @@ impl Mix32 {
                 p.nearest::<PERSP>(i as u8, rays);
             }
             for ((r, out), flag) in rays.iter().zip(words.iter_mut()).zip(flags.iter_mut()) {
-                *out = self.pixel::<C, PERSP>(r, dn_max, flag, &mut k, index);
+                *out = self.pixel::<C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
                 index = index.wrapping_add(1);
             }
             put(&words, b, pixels);
@@ -1486,7 +1487,7 @@ impl Mix32 {
         dn_max: [u64; 3],
         flag: &mut u8,
         k: &mut KCache,
-        index: u32,
+        (noise, index): (Option<&crate::noise::Stage<Q>>, u32),
     ) -> u16 {
         if r.t == 0 {
             *flag = FLAG_OUTSIDE_FIELD;
@@ -1505,7 +1506,7 @@ impl Mix32 {
             None => self.bg,
         };
         // Channels past C are not packed: the compiler drops them.
-        let dn = match &self.noise {
+        let dn = match noise {
             Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
             None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
         };
