@@ -186,6 +186,15 @@ impl Distortion {
     /// [`Distortion::lut`] in a table of capacity `N` (`4 N` bytes): at
     /// most `N` entries (2 to `N`; a caller that needs more checks first).
     pub fn lut_in<const N: usize>(&self, u_max: I32F32, entries: usize) -> Sat<Lut<N>> {
+        let mut value = Lut::empty();
+        let saturated = self.fill_lut(u_max, entries, &mut value);
+        Sat { value, saturated }
+    }
+
+    /// [`Distortion::lut_in`] into `lut` (a table where it will be used:
+    /// no copy of its `4 N` bytes on the stack); whether an entry
+    /// saturated.
+    pub fn fill_lut<const N: usize>(&self, u_max: I32F32, entries: usize, lut: &mut Lut<N>) -> bool {
         let n = entries.clamp(2, N.max(2));
         let u_max = if u_max > I32F32::ZERO {
             u_max
@@ -195,7 +204,7 @@ impl Distortion {
         let uw = Wide::of(u_max);
         let frac = self.entry_frac_bits(u_max);
         let mut saturated = false;
-        let mut table = heapless::Vec::new();
+        lut.table.clear();
         let step = quotient::<Norm>(uw, Wide::int(n as i64 - 1)).value;
         for i in 0..n {
             let u = Wide::of(step).mul(Wide::int(i as i64));
@@ -203,17 +212,12 @@ impl Distortion {
             saturated |= g.saturated;
             // Beyond the capacity (N < 2) the push fails: the table is
             // then shorter than 2 and gives g = 1 (callers check first).
-            let _ = table.push(g.value.to_bits());
+            let _ = lut.table.push(g.value.to_bits());
         }
-        Sat {
-            value: Lut {
-                u_max,
-                scale: quotient::<I32F32>(Wide::int(n as i64 - 1), uw).value,
-                shift: 32 - frac,
-                table,
-            },
-            saturated,
-        }
+        lut.u_max = u_max;
+        lut.scale = quotient::<I32F32>(Wide::int(n as i64 - 1), uw).value;
+        lut.shift = 32 - frac;
+        saturated
     }
 
     /// Fractional bits of the table entries for `u ∈ [0, u_max]`: the most
@@ -279,6 +283,18 @@ pub struct Lut<const N: usize = MAX_LUT> {
 }
 
 impl<const N: usize> Lut<N> {
+    /// No entries (g = 1 everywhere); [`Distortion::fill_lut`] fills it.
+    /// A function, not a constant: a constant's `4 N` bytes would be a
+    /// blob in flash.
+    pub const fn empty() -> Lut<N> {
+        Lut {
+            u_max: I32F32::ZERO,
+            scale: I32F32::ZERO,
+            shift: 0,
+            table: heapless::Vec::new(),
+        }
+    }
+
     /// Entries in the table.
     pub fn len(&self) -> usize {
         self.table.len()

@@ -1049,14 +1049,14 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 if opts.lut_entries.clamp(2, MAX_LUT) > T {
                     return Err(RenderError::TableTooLarge);
                 }
-                let lut = dist.lut_in::<T>(u_max, opts.lut_entries);
-                if lut.saturated {
+                // Filled where it is used: no copy of the table on the stack.
+                let lut = self.lut.get_or_insert_with(Lut::empty);
+                if dist.fill_lut(u_max, opts.lut_entries, lut) {
+                    self.lut = None;
                     return Err(RenderError::DistortionOutOfRange);
                 }
-                let lut = lut.value;
                 self.lut_scale = S::from_q(lut.scale());
                 self.stages.distortion_lut = Some(lut.len());
-                self.lut = Some(lut);
             }
         }
         // The widest undistorted corner must stay within MAX_SLOPE.

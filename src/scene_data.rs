@@ -18,10 +18,20 @@ use crate::{Camera, Error, Extrinsics, Field, IntrinsicsConfig, Model};
 use core::fmt;
 use serde::Serialize;
 
-/// The largest encoded [`SceneData`], bytes: every list full, every value
-/// given per channel, every shape a rectangle with a checker, every option
-/// given, every varint at its longest (tested).
-pub const MAX_SCENE_DATA: usize = 3_673;
+/// The largest encoded [`SceneData`] with at most `materials`,
+/// `primitives` and `lights` (each at most 127), bytes: every value given
+/// per channel, every shape a rectangle with a checker, every option
+/// given, every varint at its longest (tested): 297 bytes of camera,
+/// format, exposure, ambient, background, sampling, noise and list
+/// lengths; 62 a material (an RGB albedo and lobe), 124 a primitive (a
+/// checkered rectangle), 50 a light.
+pub const fn max_bytes(materials: usize, primitives: usize, lights: usize) -> usize {
+    297 + 62 * materials + 124 * primitives + 50 * lights
+}
+
+/// The largest encoded [`SceneData`] this build holds ([`max_bytes`] of
+/// its capacities): what a camera's upload buffer needs.
+pub const MAX_SCENE_DATA: usize = max_bytes(MAX_MATERIALS, MAX_PRIMITIVES, MAX_LIGHTS);
 
 /// A scene as data.
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -267,11 +267,10 @@ fn shipped_scenes_load_and_damaged_encodings_are_refused() {
     }
 }
 
-/// The largest encoding: every list full, every value given per channel,
-/// every shape a rectangle with a checker, every option given, every
-/// varint at its longest — exactly MAX_SCENE_DATA bytes.
-#[test]
-fn the_largest_scene_is_max_scene_data_bytes() {
+/// The largest encoding with `m` materials, `p` primitives and `l` lights:
+/// every value given per channel, every shape a rectangle with a checker,
+/// every option given, every varint at its longest.
+fn largest(m: usize, p: usize, l: usize) -> SceneData {
     let rgb = Colour::Rgb([0.5; 3]);
     let mut d = shipped()[0].1.clone();
     d.camera = CameraData {
@@ -289,7 +288,7 @@ fn the_largest_scene_is_max_scene_data_bytes() {
     d.materials.clear();
     d.primitives.clear();
     d.lights.clear();
-    for _ in 0..MAX_MATERIALS {
+    for _ in 0..m {
         let m = MaterialData {
             albedo: rgb,
             specular: Some(SpecularData {
@@ -300,7 +299,7 @@ fn the_largest_scene_is_max_scene_data_bytes() {
         };
         d.materials.push(m).expect("room");
     }
-    for _ in 0..MAX_PRIMITIVES {
+    for _ in 0..p {
         let p = PrimitiveData {
             shape: ShapeSpec::Rectangle {
                 centre: [0.0; 3],
@@ -317,7 +316,7 @@ fn the_largest_scene_is_max_scene_data_bytes() {
         };
         d.primitives.push(p).expect("room");
     }
-    for _ in 0..MAX_LIGHTS {
+    for _ in 0..l {
         let l = LightData::Directional {
             direction: [0.0; 3],
             irradiance: rgb,
@@ -334,5 +333,29 @@ fn the_largest_scene_is_max_scene_data_bytes() {
         dark_offset: 1.0,
         seed: u32::MAX,
     });
-    assert_eq!(encode(&d).len(), MAX_SCENE_DATA);
+    d
+}
+
+/// The largest encoding is exactly `max_bytes` of its counts — with every
+/// list full, MAX_SCENE_DATA — so a camera built for fewer items (the
+/// firmware's capacities) holds an upload buffer that size.
+#[test]
+fn the_largest_scene_is_max_scene_data_bytes() {
+    assert_eq!(
+        encode(&largest(MAX_MATERIALS, MAX_PRIMITIVES, MAX_LIGHTS)).len(),
+        MAX_SCENE_DATA
+    );
+    for (m, p, l) in [
+        (1, 1, 1),
+        (4, 4, 1),
+        (2, 7, 3),
+        (MAX_MATERIALS, 1, MAX_LIGHTS),
+        (1, MAX_PRIMITIVES, 1),
+    ] {
+        assert_eq!(
+            encode(&largest(m, p, l)).len(),
+            hilcam::scene_data::max_bytes(m, p, l),
+            "{m} materials, {p} primitives, {l} lights"
+        );
+    }
 }

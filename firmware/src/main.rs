@@ -55,8 +55,6 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
-#[cfg(feature = "status")]
-use cortex_m_semihosting::hprintln;
 use hilcam::link::{Encoder, FrameStart, Stream, DEFAULT_CHUNK};
 use hilcam::planner::Budget;
 #[cfg(not(feature = "camera"))]
@@ -72,7 +70,7 @@ type Enc = Encoder<board::Uart0, DEFAULT_CHUNK>;
 macro_rules! status {
     ($($t:tt)*) => {
         #[cfg(feature = "status")]
-        hprintln!($($t)*);
+        cortex_m_semihosting::hprintln!($($t)*);
     };
 }
 
@@ -152,8 +150,9 @@ mod stack {
         }
     }
 
-    /// Deepest stack use so far, bytes (the sweep reports it).
-    #[cfg_attr(any(not(feature = "status"), feature = "camera"), allow(dead_code))]
+    /// Deepest stack use so far, bytes (the sweep reports it at its end,
+    /// the camera after each frame).
+    #[cfg_attr(not(feature = "status"), allow(dead_code))]
     pub fn peak() -> usize {
         let (lo, top) = bounds();
         let mut p = lo;
@@ -285,6 +284,8 @@ mod camera {
                 if super::scenes::render_variant(0, &opts, &mut run).is_err() {
                     fail("render");
                 }
+                // The deepest stack use so far (host-sim drive reports it).
+                status!("stack_peak_bytes {}", super::stack::peak());
                 frame_id = frame_id.wrapping_add(1);
             }
         }

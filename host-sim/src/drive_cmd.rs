@@ -317,8 +317,59 @@ pub struct DriveReport {
     pub seconds: f64,
     /// The decoder's counts.
     pub link: Stats,
+    /// The camera firmware's RAM, bytes (QEMU only): its statics, its
+    /// deepest stack use after the last frame (painted stack, from the
+    /// firmware's status line), and their sum.
+    pub ram_bytes: Option<u64>,
+    pub stack_peak_bytes: Option<u64>,
+    pub ram_peak_bytes: Option<u64>,
     /// Every frame.
     pub frames: Vec<DriveFrame>,
+}
+
+/// The camera firmware's RAM as it reports it: its statics (from the ELF)
+/// and the deepest stack use its status lines give after each frame
+/// (`stack_peak_bytes N` over semihosting, read from QEMU's stdout by a
+/// thread, which also keeps that pipe drained).
+pub struct RamProbe {
+    static_bytes: u64,
+    seen: std::sync::Arc<(std::sync::atomic::AtomicUsize, std::sync::atomic::AtomicU64)>,
+}
+
+impl RamProbe {
+    /// Reads `stdout` (QEMU's) on a thread.
+    pub fn spawn(stdout: impl Read + Send + 'static, static_bytes: u64) -> RamProbe {
+        use std::io::BufRead;
+        use std::sync::atomic::Ordering;
+        let seen = std::sync::Arc::new((
+            std::sync::atomic::AtomicUsize::new(0),
+            std::sync::atomic::AtomicU64::new(0),
+        ));
+        let s = seen.clone();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+                if let Some(n) = line
+                    .strip_prefix("stack_peak_bytes ")
+                    .and_then(|v| v.trim().parse::<u64>().ok())
+                {
+                    s.1.fetch_max(n, Ordering::Relaxed);
+                    s.0.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        });
+        RamProbe { static_bytes, seen }
+    }
+
+    /// The deepest stack use once `frames` status lines have arrived (or
+    /// after 5 s), `None` if none did.
+    pub fn stack_peak(&self, frames: usize) -> Option<u64> {
+        use std::sync::atomic::Ordering;
+        let t = Instant::now();
+        while self.seen.0.load(Ordering::Relaxed) < frames && t.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        (self.seen.0.load(Ordering::Relaxed) > 0).then(|| self.seen.1.load(Ordering::Relaxed))
+    }
 }
 
 impl DriveReport {
@@ -354,6 +405,7 @@ pub fn drive<W: Write>(
     r: &Resolved,
     poses: &[Pose],
     instr_ns: Option<f64>,
+    ram: Option<&RamProbe>,
     out: &Path,
 ) -> Result<DriveReport, String> {
     let mut outputs = crate::output::Outputs::prepare(out)?;
@@ -468,6 +520,7 @@ pub fn drive<W: Write>(
         let n = v.len().max(1) as f64;
         [v.iter().sum::<f64>() / n, v.iter().cloned().fold(0.0, f64::max)]
     };
+    let stack_peak = ram.and_then(|p| p.stack_peak(frames.len()));
     let report = DriveReport {
         board: board.into(),
         scene: r.desc.name.clone(),
@@ -491,6 +544,9 @@ pub fn drive<W: Write>(
         round_trip_wall_ms: stat(frames.iter().map(|f| f.round_trip_wall_ms).collect()),
         seconds: t_all.elapsed().as_secs_f64(),
         link: driver.stats(),
+        ram_bytes: ram.map(|p| p.static_bytes),
+        stack_peak_bytes: stack_peak,
+        ram_peak_bytes: ram.zip(stack_peak).map(|(p, s)| p.static_bytes + s),
         frames,
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
@@ -546,15 +602,15 @@ pub fn drive_target(
 ) -> Result<DriveReport, String> {
     let r = load(scene)?;
     let poses = poses(&r, poses_file, frames)?;
-    let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns| {
+    let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns, ram: Option<&RamProbe>| {
         let capture = capture.map(create_capture).transpose()?;
         let mut driver = Driver::new(writer, spawn_reader(reader, capture));
-        drive(&mut driver, name, &r, &poses, instr_ns, out)
+        drive(&mut driver, name, &r, &poses, instr_ns, ram, out)
     };
     match target {
         Target::Device { path, baud } => {
             let (reader, writer) = crate::link::serial::open(path, *baud)?;
-            run(reader, writer, path, None)
+            run(reader, writer, path, None, None)
         }
         Target::Qemu(board) => {
             // The camera firmware as built with the shipped scenes: the
@@ -568,9 +624,11 @@ pub fn drive_target(
                 &elf,
                 &format!("unix:{},server=on,wait=on", sock.display()),
             )?;
+            let (_, static_ram) = crate::hil_cmd::elf_sizes(&elf)?;
+            let ram = child.stdout.take().map(|o| RamProbe::spawn(o, static_ram));
             let result = connect(&sock).and_then(|stream| {
                 let reader = stream.try_clone().map_err(|e| e.to_string())?;
-                run(Box::new(reader), Box::new(stream), board.machine(), Some(128.0))
+                run(Box::new(reader), Box::new(stream), board.machine(), Some(128.0), ram.as_ref())
             });
             let _ = child.kill();
             let _ = child.wait();

@@ -138,7 +138,8 @@ pub fn build_firmware_as(
     };
     let caps = capacities(&held, sent)?;
     let features = if camera {
-        format!("{},camera,mix32,sensor", board.feature())
+        // Status lines: the camera reports its stack peak after each frame.
+        format!("{},camera,mix32,sensor,status", board.feature())
     } else {
         board.feature().to_string()
     };

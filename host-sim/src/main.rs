@@ -650,6 +650,10 @@ fn main() -> ExitCode {
                 r.round_trip_wall_ms[1],
                 r.seconds
             );
+            let s = match r.ram_peak_bytes {
+                Some(ram) => format!("{s}; camera peak RAM {ram} B (painted stack + static)"),
+                None => s,
+            };
             if r.passed() {
                 Ok(s)
             } else {

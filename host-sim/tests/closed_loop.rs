@@ -44,7 +44,7 @@ fn run(n: usize, to_camera: Faults, to_host: Faults) -> (DriveReport, host_sim::
     driver.frame_timeout = Duration::from_secs(1);
     let out = std::env::temp_dir().join(format!("hilcam-loop-{}-{}", std::process::id(), to_host.seed));
     let poses = poses(&r, None, n).expect("poses");
-    let report = drive(&mut driver, "host", &r, &poses, None, &out).expect("drive");
+    let report = drive(&mut driver, "host", &r, &poses, None, None, &out).expect("drive");
     // Closes the link (the reader thread holds a handle too): the camera
     // sees its input end and stops.
     hangup.shutdown(std::net::Shutdown::Both).expect("shutdown");
@@ -154,7 +154,7 @@ fn the_command_line_camera_obeys_over_a_pty() {
     driver.timeout = Duration::from_millis(500);
     driver.frame_timeout = Duration::from_secs(10);
     let poses = poses(&r, None, 10).expect("poses");
-    let report = drive(&mut driver, "pty", &r, &poses, None, &dir.join("out"));
+    let report = drive(&mut driver, "pty", &r, &poses, None, None, &dir.join("out"));
     drop(driver);
     drop(slave);
     // The reader thread still holds the master: the camera may not see the
