@@ -159,7 +159,7 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
     let (hi, lo) = ((sum >> 32) as u32, sum as u32);
     // hi < 2^16 below the cap: a 16-bit product on the M0.
     let hc = match u16::try_from(hi) {
-        Ok(h) if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) => umul_h(c4, h),
+        Ok(h) if ARMV6M => umul_h(c4, h),
         _ => umul(hi, c4),
     };
     (hc + ((umul(lo, c4) + (1 << 45)) >> 32)) >> 14
@@ -294,7 +294,7 @@ pub fn recip(d: NonZeroU32) -> (u32, u32) {
     // r = seed 2^16: both products are by the 16-bit seed.
     let seed = RECIP_SEED.get(idx).copied().unwrap_or(1 << 15);
     // r (2 − v r), Q2.30.
-    let vr = if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    let vr = if ARMV6M {
         (umul_h(dn, seed) >> 16) as u32
     } else {
         // The product's high word: no shift on the M3.
@@ -412,6 +412,10 @@ fn zip3<A: Copy, B: Copy, R>(a: [A; 3], b: [B; 3], f: impl Fn(A, B) -> R) -> [R;
     [f(a[0], b[0]), f(a[1], b[1]), f(a[2], b[2])]
 }
 
+/// Whether this is the Cortex-M0 (ARMv6-M: the Arm target without
+/// atomics), whose products and bit counts below take another route.
+const ARMV6M: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
+
 // Products and bit counts. Cortex-M0 (ARMv6-M, the Arm target without
 // atomics) has only a 32 × 32 → 32 multiply and no count of leading
 // zeros: the compiler's 64-bit product there is a 64 × 64 library call and
@@ -440,7 +444,7 @@ fn wmul(a: i32, b: i32) -> i64 {
 /// makes (the call costs the M0 a third of the product).
 #[inline(always)]
 fn wmul_px(a: i32, b: i32) -> i64 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         wmul16(a, b)
     } else {
         a as i64 * b as i64
@@ -450,7 +454,7 @@ fn wmul_px(a: i32, b: i32) -> i64 {
 /// `a · b`, exact (u32 × u32 → u64).
 #[inline(always)]
 fn umul(a: u32, b: u32) -> u64 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         umul16(a, b)
     } else {
         a as u64 * b as u64
@@ -460,7 +464,7 @@ fn umul(a: u32, b: u32) -> u64 {
 /// `a · b` for a 16-bit `b` (u32 × u16 → u64).
 #[inline(always)]
 fn umul_h(a: u32, b: u16) -> u64 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         umul_h16(a, b)
     } else {
         a as u64 * b as u64
@@ -478,7 +482,7 @@ fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
 /// `a²`, exact (three 16 × 16-bit products on the M0).
 #[inline(always)]
 fn wsq(a: i32) -> u64 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         usq16(a)
     } else {
         (a as i64 * a as i64) as u64
@@ -488,7 +492,7 @@ fn wsq(a: i32) -> u64 {
 /// `a · b` for an unsigned `b` (i32 × u32 → i64; `|a b| ≤ 2⁶³`).
 #[inline(always)]
 fn smul_u(a: i32, b: u32) -> i64 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         smul_u16(a, b)
     } else {
         a as i64 * b as i64
@@ -498,7 +502,7 @@ fn smul_u(a: i32, b: u32) -> i64 {
 /// `v << z` for `z` < 64 (bits shifted out are lost).
 #[inline(always)]
 fn shl64(v: u64, z: u32) -> u64 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         shl64_words(v, z)
     } else {
         v << z
@@ -508,7 +512,7 @@ fn shl64(v: u64, z: u32) -> u64 {
 /// Leading zeros of a `u32` (32 for 0).
 #[inline(always)]
 fn clz32(x: u32) -> u32 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         clz32_table(x)
     } else {
         x.leading_zeros()
@@ -518,7 +522,7 @@ fn clz32(x: u32) -> u32 {
 /// Leading zeros of a `u64` (64 for 0).
 #[inline(always)]
 fn clz64(x: u64) -> u32 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+    if ARMV6M {
         clz64_table(x)
     } else {
         x.leading_zeros()
@@ -1804,19 +1808,7 @@ mod wmul_tests {
     #[test]
     fn mul32_equals_the_fixed_crate() {
         use fixed::types::{I16F16, I6F26};
-        let mut x = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            // Magnitudes spread over every bit length.
-            let v = (x as u32) >> (x >> 59);
-            if x & (1 << 40) != 0 {
-                (v as i32).wrapping_neg()
-            } else {
-                v as i32
-            }
-        };
+        let mut next = crate::scalar::spread_i32();
         for _ in 0..200_000 {
             let (a, b) = (next(), next());
             assert_eq!(

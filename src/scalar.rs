@@ -354,6 +354,24 @@ impl Scalar for f32 {
     }
 }
 
+/// A deterministic sequence of `i32` whose magnitudes spread over every
+/// bit length, both signs (xorshift), for the exactness tests of products.
+#[cfg(test)]
+pub(crate) fn spread_i32() -> impl FnMut() -> i32 {
+    let mut x = 0x2545_f491_4f6c_dd1du64;
+    move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let v = (x as u32) >> (x >> 59);
+        if x & (1 << 40) != 0 {
+            (v as i32).wrapping_neg()
+        } else {
+            v as i32
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -364,19 +382,7 @@ mod tests {
 
     #[test]
     fn mul_q_equals_the_fixed_crate() {
-        let mut x = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            // Magnitudes spread over every bit length.
-            let v = (x as u32) >> (x >> 59);
-            if x & (1 << 40) != 0 {
-                (v as i32).wrapping_neg()
-            } else {
-                v as i32
-            }
-        };
+        let mut next = spread_i32();
         for _ in 0..200_000 {
             let (a, b) = (next(), next());
             let (s1, s2) = (next() as u32 & 31, next() as u32 & 31);

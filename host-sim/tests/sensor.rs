@@ -187,6 +187,27 @@ fn board(rng: &mut u64, edge_error: f64, adaptive: bool, noise: bool) -> String 
     t.to_string()
 }
 
+/// The fidelity targets against the reference: ≤ 1 LSB and ≥ 99 % exact
+/// over smooth pixels, ≤ 0.05 % differing edge pixels, the same field
+/// flags.
+fn meets_fidelity_targets(m: &host_sim::harness::Metrics, k: usize) {
+    assert!(
+        m.max_abs_lsb_smooth <= 1,
+        "case {k}: {} LSB on smooth pixels",
+        m.max_abs_lsb_smooth
+    );
+    assert!(
+        m.exact_fraction_smooth >= 0.99,
+        "case {k}: exact {}",
+        m.exact_fraction_smooth
+    );
+    assert!(
+        m.edge_pixels_differing_fraction <= 0.0005,
+        "case {k}: edges differ"
+    );
+    assert_eq!(m.field_flags_differing, 0, "case {k}: field flags");
+}
+
 #[test]
 fn sampled_and_noisy_frames_match_the_reference() {
     let mut rng = 0x5eed_u64;
@@ -216,21 +237,7 @@ fn sampled_and_noisy_frames_match_the_reference() {
             "case {k}: {}x{} adaptive={adaptive} noise={noise}: smooth max {} LSB, exact {:.4}, edges differing {:.5} %, grid pixels {}, sampling error rms {:.3} max {:.2} DN",
             want, want, m.max_abs_lsb_smooth, m.exact_fraction_smooth, 100.0 * m.edge_pixels_differing_fraction, s.grid_pixels, s.rms_dn, s.max_dn
         );
-        assert!(
-            m.max_abs_lsb_smooth <= 1,
-            "case {k}: {} LSB on smooth pixels",
-            m.max_abs_lsb_smooth
-        );
-        assert!(
-            m.exact_fraction_smooth >= 0.99,
-            "case {k}: exact {}",
-            m.exact_fraction_smooth
-        );
-        assert!(
-            m.edge_pixels_differing_fraction <= 0.0005,
-            "case {k}: edges differ"
-        );
-        assert_eq!(m.field_flags_differing, 0, "case {k}: field flags");
+        meets_fidelity_targets(m, k);
         assert!(s.grid_pixels > 0, "case {k}: edges cross the board");
         // The grid places straight edges within 1/(2n) px: against the
         // converged 16x16 estimate the RMS error is well under the
@@ -281,20 +288,6 @@ fn noise_on_the_fast_arithmetic_matches_the_reference() {
             m.psnr_db_smooth,
             100.0 * m.edge_pixels_differing_fraction
         );
-        assert!(
-            m.max_abs_lsb_smooth <= 1,
-            "case {k}: {} LSB",
-            m.max_abs_lsb_smooth
-        );
-        assert!(
-            m.exact_fraction_smooth >= 0.99,
-            "case {k}: exact {}",
-            m.exact_fraction_smooth
-        );
-        assert!(
-            m.edge_pixels_differing_fraction <= 0.0005,
-            "case {k}: edges differ"
-        );
-        assert_eq!(m.field_flags_differing, 0, "case {k}: field flags");
+        meets_fidelity_targets(m, k);
     }
 }
