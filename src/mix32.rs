@@ -56,6 +56,7 @@
 //! frame is prepared ([`crate::render::RenderError::OutsideFormat`]); the generic
 //! path renders them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
+use crate::num::{umul16, ARMV6M};
 use crate::render::from_acc;
 use crate::render::{RenderError, FLAG_OUTSIDE_FIELD};
 use crate::scalar::shr_sat;
@@ -412,10 +413,6 @@ fn zip3<A: Copy, B: Copy, R>(a: [A; 3], b: [B; 3], f: impl Fn(A, B) -> R) -> [R;
     [f(a[0], b[0]), f(a[1], b[1]), f(a[2], b[2])]
 }
 
-/// Whether this is the Cortex-M0 (ARMv6-M: the Arm target without
-/// atomics), whose products and bit counts below take another route.
-const ARMV6M: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
-
 // Products and bit counts. Cortex-M0 (ARMv6-M, the Arm target without
 // atomics) has only a 32 × 32 → 32 multiply and no count of leading
 // zeros: the compiler's 64-bit product there is a 64 × 64 library call and
@@ -544,19 +541,6 @@ fn wmul16(a: i32, b: i32) -> i64 {
     let low = (al as u32 * bl as u32) as i64;
     let cross = (ah * bl) as i64 + (al * bh) as i64;
     (((ah * bh) as i64) << 32) + (cross << 16) + low
-}
-
-/// [`wmul16`] unsigned: the cross terms' sum may carry into bit 32.
-#[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
-fn umul16(a: u32, b: u32) -> u64 {
-    let (ah, al) = (a >> 16, a & 0xFFFF);
-    let (bh, bl) = (b >> 16, b & 0xFFFF);
-    let cross = (ah * bl) as u64 + (al * bh) as u64;
-    (((ah * bh) as u64) << 32) + (cross << 16) + (al * bl) as u64
 }
 
 /// [`umul_h`] from two 32-bit products.
@@ -1853,7 +1837,13 @@ mod wmul_tests {
             for b in edges.iter().chain(values.iter()) {
                 assert_eq!(super::wmul16(*a, *b), *a as i64 * *b as i64, "{a} x {b}");
                 let (a, b) = (*a as u32, *b as u32);
-                assert_eq!(super::umul16(a, b), a as u64 * b as u64, "{a} x {b}");
+                assert_eq!(crate::num::umul16(a, b), a as u64 * b as u64, "{a} x {b}");
+                let (wa, wb) = ((a as u64) << 32 | b as u64, (b as u64) << 32 | a as u64);
+                assert_eq!(
+                    crate::num::mul64_words(wa, wb),
+                    wa.wrapping_mul(wb),
+                    "{wa} x {wb}"
+                );
                 assert_eq!(super::smul_u16(a as i32, b), a as i32 as i64 * b as i64);
                 assert_eq!(super::usq16(a as i32), (a as i32 as i64 * a as i32 as i64) as u64);
                 assert_eq!(super::umul_h16(a, b as u16), a as u64 * (b as u16) as u64);

@@ -25,8 +25,8 @@ use crate::scene::{Noise, PixelFormat, Q};
 /// The SplitMix64 finaliser.
 #[inline]
 pub const fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z = crate::num::wrapping_mul64(z ^ (z >> 30), 0xbf58_476d_1ce4_e5b9);
+    z = crate::num::wrapping_mul64(z ^ (z >> 27), 0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
 }
 
