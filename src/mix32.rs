@@ -184,11 +184,9 @@ fn vignette_q(sum: u64, c4: u32) -> Q {
 
 /// The recorded values of a pixel whose channels' sums before `cos⁴α` are
 /// `sum` (S15 DN), with sensor noise: the EMVA 1288 stage
-/// ([`crate::noise`]) on the exact noise-free value `μ`, its
-/// `σ = √(K_sys μ + (K_sys σ_d)²)` from [`rsqrt_norm`] (2⁻¹⁹ relative, then
-/// truncated to 2⁻¹⁶ DN: below 10⁻³ DN times the draw's `|z| ≤ 6` where
-/// `σ < 64 DN`) instead of a bitwise square root. Out of line: the
-/// noiseless pixel loop stays lean.
+/// ([`crate::noise::Stage::apply_with`]) on the exact noise-free value,
+/// with [`sigma_z`] for its noise term. Out of line: the noiseless pixel
+/// loop stays lean.
 #[inline(never)]
 fn noisy<const C: usize>(
     z: &crate::noise::Stage<Q>,
@@ -199,25 +197,25 @@ fn noisy<const C: usize>(
 ) -> [u32; 3] {
     let mut dn = [0u32; 3];
     for (c, ((d, s), max)) in dn.iter_mut().zip(sum).zip(dn_max).take(C).enumerate() {
-        let (k, var, off) = z.channel(c);
-        let mu = vignette_q(s, c4);
-        // σ², I32F32 DN² (≥ 0: K and the variance are).
-        let s2 = k.saturating_mul(mu).saturating_add(var).to_bits().max(0) as u64;
-        // √(s2 2^-32) 2^16 = √(m/2^64) 2^(32 − z/2): (m/2^64)·y in Q2.62.
-        let sigma16 = if s2 == 0 {
-            0
-        } else {
-            let (m, y, zz) = rsqrt_norm(s2);
-            (umul((m >> 32) as u32, y) >> (30 + zz / 2)).min(u32::MAX as u64)
-        };
-        // σ (S16) · z (S16) → S32; |z| < 2^19: within i64.
-        let draw = crate::noise::normal_q16(z.key(), index, c as u8) as i64;
-        let v = mu
-            .saturating_add(Q::from_bits(sigma16 as i64 * draw))
-            .saturating_add(off);
-        *d = (v.to_bits() >> 32).clamp(0, max as i64) as u32;
+        *d = z.apply_with(vignette_q(s, c4), index, c, max as u32, sigma_z);
     }
     dn
+}
+
+/// `σ z` (I32F32 DN) from `σ²` (I32F32 DN²; 0 below 0) and the draw `z`
+/// (a multiple of 2⁻¹⁶ within ±6): `σ` from [`rsqrt_norm`] (2⁻¹⁹ relative)
+/// truncated to 2⁻¹⁶ DN — below 10⁻³ DN times `|z|` where `σ < 64 DN` —
+/// instead of a bitwise square root, then one exact 64-bit product.
+fn sigma_z(var: Q, z: Q) -> Q {
+    let s2 = var.to_bits().max(0) as u64;
+    if s2 == 0 {
+        return Q::ZERO;
+    }
+    // √(s2 2^-32) 2^16 = √(m/2^64) 2^(32 − e/2): (m/2^64)·y in Q2.62.
+    let (m, y, e) = rsqrt_norm(s2);
+    let s16 = (umul((m >> 32) as u32, y) >> (30 + e / 2)).min(u32::MAX as u64);
+    // S16 · S16 → S32; |z| < 2^19 in S16: within i64.
+    Q::from_bits(s16 as i64 * (z.to_bits() >> 16))
 }
 
 /// The pixel word of channel values (each ≤ `dn_max`) for `C` channels:
@@ -531,10 +529,6 @@ fn clz64(x: u64) -> u32 {
 /// `a · b` from 16 × 16-bit products: `a = a_h 2¹⁶ + a_l` (`a_h` signed,
 /// `a_l` unsigned 16 bits), the same for `b`; the cross terms fit `i32`.
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 fn wmul16(a: i32, b: i32) -> i64 {
     let (ah, al) = (a >> 16, a & 0xFFFF);
     let (bh, bl) = (b >> 16, b & 0xFFFF);
@@ -545,20 +539,12 @@ fn wmul16(a: i32, b: i32) -> i64 {
 
 /// [`umul_h`] from two 32-bit products.
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 fn umul_h16(a: u32, b: u16) -> u64 {
     ((((a >> 16) * b as u32) as u64) << 16) + ((a & 0xFFFF) * b as u32) as u64
 }
 
 /// [`wsq`] from `|a| = h 2¹⁶ + l`: `h² 2³² + h l 2¹⁷ + l²`.
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 fn usq16(a: i32) -> u64 {
     let u = a.unsigned_abs();
     let (h, l) = (u >> 16, u & 0xFFFF);
@@ -567,10 +553,6 @@ fn usq16(a: i32) -> u64 {
 
 /// [`smul_u`] from the unsigned product of `|a|` and `b`.
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 fn smul_u16(a: i32, b: u32) -> i64 {
     let p = umul(a.unsigned_abs(), b) as i64;
     if a < 0 {
@@ -582,10 +564,6 @@ fn smul_u16(a: i32, b: u32) -> i64 {
 
 /// [`shl64`] in 32-bit words (the M0's 64-bit shift is a library call).
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 fn shl64_words(v: u64, z: u32) -> u64 {
     let (hi, lo) = ((v >> 32) as u32, v as u32);
     if z >= 32 {
@@ -598,10 +576,6 @@ fn shl64_words(v: u64, z: u32) -> u64 {
 
 /// [`clz32`]: the highest non-zero byte's count from a table.
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 fn clz32_table(x: u32) -> u32 {
     let (byte, n) = if x >> 16 != 0 {
         if x >> 24 != 0 {
@@ -619,10 +593,6 @@ fn clz32_table(x: u32) -> u32 {
 
 /// [`clz64`] from [`clz32_table`].
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 fn clz64_table(x: u64) -> u32 {
     let hi = (x >> 32) as u32;
     if hi == 0 {
@@ -1358,10 +1328,7 @@ impl Mix32 {
 
     /// Sets the frame id the noise is keyed by (0 after preparation).
     pub fn set_frame_id(&mut self, id: u32) {
-        self.noise = match self.noise_spec {
-            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, self.format, id)),
-            _ => None,
-        };
+        self.noise = crate::noise::Stage::for_frame(self.noise_spec, self.format, id);
     }
 
     /// `ŷ_d` of line `j`, S26.

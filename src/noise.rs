@@ -85,33 +85,38 @@ impl<S: Scalar> Stage<S> {
         st
     }
 
-    /// Channel `c`'s `K_sys` (DN/e⁻), `(K_sys σ_d)²` (DN²) and dark
-    /// offset plus ½ (DN).
-    #[inline]
-    pub fn channel(&self, c: usize) -> (S, S, S) {
-        (
-            self.ksys.get(c).copied().unwrap_or(S::ZERO),
-            self.dark_var.get(c).copied().unwrap_or(S::ZERO),
-            self.offset.get(c).copied().unwrap_or(S::HALF),
-        )
-    }
-
-    /// The frame's key ([`frame_key`]).
-    pub fn key(&self) -> u64 {
-        self.key
+    /// The stage of a scene's `noise` (if any) for frame `frame_id`;
+    /// `None` without the `sensor` feature.
+    pub fn for_frame(noise: Option<Noise>, format: PixelFormat, frame_id: u32) -> Option<Stage<S>> {
+        match noise {
+            Some(z) if cfg!(feature = "sensor") => Some(Stage::new(&z, format, frame_id)),
+            _ => None,
+        }
     }
 
     /// The recorded value of channel `c` of pixel `p` whose noise-free value
     /// is `mu` DN (before rounding), clamped to `[0, dn_max]`.
     #[inline]
     pub fn apply(&self, mu: S, pixel: u32, c: usize, dn_max: u32) -> u32 {
-        let (k, var, off) = self.channel(c);
+        self.apply_with(mu, pixel, c, dn_max, |var, z| {
+            var.sqrt().unwrap_or(S::ZERO).mul(z)
+        })
+    }
+
+    /// [`Stage::apply`] with `noise` giving the noise term `σ z` from `σ²`
+    /// and the draw `z`: the fast arithmetic's own square root and product.
+    #[inline]
+    pub fn apply_with(&self, mu: S, pixel: u32, c: usize, dn_max: u32, noise: impl FnOnce(S, S) -> S) -> u32 {
+        let (k, var, off) = (
+            self.ksys.get(c).copied().unwrap_or(S::ZERO),
+            self.dark_var.get(c).copied().unwrap_or(S::ZERO),
+            self.offset.get(c).copied().unwrap_or(S::HALF),
+        );
         let mu = if mu > S::ZERO { mu } else { S::ZERO };
-        let sigma = k.mul(mu).add(var).sqrt().unwrap_or(S::ZERO);
         let z = S::from_q(Q::from_bits(
             i64::from(normal_q16(self.key, pixel, c as u8)) << 16,
         ));
-        let v = mu.add(sigma.mul(z)).add(off);
+        let v = mu.add(noise(k.mul(mu).add(var), z)).add(off);
         v.floor_int().clamp(0, i64::from(dn_max)) as u32
     }
 }

@@ -37,6 +37,7 @@
 //! own, chosen per frame.
 
 use core::ops::{Add, Mul, Neg, Sub};
+use fixed::types::{I16F16, I16F48, I24F40, I2F62, I32F32, I4F28, I4F60, I64F64};
 
 /// Whether this is the Cortex-M0 (ARMv6-M: the Arm target without
 /// atomics). It has only a 32 × 32 → 32 multiply: the compiler's 64-bit
@@ -48,10 +49,6 @@ pub(crate) const ARMV6M: bool = cfg!(all(target_arch = "arm", not(target_has_ato
 /// terms' sum may carry into bit 32. The M0's route (tested exact); compiled
 /// everywhere so that the tests check it.
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 pub(crate) const fn umul16(a: u32, b: u32) -> u64 {
     let (ah, al) = (a >> 16, a & 0xFFFF);
     let (bh, bl) = (b >> 16, b & 0xFFFF);
@@ -73,16 +70,11 @@ pub const fn wrapping_mul64(a: u64, b: u64) -> u64 {
 /// [`wrapping_mul64`] from the low words' full product ([`umul16`]) and the
 /// cross words' low products (the high words' product is all above 2⁶⁴).
 #[inline(always)]
-#[cfg_attr(
-    not(all(target_arch = "arm", not(target_has_atomic = "32"))),
-    allow(dead_code)
-)]
 pub(crate) const fn mul64_words(a: u64, b: u64) -> u64 {
     let (al, ah, bl, bh) = (a as u32, (a >> 32) as u32, b as u32, (b >> 32) as u32);
     let cross = al.wrapping_mul(bh).wrapping_add(ah.wrapping_mul(bl));
     umul16(al, bl).wrapping_add((cross as u64) << 32)
 }
-use fixed::types::{I16F16, I16F48, I24F40, I2F62, I32F32, I4F28, I4F60, I64F64};
 
 /// Lengths in metres: I24F40 (±8.4·10⁶ m, resolution 0.91 pm).
 pub type Len = I24F40;

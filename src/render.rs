@@ -1008,10 +1008,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             self.inv_m = S::from_q(Q::from_bits(1i64 << (32 - m.trailing_zeros())));
         }
         self.noise_spec = scene.noise;
-        self.noise = match scene.noise {
-            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, scene.format, 0)),
-            _ => None,
-        };
+        self.noise = crate::noise::Stage::for_frame(scene.noise, scene.format, 0);
         self.background = from_q3(scene.background);
         // What only some frames set, reset from the previous frame; every
         // other field is set below for every frame.
@@ -1168,10 +1165,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
 
     /// Sets the frame id the noise is keyed by.
     fn set_frame_id(&mut self, id: u32) {
-        self.noise = match self.noise_spec {
-            Some(z) if cfg!(feature = "sensor") => Some(crate::noise::Stage::new(&z, self.format, id)),
-            _ => None,
-        };
+        self.noise = crate::noise::Stage::for_frame(self.noise_spec, self.format, id);
     }
 
     #[inline(never)]

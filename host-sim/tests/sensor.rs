@@ -276,6 +276,7 @@ fn noise_on_the_fast_arithmetic_matches_the_reference() {
                 .replace("format = \"gray16\"", "format = \"rgb565\"")
                 .replace("bits = 12\n", "")
                 .replace("dark_offset = 40.0", "dark_offset = 2.0");
+            assert!(text.contains("rgb565") && text.contains("dark_offset = 2.0"));
         }
         let r = parse(&text).expect("scene");
         let out = host_sim::harness::render(&r, &Budget::default()).expect("renders");
