@@ -187,6 +187,10 @@ pub struct Description {
     pub max_request: u32,
     /// The largest scene encoding `LoadScene` accepts, bytes (0: none).
     pub max_scene: u32,
+    /// Distortion-table entries its frame holds: it plans within that many
+    /// ([`crate::planner::Budget::max_table_entries`]; fewer than 2: no
+    /// table), and a host rendering its frames plans with the same.
+    pub max_table: u32,
 }
 
 /// Why received bytes did not make a request (the receiver skips to the
@@ -420,17 +424,57 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
     }
 
     /// Builds scene `id` and checks that this camera can render it.
+    #[inline(never)]
     pub fn scene(&self, id: u32) -> Result<Scene, (Reason, Fault)> {
         let bytes = self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))?;
-        let scene = build(bytes)?;
-        check::<T>(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
-        Ok(scene)
+        // Built and checked in the value returned: no scene-sized copy.
+        let mut scene = crate::scene_data::load_as(bytes, refusal);
+        if let Ok(s) = &scene {
+            if let Err(f) = check::<T>(s, self.max_width) {
+                scene = Err((Reason::Unsupported, f));
+            }
+        }
+        scene
     }
 
-    /// Takes a part of a scene being loaded; once it is complete, returns
-    /// the scene (built and checked), else `None`. A refused part leaves
-    /// the parts before it in place.
-    fn load(&mut self, total: u16, offset: u16, bytes: &[u8]) -> Result<Option<Scene>, (Reason, Fault)> {
+    /// Builds scene `id`, checks it and shows it in `shown`; refused, leaves
+    /// `shown` as it was.
+    fn show(&self, id: u32, shown: &mut Scene) -> Result<(), (Reason, Fault)> {
+        let bytes = self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))?;
+        self.replace(bytes, shown)
+    }
+
+    /// Builds the scene encoded in `bytes` and checks it against this
+    /// camera; then shows it in `shown`, else leaves `shown` as it was. Out
+    /// of line: the one scene under construction lives in this call's
+    /// stack frame, not in the camera loop's while it renders.
+    #[inline(never)]
+    fn replace(&self, bytes: &[u8], shown: &mut Scene) -> Result<(), (Reason, Fault)> {
+        // The one scene under construction: built, checked and moved from
+        // in place.
+        let next = crate::scene_data::load_as(bytes, refusal);
+        let checked = match &next {
+            Ok(s) => check::<T>(s, self.max_width).map_err(|f| (Reason::Unsupported, f)),
+            Err(e) => Err(*e),
+        };
+        checked?;
+        if let Ok(s) = next {
+            *shown = s;
+        }
+        Ok(())
+    }
+
+    /// Takes a part of a scene being loaded; once it is complete, builds
+    /// and checks the scene, shows it in `shown` and returns `true`. A
+    /// refused part leaves the parts before it in place, and `shown` as it
+    /// was.
+    fn load(
+        &mut self,
+        total: u16,
+        offset: u16,
+        bytes: &[u8],
+        shown: &mut Scene,
+    ) -> Result<bool, (Reason, Fault)> {
         let invalid = |f: &'static str| (Reason::Invalid, Fault::field(f));
         let (total, offset) = (usize::from(total), usize::from(offset));
         if offset == 0 {
@@ -453,25 +497,23 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
         }
         self.have = end;
         if end < total {
-            return Ok(None);
+            return Ok(false);
         }
-        let data = self.upload.get(..total).unwrap_or_default();
-        let scene = build(data)?;
-        check::<T>(&scene, self.max_width).map_err(|f| (Reason::Unsupported, f))?;
+        self.replace(self.upload.get(..total).unwrap_or_default(), shown)?;
         self.loaded = true;
-        Ok(Some(scene))
+        Ok(true)
     }
 }
 
-/// Builds an encoded scene.
-fn build(bytes: &[u8]) -> Result<Scene, (Reason, Fault)> {
+/// Why a scene's data is refused.
+fn refusal(e: DataError) -> (Reason, Fault) {
     use crate::scene::Problem;
-    crate::scene_data::load(bytes).map_err(|e| match e {
+    match e {
         // A stage left out of the build, or more items than it holds.
         DataError::NotBuilt { .. } => (Reason::Unsupported, e.into()),
         DataError::Scene(s) if s.problem == Problem::TooMany => (Reason::Unsupported, e.into()),
         _ => (Reason::Invalid, e.into()),
-    })
+    }
 }
 
 /// Whether this camera renders `scene`: lines of at most `max_width`
@@ -611,13 +653,12 @@ impl Control {
                 Ok(())
             }
             Command::SelectScene { id } => {
-                *scene = library.scene(id)?;
+                library.show(id, scene)?;
                 self.scene_id = id;
                 Ok(())
             }
             Command::LoadScene { total, offset, bytes } => {
-                if let Some(s) = library.load(total, offset, bytes)? {
-                    *scene = s;
+                if library.load(total, offset, bytes, scene)? {
                     self.scene_id = library.count() - 1;
                 }
                 Ok(())
@@ -669,6 +710,7 @@ impl Control {
             next_frame,
             max_request: MAX_REQUEST as u32,
             max_scene: N as u32,
+            max_table: T as u32,
         }
     }
 }

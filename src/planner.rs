@@ -241,7 +241,17 @@ pub fn check<const T: usize>(scene: &Scene) -> Result<(), crate::render::RenderE
         ..Budget::default()
     };
     let opts = plan(scene, &budget).options;
-    crate::render::Frame::<crate::scene::Q, T>::empty().prepare(scene, &opts)
+    prepares::<T>(scene, &opts)
+}
+
+/// Whether a frame prepares `scene` with `opts`. Out of line: the frame is
+/// not on the stack while [`plan`] runs.
+#[inline(never)]
+fn prepares<const T: usize>(
+    scene: &Scene,
+    opts: &crate::render::Options,
+) -> Result<(), crate::render::RenderError> {
+    crate::render::Frame::<crate::scene::Q, T>::empty().prepare(scene, opts)
 }
 
 /// Plans `scene` within `budget`.

@@ -13,6 +13,7 @@ use crate::distortion::Distortion;
 use crate::lens::{Aperture, LensConfig};
 use crate::scene::{
     CheckerSpec, Item, PixelFormat, Scene, SceneError, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES,
+    Q,
 };
 use crate::{Camera, Error, Extrinsics, Field, IntrinsicsConfig, Model};
 use core::fmt;
@@ -284,10 +285,31 @@ impl SceneData {
 /// ranges of `docs/scenes.md` as it is read; the first value refused is
 /// named. Read and built in one pass, with no [`SceneData`] in memory: the
 /// one way a scene is made from data, on the host and on a camera.
-#[inline(never)]
+#[inline(always)]
 pub fn load(bytes: &[u8]) -> Result<Scene, DataError> {
-    const M: DataError = DataError::Malformed;
+    load_as(bytes, |e| e)
+}
+
+/// [`load`] with its error mapped by `refused`: built in the value
+/// returned whatever the error type (one scene on the stack, not a scene
+/// and a copy of it).
+#[inline(never)]
+pub fn load_as<E>(bytes: &[u8], refused: impl Fn(DataError) -> E) -> Result<Scene, E> {
     let mut r = Reader(bytes);
+    let (camera, distortion, format, head) = head(&mut r).map_err(&refused)?;
+    let mut scene = Ok(Scene::of(camera, distortion, format, head));
+    if let Ok(s) = &mut scene {
+        fill(&mut r, s).map_err(&refused)?;
+    }
+    scene
+}
+
+/// The scene's camera, distortion, format and its head's values
+/// (exposure, ambient, background), read and checked.
+#[allow(clippy::type_complexity)]
+#[inline(always)]
+fn head(r: &mut Reader) -> Result<(Camera, Distortion, PixelFormat, (Q, [Q; 3], [Q; 3])), DataError> {
+    const M: DataError = DataError::Malformed;
     let c = r.camera().ok_or(M)?;
     let cam = DataError::Camera;
     let intr = IntrinsicsConfig {
@@ -313,15 +335,9 @@ pub fn load(bytes: &[u8]) -> Result<Scene, DataError> {
     };
     let format = r.format().ok_or(M)?;
     let (exposure, ambient, background) = (r.f64().ok_or(M)?, r.colour().ok_or(M)?, r.colour().ok_or(M)?);
-    // Built in the value returned (one scene on the stack, not a scene and
-    // a copy of it: 4.7 KB each).
     let format = format.into();
     let head = Scene::check(&camera, format, exposure, ambient.rgb(), background.rgb())?;
-    let mut scene = Ok(Scene::of(camera, distortion, format, head));
-    if let Ok(s) = &mut scene {
-        fill(&mut r, s)?;
-    }
-    scene
+    Ok((camera, distortion, format, head))
 }
 
 /// Reads a scene's materials, primitives, lights, sampling and noise into

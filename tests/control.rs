@@ -501,6 +501,7 @@ fn message_max_bounds_every_header_and_answer() {
             next_frame: u32::MAX,
             max_request: u32::MAX,
             max_scene: u32::MAX,
+            max_table: u32::MAX,
         }),
     ] {
         assert!(size(&m) <= MESSAGE_MAX, "{m:?}: {}", size(&m));
@@ -682,4 +683,20 @@ fn the_largest_load_part_fits_the_receiver() {
     assert!(w.len() <= MAX_REQUEST, "{} bytes", w.len());
     let mut rx = Receiver::<MAX_REQUEST>::new();
     assert_eq!(feed(&mut rx, &w), vec![Ok(w.clone())]);
+}
+
+/// A camera says the distortion table it plans within, so that a host
+/// rendering its frames plans with the same budget (host-sim drive).
+#[test]
+fn a_camera_describes_the_table_it_plans_within() {
+    let blob: &'static [u8] = Box::leak(standard_bytes().into_boxed_slice());
+    let none = Library::<MAX_SCENE_DATA, 0>::new(Box::leak(Box::new([blob])), 640);
+    let scene = none
+        .scene(0)
+        .expect("a camera without a table shows the standard scene");
+    assert_eq!(Control::new().describe(&scene, &none, 0).max_table, 0);
+    assert_eq!(
+        Control::new().describe(&scene, &lib(), 0).max_table,
+        hilcam::distortion::MAX_LUT as u32
+    );
 }

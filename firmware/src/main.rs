@@ -30,10 +30,13 @@ const MAX_WIDTH: usize = if scenes::MAX_WIDTH > 640 {
 #[cfg(not(feature = "camera"))]
 const MAX_WIDTH: usize = scenes::MAX_WIDTH;
 /// Distortion-table entries a frame holds (4 bytes each): the most any
-/// held scene's variant renders with; a driven camera, whose scenes come
-/// over the link, the largest table the planner may pick.
+/// held scene's variant renders with. A driven camera, whose scenes come
+/// over the link, holds none: it plans without tables (the polynomial is
+/// always a candidate) and says so in its `Description.max_table`, so the
+/// host plans its reference frames alike; a 1 024-entry table would be
+/// 4 KB of its 16 KiB of RAM.
 #[cfg(feature = "camera")]
-const TABLE: usize = hilcam::distortion::MAX_LUT;
+const TABLE: usize = 0;
 #[cfg(not(feature = "camera"))]
 const TABLE: usize = scenes::TABLE;
 
@@ -55,15 +58,22 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
-use hilcam::link::{Encoder, FrameStart, Stream, DEFAULT_CHUNK};
+use hilcam::link::{Encoder, FrameStart, Stream};
 use hilcam::planner::Budget;
-#[cfg(not(feature = "camera"))]
 use hilcam::planner::{plan, ray_model};
 use hilcam::render::{Frame, Options, Timed};
 use hilcam::scalar::Scalar;
 use hilcam::scene::Scene;
 
-type Enc = Encoder<board::Uart0, DEFAULT_CHUNK>;
+/// The encoder's chunk: the link's default; a driven camera's, one line of
+/// its widest (two bytes a pixel), 768 B of RAM less (a chunk message per
+/// 8 lines of 160 Gray8 pixels instead of 12).
+#[cfg(not(feature = "camera"))]
+const CHUNK: usize = hilcam::link::DEFAULT_CHUNK;
+#[cfg(feature = "camera")]
+const CHUNK: usize = MAX_LINE_BYTES;
+
+type Enc = Encoder<board::Uart0, CHUNK>;
 
 /// Status text over semihosting (QEMU, probe-rs), unless the `status`
 /// feature is off; the exit code is always reported through semihosting.
@@ -233,10 +243,8 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
 /// The driven camera: commands in on UART0 RX, answers and frames out.
 #[cfg(feature = "camera")]
 mod camera {
-    use super::{board, budget, fail, ns, ticks, Enc, Run, MAX_WIDTH, TABLE};
+    use super::{board, fail, ns, ticks, Enc, Run, CHUNK, MAX_WIDTH, TABLE};
     use hilcam::control::{Control, Library, Receiver, MAX_REQUEST};
-    use hilcam::link::DEFAULT_CHUNK;
-    use hilcam::planner::plan;
     use hilcam::scene_data::MAX_SCENE_DATA;
 
     /// Bytes read from RX between two frames at most: a flood of input
@@ -247,9 +255,13 @@ mod camera {
     pub fn run(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
         // Lines the line buffer and one encoder chunk hold (two bytes a
         // pixel at most): a wider scene is refused when it is loaded.
-        let widest = MAX_WIDTH.min(DEFAULT_CHUNK / 2) as u16;
+        let widest = MAX_WIDTH.min(CHUNK / 2) as u16;
         let mut library = Library::<MAX_SCENE_DATA, TABLE>::new(&super::scenes::BLOBS, widest);
-        let mut scene = library.scene(0).unwrap_or_else(|_| fail("scene 0"));
+        // The scene shown, used where it was built (a scene is 1.4 KB).
+        let mut built = library.scene(0);
+        let Ok(scene) = &mut built else {
+            fail("scene 0");
+        };
         let mut control = Control::new();
         let mut rx = Receiver::<MAX_REQUEST>::new();
         let mut frame_id = 0u32;
@@ -262,18 +274,18 @@ mod camera {
                     continue;
                 };
                 let seq = req.seq;
-                let answer = control.handle(&req, &mut scene, &mut library);
+                let answer = control.handle(&req, scene, &mut library);
                 let sent = enc.send_answer(seq, answer, ns(ticks()), || {
-                    control.describe(&scene, &library, frame_id)
+                    control.describe(scene, &library, frame_id)
                 });
                 if sent.is_err() {
                     fail("reply");
                 }
             }
             if control.frame_due(ns(ticks())) {
-                let opts = plan(&scene, &budget()).options;
+                let opts = super::options(scene);
                 let mut run = Run {
-                    scene: &scene,
+                    scene,
                     enc,
                     line,
                     flags,
@@ -296,7 +308,6 @@ mod camera {
 /// arithmetic and the distortion evaluation needs only its ray model (and
 /// leaves the rest of the planner out of flash). Out of line: the planner's
 /// working state (4 KB) is not held while the frame renders.
-#[cfg(not(feature = "camera"))]
 #[inline(never)]
 fn options(scene: &Scene) -> Options {
     if scenes::NEEDS_PLAN {

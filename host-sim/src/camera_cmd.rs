@@ -9,6 +9,7 @@ use crate::drive_cmd::spawn_reader;
 use crate::harness::planned_frame;
 use crate::scene_file::Resolved;
 use hilcam::control::{Answer, Control, Library, Mode, Receiver, MAX_REQUEST};
+use hilcam::planner::Budget;
 use hilcam::link::{Encoder, FrameStart, DEFAULT_CHUNK};
 use hilcam::scene_data::MAX_SCENE_DATA;
 use serde::Serialize;
@@ -167,7 +168,7 @@ pub fn serve_from<W: Write>(
             let name = scenes
                 .get(control.scene_id as usize)
                 .map_or("loaded", |r| r.desc.name.as_str());
-            let (core, stages) = planned_frame(&scene, name, frame_id)?;
+            let (core, stages) = planned_frame(&scene, name, &Budget::default(), frame_id)?;
             let start = FrameStart::of(
                 frame_id,
                 control.scene_id,

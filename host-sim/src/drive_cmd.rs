@@ -11,6 +11,7 @@ use crate::scene_file::{load, Resolved};
 use crate::trajectory::{Pose, Trajectory};
 use hilcam::control::{Command, Request, MAX_REQUEST, MAX_SCENE_CHUNK};
 use hilcam::link::{encode_message, FrameStart, Truth, PROTOCOL_VERSION};
+use hilcam::planner::Budget;
 use hilcam::Extrinsics;
 use serde::Serialize;
 use std::collections::{HashMap, VecDeque};
@@ -441,6 +442,12 @@ pub fn drive<W: Write>(
         ));
     }
     let mut scene = r.core_scene()?;
+    // The camera plans within the distortion table its frame holds; the
+    // host's render of its frames plans with the same budget.
+    let budget = Budget {
+        max_table_entries: d.max_table as usize,
+        ..Budget::default()
+    };
     let mut frames = Vec::new();
     let (mut lost, mut out_of_order, mut late) = (0, 0, 0);
     let mut next_id = d.next_frame;
@@ -487,7 +494,7 @@ pub fn drive<W: Write>(
         let e =
             Extrinsics::from_matrix(pose.rotation, pose.translation).map_err(|e| format!("pose {k}: {e}"))?;
         scene.set_pose(e).map_err(|e| format!("pose {k}: {e}"))?;
-        let (host, stages) = planned_frame(&scene, &r.desc.name, f.start.frame_id)?;
+        let (host, stages) = planned_frame(&scene, &r.desc.name, &budget, f.start.frame_id)?;
         let want = FrameStart::of(
             f.start.frame_id,
             d.scene_id,

@@ -246,14 +246,15 @@ pub fn prepare_scene<S: Scalar>(
 }
 
 /// The default path's frame `frame_id` of a core scene (the planner's
-/// choice, lines in parallel): what a camera sends for that scene and
-/// frame, and the stages it ran.
+/// choice within `budget`, lines in parallel): what a camera planning
+/// within `budget` sends for that scene and frame, and the stages it ran.
 pub fn planned_frame(
     scene: &hilcam::scene::Scene,
     name: &str,
+    budget: &Budget,
     frame_id: u32,
 ) -> Result<(Collect, hilcam::render::Stages), String> {
-    let (_, mut frame) = prepare_scene::<hilcam::scalar::I32F32>(scene, name, &Budget::default(), |o| o)?;
+    let (_, mut frame) = prepare_scene::<hilcam::scalar::I32F32>(scene, name, budget, |o| o)?;
     frame.set_frame_id(frame_id);
     let core = collect(&frame).map_err(|e| format!("{name}: {e}"))?;
     Ok((core, frame.stages()))

@@ -477,6 +477,7 @@ pub fn command_example() -> Result<String, String> {
         next_frame: 1,
         max_request: hilcam::control::MAX_REQUEST as u32,
         max_scene: hilcam::scene_data::MAX_SCENE_DATA as u32,
+        max_table: hilcam::distortion::MAX_LUT as u32,
     })
     .map_err(|e| format!("{e:?}"))?;
     let rec = enc.into_inner();

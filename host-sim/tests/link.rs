@@ -408,7 +408,7 @@ fn streamed(scene_text: &str) -> (Vec<u8>, Vec<u8>, Recorder) {
     frame
         .render(&mut line, &mut flags, &mut Stream { enc: &mut enc, start })
         .expect("renders");
-    let host = host_sim::harness::planned_frame(&scene, "s", 0)
+    let host = host_sim::harness::planned_frame(&scene, "s", &hilcam::planner::Budget::default(), 0)
         .expect("host render")
         .0;
     (host.pixels, host.flags, enc.into_inner())
