@@ -112,10 +112,21 @@ fn main() {
         code,
         "/// Most distortion-table entries any scene's variant renders with.\npub const TABLE: usize = {table};"
     );
-    let needs_plan = variants.iter().any(Variant::needs_plan);
+    // Each scene's plan (the core's planner, run here on the host with the
+    // default budget, as host-sim plans the frames it compares): the
+    // firmware renders it and holds no planner.
+    let plans: Vec<String> = resolved
+        .iter()
+        .map(|r| {
+            let scene = r.core_scene().unwrap_or_else(|e| panic!("{}: {e}", r.desc.name));
+            options_literal(&hilcam::planner::plan(&scene, &hilcam::planner::Budget::default()).options)
+        })
+        .collect();
     let _ = writeln!(
         code,
-        "/// Some variant takes the planner's arithmetic or distortion choice.\npub const NEEDS_PLAN: bool = {needs_plan};"
+        "/// Each scene's plan (the core's planner, run at build time), in scene-id order.\npub const PLANS: [Options; {}] = [\n    {}\n];",
+        plans.len(),
+        plans.join(",\n    ")
     );
     let names: Vec<String> = variants.iter().map(Variant::name).collect();
     let _ = writeln!(
@@ -138,4 +149,25 @@ fn main() {
     }
     let _ = writeln!(code, "        _ => Err(\"no such variant\"),\n    }}\n}}");
     std::fs::write(out.join("scenes.rs"), code).expect("scenes.rs");
+}
+
+/// `o` as a Rust expression (every field of `Options` is public).
+fn options_literal(o: &hilcam::render::Options) -> String {
+    use hilcam::render::RenderModel;
+    let model = match o.model {
+        RenderModel::Perspective => "RenderModel::Perspective".to_string(),
+        RenderModel::WeakPerspective { mean_depth } => format!(
+            "RenderModel::WeakPerspective {{ mean_depth: hilcam::num::Len::from_bits({}) }}",
+            mean_depth.to_bits()
+        ),
+        RenderModel::Orthographic { scale } => format!(
+            "RenderModel::Orthographic {{ scale: hilcam::num::Norm::from_bits({}) }}",
+            scale.to_bits()
+        ),
+    };
+    format!(
+        "Options {{ model: {model}, lut_entries: {}, distortion_eval: DistortionEval::{:?}, keep_all_stages: {}, \
+         arithmetic: Arithmetic::{:?}, samples: {}, adaptive: {}, aperture: {} }}",
+        o.lut_entries, o.distortion_eval, o.keep_all_stages, o.arithmetic, o.samples, o.adaptive, o.aperture
+    )
 }

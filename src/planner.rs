@@ -213,12 +213,6 @@ pub const KEY_COST: f64 = 0.6;
 /// 454 151 and 1 807 816 instructions/pixel).
 pub const APERTURE_COST: (f64, f64) = (0.316, 0.754);
 
-/// The ray model alone (the first step of [`plan`]): what a caller that
-/// forces the arithmetic and the distortion evaluation still needs.
-pub fn ray_model(scene: &Scene, budget: &Budget) -> RenderModel {
-    ray_model_and_bound(scene, budget).0
-}
-
 fn ray_model_and_bound(scene: &Scene, budget: &Budget) -> (RenderModel, Option<(f64, Len)>) {
     let half = budget.max_geom_err_px / 2.0;
     let wp = weak_perspective_over_scene(scene);

@@ -15,7 +15,7 @@ mod board;
 
 #[allow(clippy::all, unused_imports, dead_code)]
 mod scenes {
-    use hilcam::render::{DistortionEval, Options, Override};
+    use hilcam::render::{Arithmetic, DistortionEval, Options, Override, RenderModel};
     include!(concat!(env!("OUT_DIR"), "/scenes.rs"));
 }
 
@@ -41,10 +41,11 @@ const TABLE: usize = 0;
 const TABLE: usize = scenes::TABLE;
 
 /// The planner's budget: the default, within the frame's table.
-fn budget() -> Budget {
-    Budget {
+#[cfg(feature = "camera")]
+fn budget() -> hilcam::planner::Budget {
+    hilcam::planner::Budget {
         max_table_entries: TABLE,
-        ..Budget::default()
+        ..hilcam::planner::Budget::default()
     }
 }
 
@@ -59,8 +60,6 @@ use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
 use hilcam::link::{Encoder, FrameStart, Stream};
-use hilcam::planner::Budget;
-use hilcam::planner::{plan, ray_model};
 use hilcam::render::{Frame, Options, Timed};
 use hilcam::scalar::Scalar;
 use hilcam::scene::Scene;
@@ -209,7 +208,9 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
         let Ok(scene) = &loaded else {
             fail("scene data");
         };
-        let opts = options(scene);
+        let Some(&opts) = scenes::PLANS.get(id) else {
+            fail("plan");
+        };
         // Names only in status lines (a build without them holds none).
         for v in 0..scenes::VARIANTS.len() {
             let mut run = Run {
@@ -304,17 +305,13 @@ mod camera {
     }
 }
 
-/// The planner's choice; a firmware whose variants all force the
-/// arithmetic and the distortion evaluation needs only its ray model (and
-/// leaves the rest of the planner out of flash). Out of line: the planner's
-/// working state (4 KB) is not held while the frame renders.
+/// The planner's choice for a scene the camera was sent. Out of line: the
+/// planner's working state is not held while the frame renders. (The
+/// sweep's scenes are planned at build time: `scenes::PLANS`.)
+#[cfg(feature = "camera")]
 #[inline(never)]
 fn options(scene: &Scene) -> Options {
-    if scenes::NEEDS_PLAN {
-        plan(scene, &budget()).options
-    } else {
-        Options::new(ray_model(scene, &Budget::default()), 2).with_scene_sampling(scene)
-    }
+    hilcam::planner::plan(scene, &budget()).options
 }
 
 /// Renders a scene in a chosen scalar type and streams the frame.

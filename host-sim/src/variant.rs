@@ -191,18 +191,6 @@ impl Variant {
         Ok(Variant { scalar, over })
     }
 
-    /// Whether it takes anything from the plan beyond the ray model: the
-    /// arithmetic (`planned`) or the distortion evaluation (`-planned`, and
-    /// the sample grids `-sN` and apertures `-apN`, which change only the
-    /// pattern).
-    pub fn needs_plan(&self) -> bool {
-        self.scalar.arithmetic().is_none()
-            || matches!(
-                self.over,
-                Override::Planned | Override::Samples { .. } | Override::Aperture { .. }
-            )
-    }
-
     /// The options this variant renders with, from the planned ones.
     pub fn options(&self, planned: Options) -> Options {
         let o = planned.with(self.over);
