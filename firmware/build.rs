@@ -97,17 +97,46 @@ fn main() {
     // The distortion table the frame holds: the most entries any scene's
     // variant renders with (0: none). Planning within that many gives the
     // plans the host makes with the default budget (their tables fit).
+    // The line loops the scenes' variants render with (arithmetic, ray
+    // model, channels): only those are compiled into the firmware.
     let mut table = 0usize;
+    let mut lines = std::collections::BTreeSet::new();
     for r in &resolved {
         for v in &variants {
             let budget = hilcam::planner::Budget::default();
             if let Ok((_, _, f)) =
                 host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| v.options(o))
             {
-                table = table.max(f.stages().distortion_lut.unwrap_or(0));
+                let st = f.stages();
+                table = table.max(st.distortion_lut.unwrap_or(0));
+                let perspective = matches!(st.model, hilcam::render::RenderModel::Perspective);
+                let rgb = r.format == hilcam::scene::PixelFormat::Rgb565;
+                lines.insert(match (st.arithmetic, rgb, perspective) {
+                    (hilcam::render::Arithmetic::Fast, false, true) => "FAST_GRAY_PERSPECTIVE",
+                    (hilcam::render::Arithmetic::Fast, true, true) => "FAST_RGB_PERSPECTIVE",
+                    (hilcam::render::Arithmetic::Fast, false, false) => "FAST_GRAY_PARALLEL",
+                    (hilcam::render::Arithmetic::Fast, true, false) => "FAST_RGB_PARALLEL",
+                    (hilcam::render::Arithmetic::Wide, _, true) => "WIDE_PERSPECTIVE",
+                    (hilcam::render::Arithmetic::Wide, _, false) => "WIDE_PARALLEL",
+                });
             }
         }
     }
+    let _ = writeln!(
+        code,
+        "/// The line loops the scenes' variants render with; the others are left out.\npub struct Built;\nimpl hilcam::render::Lines for Built {{"
+    );
+    for l in [
+        "FAST_GRAY_PERSPECTIVE",
+        "FAST_RGB_PERSPECTIVE",
+        "FAST_GRAY_PARALLEL",
+        "FAST_RGB_PARALLEL",
+        "WIDE_PERSPECTIVE",
+        "WIDE_PARALLEL",
+    ] {
+        let _ = writeln!(code, "    const {l}: bool = {};", lines.contains(l));
+    }
+    let _ = writeln!(code, "}}");
     let _ = writeln!(
         code,
         "/// Most distortion-table entries any scene's variant renders with.\npub const TABLE: usize = {table};"

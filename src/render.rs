@@ -184,6 +184,33 @@ impl DistortionEval {
     }
 }
 
+/// The line loops a renderer is compiled with: one per arithmetic, ray
+/// model and (fast arithmetic) channel count. A loop whose constant is
+/// `false` is left out of the build, and a frame that needs it is refused
+/// ([`RenderError::NotBuilt`]). A firmware whose scenes are planned at build
+/// time lists the loops their plans use (`firmware/build.rs`); everything
+/// else renders with [`AllLines`].
+pub trait Lines {
+    /// Fast arithmetic, one channel (Gray8, Gray16), perspective rays.
+    const FAST_GRAY_PERSPECTIVE: bool = true;
+    /// Fast arithmetic, RGB565, perspective rays.
+    const FAST_RGB_PERSPECTIVE: bool = true;
+    /// Fast arithmetic, one channel, parallel rays (weak perspective,
+    /// orthographic).
+    const FAST_GRAY_PARALLEL: bool = true;
+    /// Fast arithmetic, RGB565, parallel rays.
+    const FAST_RGB_PARALLEL: bool = true;
+    /// Wide arithmetic, perspective rays (defocus's aperture rays too).
+    const WIDE_PERSPECTIVE: bool = true;
+    /// Wide arithmetic, parallel rays.
+    const WIDE_PARALLEL: bool = true;
+}
+
+/// Every line loop.
+pub struct AllLines;
+
+impl Lines for AllLines {}
+
 /// What the renderer is told to do (the planner's choice).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Options {
@@ -367,7 +394,8 @@ pub enum RenderError {
     /// defocus) or values beyond its formats.
     OutsideFormat,
     /// The frame needs pixel-area sampling, defocus or sensor noise, and
-    /// the core's `sensor` feature is off.
+    /// the core's `sensor` feature is off; or its line loop is not among
+    /// those the renderer was built with ([`Lines`]).
     NotBuilt,
     /// The distortion table asked for has more entries than the frame holds
     /// (its `T`).
@@ -847,19 +875,50 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     /// Renders line `j` into `pixels` (at least [`Frame::line_bytes`]) and
     /// `flags` (at least the width).
     pub fn render_line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
+        self.render_line_with::<AllLines>(j, pixels, flags)
+    }
+
+    /// Whether this frame's line loop is one of `L`'s.
+    pub fn line_built<L: Lines>(&self) -> bool {
+        match &self.path {
+            #[cfg(feature = "mix32")]
+            Path::Fast(m) => m.line_built::<L>(),
+            Path::Wide(_) if matches!(self.stages.model, RenderModel::Perspective) => L::WIDE_PERSPECTIVE,
+            Path::Wide(_) => L::WIDE_PARALLEL,
+        }
+    }
+
+    /// [`Frame::render_line`] with only `L`'s line loops compiled in:
+    /// [`RenderError::NotBuilt`] for a frame whose loop is not one of them.
+    pub fn render_line_with<L: Lines>(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+    ) -> Result<(), RenderError> {
         if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
             return Err(RenderError::BufferTooSmall);
         }
-        // Per-frame dispatch to one of the three loops.
+        if !self.line_built::<L>() {
+            return Err(RenderError::NotBuilt);
+        }
+        // Per-frame dispatch to one of the loops; those `L` leaves out are
+        // not compiled in.
         match &self.path {
             #[cfg(feature = "mix32")]
-            Path::Fast(m) => m.line(j, pixels, flags),
+            Path::Fast(m) => m.line::<L>(j, pixels, flags),
             // Through the aperture, a sample's chief ray is a pinhole ray:
             // one loop for both (a third copy would cost flash).
             Path::Wide(w) if matches!(self.stages.model, RenderModel::Perspective) => {
-                w.line::<PINHOLE>(j, pixels, flags)
+                if L::WIDE_PERSPECTIVE {
+                    w.line::<PINHOLE>(j, pixels, flags)
+                }
             }
-            Path::Wide(w) => w.line::<PARALLEL>(j, pixels, flags),
+            Path::Wide(w) => {
+                if L::WIDE_PARALLEL {
+                    w.line::<PARALLEL>(j, pixels, flags)
+                }
+            }
         }
         Ok(())
     }
@@ -871,6 +930,21 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         flags: &mut [u8],
         sink: &mut K,
     ) -> Result<(), FrameError<K::Error>> {
+        self.render_with::<AllLines, K>(pixels, flags, sink)
+    }
+
+    /// [`Frame::render`] with only `L`'s line loops compiled in: a frame
+    /// whose loop is not one of them is refused
+    /// ([`RenderError::NotBuilt`]) before the sink sees it.
+    pub fn render_with<L: Lines, K: FrameSink>(
+        &self,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        sink: &mut K,
+    ) -> Result<(), FrameError<K::Error>> {
+        if !self.line_built::<L>() {
+            return Err(FrameError::Render(RenderError::NotBuilt));
+        }
         let info = FrameInfo {
             width: self.width,
             height: self.height,
@@ -878,7 +952,8 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         };
         sink.begin(&info).map_err(FrameError::Sink)?;
         for j in 0..self.height {
-            self.render_line(j, pixels, flags).map_err(FrameError::Render)?;
+            self.render_line_with::<L>(j, pixels, flags)
+                .map_err(FrameError::Render)?;
             let n = self.line_bytes();
             let (p, f) = (pixels.get(..n), flags.get(..self.width as usize));
             if let (Some(p), Some(f)) = (p, f) {

@@ -285,3 +285,68 @@ fn parallel_host_render_is_byte_identical_with_one_core() {
         }
     }
 }
+
+/// A renderer built with some line loops only (as a firmware is, with
+/// those its scenes' plans use: `render::Lines`, `firmware/build.rs`)
+/// renders frames of those bit for bit as with every loop, and refuses
+/// another frame before its sink sees any of it.
+#[test]
+fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
+    use hilcam::render::{Arithmetic, FrameError, FrameInfo, Lines};
+    struct GrayPerspective;
+    impl Lines for GrayPerspective {
+        const FAST_RGB_PERSPECTIVE: bool = false;
+        const FAST_GRAY_PARALLEL: bool = false;
+        const FAST_RGB_PARALLEL: bool = false;
+        const WIDE_PERSPECTIVE: bool = false;
+        const WIDE_PARALLEL: bool = false;
+    }
+    #[derive(Default)]
+    struct Seen {
+        begun: bool,
+        bytes: Vec<u8>,
+    }
+    impl FrameSink for Seen {
+        type Error = ();
+        fn begin(&mut self, _: &FrameInfo) -> Result<(), ()> {
+            self.begun = true;
+            Ok(())
+        }
+        fn line(&mut self, _: u16, pixels: &[u8], _: &[u8]) -> Result<(), ()> {
+            self.bytes.extend_from_slice(pixels);
+            Ok(())
+        }
+    }
+    let s = scene("standard").core_scene().expect("valid");
+    let p = plan(&s, &Budget::default());
+    assert_eq!(
+        p.options.arithmetic,
+        Arithmetic::Fast,
+        "the standard scene plans fast"
+    );
+    let (mut line, mut flags) = (vec![0u8; 160], vec![0u8; 160]);
+    let fast = Frame::new(&s, &p.options).expect("frame");
+    assert!(fast.line_built::<GrayPerspective>());
+    let (mut all, mut some) = (Seen::default(), Seen::default());
+    fast.render(&mut line, &mut flags, &mut all).expect("renders");
+    fast.render_with::<GrayPerspective, _>(&mut line, &mut flags, &mut some)
+        .expect("renders with its loop alone");
+    assert_eq!(all.bytes.len(), 160 * 120);
+    assert_eq!(all.bytes, some.bytes);
+
+    let wide = Frame::new(&s, &p.options.with_arithmetic(Arithmetic::Wide)).expect("frame");
+    assert!(!wide.line_built::<GrayPerspective>());
+    let mut refused = Seen::default();
+    assert!(matches!(
+        wide.render_with::<GrayPerspective, _>(&mut line, &mut flags, &mut refused),
+        Err(FrameError::Render(RenderError::NotBuilt))
+    ));
+    assert!(
+        !refused.begun && refused.bytes.is_empty(),
+        "nothing reached the sink"
+    );
+    assert_eq!(
+        wide.render_line_with::<GrayPerspective>(0, &mut line, &mut flags),
+        Err(RenderError::NotBuilt)
+    );
+}

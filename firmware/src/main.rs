@@ -49,6 +49,13 @@ fn budget() -> hilcam::planner::Budget {
     }
 }
 
+/// The line loops compiled in: those the held scenes' plans use (the
+/// others cost flash and never run); a driven camera, every one.
+#[cfg(not(feature = "camera"))]
+use scenes::Built;
+#[cfg(feature = "camera")]
+use hilcam::render::AllLines as Built;
+
 /// Longest line, bytes (two bytes a pixel at most).
 #[cfg(feature = "camera")]
 const MAX_LINE_BYTES: usize = 2 * MAX_WIDTH;
@@ -359,7 +366,7 @@ impl Runner for Run<'_> {
         // adapter around the link's sink.
         let mut sink = Timed::new(Stream { enc: self.enc, start }, ticks, instructions, prepare);
         frame
-            .render(self.line, self.flags, &mut sink)
+            .render_with::<Built, _>(self.line, self.flags, &mut sink)
             .map_err(|_| "render")?;
         Ok(sink.cost())
     }
