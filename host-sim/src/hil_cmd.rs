@@ -152,9 +152,14 @@ pub fn build_firmware_as(
                 .map_err(|e| format!("{}: {e}", p.display()))
         })
         .collect::<Result<_, _>>()?;
+    // The driven camera on the M0 is built for size: it plans on the device
+    // and keeps every line loop, and at opt-level 3 it is 4 348 B over the
+    // micro:bit's 256 KiB of flash (212 700 B at opt-level s).
+    let size = (camera && board == Board::Microbit).then_some(("CARGO_PROFILE_RELEASE_OPT_LEVEL", "s"));
     let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(&dir)
         .envs(caps.iter().map(|(k, v)| (k, v.to_string())))
+        .envs(size)
         .env("HILCAM_SCENES", list.join("\n"))
         .env(
             "HILCAM_VARIANTS",
