@@ -107,18 +107,8 @@ fn main() {
             if let Ok((_, _, f)) =
                 host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| v.options(o))
             {
-                let st = f.stages();
-                table = table.max(st.distortion_lut.unwrap_or(0));
-                let perspective = matches!(st.model, hilcam::render::RenderModel::Perspective);
-                let rgb = r.format == hilcam::scene::PixelFormat::Rgb565;
-                lines.insert(match (st.arithmetic, rgb, perspective) {
-                    (hilcam::render::Arithmetic::Fast, false, true) => "FAST_GRAY_PERSPECTIVE",
-                    (hilcam::render::Arithmetic::Fast, true, true) => "FAST_RGB_PERSPECTIVE",
-                    (hilcam::render::Arithmetic::Fast, false, false) => "FAST_GRAY_PARALLEL",
-                    (hilcam::render::Arithmetic::Fast, true, false) => "FAST_RGB_PARALLEL",
-                    (hilcam::render::Arithmetic::Wide, _, true) => "WIDE_PERSPECTIVE",
-                    (hilcam::render::Arithmetic::Wide, _, false) => "WIDE_PARALLEL",
-                });
+                table = table.max(f.stages().distortion_lut.unwrap_or(0));
+                lines.insert(f.line_loop());
             }
         }
     }
@@ -126,15 +116,8 @@ fn main() {
         code,
         "/// The line loops the scenes' variants render with; the others are left out.\npub struct Built;\nimpl hilcam::render::Lines for Built {{"
     );
-    for l in [
-        "FAST_GRAY_PERSPECTIVE",
-        "FAST_RGB_PERSPECTIVE",
-        "FAST_GRAY_PARALLEL",
-        "FAST_RGB_PARALLEL",
-        "WIDE_PERSPECTIVE",
-        "WIDE_PARALLEL",
-    ] {
-        let _ = writeln!(code, "    const {l}: bool = {};", lines.contains(l));
+    for l in hilcam::render::LineLoop::ALL {
+        let _ = writeln!(code, "    const {}: bool = {};", l.constant(), lines.contains(&l));
     }
     let _ = writeln!(code, "}}");
     let _ = writeln!(

@@ -58,7 +58,7 @@
 
 use crate::num::{umul16, ARMV6M};
 use crate::render::from_acc;
-use crate::render::{Lines, RenderError, FLAG_OUTSIDE_FIELD};
+use crate::render::{LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::scalar::shr_sat;
 use crate::scene::{PixelFormat, Q};
 use crate::shading::{Brdf, ShadingLight, V3};
@@ -1367,28 +1367,27 @@ impl Mix32 {
     /// Only `L`'s loops are compiled in; a line of another is left as it
     /// is ([`crate::render::Frame::render_with`] refuses such a frame first).
     pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
-        match self.kernel() {
-            (false, true) if L::FAST_GRAY_PERSPECTIVE => self.line_f::<1, true>(j, pixels, flags),
-            (true, true) if L::FAST_RGB_PERSPECTIVE => self.line_f::<3, true>(j, pixels, flags),
-            (false, false) if L::FAST_GRAY_PARALLEL => self.line_f::<1, false>(j, pixels, flags),
-            (true, false) if L::FAST_RGB_PARALLEL => self.line_f::<3, false>(j, pixels, flags),
+        match self.line_loop() {
+            LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
+                self.line_f::<1, true>(j, pixels, flags)
+            }
+            LineLoop::FastRgbPerspective if L::FAST_RGB_PERSPECTIVE => {
+                self.line_f::<3, true>(j, pixels, flags)
+            }
+            LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => self.line_f::<1, false>(j, pixels, flags),
+            LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => self.line_f::<3, false>(j, pixels, flags),
             _ => {}
         }
     }
 
-    /// Whether this frame's loop is one of `L`'s.
-    pub fn line_built<L: Lines>(&self) -> bool {
-        match self.kernel() {
-            (false, true) => L::FAST_GRAY_PERSPECTIVE,
-            (true, true) => L::FAST_RGB_PERSPECTIVE,
-            (false, false) => L::FAST_GRAY_PARALLEL,
-            (true, false) => L::FAST_RGB_PARALLEL,
+    /// The loop this frame's lines are rendered by.
+    pub fn line_loop(&self) -> LineLoop {
+        match (self.format == PixelFormat::Rgb565, self.parallel.is_none()) {
+            (false, true) => LineLoop::FastGrayPerspective,
+            (true, true) => LineLoop::FastRgbPerspective,
+            (false, false) => LineLoop::FastGrayParallel,
+            (true, false) => LineLoop::FastRgbParallel,
         }
-    }
-
-    /// The frame's loop: (RGB565, perspective rays).
-    fn kernel(&self) -> (bool, bool) {
-        (self.format == PixelFormat::Rgb565, self.parallel.is_none())
     }
 
     /// [`Mix32::line`] for `C` channels, perspective or parallel rays: the

@@ -211,6 +211,61 @@ pub struct AllLines;
 
 impl Lines for AllLines {}
 
+/// A line loop: the arithmetic, the rays and, for the fast arithmetic, the
+/// channels ([`Lines`] has a constant for each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum LineLoop {
+    /// [`Lines::FAST_GRAY_PERSPECTIVE`].
+    FastGrayPerspective,
+    /// [`Lines::FAST_RGB_PERSPECTIVE`].
+    FastRgbPerspective,
+    /// [`Lines::FAST_GRAY_PARALLEL`].
+    FastGrayParallel,
+    /// [`Lines::FAST_RGB_PARALLEL`].
+    FastRgbParallel,
+    /// [`Lines::WIDE_PERSPECTIVE`].
+    WidePerspective,
+    /// [`Lines::WIDE_PARALLEL`].
+    WideParallel,
+}
+
+impl LineLoop {
+    /// Every loop.
+    pub const ALL: [LineLoop; 6] = [
+        LineLoop::FastGrayPerspective,
+        LineLoop::FastRgbPerspective,
+        LineLoop::FastGrayParallel,
+        LineLoop::FastRgbParallel,
+        LineLoop::WidePerspective,
+        LineLoop::WideParallel,
+    ];
+
+    /// Whether `L` compiles it in.
+    pub const fn built<L: Lines>(self) -> bool {
+        match self {
+            LineLoop::FastGrayPerspective => L::FAST_GRAY_PERSPECTIVE,
+            LineLoop::FastRgbPerspective => L::FAST_RGB_PERSPECTIVE,
+            LineLoop::FastGrayParallel => L::FAST_GRAY_PARALLEL,
+            LineLoop::FastRgbParallel => L::FAST_RGB_PARALLEL,
+            LineLoop::WidePerspective => L::WIDE_PERSPECTIVE,
+            LineLoop::WideParallel => L::WIDE_PARALLEL,
+        }
+    }
+
+    /// The name of its [`Lines`] constant (for code that lists a build's
+    /// loops, `firmware/build.rs`).
+    pub const fn constant(self) -> &'static str {
+        match self {
+            LineLoop::FastGrayPerspective => "FAST_GRAY_PERSPECTIVE",
+            LineLoop::FastRgbPerspective => "FAST_RGB_PERSPECTIVE",
+            LineLoop::FastGrayParallel => "FAST_GRAY_PARALLEL",
+            LineLoop::FastRgbParallel => "FAST_RGB_PARALLEL",
+            LineLoop::WidePerspective => "WIDE_PERSPECTIVE",
+            LineLoop::WideParallel => "WIDE_PARALLEL",
+        }
+    }
+}
+
 /// What the renderer is told to do (the planner's choice).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Options {
@@ -878,14 +933,21 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         self.render_line_with::<AllLines>(j, pixels, flags)
     }
 
-    /// Whether this frame's line loop is one of `L`'s.
-    pub fn line_built<L: Lines>(&self) -> bool {
+    /// The loop this frame's lines are rendered by.
+    pub fn line_loop(&self) -> LineLoop {
         match &self.path {
             #[cfg(feature = "mix32")]
-            Path::Fast(m) => m.line_built::<L>(),
-            Path::Wide(_) if matches!(self.stages.model, RenderModel::Perspective) => L::WIDE_PERSPECTIVE,
-            Path::Wide(_) => L::WIDE_PARALLEL,
+            Path::Fast(m) => m.line_loop(),
+            Path::Wide(_) if matches!(self.stages.model, RenderModel::Perspective) => {
+                LineLoop::WidePerspective
+            }
+            Path::Wide(_) => LineLoop::WideParallel,
         }
+    }
+
+    /// Whether this frame's line loop is one of `L`'s.
+    pub fn line_built<L: Lines>(&self) -> bool {
+        self.line_loop().built::<L>()
     }
 
     /// [`Frame::render_line`] with only `L`'s line loops compiled in:

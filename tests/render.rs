@@ -292,7 +292,7 @@ fn parallel_host_render_is_byte_identical_with_one_core() {
 /// another frame before its sink sees any of it.
 #[test]
 fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
-    use hilcam::render::{Arithmetic, FrameError, FrameInfo, Lines};
+    use hilcam::render::{Arithmetic, FrameError, FrameInfo, LineLoop, Lines};
     struct GrayPerspective;
     impl Lines for GrayPerspective {
         const FAST_RGB_PERSPECTIVE: bool = false;
@@ -326,6 +326,7 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
     );
     let (mut line, mut flags) = (vec![0u8; 160], vec![0u8; 160]);
     let fast = Frame::new(&s, &p.options).expect("frame");
+    assert_eq!(fast.line_loop(), LineLoop::FastGrayPerspective);
     assert!(fast.line_built::<GrayPerspective>());
     let (mut all, mut some) = (Seen::default(), Seen::default());
     fast.render(&mut line, &mut flags, &mut all).expect("renders");
@@ -335,6 +336,7 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
     assert_eq!(all.bytes, some.bytes);
 
     let wide = Frame::new(&s, &p.options.with_arithmetic(Arithmetic::Wide)).expect("frame");
+    assert_eq!(wide.line_loop(), LineLoop::WidePerspective);
     assert!(!wide.line_built::<GrayPerspective>());
     let mut refused = Seen::default();
     assert!(matches!(
