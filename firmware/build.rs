@@ -95,10 +95,9 @@ fn main() {
         _ => vec![Variant::PLANNED],
     };
     // The distortion table the frame holds: the most entries any scene's
-    // variant renders with (0: none). Planning within that many gives the
-    // plans the host makes with the default budget (their tables fit).
-    // The line loops the scenes' variants render with (arithmetic, ray
-    // model, channels): only those are compiled into the firmware.
+    // variant renders with (0: none), so that the plans made here with the
+    // default budget fit it. And the line loops those variants render
+    // with: only those are compiled into the firmware.
     let mut table = 0usize;
     let mut lines = std::collections::BTreeSet::new();
     for r in &resolved {

@@ -426,7 +426,7 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
     /// Builds scene `id` and checks that this camera can render it.
     #[inline(never)]
     pub fn scene(&self, id: u32) -> Result<Scene, (Reason, Fault)> {
-        let bytes = self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))?;
+        let bytes = self.encoding(id)?;
         // Built and checked in the value returned: no scene-sized copy.
         let mut scene = crate::scene_data::load_as(bytes, refusal);
         if let Ok(s) = &scene {
@@ -440,8 +440,12 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
     /// Builds scene `id`, checks it and shows it in `shown`; refused, leaves
     /// `shown` as it was.
     fn show(&self, id: u32, shown: &mut Scene) -> Result<(), (Reason, Fault)> {
-        let bytes = self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))?;
-        self.replace(bytes, shown)
+        self.replace(self.encoding(id)?, shown)
+    }
+
+    /// The encoding of scene `id`, or the refusal naming `scene.id`.
+    fn encoding(&self, id: u32) -> Result<&[u8], (Reason, Fault)> {
+        self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))
     }
 
     /// Builds the scene encoded in `bytes` and checks it against this
@@ -450,9 +454,10 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
     /// stack frame, not in the camera loop's while it renders.
     #[inline(never)]
     fn replace(&self, bytes: &[u8], shown: &mut Scene) -> Result<(), (Reason, Fault)> {
-        // The one scene under construction: built, checked and moved from
-        // in place (through `Library::scene` it would be returned into a
-        // second scene-sized slot here: 1.4 KB more at the camera's peak).
+        // The one scene under construction: built, checked by reference and
+        // moved from in place. (Built as `Library::scene` builds, it would
+        // take a second scene-sized slot here: 1.4 KB more at the camera's
+        // peak, measured.)
         let next = crate::scene_data::load_as(bytes, refusal);
         let checked = match &next {
             Ok(s) => check::<T>(s, self.max_width).map_err(|f| (Reason::Unsupported, f)),

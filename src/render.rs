@@ -966,21 +966,18 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         }
         // Per-frame dispatch to one of the loops; those `L` leaves out are
         // not compiled in.
-        match &self.path {
+        match (&self.path, self.line_loop()) {
             #[cfg(feature = "mix32")]
-            Path::Fast(m) => m.line::<L>(j, pixels, flags),
+            (Path::Fast(m), _) => m.line::<L>(j, pixels, flags),
             // Through the aperture, a sample's chief ray is a pinhole ray:
             // one loop for both (a third copy would cost flash).
-            Path::Wide(w) if matches!(self.stages.model, RenderModel::Perspective) => {
-                if L::WIDE_PERSPECTIVE {
-                    w.line::<PINHOLE>(j, pixels, flags)
-                }
+            (Path::Wide(w), LineLoop::WidePerspective) if L::WIDE_PERSPECTIVE => {
+                w.line::<PINHOLE>(j, pixels, flags)
             }
-            Path::Wide(w) => {
-                if L::WIDE_PARALLEL {
-                    w.line::<PARALLEL>(j, pixels, flags)
-                }
+            (Path::Wide(w), LineLoop::WideParallel) if L::WIDE_PARALLEL => {
+                w.line::<PARALLEL>(j, pixels, flags)
             }
+            _ => {}
         }
         Ok(())
     }

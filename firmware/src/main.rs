@@ -40,15 +40,6 @@ const TABLE: usize = 0;
 #[cfg(not(feature = "camera"))]
 const TABLE: usize = scenes::TABLE;
 
-/// The planner's budget: the default, within the frame's table.
-#[cfg(feature = "camera")]
-fn budget() -> hilcam::planner::Budget {
-    hilcam::planner::Budget {
-        max_table_entries: TABLE,
-        ..hilcam::planner::Budget::default()
-    }
-}
-
 /// The line loops compiled in: those the held scenes' plans use (the
 /// others cost flash and never run); a driven camera, every one.
 #[cfg(not(feature = "camera"))]
@@ -312,13 +303,18 @@ mod camera {
     }
 }
 
-/// The planner's choice for a scene the camera was sent. Out of line: the
-/// planner's working state is not held while the frame renders. (The
-/// sweep's scenes are planned at build time: `scenes::PLANS`.)
+/// The planner's choice for a scene the camera was sent, with the default
+/// budget within the frame's table. Out of line: the planner's working
+/// state is not held while the frame renders. (The sweep's scenes are
+/// planned at build time: `scenes::PLANS`.)
 #[cfg(feature = "camera")]
 #[inline(never)]
 fn options(scene: &Scene) -> Options {
-    hilcam::planner::plan(scene, &budget()).options
+    let budget = hilcam::planner::Budget {
+        max_table_entries: TABLE,
+        ..hilcam::planner::Budget::default()
+    };
+    hilcam::planner::plan(scene, &budget).options
 }
 
 /// Renders a scene in a chosen scalar type and streams the frame.
