@@ -47,7 +47,10 @@
 //!
 //! Rays are perspective (from the origin along `(x̂, ŷ, 1)`) or parallel
 //! (weak perspective, orthographic: from `(o_x, o_y, 0)` along `(0, 0, 1)`,
-//! origins within 64 U). The normalized Phong lobe `max(0, r̂·v̂)^s` is a
+//! origins within 64 U). Parallel rays in a scene without a plane start on
+//! the plane `z = z₀` just in front of its content ([`parallel_start`]): what
+//! they see is the same, and `U` follows the content's depth, not its
+//! distance (a target 20 m away is resolved as finely as one at 1 m). The normalized Phong lobe `max(0, r̂·v̂)^s` is a
 //! [`Pf`] power by squaring, with `l̂` and `v̂` normalized to 2⁻²⁹
 //! (`rsqrt_fine`); its error grows with `s` times the hit point's
 //! 2⁻¹⁸ U rounding (the planner's error model accounts for it).
@@ -1076,6 +1079,95 @@ impl Input<'_> {
     }
 }
 
+/// `c` in a frame moved along the axis to `z = z0`, metres.
+fn at(c: V3, z0: Q) -> V3 {
+    [c[0], c[1], c[2].saturating_sub(z0)]
+}
+
+/// A primitive in the camera frame moved along the axis to `z = z0`
+/// (planes are never moved: [`parallel_start`]).
+fn ahead(mut p: crate::render::CamPrimQ, z0: Q) -> crate::render::CamPrimQ {
+    use crate::render::CamShapeQ as S;
+    if z0 == Q::ZERO {
+        return p;
+    }
+    match &mut p.shape {
+        S::Plane { .. } => {}
+        S::Sphere { c, .. } => *c = at(*c, z0),
+        S::Disc { n, dist, c, .. } | S::Rect { n, dist, c, .. } => {
+            *c = at(*c, z0);
+            *dist = crate::shading::dot(*n, *c);
+        }
+    }
+    if let Some(k) = &mut p.checker {
+        k.origin = at(k.origin, z0);
+    }
+    p
+}
+
+/// The largest distance of the content from the camera, and from the
+/// origin of the frame moved to `z = z0` (there, with parallel rays, 8
+/// times their origins' scale as well, so that the scale stays within
+/// 64 U), metres. One pass; inlined, so that its primitive shares the
+/// caller's stack slot.
+#[inline(always)]
+fn content_extent(f: &Input, z0: Q) -> (Q, Q) {
+    use crate::render::CamShapeQ as S;
+    let (mut here, mut moved) = (Q::ZERO, Q::ZERO);
+    let mut grow = |c: V3, r: Q| {
+        here = here.max(v_len(c).saturating_add(r));
+        moved = moved.max(v_len(at(c, z0)).saturating_add(r));
+    };
+    for p in f.prims() {
+        match p.shape {
+            // |n·c| (with a plane, z0 is 0).
+            S::Plane { dist, .. } => grow([Q::ZERO, Q::ZERO, dist], Q::ZERO),
+            S::Sphere { c, r2, .. } => grow(c, isqrt_q(r2)),
+            S::Disc { c, r2, .. } => grow(c, isqrt_q(r2)),
+            S::Rect { c, hu, hv, .. } => grow(c, hu.saturating_add(hv)),
+        }
+        if let Some(k) = &p.checker {
+            grow(k.origin, Q::ZERO);
+        }
+    }
+    for l in f.lights() {
+        if let ShadingLight::Point { p, .. } = l {
+            grow(p, Q::ZERO);
+        }
+    }
+    if let (Some(k), true) = (f.origin_scale, z0 > Q::ZERO) {
+        moved = moved.max(k >> 3);
+    }
+    (here, moved)
+}
+
+/// Where parallel rays may start along the axis, metres: the whole metre
+/// below the nearest point of every primitive (so nothing they meet lies
+/// behind it); 0 for perspective rays or a scene with a plane (unbounded in
+/// depth). [`Mix32::fill`] starts them there if the content's extent is
+/// then smaller. Inlined, as [`content_extent`].
+#[inline(always)]
+fn parallel_start(f: &Input) -> Q {
+    use crate::render::CamShapeQ as S;
+    if f.origin_scale.is_none() {
+        return Q::ZERO;
+    }
+    let mut near: Option<Q> = None;
+    for p in f.prims() {
+        let (c, reach) = match p.shape {
+            S::Plane { .. } => return Q::ZERO,
+            S::Sphere { c, r2, .. } | S::Disc { c, r2, .. } => (c, isqrt_q(r2)),
+            S::Rect { c, hu, hv, .. } => (c, hu.saturating_add(hv)),
+        };
+        let z = c[2].saturating_sub(reach);
+        near = Some(near.map_or(z, |n| n.min(z)));
+    }
+    // ⌈near⌉ − 1 < near.
+    near.map_or(Q::ZERO, |n| {
+        n.saturating_ceil().saturating_sub(Q::ONE).max(Q::ZERO)
+    })
+}
+
 #[inline(never)]
 fn v_len(v: V3) -> Q {
     // |v| ≤ 8.4·10⁶ m for scene content: √ of the I32F32 square sum in f64-free
@@ -1118,25 +1210,14 @@ impl Mix32 {
     pub(crate) fn fill(&mut self, f: &Input) -> Result<(), RenderError> {
         use crate::render::CamShapeQ as S;
         let bad = RenderError::OutsideFormat;
-        // The unit: content within 8 U.
-        let mut extent = Q::ZERO;
-        let mut grow = |v: Q| extent = extent.max(v.abs());
-        for p in f.prims() {
-            match p.shape {
-                S::Plane { dist, .. } => grow(dist),
-                S::Sphere { c, r2, .. } => grow(v_len(c).saturating_add(isqrt_q(r2))),
-                S::Disc { c, r2, .. } => grow(v_len(c).saturating_add(isqrt_q(r2))),
-                S::Rect { c, hu, hv, .. } => grow(v_len(c).saturating_add(hu).saturating_add(hv)),
-            }
-            if let Some(k) = &p.checker {
-                grow(v_len(k.origin));
-            }
-        }
-        for l in f.lights() {
-            if let ShadingLight::Point { p, .. } = l {
-                grow(v_len(p));
-            }
-        }
+        // The unit: content within 8 U of where the rays start.
+        let z0 = parallel_start(f);
+        let (here, moved) = content_extent(f, z0);
+        let (z0, extent) = if z0 > Q::ZERO && moved < here {
+            (z0, moved)
+        } else {
+            (Q::ZERO, here)
+        };
         // U = 2^e with extent ≤ 8 U, e in [−20, 20].
         let mut e: i32 = -20;
         while e < 20 && extent > shl_q(8, e) {
@@ -1153,6 +1234,7 @@ impl Mix32 {
         let prims = &mut self.prims;
         prims.clear();
         for p in f.prims() {
+            let p = ahead(p, z0);
             let shape = match p.shape {
                 S::Plane { n, dist } => MixShape::Plane {
                     n: u3(n),
@@ -1233,7 +1315,7 @@ impl Mix32 {
         for l in f.lights() {
             let m = match l {
                 ShadingLight::Point { p, i } => MixLight::Point {
-                    p: p.map(l18),
+                    p: at(p, z0).map(l18),
                     i: i.map(|v| {
                         let p = Pf::of_q(v);
                         Pf { e: p.e - 2 * e, ..p }

@@ -572,9 +572,11 @@ struct Geometry {
     slope: f64,
     /// Parallel rays' origin scale, metres (`None`: perspective).
     origin_scale: Option<f64>,
-    /// Content extent (primitives, point lights), metres, and the fast
+    /// Content extent (primitives, point lights) from the camera, and
+    /// from where the fast arithmetic's rays start, metres; that
     /// arithmetic's length unit `U = 2^e`.
     extent: f64,
+    fast_extent: f64,
     unit: f64,
     /// Per primitive: kind, camera-frame centre (or a point), distance of
     /// its centre, radius (spheres, discs; 0 otherwise), smallest length
@@ -694,8 +696,11 @@ impl Geometry {
         };
         let cam_pt = |p: crate::WorldPoint| cam_point(scene, p);
         let cam_dir = |d: [crate::Norm; 3]| cam_direction(scene, d);
-        let mut extent: f64 = 0.0;
         let mut prims = heapless::Vec::new();
+        // Per primitive, for the extents: camera-frame centre, how far its
+        // points lie from it (None: a plane, at |n·c|), and a checker.
+        let mut reaches: heapless::Vec<([f64; 3], Option<f64>, bool), { crate::scene::MAX_PRIMITIVES }> =
+            heapless::Vec::new();
         let mat = |i: u8| scene.materials.get(i as usize);
         for p in &scene.primitives {
             let (c, n, r, mut smallest, reach) = match p.shape {
@@ -737,7 +742,16 @@ impl Geometry {
                     (c, n, r, f64::INFINITY, norm3(c) + a + b)
                 }
             };
-            extent = extent.max(reach);
+            let around = match p.shape {
+                Shape::Plane { .. } => None,
+                Shape::Rectangle { half, .. } => Some(half[0].to_num::<f64>() + half[1].to_num::<f64>()),
+                _ => Some(r),
+            };
+            let _ = reaches.push((
+                if around.is_some() { c } else { [0.0, 0.0, reach] },
+                around,
+                p.checker.is_some(),
+            ));
             let mut kd: f64 = 0.0;
             let mut ks: f64 = 0.0;
             let mut exponent = 0;
@@ -757,7 +771,6 @@ impl Geometry {
             if let Some(k) = &p.checker {
                 take(mat(k.material));
                 smallest = smallest.min(k.cell.to_num::<f64>());
-                extent = extent.max(norm3(c));
             }
             let _ = prims.push(PrimGeom {
                 shape: p.shape,
@@ -773,18 +786,46 @@ impl Geometry {
         let mut lights = heapless::Vec::new();
         for l in &scene.lights {
             let p = match *l {
-                Light::Point { position, .. } => {
-                    let p = cam_pt(position);
-                    extent = extent.max(norm3(p));
-                    Some(p)
-                }
+                Light::Point { position, .. } => Some(cam_pt(position)),
                 Light::Directional { .. } => None,
             };
             let _ = lights.push(p);
         }
+        // The content's extent from where the rays start, z = z0 (the
+        // fast path's `mix32::parallel_start` and `content_extent`).
+        let extent_at = |z0: f64| {
+            let at = |c: [f64; 3]| norm3([c[0], c[1], c[2] - z0]);
+            let mut e = match origin_scale {
+                Some(k) if z0 > 0.0 => k / 8.0,
+                _ => 0.0,
+            };
+            for (c, around, checker) in &reaches {
+                e = e.max(match around {
+                    Some(r) => at(*c) + r,
+                    None => libm::fabs(c[2]),
+                });
+                if *checker {
+                    e = e.max(at(*c));
+                }
+            }
+            for p in lights.iter().flatten() {
+                e = e.max(at(*p));
+            }
+            e
+        };
+        let extent = extent_at(0.0);
+        let near = (reaches.iter())
+            .map(|(c, around, _)| around.map_or(f64::NEG_INFINITY, |r| c[2] - r))
+            .fold(f64::INFINITY, f64::min);
+        let z0 = libm::ceil(near) - 1.0;
+        let fast_extent = if origin_scale.is_some() && near.is_finite() && z0 > 0.0 {
+            extent_at(z0).min(extent)
+        } else {
+            extent
+        };
         // U = 2^e, the smallest with the content within 8 U (e ≥ −20).
         let mut e = -20;
-        while e < 20 && extent > libm::ldexp(8.0, e) {
+        while e < 20 && fast_extent > libm::ldexp(8.0, e) {
             e += 1;
         }
         let lens = &cam.lens;
@@ -829,6 +870,7 @@ impl Geometry {
             slope,
             origin_scale,
             extent,
+            fast_extent,
             unit: libm::ldexp(1.0, e),
             prims,
             lights,
@@ -877,7 +919,7 @@ impl Geometry {
         if !cfg!(feature = "mix32") {
             return Err(Unfit::NotBuilt);
         }
-        if self.extent > libm::ldexp(8.0, 20) {
+        if self.fast_extent > libm::ldexp(8.0, 20) {
             return Err(Unfit::TooFar);
         }
         // 2^-10 U, with a margin for the rounding of the prepared values.
