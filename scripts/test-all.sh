@@ -61,6 +61,12 @@ for j in out/hil/lm3s6965evb/hil.json out/hil/mps2-an386/hil.json out/hil/microb
     { echo "$j: peak RAM over 16 KiB (or not measured)"; exit 1; }
 done
 
+echo "== no panic path in the default firmware (no core::panicking symbol in the ELF) on every board"
+for j in out/hil/lm3s6965evb/hil.json out/hil/mps2-an386/hil.json out/hil/microbit/hil.json; do
+  grep -q '"panic_symbols": \[\]' "$j" || { echo "$j: the firmware links a panic path:"; grep -A8 '"panic_symbols"' "$j"; exit 1; }
+done
+echo "none on lm3s6965evb, mps2-an386, microbit"
+
 echo "== the M0 within 3x the M3 on the standard scene (instructions/pixel under QEMU -icount, the default build)"
 m0=$(awk -F': ' '/^  "instructions_per_pixel"/ { gsub(",", "", $2); print $2 }' out/hil/microbit/hil.json)
 m3=$(awk -F': ' '/^  "instructions_per_pixel"/ { gsub(",", "", $2); print $2 }' out/hil/lm3s6965evb/hil.json)

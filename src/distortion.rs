@@ -60,8 +60,10 @@ impl Distortion {
                 return Err(Error::OutOfRange(Field::Distortion));
             }
         }
-        let k1f = Norm::from_num(k1);
-        let k2f = Norm::from_num(k2);
+        // Within K_RANGE: the checked conversions cannot fail (and keep a
+        // panic path out of the core).
+        let k1f = crate::num::from_f64::<Norm>(k1).ok_or(Error::OutOfRange(Field::Distortion))?;
+        let k2f = crate::num::from_f64::<Norm>(k2).ok_or(Error::OutOfRange(Field::Distortion))?;
         // The fold from the stored (rounded) coefficients, so that every user
         // of this value agrees with the LUT built from them.
         let (a, b) = (3.0 * k1f.to_num::<f64>(), 5.0 * k2f.to_num::<f64>());
@@ -69,7 +71,7 @@ impl Distortion {
         Ok(Distortion {
             k1: k1f,
             k2: k2f,
-            fold_u: fold.map(|u| Norm::checked_from_num(u).unwrap_or(Norm::MAX)),
+            fold_u: fold.map(|u| crate::num::from_f64::<Norm>(u).unwrap_or(Norm::MAX)),
         })
     }
 

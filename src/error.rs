@@ -172,7 +172,11 @@ pub(crate) fn in_range(x: f64, lo: f64, hi: f64, field: Field) -> Result<f64, Er
 }
 
 /// Checks a finite value and converts it to a storage format.
-pub(crate) fn to_fixed<T: fixed::traits::Fixed>(x: f64, field: Field) -> Result<T, Error> {
+pub(crate) fn to_fixed<T>(x: f64, field: Field) -> Result<T, Error>
+where
+    T: fixed::traits::Fixed,
+    T::Bits: TryFrom<i64>,
+{
     if !x.is_finite() {
         return Err(Error::NotFinite(field));
     }

@@ -293,7 +293,7 @@ impl Wide {
         let d = o.normalized(MUL_BITS);
         // Round half away from zero, on magnitudes (both fit in 126 bits).
         let (un, ud) = (n.mant.unsigned_abs(), d.mant.unsigned_abs());
-        let q = ((un + ud / 2) / ud) as i128;
+        let q = (un + ud / 2).checked_div(ud)? as i128;
         let negative = (n.mant < 0) != (d.mant < 0);
         Some(Wide {
             mant: if negative { -q } else { q },
@@ -455,17 +455,30 @@ pub fn quotient<T: Format>(n: Wide, d: Wide) -> Sat<T> {
     }
 }
 
-/// Converts a finite `f64` into a storage format; `None` if it is not finite
-/// or does not fit. For parameters converted once, at construction.
+/// Converts a finite `f64` into a storage format, rounding to the nearest
+/// (ties to even, as `fixed`'s `from_num`); `None` if it is not finite or
+/// does not fit. For parameters converted once, at construction. Written
+/// out so that no panic path comes with it (`fixed`'s float conversions
+/// keep one for NaN wherever they are not inlined).
 pub fn from_f64<T>(x: f64) -> Option<T>
 where
     T: fixed::traits::Fixed,
+    T::Bits: TryFrom<i64>,
 {
-    if x.is_finite() {
-        T::checked_from_num(x)
-    } else {
-        None
-    }
+    T::Bits::try_from(bits_from_f64(x, T::FRAC_NBITS)?)
+        .ok()
+        .map(T::from_bits)
+}
+
+/// `x 2^frac` rounded to the nearest integer (ties to even), if it is
+/// within `i64`. One shared copy: it runs at construction only.
+#[inline(never)]
+fn bits_from_f64(x: f64, frac: u32) -> Option<i64> {
+    // x 2^frac is exact (a power of two); rint rounds it to nearest-even.
+    let s = libm::rint(libm::ldexp(x, frac as i32));
+    // Within [−2⁶³, 2⁶³) (NaN and ±∞ fail the comparison).
+    const TOP: f64 = 9_223_372_036_854_775_808.0; // 2⁶³, exact
+    (-TOP..TOP).contains(&s).then_some(s as i64)
 }
 
 #[cfg(test)]
@@ -478,6 +491,44 @@ mod tests {
 
     fn val(x: Wide) -> f64 {
         x.narrow::<Len>().value.to_num::<f64>()
+    }
+
+    /// `from_f64` rounds as `fixed`'s checked conversion does (nearest,
+    /// ties to even) and refuses what does not fit, NaN and ±∞.
+    #[test]
+    fn from_f64_is_fixeds_checked_conversion() {
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut values = vec![
+            0.5,
+            1.5,
+            2.5,
+            -2.5,
+            2f64.powi(-41),
+            3.0 * 2f64.powi(-41),
+            32767.9999,
+            32768.0,
+            -32768.0,
+        ];
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let f = f64::from_bits(x);
+            if f.is_finite() {
+                values.push(f);
+                values.push(f % 40_000.0);
+                values.push((x >> 11) as f64 * 2f64.powi(-60) - 2048.0);
+            }
+        }
+        for v in values {
+            assert_eq!(from_f64::<Len>(v), Len::checked_from_num(v), "{v:e}");
+            assert_eq!(from_f64::<Norm>(v), Norm::checked_from_num(v), "{v:e}");
+            assert_eq!(from_f64::<Px>(v), Px::checked_from_num(v), "{v:e}");
+            assert_eq!(from_f64::<Rot>(v), Rot::checked_from_num(v), "{v:e}");
+        }
+        for v in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300] {
+            assert_eq!(from_f64::<Len>(v), None);
+        }
     }
 
     #[test]

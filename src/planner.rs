@@ -552,7 +552,7 @@ fn table_geom_err(scene: &Scene, g: &Geometry, entries: usize) -> f64 {
     let r_max = libm::sqrt(g.u_max);
     let frac = scene
         .distortion
-        .entry_frac_bits(crate::scene::Q::saturating_from_num(g.u_max));
+        .entry_frac_bits(crate::num::from_f64(g.u_max).unwrap_or(crate::scene::Q::MAX));
     let rounding = g.f_px * r_max * libm::ldexp(1.0, -(frac as i32 + 1)) + g.f_px * libm::ldexp(1.0, -31);
     g.f_px * r_max * scene.distortion.lut_interp_error(g.u_max, entries) + rounding
 }
@@ -1388,7 +1388,7 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
     }
     let min = CameraPoint::from_f64(lo).ok()?;
     let max = CameraPoint::from_f64(hi).ok()?;
-    let z_bar = Len::from_num((lo[2] + hi[2]) / 2.0);
+    let z_bar: Len = crate::num::from_f64((lo[2] + hi[2]) / 2.0)?;
     let bound = weak_perspective_bound(&scene.camera.intrinsics, DepthBox { min, max }, z_bar).ok()?;
     if bound.saturated {
         return None;

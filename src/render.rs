@@ -1799,7 +1799,12 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
         }
     };
     let ((x0, x1), (y0, y1)) = (widen(x0, x1), widen(y0, y1));
-    let q = Q::saturating_from_num;
+    // Finite here; a NaN would leave the primitive unbounded rather than
+    // panic in the conversion.
+    if [x0, x1, y0, y1].iter().any(|v| v.is_nan()) {
+        return None;
+    }
+    let q = |v: f64| crate::num::from_f64(v).unwrap_or(if v < 0.0 { Q::MIN } else { Q::MAX });
     Some([q(x0), q(x1), q(y0), q(y1)])
 }
 

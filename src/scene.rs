@@ -404,12 +404,20 @@ impl Check {
         }
     }
 
+    // The conversions cannot fail after the range check; checked, they keep
+    // a panic path out of the core all the same.
     fn q(&self, field: &'static str, v: f64, lo: f64, hi: f64) -> Result<Q, SceneError> {
-        Ok(Q::from_num(self.range(field, v, lo, hi)?))
+        crate::num::from_f64(self.range(field, v, lo, hi)?).ok_or(self.err(field, Problem::OutOfRange))
     }
 
     fn len(&self, field: &'static str, v: f64, lo: f64, hi: f64) -> Result<Len, SceneError> {
-        Ok(Len::from_num(self.range(field, v, lo, hi)?))
+        crate::num::from_f64(self.range(field, v, lo, hi)?).ok_or(self.err(field, Problem::OutOfRange))
+    }
+
+    /// A unit vector (from [`Check::unit_f64`]) in the stored format.
+    fn norm3(&self, field: &'static str, v: [f64; 3]) -> Result<[Norm; 3], SceneError> {
+        let n = |c: f64| crate::num::from_f64::<Norm>(c).ok_or(self.err(field, Problem::OutOfRange));
+        Ok([n(v[0])?, n(v[1])?, n(v[2])?])
     }
 
     fn point(&self, field: &'static str, p: [f64; 3]) -> Result<WorldPoint, SceneError> {
@@ -438,10 +446,6 @@ impl Check {
             self.q(field, c[2], 0.0, hi)?,
         ])
     }
-}
-
-fn norm3(v: [f64; 3]) -> [Norm; 3] {
-    v.map(Norm::from_num)
 }
 
 /// A checker texture as given: cell size and the `u` direction (projected
@@ -672,7 +676,7 @@ impl Scene {
                 (
                     Shape::Plane {
                         point: c.point("point", point)?,
-                        normal: norm3(n),
+                        normal: c.norm3("normal", n)?,
                     },
                     Some(n),
                 )
@@ -693,7 +697,7 @@ impl Scene {
                 (
                     Shape::Disc {
                         centre: c.point("centre", centre)?,
-                        normal: norm3(n),
+                        normal: c.norm3("normal", n)?,
                         radius: c.len("radius", radius, MIN_SIZE, MAX_EXTENT)?,
                     },
                     Some(n),
@@ -710,8 +714,8 @@ impl Scene {
                 (
                     Shape::Rectangle {
                         centre: c.point("centre", centre)?,
-                        u_axis: norm3(u),
-                        v_axis: norm3(v),
+                        u_axis: c.norm3("u_axis", u)?,
+                        v_axis: c.norm3("u_axis", v)?,
                         half: [
                             c.len("size", size[0] / 2.0, MIN_SIZE, MAX_EXTENT)?,
                             c.len("size", size[1] / 2.0, MIN_SIZE, MAX_EXTENT)?,
@@ -731,8 +735,8 @@ impl Scene {
                 let (u, v) = in_plane_axes(&c, "checker.u_axis", n, k.u_axis)?;
                 Some(Checker {
                     cell: c.len("checker.cell", k.cell, MIN_SIZE, MAX_EXTENT)?,
-                    u_axis: norm3(u),
-                    v_axis: norm3(v),
+                    u_axis: c.norm3("checker.u_axis", u)?,
+                    v_axis: c.norm3("checker.u_axis", v)?,
                     material: k.material,
                 })
             }
@@ -771,7 +775,7 @@ impl Scene {
         let i = self.lights.len() as u8;
         let c = Check { item: Item::Light(i) };
         let l = Light::Directional {
-            towards: norm3(c.unit_f64("direction", towards)?),
+            towards: c.norm3("direction", c.unit_f64("direction", towards)?)?,
             irradiance: c.colour("irradiance", irradiance, MAX_RADIOMETRIC)?,
         };
         self.lights

@@ -212,6 +212,20 @@ pub fn elf_sizes(elf: &Path) -> Result<(u64, u64), String> {
     Ok((flash, ram))
 }
 
+/// The symbols of `core::panicking` an ELF holds: its panic paths (0 when
+/// nothing linked into it can panic).
+pub fn elf_panic_symbols(elf: &Path) -> Result<Vec<String>, String> {
+    use object::{Object, ObjectSymbol};
+    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
+    Ok(file
+        .symbols()
+        .filter_map(|s| s.name().ok().map(str::to_string))
+        // Legacy mangling: `_ZN4core9panicking…`; v0: `…4core…9panicking…`.
+        .filter(|n| n.contains("9panicking"))
+        .collect())
+}
+
 /// QEMU's binary, if installed.
 pub fn qemu() -> Option<PathBuf> {
     std::env::var_os("PATH").and_then(|paths| {
@@ -312,6 +326,9 @@ pub struct HilReport {
     pub ram_peak_bytes: Option<u64>,
     /// Flash (vector table, code, read-only data, .data image), bytes.
     pub flash_bytes: u64,
+    /// The ELF's `core::panicking` symbols (its panic paths): none in the
+    /// default firmware.
+    pub panic_symbols: Vec<String>,
     /// Largest |firmware − reference| over all frames, LSB.
     pub max_abs_lsb: u32,
     /// Wall-clock seconds QEMU ran.
@@ -465,6 +482,7 @@ pub fn hil_variants(
         instructions_per_pixel: ipp_standard,
         ram_bytes: ram,
         flash_bytes: flash,
+        panic_symbols: elf_panic_symbols(&elf)?,
         max_abs_lsb: frames.iter().map(|f| f.max_abs_lsb).max().unwrap_or(0),
         qemu_seconds,
         frames,

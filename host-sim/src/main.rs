@@ -744,12 +744,13 @@ fn main() -> ExitCode {
             }
             s.push_str(&format!(
                 "{}: {} frames, bit_exact={}, standard scene {} instructions/pixel (QEMU -icount; not cycles), \
-                 flash {} B, static RAM {} B, peak stack {} B, max_abs_lsb {}",
+                 flash {} B ({} panic symbols), static RAM {} B, peak stack {} B, max_abs_lsb {}",
                 r.board,
                 r.frames.len(),
                 r.bit_exact,
                 r.instructions_per_pixel.map_or("-".into(), |v| format!("{v:.0}")),
                 r.flash_bytes,
+                r.panic_symbols.len(),
                 r.ram_bytes,
                 r.stack_peak_bytes.map_or("-".into(), |v| v.to_string()),
                 r.max_abs_lsb
