@@ -121,6 +121,55 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     }
 }
 
+/// I32F32 quotient, equal to `checked_div`'s (`(a 2³²) / b` rounded toward
+/// zero; `None` for a zero divisor or a quotient outside I32F32). Out of
+/// line, as [`mul_q`].
+///
+/// The library divides the 128-bit `a 2³²` by `b`, which on Cortex-M is a
+/// bit-by-bit loop (~1 300 instructions: there is no 128-bit division
+/// routine, so the compiler expands one). On magnitudes `n`, `d` this is
+/// `⌊n 2³² / d⌋ = ⌊n / d⌋ 2³² + ⌊r 2³² / d⌋` (`r = n mod d`): two 64-bit
+/// divisions, and for `d ≥ 2³²` an estimate of the second from `d`'s top
+/// 32 bits, at most two too large (Knuth's normalized digit estimate),
+/// corrected exactly.
+#[inline(never)]
+fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
+    let (x, y) = (a.to_bits(), b.to_bits());
+    let (n, d) = (x.unsigned_abs(), y.unsigned_abs());
+    if d == 0 {
+        return None;
+    }
+    let hi = n / d;
+    if hi > 1 << 31 {
+        return None;
+    }
+    let r = n % d;
+    let lo = if d >> 32 == 0 {
+        // r < d < 2³²: r 2³² fits.
+        (r << 32) / d
+    } else {
+        // Normalized: dn's top bit set, rn < dn. The estimate from the top
+        // 32 bits of dn is at most 2 above ⌊rn 2³² / dn⌋ (< 2³²).
+        let s = d.leading_zeros();
+        let (dn, rn) = (d << s, r << s);
+        let mut q = rn.checked_div(dn >> 32)?.min(0xFFFF_FFFF);
+        let t = (rn as u128) << 32;
+        let mut p = q as u128 * dn as u128;
+        while p > t {
+            q -= 1;
+            p -= dn as u128;
+        }
+        q
+    };
+    // |quotient| ≤ 2⁶³ + 2³² − 1: within I32F32 below 2⁶³, and at −2⁶³.
+    let m = (hi << 32) | lo;
+    match ((x < 0) != (y < 0), m) {
+        (false, m) if m < 1 << 63 => Some(I32F32::from_bits(m as i64)),
+        (true, m) if m <= 1 << 63 => Some(I32F32::from_bits((m as i64).wrapping_neg())),
+        _ => None,
+    }
+}
+
 /// One, with 63 fractional bits.
 const ONE63: u64 = 1 << 63;
 
@@ -152,6 +201,7 @@ macro_rules! fixed_scalar {
             $name,
             $mul,
             $div,
+            <$t>::checked_sqrt,
             $bits,
             $frac,
             $t,
@@ -159,7 +209,7 @@ macro_rules! fixed_scalar {
             Scalar::mul
         );
     };
-    ($t:ty, $name:literal, $mul:expr, $div:expr, $bits:ty, $frac:literal, $lobe_t:ty, $lobe:expr, $scale:expr) => {
+    ($t:ty, $name:literal, $mul:expr, $div:expr, $sqrt:expr, $bits:ty, $frac:literal, $lobe_t:ty, $lobe:expr, $scale:expr) => {
         impl Scalar for $t {
             const NAME: &'static str = $name;
             const ZERO: Self = <$t>::ZERO;
@@ -218,7 +268,7 @@ macro_rules! fixed_scalar {
             // use it grew every pixel loop.
             #[inline(never)]
             fn sqrt(self) -> Option<Self> {
-                self.checked_sqrt()
+                $sqrt(self)
             }
             #[inline(always)]
             fn abs(self) -> Self {
@@ -249,7 +299,8 @@ fixed_scalar!(
     I32F32,
     "i32f32",
     mul_q,
-    I32F32::checked_div,
+    div_q,
+    I32F32::checked_sqrt,
     i64,
     32,
     u64,
@@ -397,6 +448,38 @@ mod tests {
             ] {
                 let (p, q) = (I32F32::from_bits(p), I32F32::from_bits(q));
                 assert_eq!(mul_q(p, q), p.saturating_mul(q), "{p:?} * {q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn div_q_equals_the_fixed_crate() {
+        let mut next = spread_i32();
+        for _ in 0..300_000 {
+            let (a, b) = (next(), next());
+            let (s1, s2) = (next() as u32 & 63, next() as u32 & 63);
+            let (c, d) = (((a as i64) << (s1 & 31)) ^ b as i64, (b as i64) >> (s2 & 31));
+            let e = ((b as i64) << (s2 & 31)) ^ a as i64;
+            for (p, q) in [
+                (c, d),
+                (c, e),
+                (e, c),
+                (c, b as i64),
+                (c, 1),
+                (c, -1),
+                (c, (1 << 32) + d),
+                (i64::MIN, d),
+                (i64::MIN, 1 << 32),
+                (i64::MIN, -(1 << 32)),
+                (i64::MAX, 1 << 32),
+                (i64::MIN, -1),
+                (c, i64::MAX),
+                (c, i64::MIN),
+                (c, 0),
+                (c.wrapping_shr(s1), c.wrapping_shr(s2).wrapping_add(1)),
+            ] {
+                let (p, q) = (I32F32::from_bits(p), I32F32::from_bits(q));
+                assert_eq!(div_q(p, q), p.checked_div(q), "{p:?} / {q:?}");
             }
         }
     }
