@@ -82,7 +82,7 @@ pub enum Command<'a> {
         id: u32,
     },
     /// Tag 6: part of a scene to show: bytes `offset..offset + len` of a
-    /// [`SceneData`] encoding of `total` bytes (at most
+    /// [`SceneData`](crate::scene_data::SceneData) encoding of `total` bytes (at most
     /// `Description::max_scene`), sent in order from offset 0, each at most
     /// [`MAX_SCENE_CHUNK`] bytes. Offset 0 starts a new scene (dropping one
     /// partly received); the part that completes it has the scene decoded,
@@ -377,7 +377,7 @@ impl From<DataError> for Fault {
     }
 }
 
-/// The scenes a camera holds: built in (encoded [`SceneData`], e.g. in
+/// The scenes a camera holds: built in (encoded [`SceneData`](crate::scene_data::SceneData), e.g. in
 /// flash), then the last one loaded over the link into `N` bytes (at most
 /// [`crate::scene_data::MAX_SCENE_DATA`] are ever needed). Scene ids: the
 /// built-in ones from 0, the loaded one after them. A scene is checked

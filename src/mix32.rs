@@ -48,7 +48,7 @@
 //! Rays are perspective (from the origin along `(x̂, ŷ, 1)`) or parallel
 //! (weak perspective, orthographic: from `(o_x, o_y, 0)` along `(0, 0, 1)`,
 //! origins within 64 U). Parallel rays in a scene without a plane start on
-//! the plane `z = z₀` just in front of its content ([`parallel_start`]):
+//! the plane `z = z₀` just in front of its content (`parallel_start`):
 //! what they see is the same, and `U` follows the content's depth, not its
 //! distance (a target 20 m away is resolved as finely as one at 1 m). The
 //! normalized Phong lobe `max(0, r̂·v̂)^s` is a [`Pf`] power by squaring, with `l̂` and `v̂` normalized to 2⁻²⁹

@@ -57,7 +57,7 @@ pub(crate) const fn umul16(a: u32, b: u32) -> u64 {
 }
 
 /// `a · b mod 2⁶⁴` (the noise generator's hash): on the M0
-/// [`mul64_words`], elsewhere the one instruction sequence.
+/// `mul64_words`, elsewhere the one instruction sequence.
 #[inline(always)]
 pub const fn wrapping_mul64(a: u64, b: u64) -> u64 {
     if ARMV6M {
