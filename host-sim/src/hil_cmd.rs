@@ -182,11 +182,10 @@ pub fn build_firmware_as(
             String::from_utf8_lossy(&out.stderr)
         ));
     }
-    Ok(dir
-        .join("target")
-        .join(board.target())
-        .join("release")
-        .join("hilcam-firmware"))
+    // Where cargo put it: CARGO_TARGET_DIR (relative to firmware/, where
+    // cargo ran) if set, else firmware/target.
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| dir.join("target"), |t| dir.join(t));
+    Ok(target.join(board.target()).join("release").join("hilcam-firmware"))
 }
 
 /// Flash and static RAM of an ELF, bytes, from its sections: flash holds
