@@ -51,7 +51,8 @@
 //! the plane `z = z₀` just in front of its content (`parallel_start`):
 //! what they see is the same, and `U` follows the content's depth, not its
 //! distance (a target 20 m away is resolved as finely as one at 1 m). The
-//! normalized Phong lobe `max(0, r̂·v̂)^s` is a [`Pf`] power by squaring, with `l̂` and `v̂` normalized to 2⁻²⁹
+//! normalized Phong lobe `max(0, r̂·v̂)^s` is a [`Pf`] power by squaring,
+//! with `l̂` and `v̂` normalized to 2⁻²⁹
 //! (`rsqrt_fine`); its error grows with `s` times the hit point's
 //! 2⁻¹⁸ U rounding (the planner's error model accounts for it).
 //!
@@ -1105,6 +1106,19 @@ fn ahead(mut p: crate::render::CamPrimQ, z0: Q) -> crate::render::CamPrimQ {
     p
 }
 
+/// A bounded primitive's centre and how far its points lie from it (the
+/// radius; `hu + hv` for a rectangle); `None` for a plane. Inlined, as its
+/// callers.
+#[inline(always)]
+fn centre_and_reach(shape: &crate::render::CamShapeQ) -> Option<(V3, Q)> {
+    use crate::render::CamShapeQ as S;
+    match *shape {
+        S::Plane { .. } => None,
+        S::Sphere { c, r2, .. } | S::Disc { c, r2, .. } => Some((c, isqrt_q(r2))),
+        S::Rect { c, hu, hv, .. } => Some((c, hu.saturating_add(hv))),
+    }
+}
+
 /// The largest distance of the content from the camera, and from the
 /// origin of the frame moved to `z = z0` (there, with parallel rays, 8
 /// times their origins' scale as well, so that the scale stays within
@@ -1119,12 +1133,11 @@ fn content_extent(f: &Input, z0: Q) -> (Q, Q) {
         moved = moved.max(v_len(at(c, z0)).saturating_add(r));
     };
     for p in f.prims() {
-        match p.shape {
+        match (centre_and_reach(&p.shape), p.shape) {
+            (Some((c, r)), _) => grow(c, r),
             // |n·c| (with a plane, z0 is 0).
-            S::Plane { dist, .. } => grow([Q::ZERO, Q::ZERO, dist], Q::ZERO),
-            S::Sphere { c, r2, .. } => grow(c, isqrt_q(r2)),
-            S::Disc { c, r2, .. } => grow(c, isqrt_q(r2)),
-            S::Rect { c, hu, hv, .. } => grow(c, hu.saturating_add(hv)),
+            (None, S::Plane { dist, .. }) => grow([Q::ZERO, Q::ZERO, dist], Q::ZERO),
+            (None, _) => {}
         }
         if let Some(k) = &p.checker {
             grow(k.origin, Q::ZERO);
@@ -1148,16 +1161,13 @@ fn content_extent(f: &Input, z0: Q) -> (Q, Q) {
 /// then smaller. Inlined, as [`content_extent`].
 #[inline(always)]
 fn parallel_start(f: &Input) -> Q {
-    use crate::render::CamShapeQ as S;
     if f.origin_scale.is_none() {
         return Q::ZERO;
     }
     let mut near: Option<Q> = None;
     for p in f.prims() {
-        let (c, reach) = match p.shape {
-            S::Plane { .. } => return Q::ZERO,
-            S::Sphere { c, r2, .. } | S::Disc { c, r2, .. } => (c, isqrt_q(r2)),
-            S::Rect { c, hu, hv, .. } => (c, hu.saturating_add(hv)),
+        let Some((c, reach)) = centre_and_reach(&p.shape) else {
+            return Q::ZERO;
         };
         let z = c[2].saturating_sub(reach);
         near = Some(near.map_or(z, |n| n.min(z)));

@@ -595,6 +595,15 @@ struct Geometry {
     bounded_area: f64,
 }
 
+/// How far a primitive's points lie from the camera, in the camera frame:
+/// a plane's distance `|n·c|` (planes keep the rays at the camera), or a
+/// centre and a radius around it (`r`; `a + b` for a rectangle), metres.
+#[derive(Clone, Copy)]
+enum Reach {
+    Plane(f64),
+    Around([f64; 3], f64),
+}
+
 /// The coverage sample grid (columns, rows).
 const COVERAGE_GRID: (u32, u32) = (8, 6);
 
@@ -697,9 +706,9 @@ impl Geometry {
         let cam_pt = |p: crate::WorldPoint| cam_point(scene, p);
         let cam_dir = |d: [crate::Norm; 3]| cam_direction(scene, d);
         let mut prims = heapless::Vec::new();
-        // Per primitive, for the extents: camera-frame centre, how far its
-        // points lie from it (None: a plane, at |n·c|), and a checker.
-        let mut reaches: heapless::Vec<([f64; 3], Option<f64>, bool), { crate::scene::MAX_PRIMITIVES }> =
+        // Per primitive, for the extents: how far it reaches, and its
+        // checker's origin (the primitive's point or centre).
+        let mut reaches: heapless::Vec<(Reach, Option<[f64; 3]>), { crate::scene::MAX_PRIMITIVES }> =
             heapless::Vec::new();
         let mat = |i: u8| scene.materials.get(i as usize);
         for p in &scene.primitives {
@@ -708,12 +717,12 @@ impl Geometry {
                     let c = cam_pt(point);
                     let n = cam_dir(normal);
                     // The fast path holds the plane's distance n·c.
-                    (c, n, 0.0, f64::INFINITY, libm::fabs(dot3(n, c)))
+                    (c, n, 0.0, f64::INFINITY, Reach::Plane(libm::fabs(dot3(n, c))))
                 }
                 Shape::Sphere { centre, radius } => {
                     let c = cam_pt(centre);
                     let r = radius.to_num::<f64>();
-                    (c, [0.0; 3], r, r, norm3(c) + r)
+                    (c, [0.0; 3], r, r, Reach::Around(c, r))
                 }
                 Shape::Disc {
                     centre,
@@ -722,7 +731,7 @@ impl Geometry {
                 } => {
                     let c = cam_pt(centre);
                     let r = radius.to_num::<f64>();
-                    (c, cam_dir(normal), r, f64::INFINITY, norm3(c) + r)
+                    (c, cam_dir(normal), r, f64::INFINITY, Reach::Around(c, r))
                 }
                 Shape::Rectangle {
                     centre,
@@ -739,19 +748,10 @@ impl Geometry {
                         u[0] * v[1] - u[1] * v[0],
                     ];
                     let r = libm::sqrt(a * a + b * b);
-                    (c, n, r, f64::INFINITY, norm3(c) + a + b)
+                    (c, n, r, f64::INFINITY, Reach::Around(c, a + b))
                 }
             };
-            let around = match p.shape {
-                Shape::Plane { .. } => None,
-                Shape::Rectangle { half, .. } => Some(half[0].to_num::<f64>() + half[1].to_num::<f64>()),
-                _ => Some(r),
-            };
-            let _ = reaches.push((
-                if around.is_some() { c } else { [0.0, 0.0, reach] },
-                around,
-                p.checker.is_some(),
-            ));
+            let _ = reaches.push((reach, p.checker.map(|_| c)));
             let mut kd: f64 = 0.0;
             let mut ks: f64 = 0.0;
             let mut exponent = 0;
@@ -799,13 +799,13 @@ impl Geometry {
                 Some(k) if z0 > 0.0 => k / 8.0,
                 _ => 0.0,
             };
-            for (c, around, checker) in &reaches {
-                e = e.max(match around {
-                    Some(r) => at(*c) + r,
-                    None => libm::fabs(c[2]),
+            for (reach, checker) in &reaches {
+                e = e.max(match *reach {
+                    Reach::Plane(d) => d,
+                    Reach::Around(c, r) => at(c) + r,
                 });
-                if *checker {
-                    e = e.max(at(*c));
+                if let Some(o) = checker {
+                    e = e.max(at(*o));
                 }
             }
             for p in lights.iter().flatten() {
@@ -815,7 +815,10 @@ impl Geometry {
         };
         let extent = extent_at(0.0);
         let near = (reaches.iter())
-            .map(|(c, around, _)| around.map_or(f64::NEG_INFINITY, |r| c[2] - r))
+            .map(|(reach, _)| match *reach {
+                Reach::Plane(_) => f64::NEG_INFINITY,
+                Reach::Around(c, r) => c[2] - r,
+            })
             .fold(f64::INFINITY, f64::min);
         let z0 = libm::ceil(near) - 1.0;
         let fast_extent = if origin_scale.is_some() && near.is_finite() && z0 > 0.0 {

@@ -201,7 +201,6 @@ macro_rules! fixed_scalar {
             $name,
             $mul,
             $div,
-            <$t>::checked_sqrt,
             $bits,
             $frac,
             $t,
@@ -209,7 +208,7 @@ macro_rules! fixed_scalar {
             Scalar::mul
         );
     };
-    ($t:ty, $name:literal, $mul:expr, $div:expr, $sqrt:expr, $bits:ty, $frac:literal, $lobe_t:ty, $lobe:expr, $scale:expr) => {
+    ($t:ty, $name:literal, $mul:expr, $div:expr, $bits:ty, $frac:literal, $lobe_t:ty, $lobe:expr, $scale:expr) => {
         impl Scalar for $t {
             const NAME: &'static str = $name;
             const ZERO: Self = <$t>::ZERO;
@@ -268,7 +267,7 @@ macro_rules! fixed_scalar {
             // use it grew every pixel loop.
             #[inline(never)]
             fn sqrt(self) -> Option<Self> {
-                $sqrt(self)
+                self.checked_sqrt()
             }
             #[inline(always)]
             fn abs(self) -> Self {
@@ -295,18 +294,7 @@ macro_rules! fixed_scalar {
     };
 }
 
-fixed_scalar!(
-    I32F32,
-    "i32f32",
-    mul_q,
-    div_q,
-    I32F32::checked_sqrt,
-    i64,
-    32,
-    u64,
-    powi63,
-    scale63
-);
+fixed_scalar!(I32F32, "i32f32", mul_q, div_q, i64, 32, u64, powi63, scale63);
 /// `p >> SH` saturated to i32 (`SH` in 1..=32): the high word says whether
 /// it fits, without a 64-bit compare.
 #[cfg_attr(not(feature = "mix32"), allow(dead_code))]

@@ -404,20 +404,32 @@ impl Check {
         }
     }
 
-    // The conversions cannot fail after the range check; checked, they keep
-    // a panic path out of the core all the same.
     fn q(&self, field: &'static str, v: f64, lo: f64, hi: f64) -> Result<Q, SceneError> {
-        crate::num::from_f64(self.range(field, v, lo, hi)?).ok_or(self.err(field, Problem::OutOfRange))
+        self.fixed(field, self.range(field, v, lo, hi)?)
     }
 
     fn len(&self, field: &'static str, v: f64, lo: f64, hi: f64) -> Result<Len, SceneError> {
-        crate::num::from_f64(self.range(field, v, lo, hi)?).ok_or(self.err(field, Problem::OutOfRange))
+        self.fixed(field, self.range(field, v, lo, hi)?)
     }
 
     /// A unit vector (from [`Check::unit_f64`]) in the stored format.
     fn norm3(&self, field: &'static str, v: [f64; 3]) -> Result<[Norm; 3], SceneError> {
-        let n = |c: f64| crate::num::from_f64::<Norm>(c).ok_or(self.err(field, Problem::OutOfRange));
-        Ok([n(v[0])?, n(v[1])?, n(v[2])?])
+        Ok([
+            self.fixed(field, v[0])?,
+            self.fixed(field, v[1])?,
+            self.fixed(field, v[2])?,
+        ])
+    }
+
+    /// A checked value in its storage format. The conversion cannot fail
+    /// after the checks; checked, it keeps a panic path out of the core all
+    /// the same.
+    fn fixed<T>(&self, field: &'static str, v: f64) -> Result<T, SceneError>
+    where
+        T: fixed::traits::Fixed,
+        T::Bits: TryFrom<i64>,
+    {
+        crate::num::from_f64(v).ok_or(self.err(field, Problem::OutOfRange))
     }
 
     fn point(&self, field: &'static str, p: [f64; 3]) -> Result<WorldPoint, SceneError> {

@@ -169,14 +169,19 @@ fn text(s: &Spec) -> String {
     t
 }
 
-#[test]
-fn predicted_bounds_hold_on_random_scenes() {
-    let mut config = Config::with_cases(400);
+/// A deterministic runner of `cases` cases (the same scenes every run).
+fn runner(cases: u32) -> TestRunner {
+    let mut config = Config::with_cases(cases);
     config.failure_persistence = None;
-    let mut runner = TestRunner::new_with_rng(
+    TestRunner::new_with_rng(
         config,
         proptest::test_runner::TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
-    );
+    )
+}
+
+#[test]
+fn predicted_bounds_hold_on_random_scenes() {
+    let mut runner = runner(400);
     let (fast, wide, over, over_normal) = (Cell::new(0), Cell::new(0), Cell::new(0), Cell::new(0));
     let budget = Budget::default();
     let result = runner.run(&spec(), |s| {
@@ -334,12 +339,7 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
 /// would be 32–64 m, and 1 of 60 fitted when the start was disabled).
 #[test]
 fn predicted_bounds_hold_with_parallel_rays_started_in_front() {
-    let mut config = Config::with_cases(60);
-    config.failure_persistence = None;
-    let mut runner = TestRunner::new_with_rng(
-        config,
-        proptest::test_runner::TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
-    );
+    let mut runner = runner(60);
     let fast = Cell::new(0);
     let budget = Budget::default();
     let far = spec()
