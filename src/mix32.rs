@@ -18,7 +18,11 @@
 //! ray's nearest hit (in scene order, so ties go to the first primitive, as
 //! on the generic path), then shading. A pass holds one primitive's
 //! constants in registers: on the Cortex-M3 that saves more than the chunk
-//! buffer's loads and stores cost.
+//! buffer's loads and stores cost. With pixel-area sampling
+//! (camera-model.md §7, [`crate::sampling`]) the same passes run over rows
+//! of rays: the adaptive rule's corners (what each sees: primitive and
+//! texture cell), the centres, then the `n×n` grid of each pixel that needs
+//! it, whose mean is exact (a power-of-two count) and rounded once.
 //!
 //! Lengths are in a unit `U = 2^e` m chosen per frame: the smallest power of
 //! two with the frame's content (primitives, point lights, in the camera
@@ -56,9 +60,10 @@
 //! (`rsqrt_fine`); its error grows with `s` times the hit point's
 //! 2⁻¹⁸ U rounding (the planner's error model accounts for it).
 //!
-//! A distortion table, and scenes outside the formats, are refused when the
-//! frame is prepared ([`crate::render::RenderError::OutsideFormat`]); the generic
-//! path renders them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
+//! A distortion table, defocus's aperture rays, and scenes outside the
+//! formats are refused when the frame is prepared
+//! ([`crate::render::RenderError::OutsideFormat`]); the generic path renders
+//! them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
 use crate::num::{umul16, ARMV6M};
 use crate::render::from_acc;
@@ -708,6 +713,19 @@ struct MixChecker {
     material: u8,
 }
 
+impl MixChecker {
+    /// The texture cell `(⌊u/c⌋, ⌊v/c⌋)` of a point (S18 U) on it.
+    #[inline(always)]
+    fn cells(&self, pt: [i32; 3]) -> (i64, i64) {
+        let cell = |axis: [i32; 3], o: i64| -> i64 {
+            let w = wmul(pt[0], axis[0]) + wmul(pt[1], axis[1]) + wmul(pt[2], axis[2]) - o;
+            // S48 → S18 (saturating), times 1/cell → floor.
+            smul_u(shr_sat::<30>(w), self.inv_cell.0) >> self.inv_cell.1
+        };
+        (cell(self.u, self.ou), cell(self.v, self.ov))
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct MixPrim {
     shape: MixShape,
@@ -758,6 +776,30 @@ const T_MAX: i32 = i32::MAX - 1;
 
 /// `Ray::hit`'s flag: the surface hit faces away from the viewer.
 const AWAY: u8 = 0x80;
+
+/// What a ray sees, for the adaptive rule ([`crate::sampling`]): the
+/// primitive (or [`Key::NOTHING`]) and, on a textured one, the texture cell
+/// (its indices are below 2²⁴: lengths within 8 192 U, cells at least
+/// 2⁻¹⁰ U); or [`Key::OUTSIDE`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Key {
+    cell: (i32, i32),
+    prim: u8,
+}
+
+impl Key {
+    /// A ray that hits nothing.
+    const NOTHING: Key = Key {
+        cell: (0, 0),
+        prim: u8::MAX,
+    };
+    /// A ray outside the lens field (or, for a pixel's corners, corners
+    /// that disagree): never the same as what a pixel's centre sees.
+    const OUTSIDE: Key = Key {
+        cell: (0, 0),
+        prim: u8::MAX - 1,
+    };
+}
 
 /// One pixel's ray and its nearest hit so far: from the origin along
 /// `(x̂, ŷ, 1)` (perspective), or from `(o_x, o_y, 0)` along `(0, 0, 1)`
@@ -1032,6 +1074,11 @@ pub struct Mix32 {
     /// (camera-model.md §9; `None` without the `sensor` feature).
     noise_spec: Option<crate::scene::Noise>,
     noise: Option<crate::noise::Stage<Q>>,
+    /// The side `n` of a pixel's sample grid (1: its centre alone) and
+    /// whether the adaptive rule picks the pixels that take it
+    /// ([`crate::sampling`]).
+    samples: u8,
+    adaptive: bool,
 }
 
 /// What [`Mix32::new`] takes from the frame the generic path prepared (all
@@ -1058,6 +1105,9 @@ pub(crate) struct Input<'a> {
     pub scene: &'a crate::scene::Scene,
     pub background: V3,
     pub gain: V3,
+    /// The sample grid's side (1, 2, 4, 8 or 16) and the adaptive rule.
+    pub samples: u8,
+    pub adaptive: bool,
 }
 
 impl Input<'_> {
@@ -1212,6 +1262,8 @@ impl Mix32 {
         bg: [0; 3],
         noise_spec: None,
         noise: None,
+        samples: 1,
+        adaptive: false,
     };
 
     /// Converts a prepared frame in place (the path's state is kilobytes:
@@ -1414,6 +1466,11 @@ impl Mix32 {
         self.vignetting = f.vignetting;
         self.bg = bg;
         self.noise_spec = f.scene.noise;
+        if !matches!(f.samples, 1 | 2 | 4 | 8 | 16) {
+            return Err(RenderError::Degenerate);
+        }
+        self.samples = f.samples;
+        self.adaptive = f.adaptive && f.samples > 1;
         self.set_frame_id(0);
         Ok(())
     }
@@ -1468,17 +1525,34 @@ impl Mix32 {
             }
             LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => self.line_f::<1, false>(j, pixels, flags),
             LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => self.line_f::<3, false>(j, pixels, flags),
+            LineLoop::FastGrayPerspectiveSampled if L::FAST_GRAY_PERSPECTIVE_SAMPLED => {
+                self.line_s::<1, true>(j, pixels, flags)
+            }
+            LineLoop::FastRgbPerspectiveSampled if L::FAST_RGB_PERSPECTIVE_SAMPLED => {
+                self.line_s::<3, true>(j, pixels, flags)
+            }
+            LineLoop::FastGrayParallelSampled if L::FAST_GRAY_PARALLEL_SAMPLED => {
+                self.line_s::<1, false>(j, pixels, flags)
+            }
+            LineLoop::FastRgbParallelSampled if L::FAST_RGB_PARALLEL_SAMPLED => {
+                self.line_s::<3, false>(j, pixels, flags)
+            }
             _ => {}
         }
     }
 
     /// The loop this frame's lines are rendered by.
     pub fn line_loop(&self) -> LineLoop {
-        match (self.format == PixelFormat::Rgb565, self.parallel.is_none()) {
-            (false, true) => LineLoop::FastGrayPerspective,
-            (true, true) => LineLoop::FastRgbPerspective,
-            (false, false) => LineLoop::FastGrayParallel,
-            (true, false) => LineLoop::FastRgbParallel,
+        let rgb = self.format == PixelFormat::Rgb565;
+        match (rgb, self.parallel.is_none(), self.samples > 1) {
+            (false, true, false) => LineLoop::FastGrayPerspective,
+            (true, true, false) => LineLoop::FastRgbPerspective,
+            (false, false, false) => LineLoop::FastGrayParallel,
+            (true, false, false) => LineLoop::FastRgbParallel,
+            (false, true, true) => LineLoop::FastGrayPerspectiveSampled,
+            (true, true, true) => LineLoop::FastRgbPerspectiveSampled,
+            (false, false, true) => LineLoop::FastGrayParallelSampled,
+            (true, false, true) => LineLoop::FastRgbParallelSampled,
         }
     }
 
@@ -1497,7 +1571,6 @@ impl Mix32 {
         let yd = self.yd(j);
         let yd2 = wmul(yd, yd);
         let mut acc = self.x0;
-        let korigin = self.parallel.unwrap_or(0);
         // kd · E per light for the material of the last shaded pixel.
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
@@ -1510,31 +1583,59 @@ impl Mix32 {
             let Some(rays) = rays.first(flags.len()) else {
                 return;
             };
-            // The chunk's slope box (rays outside the field count as (0, 0):
-            // a larger box, never a skipped hit).
-            let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
-            for r in rays.iter_mut() {
+            // Inlined here (not `trace_row`): the loop without sampling stays
+            // as fast as it was (an out-of-line pass cost the standard scene
+            // 9 M3 instructions a pixel).
+            self.trace::<PERSP>(rays, |_| {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
-                *r = match self.undistort(xd, yd, yd2) {
-                    Some((x, y)) => Ray::new::<PERSP>(x, y, korigin),
-                    None => Ray::OUTSIDE,
-                };
-                (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
-            }
-            for (i, p) in self.prims.iter().enumerate() {
-                if let Some(b) = p.bounds {
-                    if x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3] {
-                        continue;
-                    }
-                }
-                p.nearest::<PERSP>(i as u8, rays);
-            }
+                (xd, yd, yd2)
+            });
             for ((r, out), flag) in rays.iter().zip(words.iter_mut()).zip(flags.iter_mut()) {
                 *out = self.pixel::<C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
                 index = index.wrapping_add(1);
             }
             put(&words, b, pixels);
+        }
+    }
+
+    /// [`Mix32::trace`] along a row: ray `q` at `x̂_d = x − q·step` (S58)
+    /// and `(ŷ_d, ŷ_d²)` (S26, S52). Out of line: one copy serves every row
+    /// of rays of the sampled loop (pixel centres, corners, grid rows).
+    #[inline(never)]
+    fn trace_row<const PERSP: bool>(&self, rays: &mut [Ray], x: i64, step: i64, (yd, yd2): (i32, i64)) {
+        let mut acc = x;
+        self.trace::<PERSP>(rays, |_| {
+            let xd = (acc >> 32) as i32;
+            acc -= step;
+            (xd, yd, yd2)
+        });
+    }
+
+    /// Fills `rays` with the rays of the distorted slopes `slope(q) = (x̂_d,
+    /// ŷ_d, ŷ_d²)` (S26, S26, S52) of ray `q` and runs every primitive's
+    /// pass over them: each ray's nearest hit (`t = 0` outside the field).
+    #[inline(always)]
+    fn trace<const PERSP: bool>(&self, rays: &mut [Ray], mut slope: impl FnMut(usize) -> (i32, i32, i64)) {
+        let korigin = self.parallel.unwrap_or(0);
+        // The rays' slope box (rays outside the field count as (0, 0): a
+        // larger box, never a skipped hit).
+        let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
+        for (q, r) in rays.iter_mut().enumerate() {
+            let (xd, yd, yd2) = slope(q);
+            *r = match self.undistort(xd, yd, yd2) {
+                Some((x, y)) => Ray::new::<PERSP>(x, y, korigin),
+                None => Ray::OUTSIDE,
+            };
+            (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
+        }
+        for (i, p) in self.prims.iter().enumerate() {
+            if let Some(b) = p.bounds {
+                if x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3] {
+                    continue;
+                }
+            }
+            p.nearest::<PERSP>(i as u8, rays);
         }
     }
 
@@ -1554,6 +1655,19 @@ impl Mix32 {
             return 0;
         }
         *flag = 0;
+        let (sum, c4) = self.radiance::<C, PERSP>(r, k);
+        // Channels past C are not packed: the compiler drops them.
+        let dn = match noise {
+            Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
+            None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
+        };
+        word::<C>(dn)
+    }
+
+    /// A ray's (in the field) sum before vignetting (S15 DN, capped) and
+    /// its `cos⁴α` (S31).
+    #[inline(always)]
+    fn radiance<const C: usize, const PERSP: bool>(&self, r: &Ray, k: &mut KCache) -> ([u64; 3], u32) {
         // cos⁴α = (1/a)², S31 (1/a_real = r 2^(z − 42), z ≤ 11).
         let c4 = if self.vignetting {
             let inv = r.ra.0 >> (11u32.saturating_sub(r.ra.1));
@@ -1565,12 +1679,201 @@ impl Mix32 {
             Some((m, pt, n, away)) => self.shade::<C, PERSP>(r, m, pt, n, away, k),
             None => self.bg,
         };
-        // Channels past C are not packed: the compiler drops them.
-        let dn = match noise {
-            Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
-            None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
+        (sum, c4)
+    }
+
+    /// [`Mix32::radiance`] out of line: one copy of the shading serves the
+    /// sampled loop's centres and grids.
+    #[inline(never)]
+    fn radiance_s<const C: usize, const PERSP: bool>(&self, r: &Ray, k: &mut KCache) -> ([u64; 3], u32) {
+        self.radiance::<C, PERSP>(r, k)
+    }
+
+    /// What a traced ray sees, for the adaptive rule: the primitive and its
+    /// texture cell, [`Key::NOTHING`], or [`Key::OUTSIDE`].
+    #[inline(always)]
+    fn key<const PERSP: bool>(&self, r: &Ray) -> Key {
+        if r.t == 0 {
+            return Key::OUTSIDE;
+        }
+        if r.t == NO_HIT {
+            return Key::NOTHING;
+        }
+        let prim = r.hit & !AWAY;
+        let cell = match self.prims.get(prim as usize).and_then(|p| p.checker.as_ref()) {
+            Some(k) => {
+                let (u, v) = k.cells(r.point::<PERSP>(r.t));
+                let sat = |c: i64| c.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+                (sat(u), sat(v))
+            }
+            None => (0, 0),
         };
-        word::<C>(dn)
+        Key { cell, prim }
+    }
+
+    /// [`Mix32::line_f`] with pixel-area sampling (camera-model.md §7,
+    /// [`crate::sampling`]): a pixel is the mean of its `n×n` grid, or with
+    /// the adaptive rule its centre sample where its four corners and centre
+    /// see the same. Per chunk: the corners' keys (top, then bottom), the
+    /// centres, then the grids of the pixels that need one, each in the
+    /// chunk's passes. A grid's mean is exact (`n²` is a power of two), then
+    /// rounded once.
+    #[inline(never)]
+    fn line_s<const C: usize, const PERSP: bool>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+        let w = self.width as usize;
+        let b = self.format.bytes_per_pixel();
+        let (Some(pixels), Some(flags)) = (pixels.get_mut(..w * b), flags.get_mut(..w)) else {
+            return;
+        };
+        let n = self.samples;
+        let log_n = crate::sampling::log2(n);
+        let yc = self.y0 - self.dy * j as i128;
+        let yd_of = |y: i128| -> (i32, i64) {
+            let yd = (y >> 38) as i32;
+            (yd, wmul(yd, yd))
+        };
+        // Half a pixel step (the corners), rounded toward −∞.
+        let hx = self.dx >> 1;
+        let (top, bottom) = (yd_of(yc + (self.dy >> 1)), yd_of(yc - (self.dy >> 1)));
+        let mut k = KCache::EMPTY;
+        let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
+        let noise = self.noise.as_ref();
+        let mut rays = Rays::default();
+        let mut words = [0u16; CHUNK];
+        // Per pixel of the chunk, the key its right corners share (adaptive
+        // rule), then the key all four share ([`Key::OUTSIDE`]: none).
+        let mut corners = [Key::OUTSIDE; CHUNK];
+        // The key the left corners of the chunk's first pixel share.
+        let mut left = Key::OUTSIDE;
+        if self.adaptive {
+            if let Some(r) = rays.first(1) {
+                self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top);
+                let t = r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r));
+                self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, bottom);
+                let b = r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r));
+                left = if t == b { t } else { Key::OUTSIDE };
+            }
+        }
+        let mut x = self.x0;
+        let mut index = j as u32 * self.width as u32;
+        for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
+            let Some(rays) = rays.first(flags.len()) else {
+                return;
+            };
+            let x_at = |q: usize| x - self.dx * q as i64;
+            // Pixels that take the grid.
+            let mut grid = u32::MAX;
+            if self.adaptive {
+                // Right corners, top line then bottom line.
+                self.trace_row::<PERSP>(rays, x - hx, self.dx, top);
+                for (c, r) in corners.iter_mut().zip(rays.iter()) {
+                    *c = self.key::<PERSP>(r);
+                }
+                self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom);
+                for (c, r) in corners.iter_mut().zip(rays.iter()) {
+                    if *c != self.key::<PERSP>(r) {
+                        *c = Key::OUTSIDE;
+                    }
+                }
+                // A pixel's corners agree if its left and right columns do.
+                for c in corners.iter_mut().take(rays.len()) {
+                    let right = *c;
+                    if left != right {
+                        *c = Key::OUTSIDE;
+                    }
+                    left = right;
+                }
+                // Centres: their own sample where the corners agree with it.
+                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc));
+                for (q, ((r, c), (out, flag))) in rays
+                    .iter()
+                    .zip(&corners)
+                    .zip(words.iter_mut().zip(flags.iter_mut()))
+                    .enumerate()
+                {
+                    if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
+                        // In the field: its corners are.
+                        let (sum, c4) = self.radiance_s::<C, PERSP>(r, &mut k);
+                        let dn = match noise {
+                            Some(z) => noisy::<C>(z, sum, c4, index + q as u32, dn_max),
+                            None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
+                        };
+                        *out = word::<C>(dn);
+                        *flag = 0;
+                        grid &= !(1 << q);
+                    }
+                }
+            }
+            for q in 0..rays.len() {
+                if grid & (1 << q) == 0 {
+                    continue;
+                }
+                let (Some(out), Some(flag)) = (words.get_mut(q), flags.get_mut(q)) else {
+                    break;
+                };
+                let value = self.grid::<C, PERSP>(rays, x_at(q), yc, n, log_n, &mut k);
+                let (dn, f) = match value {
+                    Some(v) => {
+                        let mut dn = [0u32; 3];
+                        for (c, ((d, v), max)) in dn.iter_mut().zip(v).zip(dn_max).take(C).enumerate() {
+                            *d = match noise {
+                                Some(z) => z.apply_with(v, index + q as u32, c, max as u32, sigma_z),
+                                None => crate::vignetting::round_dn(v, max as u32),
+                            };
+                        }
+                        (dn, 0)
+                    }
+                    None => ([0; 3], FLAG_OUTSIDE_FIELD),
+                };
+                *out = word::<C>(dn);
+                *flag = f;
+            }
+            put(&words, b, pixels);
+            x -= self.dx * rays.len() as i64;
+            index = index.wrapping_add(rays.len() as u32);
+        }
+    }
+
+    /// The mean of the `n×n` grid (camera-model.md §7) of the pixel centred
+    /// at `(x̂_d, ŷ_d)` (S58, I64F64 raw) per channel, before rounding
+    /// (I32F32 DN, exact: a power-of-two mean of exact values, saturated);
+    /// `None` if a sample lies beyond the fold. `rays` is scratch.
+    #[inline(never)]
+    fn grid<const C: usize, const PERSP: bool>(
+        &self,
+        rays: &mut [Ray],
+        xc: i64,
+        yc: i128,
+        n: u8,
+        log_n: u32,
+        k: &mut KCache,
+    ) -> Option<[Q; 3]> {
+        let n = n as usize;
+        // Sample a at (i + s_a), s_a = (2a + 1 − n)/(2n): the step times
+        // (2a + 1 − n), shifted right by log2 n + 1 (toward −∞).
+        let off_x = |a: usize| (self.dx * (2 * a as i64 + 1 - n as i64)) >> (log_n + 1);
+        let off_y = |b: usize| (self.dy * (2 * b as i128 + 1 - n as i128)) >> (log_n + 1);
+        let mut acc = [0i64; 3];
+        // A row of samples at a time; pixel coordinates grow as x̂_d, ŷ_d
+        // fall, and the samples' x̂_d are a row's step apart.
+        let row = rays.get_mut(..n)?;
+        // Sample a at xc − off_x(0) − a ⌊dx/n⌋: within n·2⁻⁵⁸ of the
+        // pattern's xc − off_x(a), far below the slopes' 2⁻²⁶.
+        let step = self.dx >> log_n;
+        for b in 0..n {
+            let yd = ((yc - off_y(b)) >> 38) as i32;
+            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)));
+            for r in row.iter() {
+                if r.t == 0 {
+                    return None;
+                }
+                let (sum, c4) = self.radiance_s::<C, PERSP>(r, k);
+                for (a, s) in acc.iter_mut().zip(sum).take(C) {
+                    *a = a.saturating_add(vignette_q(s, c4).to_bits());
+                }
+            }
+        }
+        Some(acc.map(|a| Q::from_bits(a >> (2 * log_n))))
     }
 
     /// The nearest hit of a ray after every primitive's pass: material,
@@ -1593,12 +1896,8 @@ impl Mix32 {
         };
         let mut m = p.material as usize;
         if let Some(k) = &p.checker {
-            let cell = |axis: [i32; 3], o: i64| -> i64 {
-                let w = wmul(pt[0], axis[0]) + wmul(pt[1], axis[1]) + wmul(pt[2], axis[2]) - o;
-                // S48 → S18 (saturating), times 1/cell → floor.
-                smul_u(shr_sat::<30>(w), k.inv_cell.0) >> k.inv_cell.1
-            };
-            if (cell(k.u, k.ou) + cell(k.v, k.ov)) & 1 != 0 {
+            let (cu, cv) = k.cells(pt);
+            if (cu + cv) & 1 != 0 {
                 m = k.material as usize;
             }
         }

@@ -20,7 +20,12 @@
 //!   hit points and normals (including the ill-conditioned band next to a
 //!   sphere's silhouette, down to 1/256 px from it, where pixels stop being
 //!   edge pixels), and the specular lobe, whose exponent multiplies the
-//!   error of `r̂·v̂`.
+//!   error of `r̂·v̂`. At edges, the expected share of pixels that differ
+//!   from the reference ([`Candidate::edge_differing`]): every look a pixel
+//!   takes (samples, the adaptive rule's corners) within the geometric
+//!   error of an edge may see the other side, so the fast arithmetic's
+//!   larger error weighs with the sample count (an 8×8 grid of a fine
+//!   checkerboard goes to the wide one).
 //! - **Cost** ([`CostModel`]): M3 instructions a pixel, linear in the
 //!   scene's features (primitives by kind, their sampled screen coverage,
 //!   lights and lobe per shaded pixel, distortion, colour, parallel rays),
@@ -47,15 +52,19 @@ pub struct Budget {
     /// Most distortion-table entries the device holds (its frame's `T`; 2
     /// to [`crate::distortion::MAX_LUT`], fewer than 2: no table).
     pub max_table_entries: usize,
+    /// Largest fraction of all pixels that are edge pixels whose value
+    /// differs from the reference's (predicted: [`Candidate::edge_differing`]).
+    pub max_edge_differing: f64,
 }
 
 impl Default for Budget {
-    /// 1/256 px and 1 LSB.
+    /// 1/256 px, 1 LSB and 0.05 % of the pixels differing at edges.
     fn default() -> Self {
         Budget {
             max_geom_err_px: 1.0 / 256.0,
             max_lsb: 1.0,
             max_table_entries: crate::distortion::MAX_LUT,
+            max_edge_differing: 0.0005,
         }
     }
 }
@@ -77,9 +86,9 @@ pub enum Unfit {
     /// The fast arithmetic is not built in (the core's `mix32` feature is
     /// off).
     NotBuilt,
-    /// The scene asks for pixel-area sampling or needs defocus, which run
-    /// in the wide arithmetic only.
-    SensorStages,
+    /// The scene needs defocus, whose aperture rays run in the wide
+    /// arithmetic only.
+    Defocus,
 }
 
 impl Unfit {
@@ -92,7 +101,7 @@ impl Unfit {
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
-            Unfit::SensorStages => "pixel-area sampling and defocus run in the wide arithmetic only",
+            Unfit::Defocus => "defocus (aperture rays) runs in the wide arithmetic only",
         }
     }
 }
@@ -115,6 +124,14 @@ pub struct Candidate {
     pub lsb: f64,
     /// Predicted cost, M3 instructions a pixel.
     pub m3_instructions_per_pixel: f64,
+    /// Predicted fraction of all pixels that are edge pixels whose value
+    /// differs from the reference's: a look (sample, corner, centre)
+    /// within the geometric error of an edge can see the other side. The
+    /// expected count, not a bound: edge length per pixel area
+    /// ([`edge_fraction`]'s estimate) × 2 × `geom_err_px` × looks per pixel
+    /// area (`n²`, with the adaptive rule `+ 5`: a corner decides for four
+    /// pixels, the centre for one).
+    pub edge_differing: f64,
 }
 
 impl Candidate {
@@ -124,6 +141,7 @@ impl Candidate {
         self.fits.is_ok()
             && self.geom_err_px <= budget.max_geom_err_px / 2.0
             && self.lsb + 0.5 <= budget.max_lsb
+            && self.edge_differing <= budget.max_edge_differing
     }
 
     /// A short name: `fast-poly`, `wide-lut64`, `wide-none`…
@@ -267,7 +285,14 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         m => APERTURE_COST.0 + f64::from(m) * APERTURE_COST.1,
     };
     let spp = samples_per_pixel(scene, &g, samples, adaptive) * through;
-    let sensor_stages = samples > 1 || df.points > 0;
+    // Edge length per pixel area times looks per pixel area (see
+    // `Candidate::edge_differing`).
+    let looks = match (samples, adaptive) {
+        (0 | 1, _) => 1.0,
+        (n, false) => f64::from(n) * f64::from(n),
+        (n, true) => f64::from(n) * f64::from(n) + 5.0,
+    };
+    let edge_looks = edge_fraction(scene, &g) * core::f64::consts::FRAC_PI_4 * looks;
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
         let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
@@ -282,7 +307,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         }
         // What the distortion evaluation does not change, once.
         let fits = match arithmetic {
-            Arithmetic::Fast if sensor_stages => Err(Unfit::SensorStages),
+            Arithmetic::Fast if df.points > 0 => Err(Unfit::Defocus),
             Arithmetic::Fast => g.fast_fits(scene),
             Arithmetic::Wide => Ok(()),
         };
@@ -303,6 +328,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 geom_err_px: geom,
                 lsb,
                 m3_instructions_per_pixel: cost,
+                edge_differing: (edge_looks * 2.0 * geom).min(1.0),
             });
         }
     }
@@ -335,6 +361,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         geom_err_px: f64::INFINITY,
         lsb: f64::INFINITY,
         m3_instructions_per_pixel: f64::INFINITY,
+        edge_differing: 1.0,
     });
     let wp_used =
         matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);

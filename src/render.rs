@@ -200,6 +200,15 @@ pub trait Lines {
     const FAST_GRAY_PARALLEL: bool = true;
     /// Fast arithmetic, RGB565, parallel rays.
     const FAST_RGB_PARALLEL: bool = true;
+    /// The four fast loops above with pixel-area sampling
+    /// ([`crate::sampling`]).
+    const FAST_GRAY_PERSPECTIVE_SAMPLED: bool = true;
+    /// RGB565, perspective rays, sampled.
+    const FAST_RGB_PERSPECTIVE_SAMPLED: bool = true;
+    /// One channel, parallel rays, sampled.
+    const FAST_GRAY_PARALLEL_SAMPLED: bool = true;
+    /// RGB565, parallel rays, sampled.
+    const FAST_RGB_PARALLEL_SAMPLED: bool = true;
     /// Wide arithmetic, perspective rays (defocus's aperture rays too).
     const WIDE_PERSPECTIVE: bool = true;
     /// Wide arithmetic, parallel rays.
@@ -223,6 +232,14 @@ pub enum LineLoop {
     FastGrayParallel,
     /// [`Lines::FAST_RGB_PARALLEL`].
     FastRgbParallel,
+    /// [`Lines::FAST_GRAY_PERSPECTIVE_SAMPLED`].
+    FastGrayPerspectiveSampled,
+    /// [`Lines::FAST_RGB_PERSPECTIVE_SAMPLED`].
+    FastRgbPerspectiveSampled,
+    /// [`Lines::FAST_GRAY_PARALLEL_SAMPLED`].
+    FastGrayParallelSampled,
+    /// [`Lines::FAST_RGB_PARALLEL_SAMPLED`].
+    FastRgbParallelSampled,
     /// [`Lines::WIDE_PERSPECTIVE`].
     WidePerspective,
     /// [`Lines::WIDE_PARALLEL`].
@@ -231,11 +248,15 @@ pub enum LineLoop {
 
 impl LineLoop {
     /// Every loop.
-    pub const ALL: [LineLoop; 6] = [
+    pub const ALL: [LineLoop; 10] = [
         LineLoop::FastGrayPerspective,
         LineLoop::FastRgbPerspective,
         LineLoop::FastGrayParallel,
         LineLoop::FastRgbParallel,
+        LineLoop::FastGrayPerspectiveSampled,
+        LineLoop::FastRgbPerspectiveSampled,
+        LineLoop::FastGrayParallelSampled,
+        LineLoop::FastRgbParallelSampled,
         LineLoop::WidePerspective,
         LineLoop::WideParallel,
     ];
@@ -247,6 +268,10 @@ impl LineLoop {
             LineLoop::FastRgbPerspective => L::FAST_RGB_PERSPECTIVE,
             LineLoop::FastGrayParallel => L::FAST_GRAY_PARALLEL,
             LineLoop::FastRgbParallel => L::FAST_RGB_PARALLEL,
+            LineLoop::FastGrayPerspectiveSampled => L::FAST_GRAY_PERSPECTIVE_SAMPLED,
+            LineLoop::FastRgbPerspectiveSampled => L::FAST_RGB_PERSPECTIVE_SAMPLED,
+            LineLoop::FastGrayParallelSampled => L::FAST_GRAY_PARALLEL_SAMPLED,
+            LineLoop::FastRgbParallelSampled => L::FAST_RGB_PARALLEL_SAMPLED,
             LineLoop::WidePerspective => L::WIDE_PERSPECTIVE,
             LineLoop::WideParallel => L::WIDE_PARALLEL,
         }
@@ -260,6 +285,10 @@ impl LineLoop {
             LineLoop::FastRgbPerspective => "FAST_RGB_PERSPECTIVE",
             LineLoop::FastGrayParallel => "FAST_GRAY_PARALLEL",
             LineLoop::FastRgbParallel => "FAST_RGB_PARALLEL",
+            LineLoop::FastGrayPerspectiveSampled => "FAST_GRAY_PERSPECTIVE_SAMPLED",
+            LineLoop::FastRgbPerspectiveSampled => "FAST_RGB_PERSPECTIVE_SAMPLED",
+            LineLoop::FastGrayParallelSampled => "FAST_GRAY_PARALLEL_SAMPLED",
+            LineLoop::FastRgbParallelSampled => "FAST_RGB_PARALLEL_SAMPLED",
             LineLoop::WidePerspective => "WIDE_PERSPECTIVE",
             LineLoop::WideParallel => "WIDE_PARALLEL",
         }
@@ -445,8 +474,8 @@ pub enum RenderError {
     /// The distortion factor `g` exceeds ±32 768 over the sensor.
     DistortionOutOfRange,
     /// The [`crate::mix32`] path cannot render the frame: it needs a stage
-    /// that path leaves out (a distortion table, pixel-area sampling,
-    /// defocus) or values beyond its formats.
+    /// that path leaves out (a distortion table, defocus) or values beyond
+    /// its formats.
     OutsideFormat,
     /// The frame needs pixel-area sampling, defocus or sensor noise, and
     /// the core's `sensor` feature is off; or its line loop is not among
@@ -860,6 +889,8 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             scene,
             background: scene.background,
             gain: fast.gain,
+            samples: fast.samples,
+            adaptive: fast.adaptive,
         };
         self.path = Path::Fast(crate::mix32::Mix32::EMPTY);
         let Path::Fast(m) = &mut self.path else {
@@ -1036,6 +1067,8 @@ struct FastInput {
     origin_scale: Option<Q>,
     specular_all: bool,
     gain: V3,
+    samples: u8,
+    adaptive: bool,
 }
 
 impl<S: Scalar, const T: usize> WideFrame<S, T> {
@@ -1222,7 +1255,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         if opts.arithmetic == Arithmetic::Fast {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
-            if table || self.stages.samples > 1 || aperture {
+            if table || aperture || (self.stages.samples > 1 && cfg!(not(feature = "sensor"))) {
                 return Err(RenderError::OutsideFormat);
             }
             // The fast path prepares its own primitives, lights and
@@ -1236,6 +1269,8 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 origin_scale,
                 specular_all: opts.keep_all_stages,
                 gain,
+                samples: self.stages.samples,
+                adaptive: self.stages.adaptive,
             }));
         }
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {

@@ -50,6 +50,9 @@ pub struct CandidateReport {
     pub lsb: f64,
     /// Predicted cost, M3 instructions a pixel (the fitted cost model).
     pub m3_instructions_per_pixel: f64,
+    /// Predicted fraction of all pixels that are edge pixels differing from
+    /// the reference (an expected count, not a bound).
+    pub edge_differing: f64,
     /// Fits and within the budget.
     pub meets_budget: bool,
 }
@@ -555,6 +558,7 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
                 geom_err_px: c.geom_err_px,
                 lsb: c.lsb,
                 m3_instructions_per_pixel: c.m3_instructions_per_pixel,
+                edge_differing: c.edge_differing,
                 meets_budget: c.meets(budget),
             })
             .collect(),

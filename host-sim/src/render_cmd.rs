@@ -68,10 +68,11 @@ pub fn plan_text(p: &PlanReport) -> String {
     let mut s = format!("  plan: {} — {}\n", p.chosen, p.why);
     for c in &p.candidates {
         s.push_str(&format!(
-            "    {:<18} geom {:.2e} px  {:>9.4} LSB  {:>7.0} M3 instr/px  {}\n",
+            "    {:<18} geom {:.2e} px  {:>9.4} LSB  edges {:>7.4} %  {:>7.0} M3 instr/px  {}\n",
             c.name,
             c.geom_err_px,
             c.lsb,
+            100.0 * c.edge_differing,
             c.m3_instructions_per_pixel,
             match (&c.unfit, c.meets_budget) {
                 (Some(why), _) => format!("unfit: {why}"),

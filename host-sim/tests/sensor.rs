@@ -233,9 +233,14 @@ fn sampled_and_noisy_frames_match_the_reference() {
         let s = m
             .sampling_error
             .expect("a sampled frame reports its sampling error");
+        let predicted = st
+            .candidates
+            .iter()
+            .find(|c| c.name == st.chosen)
+            .map_or(f64::NAN, |c| c.edge_differing);
         println!(
-            "case {k}: {}x{} adaptive={adaptive} noise={noise}: smooth max {} LSB, exact {:.4}, edges differing {:.5} %, grid pixels {}, sampling error rms {:.3} max {:.2} DN",
-            want, want, m.max_abs_lsb_smooth, m.exact_fraction_smooth, 100.0 * m.edge_pixels_differing_fraction, s.grid_pixels, s.rms_dn, s.max_dn
+            "case {k}: {}x{} adaptive={adaptive} noise={noise}: {}, smooth max {} LSB, exact {:.4}, edges differing {:.5} % (predicted {:.5} %), grid pixels {}, sampling error rms {:.3} max {:.2} DN",
+            want, want, st.chosen, m.max_abs_lsb_smooth, m.exact_fraction_smooth, 100.0 * m.edge_pixels_differing_fraction, 100.0 * predicted, s.grid_pixels, s.rms_dn, s.max_dn
         );
         meets_fidelity_targets(m, k);
         assert!(s.grid_pixels > 0, "case {k}: edges cross the board");
