@@ -402,6 +402,72 @@ fn cos_over_r3(nl: u64, y: u32, z: u32) -> Pf {
     Pf::new(umul(q, y3), z as i32 - 86)
 }
 
+/// The outward unit normal (S30) of a sphere (centre `c`, radius `r24`,
+/// S24 U; `inv_r` maps S18 U to S30) where the ray `r` meets it, entering
+/// or (`inside`) leaving: from the ray and the sphere, not the rounded hit
+/// point (S18 U, whose rounding over a small radius the lobe's exponent
+/// would multiply). With `d̂` the ray's unit direction, `c⊥ = c − (d̂·c) d̂`
+/// and `s = √(r² − |c⊥|²)`, the hit is `p − c = −c⊥ ∓ s d̂`. Errors: `d̂`
+/// within 2⁻²⁸, `c⊥` a unit of S24 (plus `2 |c|` times the ray's own
+/// direction error), `s` within 2⁻²⁸ relative plus `|c⊥| δc⊥ / s` —
+/// ill-conditioned only next to the silhouette, where the planner bounds
+/// the lobe by geometry instead.
+#[inline(never)]
+fn fine_normal<const PERSP: bool>(
+    r: &Ray,
+    c: [i32; 3],
+    r24: i32,
+    inv_r: (u32, u32),
+    inside: bool,
+) -> [i32; 3] {
+    // d̂ (S30) and the centre from the ray's origin (S24 U; parallel
+    // origins are within 64 U, S18).
+    let (dh, cr) = if PERSP {
+        (Mix32::view::<true>(r).map(i32::saturating_neg), c)
+    } else {
+        (
+            [0, 0, 1 << 30],
+            [
+                c[0].saturating_sub(r.ox.saturating_mul(64)),
+                c[1].saturating_sub(r.oy.saturating_mul(64)),
+                c[2],
+            ],
+        )
+    };
+    // d̂·c, S54 → S24 (|c| ≤ 72 U).
+    let k = ((wmul(dh[0], cr[0]) + wmul(dh[1], cr[1]) + wmul(dh[2], cr[2])) >> 30) as i32;
+    let cp = zip3(cr, dh, |ci, di| ci.saturating_sub((wmul(k, di) >> 30) as i32));
+    // s² = r² − |c⊥|², S48 (|c⊥| ≤ r ≤ 8 U at a hit).
+    let s2 = wmul(r24, r24) - (wsq(cp[0]) + wsq(cp[1]) + wsq(cp[2])) as i64;
+    let s = sqrt_fine(s2.max(0) as u64);
+    let rel = zip3(cp, dh, |a, d| {
+        let sd = (wmul(s, d) >> 30) as i32;
+        if inside {
+            sd.saturating_sub(a)
+        } else {
+            a.saturating_add(sd).saturating_neg()
+        }
+    });
+    // S24 → S30 by 1/r: six more bits of shift than from S18.
+    let sh = (inv_r.1 + 6).min(63);
+    rel.map(|v| sat32(smul_u(v, inv_r.0) >> sh))
+}
+
+/// `√x` for `x < 2⁵⁶` (S48 → S24), within 2⁻²⁸ relative and one unit:
+/// `x · (1/√x)` from [`rsqrt_fine`].
+#[inline(always)]
+fn sqrt_fine(x: u64) -> i32 {
+    if x == 0 {
+        return 0;
+    }
+    let (y, z) = rsqrt_fine(x);
+    // m = x 2^z in [2^62, 2^64); √(m/2^64) 2^30 = m y / 2^64 (y in Q2.30);
+    // √x = √(m/2^64) 2^(32 − z/2): a right shift by z/2 − 2 (z ≥ 8).
+    let m = shl64(x, z);
+    let s30 = ((m as u128 * y as u128) >> 64) as u64;
+    (s30 >> (z / 2).saturating_sub(2)).min(i32::MAX as u64) as i32
+}
+
 /// `√(x · 2⁻⁴⁴)` in S22 for `x < 2⁶²`, within 2⁻¹⁹ relative and one unit.
 #[inline]
 fn sqrt_s44_to_s22(x: u64) -> i32 {
@@ -674,9 +740,14 @@ enum MixShape {
         c: [i32; 3],
         cz50: i64,
         c18: [i32; 3],
-        /// r², S24 U² (perspective rays) and S36 U² (parallel rays).
+        /// r², S24 U² (perspective rays) and S36 U² (parallel rays); r,
+        /// S24 U.
         r2_24: i32,
         r2: u64,
+        r24: i32,
+        /// Its normal from the ray and the sphere ([`fine_normal`]): a
+        /// material of it has a specular lobe.
+        fine: bool,
         inv_r: (u32, u32),
     },
     Disc {
@@ -1314,6 +1385,8 @@ impl Mix32 {
                         // r ≤ 8 U: r² ≤ 64 U², S24.
                         r2_24: sat32((l24(r) as i64 * l24(r) as i64) >> 24),
                         r2: r18 * r18,
+                        r24: l24(r),
+                        fine: false,
                         inv_r: recip_len(r, e).ok_or(bad)?,
                     }
                 }
@@ -1411,6 +1484,15 @@ impl Mix32 {
             *lobe = (has || f.specular_all).then_some(m.exponent);
         }
         let bg = zip3(f.background, gain, |b, g| (Pf::of_q(b) * g).to_sum(15));
+        // Spheres under a lobe take the fine normal.
+        let lobe = self.lobe;
+        let has_lobe = |m: u8| lobe.get(m as usize).is_some_and(Option::is_some);
+        for p in self.prims.iter_mut() {
+            let lobed = has_lobe(p.material) || p.checker.as_ref().is_some_and(|k| has_lobe(k.material));
+            if let MixShape::Sphere { fine, .. } = &mut p.shape {
+                *fine = lobed;
+            }
+        }
 
         // Slopes: |x̂_d|, |ŷ_d| < 32 at the corners (they are monotonic in
         // the pixel index), |g| < 8 and |x̂|, |ŷ| ≤ 16.
@@ -1889,6 +1971,15 @@ impl Mix32 {
         let pt = r.point::<PERSP>(r.t);
         let n = match &p.shape {
             MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
+            // Under a specular lobe, whose exponent multiplies the normal's
+            // error, from the ray and the sphere.
+            MixShape::Sphere {
+                c,
+                r24,
+                inv_r,
+                fine: true,
+                ..
+            } => fine_normal::<PERSP>(r, *c, *r24, *inv_r, away),
             MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
                 let rel = p.saturating_sub(c);
                 sat32(smul_u(rel, inv_r.0) >> inv_r.1)

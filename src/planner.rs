@@ -311,7 +311,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             Arithmetic::Fast => g.fast_fits(scene),
             Arithmetic::Wide => Ok(()),
         };
-        let lsb = ErrorModel::of(arithmetic, &g).lsb(scene, &g);
+        let lsb = ErrorModel::of(arithmetic, &g).lsb(scene, &g, g.direct_geom_err(arithmetic, scene));
         for (distortion, entries) in evals {
             let geom = match distortion {
                 Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
@@ -1003,6 +1003,9 @@ pub struct ErrorModel {
     pub unit: f64,
     /// Absolute error per term of the pixel sum, DN (truncations).
     pub per_term_dn: f64,
+    /// A sphere under a specular lobe takes its normal from the ray and the
+    /// sphere (`mix32::fine_normal`), not from the rounded hit point.
+    pub fine_normal: bool,
 }
 
 impl ErrorModel {
@@ -1029,6 +1032,7 @@ impl ErrorModel {
                 disc: 0.0,
                 unit: libm::ldexp(1.0, -28),
                 per_term_dn: libm::ldexp(1.0, -14),
+                fine_normal: true,
             },
             // I32F32 throughout: 2⁻³² m per rounding (each product, the
             // camera-frame centre's components), some 40 roundings of
@@ -1047,6 +1051,7 @@ impl ErrorModel {
                 disc: 2.0 * q32,
                 unit: 4.0 * q32,
                 per_term_dn: q32,
+                fine_normal: false,
             },
         }
     }
@@ -1055,8 +1060,7 @@ impl ErrorModel {
     /// LSB, over smooth pixels.
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
-    fn lsb(&self, scene: &Scene, g: &Geometry) -> f64 {
-        let gain = g.gain;
+    fn lsb(&self, scene: &Scene, g: &Geometry, geom_px: f64) -> f64 {
         // The radiometric chain: relative to the value, which matters only
         // up to DN_max (a value far above it saturates in both).
         let terms = (2 + 2 * scene.lights.len()) as f64;
@@ -1117,43 +1121,160 @@ impl ErrorModel {
                 }
                 Shape::Plane { .. } => (self.unit, self.point),
             };
-            // Per light: the largest unclipped DN of the term, and its
-            // error from the normal, the point and the lobe.
-            let mut e = 0.0;
-            for (l, lp) in scene.lights.iter().zip(&g.lights) {
-                let (strength, r_min) = match (*l, lp) {
-                    (Light::Point { intensity, .. }, Some(pos)) => {
-                        let i = intensity.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max);
-                        let r = prim_light_distance(p, *pos).max(1e-9);
-                        (i / (r * r), r)
-                    }
-                    (Light::Directional { irradiance, .. }, _) => (
-                        irradiance.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max),
-                        f64::INFINITY,
-                    ),
-                    _ => (0.0, f64::INFINITY),
-                };
-                // cos moves by the normal's error (absolute: D δn, also
-                // where a grazing pixel is dim), 1/r² by 3 δp / r relative
-                // (of a value that matters only up to DN_max).
-                let d = gain * p.kd * strength;
-                let rel = 3.0 * dp / r_min + self.rel;
-                e += d * dn + d.min(g.dn_max * 1.01) * rel;
-                let d_spec = gain * p.ks * strength;
-                if d_spec > 0.0 {
-                    // r̂·v̂ = x moves by 4 δn + 3 δl̂ + 3 δv̂; x^s by s x^(s−1)
-                    // δx. Where the term exceeds DN_max the pixel saturates
-                    // in both: x^s ≤ DN_max / D, so the error is at most
-                    // s δx DN_max / x with x = min(1, (DN_max / D)^(1/s)).
-                    let dx = 4.0 * dn + 3.0 * (dp / r_min + self.unit) + 3.0 * self.unit;
-                    let s = p.exponent.max(1) as f64;
-                    let x = libm::pow((g.dn_max / d_spec).min(1.0), 1.0 / s).max(1e-9);
-                    e += d_spec * dn + d_spec.min(g.dn_max * 1.01) * rel + s * dx * g.dn_max.min(d_spec) / x;
+            let e = if self.fine_normal && p.exponent > 0 && matches!(p.shape, Shape::Sphere { .. }) {
+                // Pixels whose n̂·v̂ is at least ν take the fine normal's
+                // error (A); below ν, next to the silhouette, the lobe is
+                // bounded by geometry (B): r̂·v̂ = 2 (n̂·l̂)(n̂·v̂) − l̂·v̂ < 2ν
+                // − λ, λ a lower bound of l̂·v̂ over the sphere. The best ν
+                // of a few, or the bound without the split if smaller.
+                let mut best = self.light_terms(scene, g, p, dn, dp, dn, None);
+                for nu in [0.7, 0.5, 0.35, 0.25, 0.125] {
+                    let (dn_a, dp_a) = self.fine_normal_err(g, p, nu, geom_px, dp);
+                    let a = self.light_terms(scene, g, p, dn, dp_a, dn_a, None);
+                    let b = self.light_terms(scene, g, p, dn, dp, dn, Some(nu));
+                    best = best.min(a.max(b));
                 }
-            }
+                best
+            } else {
+                self.light_terms(scene, g, p, dn, dp, dn, None)
+            };
             worst = worst.max(base + e.min(g.dn_max * 2.0));
         }
         worst
+    }
+}
+
+impl ErrorModel {
+    /// The error, DN, of the terms of every light on primitive `p`, with
+    /// the normal's error `dn` (diffuse), the hit point's `dp` (metres),
+    /// and for the lobe the normal's error `lobe_dn` or, with `cap = ν`,
+    /// the lobe bounded by geometry: both values lie in `[0, D X^s]` with
+    /// `X = 2ν − λ + δx`.
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn light_terms(
+        &self,
+        scene: &Scene,
+        g: &Geometry,
+        p: &PrimGeom,
+        dn: f64,
+        dp: f64,
+        lobe_dn: f64,
+        cap: Option<f64>,
+    ) -> f64 {
+        let gain = g.gain;
+        let mut e = 0.0;
+        for (l, lp) in scene.lights.iter().zip(&g.lights) {
+            let (strength, r_min) = match (*l, lp) {
+                (Light::Point { intensity, .. }, Some(pos)) => {
+                    let i = intensity.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max);
+                    let r = prim_light_distance(p, *pos).max(1e-9);
+                    (i / (r * r), r)
+                }
+                (Light::Directional { irradiance, .. }, _) => (
+                    irradiance.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max),
+                    f64::INFINITY,
+                ),
+                _ => (0.0, f64::INFINITY),
+            };
+            // cos moves by the normal's error (absolute: D δn, also
+            // where a grazing pixel is dim), 1/r² by 3 δp / r relative
+            // (of a value that matters only up to DN_max).
+            let d = gain * p.kd * strength;
+            let rel = 3.0 * dp / r_min + self.rel;
+            e += d * dn + d.min(g.dn_max * 1.01) * rel;
+            let d_spec = gain * p.ks * strength;
+            if d_spec > 0.0 {
+                // r̂·v̂ = x moves by 4 δn + 3 δl̂ + 3 δv̂; x^s by s x^(s−1)
+                // δx. Where the term exceeds DN_max the pixel saturates
+                // in both: x^s ≤ DN_max / D, so the error is at most
+                // s δx DN_max / x with x = min(1, (DN_max / D)^(1/s)).
+                let dx = 4.0 * lobe_dn + 3.0 * (dp / r_min + self.unit) + 3.0 * self.unit;
+                let s = p.exponent.max(1) as f64;
+                e += match cap {
+                    Some(nu) => {
+                        let x = 2.0 * nu - view_light_cos_min(scene, g, p, l, *lp) + dx;
+                        if x <= 0.0 {
+                            0.0
+                        } else {
+                            (d_spec * libm::pow(x.min(1.0), s)).min(g.dn_max * 1.01)
+                        }
+                    }
+                    None => {
+                        let x = libm::pow((g.dn_max / d_spec).min(1.0), 1.0 / s).max(1e-9);
+                        d_spec * lobe_dn
+                            + d_spec.min(g.dn_max * 1.01) * rel
+                            + s * dx * g.dn_max.min(d_spec) / x
+                    }
+                };
+            }
+        }
+        e
+    }
+
+    /// The error of `mix32::fine_normal` (absolute, per component) on a
+    /// sphere's pixels whose `n̂·v̂ ≥ ν`, and the hit point's there (`dp`
+    /// with the silhouette's along-ray term at `ν` instead of 1/256 px):
+    /// the ray's direction error `δθ` (the geometric error over `f`, plus
+    /// `d̂`'s 2⁻²⁸) moves `c⊥` by `2 |c| δθ` (parallel rays: their origin
+    /// by `k δθ`), and `s = √(r² − |c⊥|²)` by `|c⊥| δc⊥ / s ≤ δc⊥ / ν`;
+    /// roundings of a few S24 units, the square root's 2⁻²⁷.
+    fn fine_normal_err(&self, g: &Geometry, p: &PrimGeom, nu: f64, geom_px: f64, dp: f64) -> (f64, f64) {
+        let u = g.unit;
+        let s24 = libm::ldexp(u, -24);
+        let dtheta = geom_px / g.f_px + libm::ldexp(1.0, -28);
+        let (lever, rounding) = match g.origin_scale {
+            None => (2.0 * norm3(p.c), 4.0 * s24),
+            Some(k) => (k, libm::ldexp(u, -18)),
+        };
+        let r = p.r.max(1e-300);
+        let e_perp = lever * dtheta + rounding;
+        let e_s = e_perp / nu + r * libm::ldexp(1.0, -27) + 2.0 * s24 / nu;
+        let e_sd = r * dtheta + s24;
+        let dn = (e_perp + e_s + e_sd) / r + libm::ldexp(1.0, -27);
+        // The S18 hit point still serves the light's direction; next to
+        // the silhouette its along-ray error is at most that at ν.
+        let c = norm3(p.c).max(p.r);
+        let db = self.b + self.b_per_c * c;
+        let ddisc = 2.0 * p.r * 1.8 * db + p.r * p.r * self.a_rel + self.cc + self.cc_per_c * p.r + self.disc;
+        let disc_nu = (nu * nu * r * r - ddisc).max(1e-300);
+        let dp_a = (self.point + db + ddisc / (2.0 * libm::sqrt(disc_nu))).min(dp);
+        (dn, dp_a)
+    }
+}
+
+/// A lower bound of `l̂·v̂` over sphere `p`'s points (`v̂` towards the
+/// camera, `l̂` towards light `l`): the angle at a point between the two
+/// directions exceeds that at the centre by at most `asin(r / distance)`
+/// for each end (the camera's only for perspective rays); −1 if an end
+/// lies within the sphere.
+fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: Option<[f64; 3]>) -> f64 {
+    let spread = |d: f64| {
+        if d > p.r {
+            libm::asin(p.r / d)
+        } else {
+            core::f64::consts::PI
+        }
+    };
+    let (v, sv) = match g.origin_scale {
+        None => ([-p.c[0], -p.c[1], -p.c[2]], spread(norm3(p.c))),
+        Some(_) => ([0.0, 0.0, -1.0], 0.0),
+    };
+    let (to_l, sl) = match (*l, lp) {
+        (Light::Point { .. }, Some(pos)) => {
+            let d = sub3(pos, p.c);
+            (d, spread(norm3(d)))
+        }
+        (Light::Directional { towards, .. }, _) => (cam_direction(scene, towards), 0.0),
+        _ => return -1.0,
+    };
+    let cos0 = dot3(v, to_l) / (norm3(v) * norm3(to_l)).max(1e-300);
+    let angle = libm::acos(cos0.clamp(-1.0, 1.0)) + sv + sl;
+    if angle >= core::f64::consts::PI {
+        -1.0
+    } else {
+        libm::cos(angle)
     }
 }
 
