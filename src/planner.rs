@@ -89,6 +89,11 @@ pub enum Unfit {
     /// The scene needs defocus, whose aperture rays run in the wide
     /// arithmetic only.
     Defocus,
+    /// A sampled scene with a checkered plane: toward its horizon the cells
+    /// shrink below a pixel, where the estimate of differing edge pixels
+    /// does not hold (a random scene measured 0.23 % against 0.0003 %
+    /// predicted), so the sampled fast loop is not used there.
+    SampledCheckeredPlane,
 }
 
 impl Unfit {
@@ -102,6 +107,9 @@ impl Unfit {
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
             Unfit::Defocus => "defocus (aperture rays) runs in the wide arithmetic only",
+            Unfit::SampledCheckeredPlane => {
+                "sampling a checkered plane: its cells shrink below a pixel toward the horizon"
+            }
         }
     }
 }
@@ -308,6 +316,15 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         // What the distortion evaluation does not change, once.
         let fits = match arithmetic {
             Arithmetic::Fast if df.points > 0 => Err(Unfit::Defocus),
+            Arithmetic::Fast
+                if samples > 1
+                    && scene
+                        .primitives
+                        .iter()
+                        .any(|p| p.checker.is_some() && matches!(p.shape, Shape::Plane { .. })) =>
+            {
+                Err(Unfit::SampledCheckeredPlane)
+            }
             Arithmetic::Fast => g.fast_fits(scene),
             Arithmetic::Wide => Ok(()),
         };

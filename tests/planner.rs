@@ -400,3 +400,78 @@ fn a_distant_flat_target_is_planned_fast_with_parallel_rays() {
     assert_eq!(out.metrics.max_abs_lsb_smooth, 0);
     assert!(out.metrics.max_geom_err_px <= p.predicted_geom_err_px * 1.001);
 }
+
+/// Sampled scenes (camera-model.md §7: a 2×2 to 16×16 grid, adaptive or on
+/// every pixel) at 160×120: where the plan meets the budget, what it renders
+/// — the fast arithmetic's sampled loop where that is cheapest and its
+/// predicted share of differing edge pixels is within budget, else the wide
+/// one — meets the budget against the reference: smooth pixels within the
+/// predicted LSB, geometry within the predicted, and at most
+/// `max_edge_differing` of the pixels differing at edges. Without checkered
+/// planes: toward a checkered plane's horizon the cells shrink below a
+/// pixel, and there neither arithmetic keeps the differing edge pixels
+/// within 0.05 % (measured: fast 0.23 %, which the planner now refuses,
+/// `Unfit::SampledCheckeredPlane`; wide 0.083 %) — a known gap.
+#[test]
+fn sampled_plans_meet_the_budget_on_random_scenes() {
+    let mut runner = runner(40);
+    let (fast, wide) = (Cell::new(0), Cell::new(0));
+    let budget = Budget::default();
+    let sampled = (spec(), 0usize..4, any::<bool>()).prop_map(|(mut s, e, adaptive)| {
+        s.tiny_near_lens = None;
+        for p in s.prims.iter_mut().filter(|p| p.0 == 0) {
+            p.3 = false;
+        }
+        (s, [0.25, 0.125, 0.0625, 0.03125][e], adaptive)
+    });
+    let result = runner.run(&sampled, |(s, edge, adaptive)| {
+        let t = text(&s)
+            .replace("width = 48\nheight = 36\n", "width = 160\nheight = 120\n")
+            .replace("pitch = 24e-6", "pitch = 7.2e-6")
+            .replace("tolerable_blur = 24e-6", "tolerable_blur = 7.2e-6")
+            + &format!("[sampling]\nedge_error = {edge}\nadaptive = {adaptive}\n");
+        let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let p = plan(&scene, &budget);
+        if !p.meets_budget || p.defocus.points > 0 {
+            return Ok(());
+        }
+        let m = render(&r, &budget)
+            .unwrap_or_else(|e| panic!("{e}:\n{t}"))
+            .metrics;
+        let chosen = p.candidates.get(p.chosen).map_or(f64::NAN, |c| c.edge_differing);
+        match p.options.arithmetic {
+            Arithmetic::Fast => fast.set(fast.get() + 1),
+            Arithmetic::Wide => wide.set(wide.get() + 1),
+        }
+        prop_assert!(
+            m.max_abs_lsb_smooth as f64 <= p.predicted_lsb.floor() + 1.0,
+            "smooth {} LSB above the predicted {}:\n{t}",
+            m.max_abs_lsb_smooth,
+            p.predicted_lsb
+        );
+        prop_assert!(
+            m.max_geom_err_px <= p.predicted_geom_err_px * 1.001 + 1e-9,
+            "geometry {} px above the predicted {}:\n{t}",
+            m.max_geom_err_px,
+            p.predicted_geom_err_px
+        );
+        prop_assert!(
+            m.edge_pixels_differing_fraction <= budget.max_edge_differing,
+            "{} of the pixels differ at edges ({:?}, predicted {chosen}), over the budget's {}:\n{t}",
+            m.edge_pixels_differing_fraction,
+            p.options.arithmetic,
+            budget.max_edge_differing
+        );
+        Ok(())
+    });
+    eprintln!(
+        "sampled scenes within budget: fast {}, wide {}",
+        fast.get(),
+        wide.get()
+    );
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    assert!(fast.get() >= 10, "fast on {} sampled scenes", fast.get());
+}
