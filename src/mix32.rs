@@ -1877,7 +1877,7 @@ impl Mix32 {
                         // In the field: its corners are.
                         let (sum, c4) = self.radiance_s::<C, PERSP>(r, &mut k);
                         let dn = match noise {
-                            Some(z) => noisy::<C>(z, sum, c4, index + q as u32, dn_max),
+                            Some(z) => noisy::<C>(z, sum, c4, index.wrapping_add(q as u32), dn_max),
                             None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
                         };
                         *out = word::<C>(dn);
@@ -1899,7 +1899,7 @@ impl Mix32 {
                         let mut dn = [0u32; 3];
                         for (c, ((d, v), max)) in dn.iter_mut().zip(v).zip(dn_max).take(C).enumerate() {
                             *d = match noise {
-                                Some(z) => z.apply_with(v, index + q as u32, c, max as u32, sigma_z),
+                                Some(z) => z.apply_with(v, index.wrapping_add(q as u32), c, max as u32, sigma_z),
                                 None => crate::vignetting::round_dn(v, max as u32),
                             };
                         }
