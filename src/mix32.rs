@@ -1899,7 +1899,9 @@ impl Mix32 {
                         let mut dn = [0u32; 3];
                         for (c, ((d, v), max)) in dn.iter_mut().zip(v).zip(dn_max).take(C).enumerate() {
                             *d = match noise {
-                                Some(z) => z.apply_with(v, index.wrapping_add(q as u32), c, max as u32, sigma_z),
+                                Some(z) => {
+                                    z.apply_with(v, index.wrapping_add(q as u32), c, max as u32, sigma_z)
+                                }
                                 None => crate::vignetting::round_dn(v, max as u32),
                             };
                         }
