@@ -413,6 +413,7 @@ fn cos_over_r3(nl: u64, y: u32, z: u32) -> Pf {
 /// ill-conditioned only next to the silhouette, where the planner bounds
 /// the lobe by geometry instead.
 #[inline(never)]
+#[cold]
 fn fine_normal<const PERSP: bool>(
     r: &Ray,
     c: [i32; 3],
