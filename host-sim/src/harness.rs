@@ -768,10 +768,11 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
         )
     } else {
         format!(
-            "no candidate meets the budget ({} px, {} LSB): {} is the most accurate that fits \
-             ({:.2e} px, {:.3} LSB before rounding)",
+            "no candidate meets the budget ({} px, {} LSB, {} % differing at edges): {} is the most \
+             accurate that fits ({:.2e} px, {:.3} LSB before rounding)",
             budget.max_geom_err_px,
             budget.max_lsb,
+            100.0 * budget.max_edge_differing,
             c.name(),
             c.geom_err_px,
             c.lsb

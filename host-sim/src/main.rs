@@ -35,6 +35,10 @@ enum Cmd {
         /// Pixel-value error budget for the planner, LSB.
         #[arg(long, default_value_t = 1.0)]
         max_lsb: f64,
+        /// Budget for edge pixels differing from the reference, as a
+        /// fraction of all pixels (the planner's estimate).
+        #[arg(long, default_value_t = 0.0005)]
+        max_edge_differing: f64,
         /// Render even when no way of rendering the scene is predicted to
         /// meet the budget (by default such a scene is refused, and nothing
         /// is written).
@@ -329,14 +333,19 @@ fn main() -> ExitCode {
             out,
             max_geom_err_px,
             max_lsb,
+            max_edge_differing,
             allow_over_budget,
         } => {
             let run = || -> Result<String, String> {
                 let budget = hilcam::planner::Budget {
                     max_geom_err_px,
                     max_lsb,
+                    max_edge_differing,
                     ..Default::default()
                 };
+                if !(0.0..=1.0).contains(&max_edge_differing) {
+                    return Err("--max-edge-differing: must lie in [0, 1]".into());
+                }
                 if !(max_geom_err_px > 0.0 && max_geom_err_px <= 1e3) {
                     return Err("--max-geom-err-px: must lie in (0, 1000] px".into());
                 }
