@@ -169,6 +169,28 @@ fn text(s: &Spec) -> String {
     t
 }
 
+/// The frame's smooth pixels within the plan's predicted LSB (+ rounding)
+/// and its geometry within the predicted error.
+fn within_predicted(
+    m: &host_sim::harness::Metrics,
+    p: &hilcam::planner::Plan,
+    t: &str,
+) -> Result<(), proptest::test_runner::TestCaseError> {
+    prop_assert!(
+        m.max_abs_lsb_smooth as f64 <= p.predicted_lsb.floor() + 1.0,
+        "smooth {} LSB above the predicted {}:\n{t}",
+        m.max_abs_lsb_smooth,
+        p.predicted_lsb
+    );
+    prop_assert!(
+        m.max_geom_err_px <= p.predicted_geom_err_px * 1.001 + 1e-9,
+        "geometry {} px above the predicted {}:\n{t}",
+        m.max_geom_err_px,
+        p.predicted_geom_err_px
+    );
+    Ok(())
+}
+
 /// A deterministic runner of `cases` cases (the same scenes every run).
 fn runner(cases: u32) -> TestRunner {
     let mut config = Config::with_cases(cases);
@@ -361,18 +383,7 @@ fn predicted_bounds_hold_with_parallel_rays_started_in_front() {
         if p.options.arithmetic == Arithmetic::Fast {
             fast.set(fast.get() + 1);
         }
-        prop_assert!(
-            m.max_abs_lsb_smooth as f64 <= p.predicted_lsb.floor() + 1.0,
-            "smooth {} LSB above the predicted {}:\n{t}",
-            m.max_abs_lsb_smooth,
-            p.predicted_lsb
-        );
-        prop_assert!(
-            m.max_geom_err_px <= p.predicted_geom_err_px * 1.001 + 1e-9,
-            "geometry {} px above the predicted {}:\n{t}",
-            m.max_geom_err_px,
-            p.predicted_geom_err_px
-        );
+        within_predicted(&m, &p, &t)?;
         Ok(())
     });
     eprintln!("far orthographic scenes planned fast: {} of 60", fast.get());
@@ -444,18 +455,7 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
             Arithmetic::Fast => fast.set(fast.get() + 1),
             Arithmetic::Wide => wide.set(wide.get() + 1),
         }
-        prop_assert!(
-            m.max_abs_lsb_smooth as f64 <= p.predicted_lsb.floor() + 1.0,
-            "smooth {} LSB above the predicted {}:\n{t}",
-            m.max_abs_lsb_smooth,
-            p.predicted_lsb
-        );
-        prop_assert!(
-            m.max_geom_err_px <= p.predicted_geom_err_px * 1.001 + 1e-9,
-            "geometry {} px above the predicted {}:\n{t}",
-            m.max_geom_err_px,
-            p.predicted_geom_err_px
-        );
+        within_predicted(&m, &p, &t)?;
         prop_assert!(
             m.edge_pixels_differing_fraction <= budget.max_edge_differing,
             "{} of the pixels differ at edges ({:?}, predicted {chosen}), over the budget's {}:\n{t}",
