@@ -71,7 +71,7 @@ use crate::render::{LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::scalar::shr_sat;
 use crate::scene::{PixelFormat, Q};
 use crate::shading::{Brdf, ShadingLight, V3};
-use core::num::NonZeroU32;
+use core::num::{NonZeroU32, NonZeroU64};
 
 /// `m · 2^e`: a normalized mantissa (top bit set) or zero, for the
 /// radiometric products, whose range no fixed format covers.
@@ -817,6 +817,25 @@ enum MixLight {
     Directional { l: [i32; 3], e: [Pf; 3] },
 }
 
+/// Defocus (camera-model.md §8): the aperture pattern pixel centres are lit
+/// through. Point `k` is [`crate::defocus::SPIRAL`]`[k] << up` (units of
+/// 2⁻¹⁵ of the radius).
+#[derive(Clone, Copy, Debug)]
+struct Aperture {
+    /// Points (16, 64 or 256) and their log2.
+    m: u16,
+    log2m: u32,
+    up: u32,
+    /// The radius `d/2`, S18 U, and `U/Z̃` times 2⁴⁰: point `u` (unit disc)
+    /// is `A = u d/2` on the lens (rounded to S18 U), and its ray through
+    /// the chief ray's point at the focused depth has the chief slopes
+    /// minus `A/Z̃` (of the rounded `A`: the ray still meets the chief ray
+    /// there, so the rounding moves a hit only by its distance from the
+    /// focused depth).
+    r18: i32,
+    inv_z40: i64,
+}
+
 /// `kd · E` and `ks · E` (or `· I/U²`) per light and channel for one
 /// material, and its lobe.
 struct KCache {
@@ -995,12 +1014,82 @@ impl Rays {
     }
 }
 
-impl MixPrim {
+impl MixShape {
+    /// The shape in the frame moved to `(a_x, a_y, 0)` (S18 U; defocus's
+    /// aperture points): exact for centres, `n·A` truncated to S24 U.
+    #[inline(always)]
+    fn moved(&self, a: [i32; 2]) -> MixShape {
+        let na = |n: &[i32; 3]| ((wmul(n[0], a[0]) + wmul(n[1], a[1])) >> 24) as i32;
+        let c18 = |c: &[i32; 3]| [c[0].saturating_sub(a[0]), c[1].saturating_sub(a[1]), c[2]];
+        match *self {
+            MixShape::Plane { n, dist, rz } => MixShape::Plane {
+                n,
+                dist: dist.saturating_sub(na(&n)),
+                rz,
+            },
+            MixShape::Sphere {
+                c,
+                cz50,
+                c18: k,
+                r2_24,
+                r2,
+                r24,
+                fine,
+                inv_r,
+            } => MixShape::Sphere {
+                c: [
+                    c[0].saturating_sub(a[0].saturating_mul(64)),
+                    c[1].saturating_sub(a[1].saturating_mul(64)),
+                    c[2],
+                ],
+                cz50,
+                c18: c18(&k),
+                r2_24,
+                r2,
+                r24,
+                fine,
+                inv_r,
+            },
+            MixShape::Disc {
+                n,
+                dist,
+                rz,
+                c18: c,
+                r2,
+            } => MixShape::Disc {
+                n,
+                dist: dist.saturating_sub(na(&n)),
+                rz,
+                c18: c18(&c),
+                r2,
+            },
+            MixShape::Rect {
+                n,
+                dist,
+                rz,
+                c18: c,
+                u,
+                v,
+                hu,
+                hv,
+            } => MixShape::Rect {
+                n,
+                dist: dist.saturating_sub(na(&n)),
+                rz,
+                c18: c18(&c),
+                u,
+                v,
+                hu,
+                hv,
+            },
+        }
+    }
+
     /// One primitive's pass over a chunk: keeps its hits that are nearer
     /// than each ray's nearest so far (`index` names it in [`Ray::hit`]).
     #[inline(always)]
     fn nearest<const PERSP: bool>(&self, index: u8, rays: &mut [Ray]) {
-        match &self.shape {
+        match self {
             MixShape::Plane { n, dist, rz } => {
                 for r in rays.iter_mut() {
                     if let Some((t, away)) = r.plane_t::<PERSP>(*n, *dist, *rz) {
@@ -1151,6 +1240,8 @@ pub struct Mix32 {
     /// ([`crate::sampling`]).
     samples: u8,
     adaptive: bool,
+    /// Defocus: the aperture pixel centres are lit through.
+    aperture: Option<Aperture>,
 }
 
 /// What [`Mix32::new`] takes from the frame the generic path prepared (all
@@ -1180,6 +1271,12 @@ pub(crate) struct Input<'a> {
     /// The sample grid's side (1, 2, 4, 8 or 16) and the adaptive rule.
     pub samples: u8,
     pub adaptive: bool,
+    /// Defocus: the aperture pattern's points (16, 64 or 256), its radius
+    /// `d/2` and the focused depth `Z̃` (metres); `None`: the chief ray
+    /// alone.
+    pub aperture: Option<(u16, Q, Q)>,
+    /// With defocus, `(d/2, 1/Z̃)`: the slope bounds widen by the blur.
+    pub blur: Option<(f64, f64)>,
 }
 
 impl Input<'_> {
@@ -1188,7 +1285,7 @@ impl Input<'_> {
     fn prims(&self) -> impl Iterator<Item = crate::render::CamPrimQ> + '_ {
         let cull = !self.specular_all;
         (self.scene.primitives.iter())
-            .map(move |p| crate::render::cam_prim(self.scene, p, self.origin_scale, cull, None))
+            .map(move |p| crate::render::cam_prim(self.scene, p, self.origin_scale, cull, self.blur))
     }
 
     /// The scene's lights in the camera frame.
@@ -1336,6 +1433,7 @@ impl Mix32 {
         noise: None,
         samples: 1,
         adaptive: false,
+        aperture: None,
     };
 
     /// Converts a prepared frame in place (the path's state is kilobytes:
@@ -1352,6 +1450,11 @@ impl Mix32 {
         } else {
             (Q::ZERO, here)
         };
+        // Through the aperture, rays start up to its radius off the axis.
+        let (ap_r, ap_rz) = f.aperture.map_or((Q::ZERO, Q::ZERO), |(_, r, z)| {
+            (r, r.checked_div(z).unwrap_or(Q::MAX))
+        });
+        let extent = extent.saturating_add(ap_r);
         // U = 2^e with extent ≤ 8 U, e in [−20, 20].
         let mut e: i32 = -20;
         while e < 20 && extent > shl_q(8, e) {
@@ -1521,7 +1624,8 @@ impl Mix32 {
             }
             None => (None, i32::MAX, Q::ONE),
         };
-        let slope = xm.max(ym).saturating_mul(gmax);
+        // (Aperture rays' slopes are the chief ray's shifted by up to d/(2Z̃).)
+        let slope = xm.max(ym).saturating_mul(gmax).saturating_add(ap_rz);
         if slope > Q::from_num(16) {
             return Err(bad);
         }
@@ -1554,6 +1658,25 @@ impl Mix32 {
         }
         self.samples = f.samples;
         self.adaptive = f.adaptive && f.samples > 1;
+        self.aperture = match f.aperture {
+            None => None,
+            Some((m, r, z)) => {
+                // Pixel centres through the aperture, perspective rays.
+                let z = NonZeroU64::new(z.to_bits().max(0) as u64).ok_or(RenderError::Degenerate)?;
+                if !crate::defocus::is_size(m) || f.samples > 1 || parallel.is_some() {
+                    return Err(RenderError::Degenerate);
+                }
+                // 2^40 U / Z̃ = 2^(72 + e) / (Z̃ 2^32), e in [−20, 20].
+                let inv = (1u128 << (72 + e) as u32) / u128::from(z.get());
+                Some(Aperture {
+                    m,
+                    log2m: m.trailing_zeros(),
+                    up: crate::defocus::shift(m) - 17,
+                    r18: len_s(r, e, 18),
+                    inv_z40: inv.min(i64::MAX as u128) as i64,
+                })
+            }
+        };
         self.set_frame_id(0);
         Ok(())
     }
@@ -1620,6 +1743,8 @@ impl Mix32 {
             LineLoop::FastRgbParallelSampled if L::FAST_RGB_PARALLEL_SAMPLED => {
                 self.line_s::<3, false>(j, pixels, flags)
             }
+            LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<1>(j, pixels, flags),
+            LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<3>(j, pixels, flags),
             _ => {}
         }
     }
@@ -1627,6 +1752,13 @@ impl Mix32 {
     /// The loop this frame's lines are rendered by.
     pub fn line_loop(&self) -> LineLoop {
         let rgb = self.format == PixelFormat::Rgb565;
+        if self.aperture.is_some() {
+            return if rgb {
+                LineLoop::FastRgbAperture
+            } else {
+                LineLoop::FastGrayAperture
+            };
+        }
         match (rgb, self.parallel.is_none(), self.samples > 1) {
             (false, true, false) => LineLoop::FastGrayPerspective,
             (true, true, false) => LineLoop::FastRgbPerspective,
@@ -1718,7 +1850,7 @@ impl Mix32 {
                     continue;
                 }
             }
-            p.nearest::<PERSP>(i as u8, rays);
+            p.shape.nearest::<PERSP>(i as u8, rays);
         }
     }
 
@@ -1751,18 +1883,126 @@ impl Mix32 {
     /// its `cos⁴α` (S31).
     #[inline(always)]
     fn radiance<const C: usize, const PERSP: bool>(&self, r: &Ray, k: &mut KCache) -> ([u64; 3], u32) {
-        // cos⁴α = (1/a)², S31 (1/a_real = r 2^(z − 42), z ≤ 11).
-        let c4 = if self.vignetting {
-            let inv = r.ra.0 >> (11u32.saturating_sub(r.ra.1));
-            (umul(inv, inv) >> 31) as u32
-        } else {
-            1 << 31
-        };
         let sum = match self.hit::<PERSP>(r) {
             Some((m, pt, n, away)) => self.shade::<C, PERSP>(r, m, pt, n, away, k),
             None => self.bg,
         };
-        (sum, c4)
+        (sum, self.c4(r))
+    }
+
+    /// A ray's `cos⁴α = (1/a)²`, S31 (1/a_real = r 2^(z − 42), z ≤ 11).
+    #[inline(always)]
+    fn c4(&self, r: &Ray) -> u32 {
+        if self.vignetting {
+            let inv = r.ra.0 >> (11u32.saturating_sub(r.ra.1));
+            (umul(inv, inv) >> 31) as u32
+        } else {
+            1 << 31
+        }
+    }
+
+    /// [`Mix32::line_f`] through the aperture (defocus, camera-model.md §8):
+    /// a pixel centre is the mean, over the aperture pattern's points `A`,
+    /// of the radiance along the ray from `A` through where its chief ray
+    /// meets the focused depth, with the chief ray's `cos⁴α`. Per point the
+    /// primitives' passes run in the frame moved to `A` (a pinhole there,
+    /// the chief slopes shifted by `A/Z̃`: [`MixShape::moved`]) and each hit
+    /// is shaded in the camera frame. A primitive's pass is skipped where
+    /// the chunk's chief slopes miss its bounds, widened by the blur. The
+    /// mean of the `m` sums is exact (`m` a power of two), rounded once.
+    #[inline(never)]
+    fn line_d<const C: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+        let Some(ap) = self.aperture else {
+            return;
+        };
+        let w = self.width as usize;
+        let b = self.format.bytes_per_pixel();
+        let (Some(pixels), Some(flags)) = (pixels.get_mut(..w * b), flags.get_mut(..w)) else {
+            return;
+        };
+        let yd = self.yd(j);
+        let yd2 = wmul(yd, yd);
+        let mut acc = self.x0;
+        let mut k = KCache::EMPTY;
+        let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
+        let noise = self.noise.as_ref();
+        let (mut chief, mut rays) = (Rays::default(), Rays::default());
+        let mut words = [0u16; CHUNK];
+        let mut index = j as u32 * self.width as u32;
+        for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
+            let (Some(chief), Some(rays)) = (chief.first(flags.len()), rays.first(flags.len())) else {
+                return;
+            };
+            let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
+            for r in chief.iter_mut() {
+                let xd = (acc >> 32) as i32;
+                acc -= self.dx;
+                *r = match self.undistort(xd, yd, yd2) {
+                    Some((x, y)) => Ray::new::<true>(x, y, 0),
+                    None => Ray::OUTSIDE,
+                };
+                (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
+            }
+            // Sums of S15 DN below 2⁴⁷ each: at most 2⁵⁵.
+            let mut sums = [[0u64; 3]; CHUNK];
+            for u in crate::defocus::SPIRAL.iter().take(ap.m as usize) {
+                // A = u (2⁻¹⁵) times r (S18 U), rounded; A/Z̃ (S18 U · S40
+                // / U → S26), rounded.
+                let a = u.map(|v| sat32(((i64::from(v) << ap.up) * ap.r18 as i64 + (1 << 14)) >> 15));
+                let off = a.map(|a| {
+                    let v = (a as i128 * ap.inv_z40 as i128 + (1 << 31)) >> 32;
+                    v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
+                });
+                for (r, c) in rays.iter_mut().zip(chief.iter()) {
+                    *r = if c.t == 0 {
+                        Ray::OUTSIDE
+                    } else {
+                        Ray::new::<true>(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]), 0)
+                    };
+                }
+                for (i, p) in self.prims.iter().enumerate() {
+                    if let Some(b) = p.bounds {
+                        if x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3] {
+                            continue;
+                        }
+                    }
+                    p.shape.moved(a).nearest::<true>(i as u8, rays);
+                }
+                for (r, s) in rays.iter().zip(sums.iter_mut()) {
+                    if r.t == 0 {
+                        continue;
+                    }
+                    let l = match self.hit_from::<true>(r, a) {
+                        Some((m, pt, n, away)) => self.shade::<C, true>(r, m, pt, n, away, &mut k),
+                        None => self.bg,
+                    };
+                    for (s, l) in s.iter_mut().zip(l).take(C) {
+                        *s += l;
+                    }
+                }
+            }
+            for (((c, s), out), flag) in chief
+                .iter()
+                .zip(&sums)
+                .zip(words.iter_mut())
+                .zip(flags.iter_mut())
+            {
+                *out = if c.t == 0 {
+                    *flag = FLAG_OUTSIDE_FIELD;
+                    0
+                } else {
+                    *flag = 0;
+                    let (sum, c4) = (s.map(|v| v >> ap.log2m), self.c4(c));
+                    let dn = match noise {
+                        Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
+                        None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
+                    };
+                    word::<C>(dn)
+                };
+                index = index.wrapping_add(1);
+            }
+            put(&words, b, pixels);
+        }
     }
 
     /// [`Mix32::radiance`] out of line: one copy of the shading serves the
@@ -1966,12 +2206,21 @@ impl Mix32 {
     /// viewer (surfaces are two-sided: shading turns it).
     #[inline(always)]
     fn hit<const PERSP: bool>(&self, r: &Ray) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+        self.hit_from::<PERSP>(r, [0, 0])
+    }
+
+    /// [`Mix32::hit`] for a ray traced in the frame moved to `(a_x, a_y, 0)`
+    /// (S18 U; [`MixShape::moved`]): the hit point moved back, the rest in
+    /// the camera frame.
+    #[inline(always)]
+    fn hit_from<const PERSP: bool>(&self, r: &Ray, a: [i32; 2]) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
         if r.t == NO_HIT {
             return None;
         }
         let p = self.prims.get((r.hit & !AWAY) as usize)?;
         let away = r.hit & AWAY != 0;
         let pt = r.point::<PERSP>(r.t);
+        let pt = [pt[0].saturating_add(a[0]), pt[1].saturating_add(a[1]), pt[2]];
         let n = match &p.shape {
             MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
             // Under a specular lobe, whose exponent multiplies the normal's
@@ -1982,7 +2231,14 @@ impl Mix32 {
                 inv_r,
                 fine: true,
                 ..
-            } => fine_normal::<PERSP>(r, *c, *r24, *inv_r, away),
+            } => {
+                let c = [
+                    c[0].saturating_sub(a[0].saturating_mul(64)),
+                    c[1].saturating_sub(a[1].saturating_mul(64)),
+                    c[2],
+                ];
+                fine_normal::<PERSP>(r, c, *r24, *inv_r, away)
+            }
             MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
                 let rel = p.saturating_sub(c);
                 sat32(smul_u(rel, inv_r.0) >> inv_r.1)

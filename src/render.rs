@@ -209,6 +209,11 @@ pub trait Lines {
     const FAST_GRAY_PARALLEL_SAMPLED: bool = true;
     /// RGB565, parallel rays, sampled.
     const FAST_RGB_PARALLEL_SAMPLED: bool = true;
+    /// Fast arithmetic, one channel, through the aperture (defocus; pixel
+    /// centres, perspective rays).
+    const FAST_GRAY_APERTURE: bool = true;
+    /// RGB565 through the aperture.
+    const FAST_RGB_APERTURE: bool = true;
     /// Wide arithmetic, perspective rays (defocus's aperture rays too).
     const WIDE_PERSPECTIVE: bool = true;
     /// Wide arithmetic, parallel rays.
@@ -219,6 +224,15 @@ pub trait Lines {
 pub struct AllLines;
 
 impl Lines for AllLines {}
+
+/// Every line loop the planner picks: all but the fast aperture loops (see
+/// [`crate::planner::Unfit::Defocus`]), which run only when asked for.
+pub struct PlannedLines;
+
+impl Lines for PlannedLines {
+    const FAST_GRAY_APERTURE: bool = false;
+    const FAST_RGB_APERTURE: bool = false;
+}
 
 /// A line loop: the arithmetic, the rays and, for the fast arithmetic, the
 /// channels ([`Lines`] has a constant for each).
@@ -240,6 +254,10 @@ pub enum LineLoop {
     FastGrayParallelSampled,
     /// [`Lines::FAST_RGB_PARALLEL_SAMPLED`].
     FastRgbParallelSampled,
+    /// [`Lines::FAST_GRAY_APERTURE`].
+    FastGrayAperture,
+    /// [`Lines::FAST_RGB_APERTURE`].
+    FastRgbAperture,
     /// [`Lines::WIDE_PERSPECTIVE`].
     WidePerspective,
     /// [`Lines::WIDE_PARALLEL`].
@@ -248,7 +266,7 @@ pub enum LineLoop {
 
 impl LineLoop {
     /// Every loop.
-    pub const ALL: [LineLoop; 10] = [
+    pub const ALL: [LineLoop; 12] = [
         LineLoop::FastGrayPerspective,
         LineLoop::FastRgbPerspective,
         LineLoop::FastGrayParallel,
@@ -257,6 +275,8 @@ impl LineLoop {
         LineLoop::FastRgbPerspectiveSampled,
         LineLoop::FastGrayParallelSampled,
         LineLoop::FastRgbParallelSampled,
+        LineLoop::FastGrayAperture,
+        LineLoop::FastRgbAperture,
         LineLoop::WidePerspective,
         LineLoop::WideParallel,
     ];
@@ -272,6 +292,8 @@ impl LineLoop {
             LineLoop::FastRgbPerspectiveSampled => L::FAST_RGB_PERSPECTIVE_SAMPLED,
             LineLoop::FastGrayParallelSampled => L::FAST_GRAY_PARALLEL_SAMPLED,
             LineLoop::FastRgbParallelSampled => L::FAST_RGB_PARALLEL_SAMPLED,
+            LineLoop::FastGrayAperture => L::FAST_GRAY_APERTURE,
+            LineLoop::FastRgbAperture => L::FAST_RGB_APERTURE,
             LineLoop::WidePerspective => L::WIDE_PERSPECTIVE,
             LineLoop::WideParallel => L::WIDE_PARALLEL,
         }
@@ -289,6 +311,8 @@ impl LineLoop {
             LineLoop::FastRgbPerspectiveSampled => "FAST_RGB_PERSPECTIVE_SAMPLED",
             LineLoop::FastGrayParallelSampled => "FAST_GRAY_PARALLEL_SAMPLED",
             LineLoop::FastRgbParallelSampled => "FAST_RGB_PARALLEL_SAMPLED",
+            LineLoop::FastGrayAperture => "FAST_GRAY_APERTURE",
+            LineLoop::FastRgbAperture => "FAST_RGB_APERTURE",
             LineLoop::WidePerspective => "WIDE_PERSPECTIVE",
             LineLoop::WideParallel => "WIDE_PARALLEL",
         }
@@ -891,6 +915,8 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             gain: fast.gain,
             samples: fast.samples,
             adaptive: fast.adaptive,
+            aperture: fast.aperture,
+            blur: fast.blur,
         };
         self.path = Path::Fast(crate::mix32::Mix32::EMPTY);
         let Path::Fast(m) = &mut self.path else {
@@ -1069,6 +1095,10 @@ struct FastInput {
     gain: V3,
     samples: u8,
     adaptive: bool,
+    /// Defocus: the aperture pattern's points, its radius `d/2` and the
+    /// focused depth `Z̃` (metres), and the blur that widens the slope bounds.
+    aperture: Option<(u16, Q, Q)>,
+    blur: Option<(f64, f64)>,
 }
 
 impl<S: Scalar, const T: usize> WideFrame<S, T> {
@@ -1154,6 +1184,9 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             return Err(RenderError::NotBuilt);
         }
         (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
+        // The aperture as the fast path takes it: points, radius, radius/Z̃.
+        #[cfg_attr(not(feature = "sensor"), allow(unused_mut))]
+        let mut fast_aperture = None;
         #[cfg(feature = "sensor")]
         {
             let n = self.stages.samples;
@@ -1171,6 +1204,9 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 .ok_or(RenderError::Degenerate)?;
             self.ap_r = S::from_q(q(r));
             self.ap_rz = S::from_q(q(rz));
+            if aperture {
+                fast_aperture = Some((m, q(r), q(Wide::of(lens.focus_distance()))));
+            }
             self.ap_shift = crate::defocus::shift(m);
             self.inv_m = S::from_q(Q::from_bits(1i64 << (32 - m.trailing_zeros())));
         }
@@ -1255,7 +1291,9 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         if opts.arithmetic == Arithmetic::Fast {
             let table =
                 self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
-            if table || aperture || (self.stages.samples > 1 && cfg!(not(feature = "sensor"))) {
+            // Defocus runs in the fast arithmetic for pixel centres only.
+            let sampled = self.stages.samples > 1;
+            if table || (aperture && sampled) || (sampled && cfg!(not(feature = "sensor"))) {
                 return Err(RenderError::OutsideFormat);
             }
             // The fast path prepares its own primitives, lights and
@@ -1271,20 +1309,15 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 gain,
                 samples: self.stages.samples,
                 adaptive: self.stages.adaptive,
+                aperture: fast_aperture,
+                blur: aperture.then(|| lens_blur(scene)),
             }));
         }
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
             *dst = Brdf::new(m, scene.ambient).to();
         }
         let cull = !opts.keep_all_stages;
-        // With defocus, a primitive's slope bounds widen by half its
-        // largest blur circle: the aperture ray that meets it at depth z
-        // has a chief ray within (d/2)|1/z − 1/Z̃| of the hit's slope.
-        let lens = &scene.camera.lens;
-        let blur = aperture.then(|| {
-            let focus = lens.focus_distance().to_num::<f64>();
-            (lens.diameter().to_num::<f64>() / 2.0, 1.0 / focus)
-        });
+        let blur = aperture.then(|| lens_blur(scene));
         for p in &scene.primitives {
             let _ = self.prims.push(cam_prim(scene, p, origin_scale, cull, blur).to());
         }
@@ -1841,6 +1874,16 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
     }
     let q = |v: f64| crate::num::from_f64(v).unwrap_or(if v < 0.0 { Q::MIN } else { Q::MAX });
     Some([q(x0), q(x1), q(y0), q(y1)])
+}
+
+/// The lens's `(d/2, 1/Z̃)` (metres, 1/metres): with defocus, a primitive's
+/// slope bounds widen by half its largest blur circle, since the aperture
+/// ray that meets it at depth `z` has a chief ray within `(d/2)|1/z − 1/Z̃|`
+/// of the hit's slope ([`slope_bounds`]).
+fn lens_blur(scene: &Scene) -> (f64, f64) {
+    let lens = &scene.camera.lens;
+    let focus = lens.focus_distance().to_num::<f64>();
+    (lens.diameter().to_num::<f64>() / 2.0, 1.0 / focus)
 }
 
 /// A light in the camera frame, I32F32.

@@ -40,12 +40,13 @@ const TABLE: usize = 0;
 #[cfg(not(feature = "camera"))]
 const TABLE: usize = scenes::TABLE;
 
-/// The line loops compiled in: those the held scenes' plans use (the
-/// others cost flash and never run); a driven camera, every one.
+/// The line loops compiled in: a driven camera's, every one the planner
+/// picks; otherwise those the held scenes' plans use (the others cost flash
+/// and never run).
+#[cfg(feature = "camera")]
+use hilcam::render::PlannedLines as Built;
 #[cfg(not(feature = "camera"))]
 use scenes::Built;
-#[cfg(feature = "camera")]
-use hilcam::render::AllLines as Built;
 
 /// Longest line, bytes (two bytes a pixel at most).
 #[cfg(feature = "camera")]

@@ -717,7 +717,17 @@ pub fn run_lines<S: Scalar>(
 
 /// Renders with both, and compares, in memory.
 pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
-    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, |o| o)?;
+    render_with(r, budget, |o| o)
+}
+
+/// [`render`] with the plan's options as `options` changes them (a
+/// variant's); the metrics still report the plan.
+pub fn render_with(
+    r: &Resolved,
+    budget: &Budget,
+    options: impl FnOnce(Options) -> Options,
+) -> Result<RenderOutput, String> {
+    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, options)?;
     let rs = RefScene::new(r);
     let (w, h) = frame.size();
     let mut core = Collect {
