@@ -478,8 +478,9 @@ pub fn write_encoded<W: embedded_io::Write, T: Serialize + ?Sized>(
         block: [0; 255],
         fill: 1,
         written: 0,
+        crc: CRC32.digest(),
     };
-    let r = postcard::serialize_with_flavor(msg, CrcModifier::new(stream, CRC32.digest()));
+    let r = postcard::serialize_with_flavor(msg, stream);
     match (r, failed) {
         (_, Some(e)) => Err(LinkError::Write(e)),
         (Ok(n), None) => Ok(n),
@@ -487,10 +488,13 @@ pub fn write_encoded<W: embedded_io::Write, T: Serialize + ?Sized>(
     }
 }
 
-/// A postcard flavor that COBS-encodes its bytes into blocks and writes
-/// each block to `writer` when it is complete: a block is its code byte
-/// (`fill`: one more than its non-zero bytes) and up to 254 non-zero bytes,
-/// ended by a zero (implied) or by being full (code 255).
+/// A postcard flavor that appends the CRC-32 of its bytes (as postcard's
+/// `CrcModifier`), COBS-encodes them into blocks and writes each block to
+/// `writer` when it is complete: a block is its code byte (`fill`: one more
+/// than its non-zero bytes) and up to 254 non-zero bytes, ended by a zero
+/// (implied) or by being full (code 255). Byte slices (a frame's pixels)
+/// go through at once: the CRC over the slice, the runs between zeros
+/// copied.
 struct CobsStream<'w, W: embedded_io::Write> {
     writer: &'w mut W,
     /// The first write error (the serializer only sees that it failed).
@@ -499,9 +503,26 @@ struct CobsStream<'w, W: embedded_io::Write> {
     /// Bytes of `block` in use, its code byte included (1 to 255).
     fill: usize,
     written: u64,
+    crc: crc::Digest<'static, u32>,
 }
 
 impl<W: embedded_io::Write> CobsStream<'_, W> {
+    /// COBS-encodes one byte.
+    #[inline(always)]
+    fn cobs(&mut self, data: u8) -> postcard::Result<()> {
+        if data == 0 {
+            return self.emit();
+        }
+        if let Some(slot) = self.block.get_mut(self.fill) {
+            *slot = data;
+        }
+        self.fill += 1;
+        if self.fill == self.block.len() {
+            self.emit()?;
+        }
+        Ok(())
+    }
+
     /// Writes the block so far and starts the next one.
     fn emit(&mut self) -> postcard::Result<()> {
         let n = self.fill;
@@ -523,20 +544,41 @@ impl<W: embedded_io::Write> postcard::ser_flavors::Flavor for CobsStream<'_, W> 
     type Output = u64;
 
     fn try_push(&mut self, data: u8) -> postcard::Result<()> {
-        if data == 0 {
-            return self.emit();
-        }
-        if let Some(slot) = self.block.get_mut(self.fill) {
-            *slot = data;
-        }
-        self.fill += 1;
-        if self.fill == self.block.len() {
-            self.emit()?;
+        self.crc.update(&[data]);
+        self.cobs(data)
+    }
+
+    fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
+        self.crc.update(data);
+        let mut rest = data;
+        while !rest.is_empty() {
+            // The non-zero bytes that fit the block, copied in one pass.
+            let mut run = 0;
+            for (d, s) in self.block.iter_mut().skip(self.fill).zip(rest) {
+                if *s == 0 {
+                    break;
+                }
+                *d = *s;
+                run += 1;
+            }
+            self.fill += run;
+            rest = rest.get(run..).unwrap_or_default();
+            if self.fill == self.block.len() {
+                self.emit()?;
+            } else if let Some((_, tail)) = rest.split_first() {
+                // A zero ends the block.
+                self.emit()?;
+                rest = tail;
+            }
         }
         Ok(())
     }
 
     fn finalize(mut self) -> postcard::Result<u64> {
+        let crc = self.crc.clone().finalize();
+        for b in crc.to_le_bytes() {
+            self.cobs(b)?;
+        }
         self.emit()?;
         if let Err(e) = self.writer.write_all(&[0]) {
             *self.failed = Some(e);

@@ -836,6 +836,57 @@ struct Aperture {
     inv_z40: i64,
 }
 
+impl Aperture {
+    /// The lens's aperture radius `d/2` and focused depth `Z̃` (metres) if
+    /// the frame is defocused, else `(0, 1)`. Out of line, as
+    /// [`Aperture::new`]: [`Mix32::fill`]'s stack frame lies on the
+    /// deepest path.
+    #[inline(never)]
+    fn lens(f: &Input) -> (Q, Q) {
+        if f.aperture == 0 {
+            return (Q::ZERO, Q::ONE);
+        }
+        let lens = &f.scene.camera.lens;
+        (
+            Q::saturating_from_num(lens.diameter()) >> 1,
+            Q::saturating_from_num(lens.focus_distance()),
+        )
+    }
+
+    /// The aperture of `m` points for a frame of unit `U = 2^e`.
+    #[inline(never)]
+    fn new(f: &Input, m: u16, e: i32) -> Result<Aperture, RenderError> {
+        let (r, z) = Aperture::lens(f);
+        let z = NonZeroU64::new(z.to_bits().max(0) as u64).ok_or(RenderError::Degenerate)?;
+        if !crate::defocus::is_size(m) {
+            return Err(RenderError::Degenerate);
+        }
+        // 2^40 U / Z̃ = 2^(72 + e) / (Z̃ 2^32), e in [−20, 20]: with Z̃ 2^32
+        // = zn 2^k, zn in [2^31, 2^32), it is (2^63 / zn) 2^(9 + e − k)
+        // (a 64-bit quotient of 32 bits or more).
+        let k = 32 - clz64(z.get()) as i32;
+        let zn = z.get() >> k.max(0) << (-k).max(0);
+        let q = (1u64 << 63) / zn.max(1);
+        let sh = 9 + e - k;
+        let inv = if sh >= 0 {
+            if q.leading_zeros() as i32 > sh {
+                (q << sh) as u128
+            } else {
+                u128::MAX
+            }
+        } else {
+            (q >> (-sh).min(63)) as u128
+        };
+        Ok(Aperture {
+            m,
+            log2m: m.trailing_zeros(),
+            up: crate::defocus::shift(m) - 17,
+            r18: len_s(r, e, 18),
+            inv_z40: inv.min(i64::MAX as u128) as i64,
+        })
+    }
+}
+
 /// `kd · E` and `ks · E` (or `· I/U²`) per light and channel for one
 /// material, and its lobe.
 struct KCache {
@@ -1271,12 +1322,9 @@ pub(crate) struct Input<'a> {
     /// The sample grid's side (1, 2, 4, 8 or 16) and the adaptive rule.
     pub samples: u8,
     pub adaptive: bool,
-    /// Defocus: the aperture pattern's points (16, 64 or 256), its radius
-    /// `d/2` and the focused depth `Z̃` (metres); `None`: the chief ray
-    /// alone.
-    pub aperture: Option<(u16, Q, Q)>,
-    /// With defocus, `(d/2, 1/Z̃)`: the slope bounds widen by the blur.
-    pub blur: Option<(f64, f64)>,
+    /// Defocus: the aperture pattern's points (16, 64 or 256; the lens
+    /// gives its radius and focused depth), or 0: the chief ray alone.
+    pub aperture: u16,
 }
 
 impl Input<'_> {
@@ -1284,8 +1332,16 @@ impl Input<'_> {
     /// stage is kept).
     fn prims(&self) -> impl Iterator<Item = crate::render::CamPrimQ> + '_ {
         let cull = !self.specular_all;
+        // With defocus the slope bounds widen by the blur.
+        let blur = (self.aperture > 0).then(|| crate::render::lens_blur(self.scene));
         (self.scene.primitives.iter())
-            .map(move |p| crate::render::cam_prim(self.scene, p, self.origin_scale, cull, self.blur))
+            .map(move |p| crate::render::cam_prim(self.scene, p, self.origin_scale, cull, blur))
+    }
+
+    /// [`Input::prims`] without their slope bounds (for the extents).
+    fn shapes(&self) -> impl Iterator<Item = crate::render::CamPrimQ> + '_ {
+        (self.scene.primitives.iter())
+            .map(move |p| crate::render::cam_prim(self.scene, p, self.origin_scale, false, None))
     }
 
     /// The scene's lights in the camera frame.
@@ -1351,7 +1407,7 @@ fn content_extent(f: &Input, z0: Q) -> (Q, Q) {
         here = here.max(v_len(c).saturating_add(r));
         moved = moved.max(v_len(at(c, z0)).saturating_add(r));
     };
-    for p in f.prims() {
+    for p in f.shapes() {
         match (centre_and_reach(&p.shape), p.shape) {
             (Some((c, r)), _) => grow(c, r),
             // |n·c| (with a plane, z0 is 0).
@@ -1384,7 +1440,7 @@ fn parallel_start(f: &Input) -> Q {
         return Q::ZERO;
     }
     let mut near: Option<Q> = None;
-    for p in f.prims() {
+    for p in f.shapes() {
         let Some((c, reach)) = centre_and_reach(&p.shape) else {
             return Q::ZERO;
         };
@@ -1450,10 +1506,9 @@ impl Mix32 {
         } else {
             (Q::ZERO, here)
         };
-        // Through the aperture, rays start up to its radius off the axis.
-        let (ap_r, ap_rz) = f.aperture.map_or((Q::ZERO, Q::ZERO), |(_, r, z)| {
-            (r, r.checked_div(z).unwrap_or(Q::MAX))
-        });
+        // Through the aperture, rays start up to its radius off the axis
+        // (and their slopes are the chief ray's shifted by up to d/(2Z̃)).
+        let (ap_r, ap_z) = Aperture::lens(f);
         let extent = extent.saturating_add(ap_r);
         // U = 2^e with extent ≤ 8 U, e in [−20, 20].
         let mut e: i32 = -20;
@@ -1624,9 +1679,10 @@ impl Mix32 {
             }
             None => (None, i32::MAX, Q::ONE),
         };
-        // (Aperture rays' slopes are the chief ray's shifted by up to d/(2Z̃).)
-        let slope = xm.max(ym).saturating_mul(gmax).saturating_add(ap_rz);
-        if slope > Q::from_num(16) {
+        // (Aperture rays' slopes are the chief ray's shifted by up to d/(2Z̃):
+        // d/2 ≤ (16 − slope) Z̃.)
+        let slope = xm.max(ym).saturating_mul(gmax);
+        if slope > Q::from_num(16) || ap_r > (Q::from_num(16) - slope).saturating_mul(ap_z) {
             return Err(bad);
         }
         // Parallel rays: origins within 64 U (so that n·o and the sphere's
@@ -1659,23 +1715,10 @@ impl Mix32 {
         self.samples = f.samples;
         self.adaptive = f.adaptive && f.samples > 1;
         self.aperture = match f.aperture {
-            None => None,
-            Some((m, r, z)) => {
-                // Pixel centres through the aperture, perspective rays.
-                let z = NonZeroU64::new(z.to_bits().max(0) as u64).ok_or(RenderError::Degenerate)?;
-                if !crate::defocus::is_size(m) || f.samples > 1 || parallel.is_some() {
-                    return Err(RenderError::Degenerate);
-                }
-                // 2^40 U / Z̃ = 2^(72 + e) / (Z̃ 2^32), e in [−20, 20].
-                let inv = (1u128 << (72 + e) as u32) / u128::from(z.get());
-                Some(Aperture {
-                    m,
-                    log2m: m.trailing_zeros(),
-                    up: crate::defocus::shift(m) - 17,
-                    r18: len_s(r, e, 18),
-                    inv_z40: inv.min(i64::MAX as u128) as i64,
-                })
-            }
+            0 => None,
+            // Pixel centres through the aperture, perspective rays.
+            _ if f.samples > 1 || parallel.is_some() => return Err(RenderError::Degenerate),
+            m => Some(Aperture::new(f, m, e)?),
         };
         self.set_frame_id(0);
         Ok(())
@@ -1883,11 +1926,12 @@ impl Mix32 {
     /// its `cos⁴α` (S31).
     #[inline(always)]
     fn radiance<const C: usize, const PERSP: bool>(&self, r: &Ray, k: &mut KCache) -> ([u64; 3], u32) {
+        let c4 = self.c4(r);
         let sum = match self.hit::<PERSP>(r) {
             Some((m, pt, n, away)) => self.shade::<C, PERSP>(r, m, pt, n, away, k),
             None => self.bg,
         };
-        (sum, self.c4(r))
+        (sum, c4)
     }
 
     /// A ray's `cos⁴α = (1/a)²`, S31 (1/a_real = r 2^(z − 42), z ≤ 11).
@@ -2206,12 +2250,42 @@ impl Mix32 {
     /// viewer (surfaces are two-sided: shading turns it).
     #[inline(always)]
     fn hit<const PERSP: bool>(&self, r: &Ray) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
-        self.hit_from::<PERSP>(r, [0, 0])
+        if r.t == NO_HIT {
+            return None;
+        }
+        let p = self.prims.get((r.hit & !AWAY) as usize)?;
+        let away = r.hit & AWAY != 0;
+        let pt = r.point::<PERSP>(r.t);
+        let n = match &p.shape {
+            MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
+            // Under a specular lobe, whose exponent multiplies the normal's
+            // error, from the ray and the sphere.
+            MixShape::Sphere {
+                c,
+                r24,
+                inv_r,
+                fine: true,
+                ..
+            } => fine_normal::<PERSP>(r, *c, *r24, *inv_r, away),
+            MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
+                let rel = p.saturating_sub(c);
+                sat32(smul_u(rel, inv_r.0) >> inv_r.1)
+            }),
+        };
+        let mut m = p.material as usize;
+        if let Some(k) = &p.checker {
+            let (cu, cv) = k.cells(pt);
+            if (cu + cv) & 1 != 0 {
+                m = k.material as usize;
+            }
+        }
+        Some((m, pt, n, away))
     }
 
     /// [`Mix32::hit`] for a ray traced in the frame moved to `(a_x, a_y, 0)`
     /// (S18 U; [`MixShape::moved`]): the hit point moved back, the rest in
-    /// the camera frame.
+    /// the camera frame. (A copy: `hit` as this with `a = 0` cost the M4F's
+    /// standard scene 7 instructions a pixel.)
     #[inline(always)]
     fn hit_from<const PERSP: bool>(&self, r: &Ray, a: [i32; 2]) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
         if r.t == NO_HIT {

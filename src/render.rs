@@ -916,7 +916,6 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             samples: fast.samples,
             adaptive: fast.adaptive,
             aperture: fast.aperture,
-            blur: fast.blur,
         };
         self.path = Path::Fast(crate::mix32::Mix32::EMPTY);
         let Path::Fast(m) = &mut self.path else {
@@ -1095,10 +1094,8 @@ struct FastInput {
     gain: V3,
     samples: u8,
     adaptive: bool,
-    /// Defocus: the aperture pattern's points, its radius `d/2` and the
-    /// focused depth `Z̃` (metres), and the blur that widens the slope bounds.
-    aperture: Option<(u16, Q, Q)>,
-    blur: Option<(f64, f64)>,
+    /// Defocus: the aperture pattern's points (0: none).
+    aperture: u16,
 }
 
 impl<S: Scalar, const T: usize> WideFrame<S, T> {
@@ -1184,9 +1181,6 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             return Err(RenderError::NotBuilt);
         }
         (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
-        // The aperture as the fast path takes it: points, radius, radius/Z̃.
-        #[cfg_attr(not(feature = "sensor"), allow(unused_mut))]
-        let mut fast_aperture = None;
         #[cfg(feature = "sensor")]
         {
             let n = self.stages.samples;
@@ -1204,9 +1198,6 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 .ok_or(RenderError::Degenerate)?;
             self.ap_r = S::from_q(q(r));
             self.ap_rz = S::from_q(q(rz));
-            if aperture {
-                fast_aperture = Some((m, q(r), q(Wide::of(lens.focus_distance()))));
-            }
             self.ap_shift = crate::defocus::shift(m);
             self.inv_m = S::from_q(Q::from_bits(1i64 << (32 - m.trailing_zeros())));
         }
@@ -1309,8 +1300,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 gain,
                 samples: self.stages.samples,
                 adaptive: self.stages.adaptive,
-                aperture: fast_aperture,
-                blur: aperture.then(|| lens_blur(scene)),
+                aperture: opts.aperture,
             }));
         }
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
@@ -1880,7 +1870,8 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
 /// slope bounds widen by half its largest blur circle, since the aperture
 /// ray that meets it at depth `z` has a chief ray within `(d/2)|1/z − 1/Z̃|`
 /// of the hit's slope ([`slope_bounds`]).
-fn lens_blur(scene: &Scene) -> (f64, f64) {
+#[inline(never)]
+pub(crate) fn lens_blur(scene: &Scene) -> (f64, f64) {
     let lens = &scene.camera.lens;
     let focus = lens.focus_distance().to_num::<f64>();
     (lens.diameter().to_num::<f64>() / 2.0, 1.0 / focus)
