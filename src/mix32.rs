@@ -2016,7 +2016,7 @@ impl Mix32 {
                     if r.t == 0 {
                         continue;
                     }
-                    let l = match self.hit_from::<true>(r, a) {
+                    let l = match self.hit_from::<true, true>(r, a) {
                         Some((m, pt, n, away)) => self.shade::<C, true>(r, m, pt, n, away, &mut k),
                         None => self.bg,
                     };
@@ -2250,55 +2250,34 @@ impl Mix32 {
     /// viewer (surfaces are two-sided: shading turns it).
     #[inline(always)]
     fn hit<const PERSP: bool>(&self, r: &Ray) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
-        if r.t == NO_HIT {
-            return None;
-        }
-        let p = self.prims.get((r.hit & !AWAY) as usize)?;
-        let away = r.hit & AWAY != 0;
-        let pt = r.point::<PERSP>(r.t);
-        let n = match &p.shape {
-            MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
-            // Under a specular lobe, whose exponent multiplies the normal's
-            // error, from the ray and the sphere.
-            MixShape::Sphere {
-                c,
-                r24,
-                inv_r,
-                fine: true,
-                ..
-            } => fine_normal::<PERSP>(r, *c, *r24, *inv_r, away),
-            MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
-                let rel = p.saturating_sub(c);
-                sat32(smul_u(rel, inv_r.0) >> inv_r.1)
-            }),
-        };
-        let mut m = p.material as usize;
-        if let Some(k) = &p.checker {
-            let (cu, cv) = k.cells(pt);
-            if (cu + cv) & 1 != 0 {
-                m = k.material as usize;
-            }
-        }
-        Some((m, pt, n, away))
+        self.hit_from::<PERSP, false>(r, [0, 0])
     }
 
-    /// [`Mix32::hit`] for a ray traced in the frame moved to `(a_x, a_y, 0)`
-    /// (S18 U; [`MixShape::moved`]): the hit point moved back, the rest in
-    /// the camera frame. (A copy: `hit` as this with `a = 0` cost the M4F's
-    /// standard scene 7 instructions a pixel.)
+    /// [`Mix32::hit`]; if `MOVED`, for a ray traced in the frame moved to
+    /// `(a_x, a_y, 0)` (S18 U; [`MixShape::moved`]): the hit point moved
+    /// back, the rest in the camera frame. (`MOVED` a constant: `hit` as
+    /// this with `a = 0` at run time cost the M4F's standard scene 7
+    /// instructions a pixel.)
     #[inline(always)]
-    fn hit_from<const PERSP: bool>(&self, r: &Ray, a: [i32; 2]) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+    fn hit_from<const PERSP: bool, const MOVED: bool>(
+        &self,
+        r: &Ray,
+        a: [i32; 2],
+    ) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
         if r.t == NO_HIT {
             return None;
         }
         let p = self.prims.get((r.hit & !AWAY) as usize)?;
         let away = r.hit & AWAY != 0;
-        let pt = r.point::<PERSP>(r.t);
-        let pt = [pt[0].saturating_add(a[0]), pt[1].saturating_add(a[1]), pt[2]];
+        let mut pt = r.point::<PERSP>(r.t);
+        if MOVED {
+            pt = [pt[0].saturating_add(a[0]), pt[1].saturating_add(a[1]), pt[2]];
+        }
         let n = match &p.shape {
             MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
             // Under a specular lobe, whose exponent multiplies the normal's
-            // error, from the ray and the sphere.
+            // error, from the ray and the sphere (the centre from the
+            // ray's origin).
             MixShape::Sphere {
                 c,
                 r24,
@@ -2306,11 +2285,14 @@ impl Mix32 {
                 fine: true,
                 ..
             } => {
-                let c = [
-                    c[0].saturating_sub(a[0].saturating_mul(64)),
-                    c[1].saturating_sub(a[1].saturating_mul(64)),
-                    c[2],
-                ];
+                let mut c = *c;
+                if MOVED {
+                    c = [
+                        c[0].saturating_sub(a[0].saturating_mul(64)),
+                        c[1].saturating_sub(a[1].saturating_mul(64)),
+                        c[2],
+                    ];
+                }
                 fine_normal::<PERSP>(r, c, *r24, *inv_r, away)
             }
             MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
