@@ -1679,16 +1679,15 @@ impl Mix32 {
                     return Err(bad);
                 }
                 let s28 = |q: Q| sat32(q.to_bits() >> 4);
-                // `undistort`'s x̂ within E units of S26 of the exact
-                // polynomial's: g to 2⁻²⁸ (1 + u) + 2⁻²⁰ 2s (u truncated to
-                // S20, k2 u and s u to S28), times |x̂_d|, and the product's
-                // truncation: E = |x̂_d| (128 s + (1 + u)/4) + 1. The slope
+                // `undistort`'s x̂ within E units of S26 of the polynomial of
+                // the exact k1, k2 (monotone in the field): g to 2⁻²⁸ (1 + u)²
+                // (k1, k2 to S28; k2 u and s u truncated to S28) + 2⁻²⁰ 2s
+                // (u truncated to S20), times |x̂_d|, and the product's
+                // truncation: E = |x̂_d| (128 s + (1 + u)²/4) + 1. The slope
                 // box's margin is 2E ([`Mix32::trace`]).
+                let w = Q::ONE.saturating_add(u_max);
                 let e = xm
-                    .saturating_mul(
-                        s.saturating_mul_int(128)
-                            .saturating_add(Q::ONE.saturating_add(u_max) >> 2),
-                    )
+                    .saturating_mul(s.saturating_mul_int(128).saturating_add(w.saturating_mul(w) >> 2))
                     .saturating_add(Q::ONE);
                 let margin = e
                     .saturating_mul_int(2)
