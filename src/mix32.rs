@@ -822,9 +822,8 @@ enum MixLight {
 /// 2⁻¹⁵ of the radius).
 #[derive(Clone, Copy, Debug)]
 struct Aperture {
-    /// Points (16, 64 or 256) and their log2.
+    /// Points (16, 64 or 256).
     m: u16,
-    log2m: u32,
     up: u32,
     /// The radius `d/2`, S18 U, and `U/Z̃` times 2⁴⁰: point `u` (unit disc)
     /// is `A = u d/2` on the lens (rounded to S18 U), and its ray through
@@ -879,7 +878,6 @@ impl Aperture {
         };
         Ok(Aperture {
             m,
-            log2m: m.trailing_zeros(),
             up: crate::defocus::shift(m) - 17,
             r18: len_s(r, e, 18),
             inv_z40: inv.min(i64::MAX as u128) as i64,
@@ -1961,7 +1959,19 @@ impl Mix32 {
         }
         *flag = 0;
         let (sum, c4) = self.radiance::<C, PERSP>(r, k);
-        // Channels past C are not packed: the compiler drops them.
+        Self::dn_word::<C>(sum, c4, dn_max, (noise, index))
+    }
+
+    /// A pixel's [`word`] from its sum before vignetting (S15 DN) and
+    /// `cos⁴α` (S31): the noise stage's draw, or vignetted and rounded.
+    /// Channels past `C` are not packed: the compiler drops them.
+    #[inline(always)]
+    fn dn_word<const C: usize>(
+        sum: [u64; 3],
+        c4: u32,
+        dn_max: [u64; 3],
+        (noise, index): (Option<&crate::noise::Stage<Q>>, u32),
+    ) -> u16 {
         let dn = match noise {
             Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
             None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
@@ -2083,12 +2093,8 @@ impl Mix32 {
                     0
                 } else {
                     *flag = 0;
-                    let (sum, c4) = (s.map(|v| v >> ap.log2m), self.c4(c));
-                    let dn = match noise {
-                        Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
-                        None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
-                    };
-                    word::<C>(dn)
+                    let sum = s.map(|v| v >> ap.m.trailing_zeros());
+                    Self::dn_word::<C>(sum, self.c4(c), dn_max, (noise, index))
                 };
                 index = index.wrapping_add(1);
             }
@@ -2208,11 +2214,7 @@ impl Mix32 {
                     if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
                         // In the field: its corners are.
                         let (sum, c4) = self.radiance_s::<C, PERSP>(r, &mut k);
-                        let dn = match noise {
-                            Some(z) => noisy::<C>(z, sum, c4, index.wrapping_add(q as u32), dn_max),
-                            None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
-                        };
-                        *out = word::<C>(dn);
+                        *out = Self::dn_word::<C>(sum, c4, dn_max, (noise, index.wrapping_add(q as u32)));
                         *flag = 0;
                         grid &= !(1 << q);
                     }
