@@ -779,8 +779,9 @@ struct MixChecker {
     /// `origin·u`, `origin·v`, S48 U.
     ou: i64,
     ov: i64,
-    /// `1/cell` as a mantissa and the right shift that floors
-    /// `w (S18) · mantissa` to a cell index.
+    /// `1/cell` as a mantissa and the right shift of the product's high
+    /// word that floors `w (S18) · mantissa` to a cell index (the whole
+    /// shift, 39 to 56 for cells of 2⁻¹⁰ to 64 U, is at least 32).
     inv_cell: (u32, u32),
     material: u8,
 }
@@ -788,11 +789,13 @@ struct MixChecker {
 impl MixChecker {
     /// The texture cell `(⌊u/c⌋, ⌊v/c⌋)` of a point (S18 U) on it.
     #[inline(always)]
-    fn cells(&self, pt: [i32; 3]) -> (i64, i64) {
-        let cell = |axis: [i32; 3], o: i64| -> i64 {
+    fn cells(&self, pt: [i32; 3]) -> (i32, i32) {
+        let cell = |axis: [i32; 3], o: i64| -> i32 {
             let w = wmul(pt[0], axis[0]) + wmul(pt[1], axis[1]) + wmul(pt[2], axis[2]) - o;
-            // S48 → S18 (saturating), times 1/cell → floor.
-            smul_u(shr_sat::<30>(w), self.inv_cell.0) >> self.inv_cell.1
+            // S48 → S18 (saturating), times 1/cell → floor: the product
+            // (below 2⁶³) shifted by at least 32, so from its high word
+            // (a 32-bit shift; the index is below 2²⁴).
+            ((smul_u(shr_sat::<30>(w), self.inv_cell.0) >> 32) as i32) >> self.inv_cell.1
         };
         (cell(self.u, self.ou), cell(self.v, self.ov))
     }
@@ -1591,7 +1594,7 @@ impl Mix32 {
                         ou: dot48(o, u),
                         ov: dot48(o, v),
                         inv_cell: recip_len(cell, e)
-                            .map(|(m, sh)| (m, (sh + 30).min(63)))
+                            .and_then(|(m, sh)| Some((m, (sh + 30).checked_sub(32).filter(|k| *k < 32)?)))
                             .ok_or(bad)?,
                         material: k.material,
                     })
@@ -2121,11 +2124,7 @@ impl Mix32 {
         }
         let prim = r.hit & !AWAY;
         let cell = match self.prims.get(prim as usize).and_then(|p| p.checker.as_ref()) {
-            Some(k) => {
-                let (u, v) = k.cells(r.point::<PERSP>(r.t));
-                let sat = |c: i64| c.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-                (sat(u), sat(v))
-            }
+            Some(k) => k.cells(r.point::<PERSP>(r.t)),
             None => (0, 0),
         };
         Key { cell, prim }
@@ -2352,7 +2351,8 @@ impl Mix32 {
         let mut m = p.material as usize;
         if let Some(k) = &p.checker {
             let (cu, cv) = k.cells(pt);
-            if (cu + cv) & 1 != 0 {
+            // The parity of cu + cv.
+            if (cu ^ cv) & 1 != 0 {
                 m = k.material as usize;
             }
         }
