@@ -889,9 +889,12 @@ impl Aperture {
 }
 
 /// `kd · E` and `ks · E` (or `· I/U²`) per light and channel for one
-/// material, and its lobe.
+/// material, its ambient term and its lobe: a pixel of the material the
+/// last one had looks nothing else up.
 struct KCache {
     material: usize,
+    /// The ambient term, S15 DN.
+    ka: [u64; 3],
     k: [[Pf; 3]; crate::scene::MAX_LIGHTS],
     ks: [[Pf; 3]; crate::scene::MAX_LIGHTS],
     /// The material's Phong exponent, if its lobe is rendered.
@@ -901,6 +904,7 @@ struct KCache {
 impl KCache {
     const EMPTY: KCache = KCache {
         material: usize::MAX,
+        ka: [0; 3],
         k: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_LIGHTS],
         ks: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_LIGHTS],
         lobe: None,
@@ -2390,13 +2394,14 @@ impl Mix32 {
         k: &mut KCache,
     ) -> [u64; 3] {
         let channels = C;
-        let (Some(kd), Some(&ka), Some(ks), Some(&lobe)) =
-            (self.kd.get(m), self.ka.get(m), self.ks.get(m), self.lobe.get(m))
-        else {
-            return [0; 3];
-        };
         if k.material != m {
+            let (Some(kd), Some(&ka), Some(ks), Some(&lobe)) =
+                (self.kd.get(m), self.ka.get(m), self.ks.get(m), self.lobe.get(m))
+            else {
+                return [0; 3];
+            };
             k.material = m;
+            k.ka = ka;
             k.lobe = lobe;
             for ((kl, ksl), l) in k.k.iter_mut().zip(k.ks.iter_mut()).zip(&self.lights) {
                 let e = match l {
@@ -2422,7 +2427,7 @@ impl Mix32 {
         let dot30 = |a: [i32; 3], b: [i32; 3]| -> i32 {
             ((wmul(a[0], b[0]) + wmul(a[1], b[1]) + wmul(a[2], b[2])) >> 30) as i32
         };
-        let mut sum = ka;
+        let mut sum = k.ka;
         for ((l, kl), ksl) in self.lights.iter().zip(&k.k).zip(&k.ks) {
             let (w, ldir) = match l {
                 MixLight::Point { p, .. } => {
