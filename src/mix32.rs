@@ -927,25 +927,25 @@ const AWAY: u8 = 0x80;
 /// What a ray sees, for the adaptive rule ([`crate::sampling`]): the
 /// primitive (or [`Key::NOTHING`]) and, on a textured one, the texture cell
 /// (its indices are below 2²⁴: lengths within 8 192 U, cells at least
-/// 2⁻¹⁰ U); or [`Key::OUTSIDE`].
+/// 2⁻¹⁰ U); or [`Key::OUTSIDE`]. Packed in one word, which only equality
+/// reads: the primitive in the top byte, the indices' low 28 bits below
+/// (one-to-one for indices below 2²⁷).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Key {
-    cell: (i32, i32),
-    prim: u8,
-}
+struct Key(u64);
 
 impl Key {
     /// A ray that hits nothing.
-    const NOTHING: Key = Key {
-        cell: (0, 0),
-        prim: u8::MAX,
-    };
+    const NOTHING: Key = Key::new(0, 0, u8::MAX);
     /// A ray outside the lens field (or, for a pixel's corners, corners
     /// that disagree): never the same as what a pixel's centre sees.
-    const OUTSIDE: Key = Key {
-        cell: (0, 0),
-        prim: u8::MAX - 1,
-    };
+    const OUTSIDE: Key = Key::new(0, 0, u8::MAX - 1);
+
+    /// The key of primitive `prim`'s cell `(u, v)`.
+    #[inline(always)]
+    const fn new(u: i32, v: i32, prim: u8) -> Key {
+        const LOW28: u64 = (1 << 28) - 1;
+        Key((u as u32 as u64 & LOW28) | ((v as u32 as u64 & LOW28) << 28) | ((prim as u64) << 56))
+    }
 }
 
 /// One pixel's ray and its nearest hit so far: from the origin along
@@ -2131,7 +2131,7 @@ impl Mix32 {
             Some(k) => k.cells(r.point::<PERSP>(r.t)),
             None => (0, 0),
         };
-        Key { cell, prim }
+        Key::new(cell.0, cell.1, prim)
     }
 
     /// [`Mix32::line_f`] with pixel-area sampling (camera-model.md §7,
