@@ -100,17 +100,40 @@ fn main() {
     // with: only those are compiled into the firmware.
     let mut table = 0usize;
     let mut lines = std::collections::BTreeSet::new();
+    // And the corner keys the sampled fast loop carries from line to line
+    // (`hilcam::sampling::Corners`): a sensor's width plus one, for the
+    // widest scene rendered with the adaptive rule on that loop (0: none).
+    let mut corner_keys = 0usize;
     for r in &resolved {
         for v in &variants {
             let budget = hilcam::planner::Budget::default();
-            if let Ok((_, _, f)) =
-                host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| v.options(o))
-            {
+            let mut adaptive = false;
+            if let Ok((_, _, f)) = host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| {
+                let o = v.options(o);
+                adaptive = o.adaptive && o.samples > 1;
+                o
+            }) {
                 table = table.max(f.stages().distortion_lut.unwrap_or(0));
-                lines.insert(f.line_loop());
+                let l = f.line_loop();
+                lines.insert(l);
+                use hilcam::render::LineLoop as L;
+                let sampled = matches!(
+                    l,
+                    L::FastGrayPerspectiveSampled
+                        | L::FastRgbPerspectiveSampled
+                        | L::FastGrayParallelSampled
+                        | L::FastRgbParallelSampled
+                );
+                if sampled && adaptive {
+                    corner_keys = corner_keys.max(f.size().0 as usize + 1);
+                }
             }
         }
     }
+    let _ = writeln!(
+        code,
+        "/// Corner keys the sampled loop carries from line to line (8 bytes each).\npub const CORNER_KEYS: usize = {corner_keys};"
+    );
     let _ = writeln!(
         code,
         "/// The line loops the scenes' variants render with; the others are left out.\npub struct Built;\nimpl hilcam::render::Lines for Built {{"

@@ -68,6 +68,7 @@
 use crate::num::{umul16, ARMV6M};
 use crate::render::from_acc;
 use crate::render::{LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
+use crate::sampling::Corners;
 use crate::scalar::shr_sat;
 use crate::scene::{PixelFormat, Q};
 use crate::shading::{Brdf, ShadingLight, V3};
@@ -1788,7 +1789,7 @@ impl Mix32 {
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
     /// Only `L`'s loops are compiled in; a line of another is left as it
     /// is ([`crate::render::Frame::render_with`] refuses such a frame first).
-    pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
         match self.line_loop() {
             LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
                 self.line_f::<1, true>(j, pixels, flags)
@@ -1799,16 +1800,16 @@ impl Mix32 {
             LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => self.line_f::<1, false>(j, pixels, flags),
             LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => self.line_f::<3, false>(j, pixels, flags),
             LineLoop::FastGrayPerspectiveSampled if L::FAST_GRAY_PERSPECTIVE_SAMPLED => {
-                self.line_s::<1, true>(j, pixels, flags)
+                self.line_s::<1, true>(j, pixels, flags, corners)
             }
             LineLoop::FastRgbPerspectiveSampled if L::FAST_RGB_PERSPECTIVE_SAMPLED => {
-                self.line_s::<3, true>(j, pixels, flags)
+                self.line_s::<3, true>(j, pixels, flags, corners)
             }
             LineLoop::FastGrayParallelSampled if L::FAST_GRAY_PARALLEL_SAMPLED => {
-                self.line_s::<1, false>(j, pixels, flags)
+                self.line_s::<1, false>(j, pixels, flags, corners)
             }
             LineLoop::FastRgbParallelSampled if L::FAST_RGB_PARALLEL_SAMPLED => {
-                self.line_s::<3, false>(j, pixels, flags)
+                self.line_s::<3, false>(j, pixels, flags, corners)
             }
             LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<1>(j, pixels, flags),
             LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<3>(j, pixels, flags),
@@ -2142,7 +2143,13 @@ impl Mix32 {
     /// chunk's passes. A grid's mean is exact (`n²` is a power of two), then
     /// rounded once.
     #[inline(never)]
-    fn line_s<const C: usize, const PERSP: bool>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    fn line_s<const C: usize, const PERSP: bool>(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        carry: &mut Corners,
+    ) {
         let w = self.width as usize;
         let b = self.format.bytes_per_pixel();
         let (Some(pixels), Some(flags)) = (pixels.get_mut(..w * b), flags.get_mut(..w)) else {
@@ -2155,9 +2162,18 @@ impl Mix32 {
             let yd = (y >> 38) as i32;
             (yd, wmul(yd, yd))
         };
-        // Half a pixel step (the corners), rounded toward −∞.
+        // Half a pixel step (the corners), rounded toward −∞ (the top
+        // corners a full step above the bottom ones, so that a line's bottom
+        // corners are the next line's top corners exactly).
         let hx = self.dx >> 1;
-        let (top, bottom) = (yd_of(yc + (self.dy >> 1)), yd_of(yc - (self.dy >> 1)));
+        let (top, bottom) = (yd_of(yc + (self.dy - (self.dy >> 1))), yd_of(yc - (self.dy >> 1)));
+        // The top corners' keys carried from line j − 1, and where this
+        // line's bottom ones go (column c: the corner left of pixel c).
+        let (carried, mut keys) = if self.adaptive {
+            carry.for_line(j, w)
+        } else {
+            (false, None)
+        };
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let noise = self.noise.as_ref();
@@ -2170,13 +2186,25 @@ impl Mix32 {
         let mut left = Key::OUTSIDE;
         if self.adaptive {
             if let Some(r) = rays.first(1) {
-                self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top);
-                let t = r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r));
+                let t = match (carried, keys.as_deref()) {
+                    (true, Some([k, ..])) => Key(*k),
+                    _ => {
+                        self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top);
+                        r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r))
+                    }
+                };
                 self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, bottom);
                 let b = r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r));
+                if let Some([k, ..]) = keys.as_deref_mut() {
+                    *k = b.0;
+                }
                 left = if t == b { t } else { Key::OUTSIDE };
             }
         }
+        // The chunk's first corner column right of a pixel, and whether
+        // every bottom corner went into `keys`.
+        let mut col = 1usize;
+        let mut complete = true;
         let mut x = self.x0;
         let mut index = j as u32 * self.width as u32;
         for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
@@ -2187,15 +2215,40 @@ impl Mix32 {
             // Pixels that take the grid.
             let mut grid = u32::MAX;
             if self.adaptive {
-                // Right corners, top line then bottom line.
-                self.trace_row::<PERSP>(rays, x - hx, self.dx, top);
-                for (c, r) in corners.iter_mut().zip(rays.iter()) {
-                    *c = self.key::<PERSP>(r);
+                // Right corners, top line (carried, or traced) then bottom
+                // line (kept for the next line).
+                let chunk_keys = keys.as_deref_mut().and_then(|k| k.get_mut(col..col + rays.len()));
+                complete &= chunk_keys.is_some();
+                match (carried, &chunk_keys) {
+                    (true, Some(k)) => {
+                        for (c, k) in corners.iter_mut().zip(k.iter()) {
+                            *c = Key(*k);
+                        }
+                    }
+                    _ => {
+                        self.trace_row::<PERSP>(rays, x - hx, self.dx, top);
+                        for (c, r) in corners.iter_mut().zip(rays.iter()) {
+                            *c = self.key::<PERSP>(r);
+                        }
+                    }
                 }
                 self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom);
-                for (c, r) in corners.iter_mut().zip(rays.iter()) {
-                    if *c != self.key::<PERSP>(r) {
-                        *c = Key::OUTSIDE;
+                match chunk_keys {
+                    Some(k) => {
+                        for ((c, r), k) in corners.iter_mut().zip(rays.iter()).zip(k.iter_mut()) {
+                            let b = self.key::<PERSP>(r);
+                            *k = b.0;
+                            if *c != b {
+                                *c = Key::OUTSIDE;
+                            }
+                        }
+                    }
+                    None => {
+                        for (c, r) in corners.iter_mut().zip(rays.iter()) {
+                            if *c != self.key::<PERSP>(r) {
+                                *c = Key::OUTSIDE;
+                            }
+                        }
                     }
                 }
                 // A pixel's corners agree if its left and right columns do.
@@ -2252,6 +2305,10 @@ impl Mix32 {
             put(&words, b, pixels);
             x -= self.dx * rays.len() as i64;
             index = index.wrapping_add(rays.len() as u32);
+            col += rays.len();
+        }
+        if keys.is_some() && complete {
+            carry.carried(j);
         }
     }
 

@@ -25,6 +25,7 @@
 
 use crate::distortion::{Lut, MAX_LUT};
 use crate::num::{quotient, Len, Norm, Wide};
+use crate::sampling::Corners;
 use crate::scalar::Scalar;
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
 use crate::shading::{axpy, dot, from_q3, scale3, sub3, Brdf, ShadingLight, V3};
@@ -1014,6 +1015,23 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         pixels: &mut [u8],
         flags: &mut [u8],
     ) -> Result<(), RenderError> {
+        self.render_line_in::<L>(j, pixels, flags, &mut Corners::new(&mut []))
+    }
+
+    /// [`Frame::render_line_with`] with the sampled loop's corner keys
+    /// carried in `corners` from the line before (the same frame's line
+    /// `j − 1`, rendered with them): the same bytes, with one row of
+    /// corners traced instead of two.
+    pub fn render_line_in<L: Lines>(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        corners: &mut Corners,
+    ) -> Result<(), RenderError> {
+        // Only the fast arithmetic's sampled loop carries them.
+        #[cfg(not(feature = "mix32"))]
+        let _ = corners;
         if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
             return Err(RenderError::BufferTooSmall);
         }
@@ -1024,7 +1042,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         // not compiled in.
         match (&self.path, self.line_loop()) {
             #[cfg(feature = "mix32")]
-            (Path::Fast(m), _) => m.line::<L>(j, pixels, flags),
+            (Path::Fast(m), _) => m.line::<L>(j, pixels, flags, corners),
             // Through the aperture, a sample's chief ray is a pinhole ray:
             // one loop for both (a third copy would cost flash).
             (Path::Wide(w), LineLoop::WidePerspective) if L::WIDE_PERSPECTIVE => {
@@ -1057,6 +1075,21 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         flags: &mut [u8],
         sink: &mut K,
     ) -> Result<(), FrameError<K::Error>> {
+        self.render_carried::<L, K>(pixels, flags, &mut [], sink)
+    }
+
+    /// [`Frame::render_with`] carrying the sampled loop's corner keys from
+    /// line to line in `keys` ([`Corners`]: `width + 1` words; shorter,
+    /// unused): the same frame, one row of corners traced a line instead
+    /// of two.
+    pub fn render_carried<L: Lines, K: FrameSink>(
+        &self,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        keys: &mut [u64],
+        sink: &mut K,
+    ) -> Result<(), FrameError<K::Error>> {
+        let mut corners = Corners::new(keys);
         if !self.line_built::<L>() {
             return Err(FrameError::Render(RenderError::NotBuilt));
         }
@@ -1067,7 +1100,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         };
         sink.begin(&info).map_err(FrameError::Sink)?;
         for j in 0..self.height {
-            self.render_line_with::<L>(j, pixels, flags)
+            self.render_line_in::<L>(j, pixels, flags, &mut corners)
                 .map_err(FrameError::Render)?;
             let n = self.line_bytes();
             let (p, f) = (pixels.get(..n), flags.get(..self.width as usize));

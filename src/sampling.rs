@@ -85,3 +85,45 @@ mod tests {
         assert_eq!(&o[..4], &[-(3 << 17), -(1 << 17), 1 << 17, 3 << 17]);
     }
 }
+
+/// The adaptive rule's corner keys carried from one line to the next: a
+/// line's bottom corners are the next line's top ones, so a caller that
+/// renders a frame's lines in order (the firmware) traces each row of
+/// corners once instead of twice. It holds a key for each of the `width +
+/// 1` corner columns (8 bytes each); a shorter buffer, or a line other than
+/// the one after the last, leaves it unused and the line traces both rows.
+/// Only the fast arithmetic's sampled loop uses it.
+#[derive(Debug)]
+pub struct Corners<'a> {
+    /// The keys of the last line's bottom corners, by column.
+    pub(crate) keys: &'a mut [u64],
+    /// The line whose top corners they are.
+    pub(crate) next: Option<u16>,
+}
+
+impl<'a> Corners<'a> {
+    /// A carry over `keys` for a new frame (nothing carried yet).
+    pub fn new(keys: &'a mut [u64]) -> Corners<'a> {
+        Corners { keys, next: None }
+    }
+
+    /// For line `j` of a frame `width` pixels wide: whether the buffer
+    /// holds its top corners (the last line rendered was `j − 1`), and the
+    /// buffer, if it is long enough, for its bottom corners. The line marks
+    /// them carried ([`Corners::carried`]) once it has written them all.
+    #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+    pub(crate) fn for_line(&mut self, j: u16, width: usize) -> (bool, Option<&mut [u64]>) {
+        let carried = self.next == Some(j);
+        self.next = None;
+        match self.keys.get_mut(..width + 1) {
+            Some(k) => (carried, Some(k)),
+            None => (false, None),
+        }
+    }
+
+    /// The buffer holds line `j`'s bottom corners.
+    #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+    pub(crate) fn carried(&mut self, j: u16) {
+        self.next = j.checked_add(1);
+    }
+}

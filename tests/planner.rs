@@ -456,6 +456,15 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
             Arithmetic::Wide => wide.set(wide.get() + 1),
         }
         within_predicted(&m, &p, &t)?;
+        // Line after line with the corner keys carried (the firmware's
+        // way): the bytes of lines rendered alone.
+        let frame = Frame::new(&scene, &p.options).expect("frame");
+        let alone = host_sim::harness::collect(&frame).expect("renders");
+        let carried = host_sim::harness::collect_serial(&frame).expect("renders");
+        prop_assert!(
+            alone.pixels == carried.pixels && alone.flags == carried.flags,
+            "carrying the corner keys changed the frame:\n{t}"
+        );
         prop_assert!(
             m.edge_pixels_differing_fraction <= budget.max_edge_differing,
             "{} of the pixels differ at edges ({:?}, predicted {chosen}), over the budget's {}:\n{t}",

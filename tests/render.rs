@@ -265,8 +265,9 @@ fn line_buffers_are_o_width_and_output_is_deterministic() {
 }
 
 /// The host renders lines in parallel on every core; the bytes and flags
-/// are those of one core rendering line after line, on every shipped scene,
-/// with the default (planned) and the wide arithmetic.
+/// are those of one core rendering line after line (carrying the sampled
+/// loop's corner keys from line to line, as the firmware does), on every
+/// shipped scene, with the default (planned) and the wide arithmetic.
 #[test]
 fn parallel_host_render_is_byte_identical_with_one_core() {
     for path in scenes() {
@@ -351,4 +352,41 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
         wide.render_line_with::<GrayPerspective>(0, &mut line, &mut flags),
         Err(RenderError::NotBuilt)
     );
+}
+
+/// The sampled loop's corner keys carried from a line to the next are used
+/// only for the line after the last one rendered with them: lines taken in
+/// another order (here bottom to top, then every other line), or with a
+/// buffer too short for the frame, come out as rendered alone.
+#[test]
+fn carried_corner_keys_serve_only_the_next_line() {
+    use hilcam::render::{AllLines, LineLoop};
+    use hilcam::sampling::Corners;
+    let s = scene("calibration-board").core_scene().expect("valid");
+    let p = plan(&s, &Budget::default());
+    let frame = Frame::new(&s, &p.options).expect("frame");
+    assert_eq!(frame.line_loop(), LineLoop::FastGrayPerspectiveSampled);
+    let alone = host_sim::harness::collect(&frame).expect("renders");
+    let (w, h) = frame.size();
+    let lb = frame.line_bytes();
+    let mut flags = vec![0u8; w as usize];
+    for (order, len) in [
+        ((0..h).rev().collect::<Vec<u16>>(), w as usize + 1),
+        (
+            (0..h).step_by(2).chain((1..h).step_by(2)).collect(),
+            w as usize + 1,
+        ),
+        ((0..h).collect(), w as usize),
+    ] {
+        let mut keys = vec![0u64; len];
+        let mut corners = Corners::new(&mut keys);
+        let mut out = vec![0u8; lb * h as usize];
+        for j in order {
+            let line = &mut out[lb * j as usize..lb * (j as usize + 1)];
+            frame
+                .render_line_in::<AllLines>(j, line, &mut flags, &mut corners)
+                .expect("renders");
+        }
+        assert_eq!(out, alone.pixels);
+    }
 }

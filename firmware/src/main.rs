@@ -195,12 +195,15 @@ fn main() -> ! {
     #[cfg(feature = "camera")]
     camera::run(&mut enc, &mut line, &mut flags);
     #[cfg(not(feature = "camera"))]
-    sweep(&mut enc, &mut line, &mut flags);
+    {
+        let mut keys = [0u64; scenes::CORNER_KEYS];
+        sweep(&mut enc, &mut line, &mut flags, &mut keys);
+    }
 }
 
 /// Renders every embedded scene with every variant, once, and exits.
 #[cfg(not(feature = "camera"))]
-fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
+fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8], keys: &mut [u64]) -> ! {
     for (id, blob) in scenes::BLOBS.iter().enumerate() {
         // Used in place (a scene is 4.7 KB: no copy of it).
         let loaded = hilcam::scene_data::load(blob);
@@ -217,6 +220,7 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
                 enc,
                 line,
                 flags,
+                keys,
                 frame_id: (id * scenes::VARIANTS.len() + v) as u32,
                 scene_id: id as u32,
                 command: None,
@@ -289,6 +293,7 @@ mod camera {
                     enc,
                     line,
                     flags,
+                    keys: &mut [],
                     frame_id,
                     scene_id: control.scene_id,
                     command: control.last_command(),
@@ -330,6 +335,9 @@ struct Run<'a> {
     enc: &'a mut Enc,
     line: &'a mut [u8],
     flags: &'a mut [u8],
+    /// The sampled loop's corner keys, carried from line to line (a driven
+    /// camera holds none: its RAM is spoken for).
+    keys: &'a mut [u64],
     frame_id: u32,
     scene_id: u32,
     /// The last command processed (driven camera).
@@ -363,7 +371,7 @@ impl Runner for Run<'_> {
         // adapter around the link's sink.
         let mut sink = Timed::new(Stream { enc: self.enc, start }, ticks, instructions, prepare);
         frame
-            .render_with::<Built, _>(self.line, self.flags, &mut sink)
+            .render_carried::<Built, _>(self.line, self.flags, self.keys, &mut sink)
             .map_err(|_| "render")?;
         Ok(sink.cost())
     }

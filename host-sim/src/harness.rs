@@ -298,7 +298,8 @@ pub fn collect<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
 }
 
 /// Renders a prepared frame into memory a line at a time through the
-/// core's [`FrameSink`] (one core).
+/// core's [`FrameSink`] (one core), as the firmware does: the sampled
+/// loop's corner keys carried from line to line ([`Frame::render_carried`]).
 pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
     let (w, h) = frame.size();
     let mut line = vec![0u8; frame.line_bytes()];
@@ -307,8 +308,9 @@ pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
         pixels: Vec::with_capacity(frame.line_bytes() * h as usize),
         flags: Vec::with_capacity(w as usize * h as usize),
     };
+    let mut keys = vec![0u64; w as usize + 1];
     frame
-        .render(&mut line, &mut flags, &mut core)
+        .render_carried::<hilcam::render::AllLines, _>(&mut line, &mut flags, &mut keys, &mut core)
         .map_err(|e| format!("render failed: {e:?}"))?;
     Ok(core)
 }
