@@ -300,7 +300,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         0 => 1.0,
         m => APERTURE_COST.0 + f64::from(m) * APERTURE_COST.1,
     };
-    let spp = samples_per_pixel(scene, &g, samples, adaptive) * through;
+    let spp = |a: Arithmetic| samples_per_pixel(scene, &g, samples, adaptive, a) * through;
     // Edge length per pixel area times looks per pixel area (see
     // `Candidate::edge_differing`).
     let looks = match (samples, adaptive) {
@@ -350,7 +350,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 }
                 _ => g.direct_geom_err(arithmetic, scene),
             };
-            let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion)) * spp;
+            let cost =
+                CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion)) * spp(arithmetic);
             let _ = cands.push(Candidate {
                 arithmetic,
                 distortion,
@@ -413,7 +414,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         candidates: cands,
         chosen,
         predicted_edge_err_px: crate::sampling::edge_error(samples),
-        predicted_samples_per_pixel: spp,
+        predicted_samples_per_pixel: spp(c.arithmetic),
         defocus: df,
     }
 }
@@ -541,14 +542,21 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
 }
 
 /// Samples a pixel for an `n×n` grid: `n²` on every pixel, or with the
-/// adaptive rule one at the centre, two corner looks ([`KEY_COST`] each)
-/// and `n²` on the estimated fraction of pixels an edge crosses.
-fn samples_per_pixel(scene: &Scene, g: &Geometry, n: u8, adaptive: bool) -> f64 {
+/// adaptive rule one at the centre, corner looks ([`KEY_COST`] each) and
+/// `n²` on the estimated fraction of pixels an edge crosses. A line looks
+/// at two rows of corners, a pixel's right corners in each; the fast
+/// arithmetic's sampled loop takes the top row from the line before
+/// (`sampling::Corners`, as the firmware renders), so one look a pixel.
+fn samples_per_pixel(scene: &Scene, g: &Geometry, n: u8, adaptive: bool, a: Arithmetic) -> f64 {
     let n2 = f64::from(n) * f64::from(n);
+    let corner_looks = match a {
+        Arithmetic::Fast => 1.0,
+        Arithmetic::Wide => 2.0,
+    };
     match (n, adaptive) {
         (0 | 1, _) => 1.0,
         (_, false) => n2,
-        (_, true) => 1.0 + 2.0 * KEY_COST + n2 * edge_fraction(scene, g),
+        (_, true) => 1.0 + corner_looks * KEY_COST + n2 * edge_fraction(scene, g),
     }
 }
 
