@@ -98,17 +98,26 @@ impl<S: Scalar> Stage<S> {
     /// is `mu` DN (before rounding), clamped to `[0, dn_max]`.
     #[inline]
     pub fn apply(&self, mu: S, pixel: u32, c: usize, dn_max: u32) -> u32 {
-        self.apply_with(mu, pixel, c, dn_max, |var, z| {
+        self.apply_with(mu, pixel, c, dn_max, S::mul, |var, z| {
             var.sqrt().unwrap_or(S::ZERO).mul(z)
         })
     }
 
-    /// [`Stage::apply`] with `noise` giving the noise term `σ z` from `σ²`
-    /// and the draw `z`: the fast arithmetic's own square root and product.
+    /// [`Stage::apply`] with `mul` giving `K_sys μ_y` (both ≥ 0) as
+    /// [`Scalar::mul`] does, and `noise` the noise term `σ z` from `σ²` and
+    /// the draw `z`: the fast arithmetic's own products and square root.
     /// Inlined into each caller: out of line (once a build has more than
     /// one), the call cost the noisy scene 14 M3 instructions a pixel.
     #[inline(always)]
-    pub fn apply_with(&self, mu: S, pixel: u32, c: usize, dn_max: u32, noise: impl FnOnce(S, S) -> S) -> u32 {
+    pub fn apply_with(
+        &self,
+        mu: S,
+        pixel: u32,
+        c: usize,
+        dn_max: u32,
+        mul: impl FnOnce(S, S) -> S,
+        noise: impl FnOnce(S, S) -> S,
+    ) -> u32 {
         let (k, var, off) = (
             self.ksys.get(c).copied().unwrap_or(S::ZERO),
             self.dark_var.get(c).copied().unwrap_or(S::ZERO),
@@ -118,7 +127,7 @@ impl<S: Scalar> Stage<S> {
         let z = S::from_q(Q::from_bits(
             i64::from(normal_q16(self.key, pixel, c as u8)) << 16,
         ));
-        let v = mu.add(noise(k.mul(mu).add(var), z)).add(off);
+        let v = mu.add(noise(mul(k, mu).add(var), z)).add(off);
         v.floor_int().clamp(0, i64::from(dn_max)) as u32
     }
 }
