@@ -1816,20 +1816,37 @@ impl Mix32 {
             LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => self.line_f::<1, false>(j, pixels, flags),
             LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => self.line_f::<3, false>(j, pixels, flags),
             LineLoop::FastGrayPerspectiveSampled if L::FAST_GRAY_PERSPECTIVE_SAMPLED => {
-                self.line_s::<1, true>(j, pixels, flags, corners)
+                self.sampled::<L, 1, true>(j, pixels, flags, corners)
             }
             LineLoop::FastRgbPerspectiveSampled if L::FAST_RGB_PERSPECTIVE_SAMPLED => {
-                self.line_s::<3, true>(j, pixels, flags, corners)
+                self.sampled::<L, 3, true>(j, pixels, flags, corners)
             }
             LineLoop::FastGrayParallelSampled if L::FAST_GRAY_PARALLEL_SAMPLED => {
-                self.line_s::<1, false>(j, pixels, flags, corners)
+                self.sampled::<L, 1, false>(j, pixels, flags, corners)
             }
             LineLoop::FastRgbParallelSampled if L::FAST_RGB_PARALLEL_SAMPLED => {
-                self.line_s::<3, false>(j, pixels, flags, corners)
+                self.sampled::<L, 3, false>(j, pixels, flags, corners)
             }
             LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<1>(j, pixels, flags),
             LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<3>(j, pixels, flags),
             _ => {}
+        }
+    }
+
+    /// [`Mix32::line_s`] with the corner carry if `L` builds it in (one
+    /// copy of the loop either way: the other branch is not compiled).
+    #[inline(always)]
+    fn sampled<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        corners: &mut Corners,
+    ) {
+        if L::CARRY_CORNERS {
+            self.line_s::<C, PERSP, true>(j, pixels, flags, corners)
+        } else {
+            self.line_s::<C, PERSP, false>(j, pixels, flags, corners)
         }
     }
 
@@ -2159,7 +2176,7 @@ impl Mix32 {
     /// chunk's passes. A grid's mean is exact (`n²` is a power of two), then
     /// rounded once.
     #[inline(never)]
-    fn line_s<const C: usize, const PERSP: bool>(
+    fn line_s<const C: usize, const PERSP: bool, const CARRY: bool>(
         &self,
         j: u16,
         pixels: &mut [u8],
@@ -2185,7 +2202,7 @@ impl Mix32 {
         let (top, bottom) = (yd_of(yc + (self.dy - (self.dy >> 1))), yd_of(yc - (self.dy >> 1)));
         // The top corners' keys carried from line j − 1, and where this
         // line's bottom ones go (column c: the corner left of pixel c).
-        let (carried, mut keys) = if self.adaptive {
+        let (carried, mut keys) = if CARRY && self.adaptive {
             carry.for_line(j, w)
         } else {
             (false, None)

@@ -219,6 +219,10 @@ pub trait Lines {
     const WIDE_PERSPECTIVE: bool = true;
     /// Wide arithmetic, parallel rays.
     const WIDE_PARALLEL: bool = true;
+    /// The sampled fast loops carry their corner keys from line to line
+    /// ([`crate::sampling::Corners`]); without, they trace both rows of
+    /// corners a line whatever the caller passes (less code).
+    const CARRY_CORNERS: bool = true;
 }
 
 /// Every line loop.
@@ -227,12 +231,15 @@ pub struct AllLines;
 impl Lines for AllLines {}
 
 /// Every line loop the planner picks: all but the fast aperture loops (see
-/// [`crate::planner::Unfit::Defocus`]), which run only when asked for.
+/// [`crate::planner::Unfit::Defocus`]), which run only when asked for; the
+/// sampled loops without the corner carry (the driven camera's build, which
+/// holds no keys: its flash and RAM are spoken for).
 pub struct PlannedLines;
 
 impl Lines for PlannedLines {
     const FAST_GRAY_APERTURE: bool = false;
     const FAST_RGB_APERTURE: bool = false;
+    const CARRY_CORNERS: bool = false;
 }
 
 /// A line loop: the arithmetic, the rays and, for the fast arithmetic, the
