@@ -1487,7 +1487,7 @@ fn v_len(v: V3) -> Q {
         .map(|c| (c.to_bits() as i128 * c.to_bits() as i128) as u128)
         .sum();
     // √ of 2^-64 m² → 2^-32 m.
-    Q::from_bits(s.isqrt().min(i64::MAX as u128) as i64)
+    Q::from_bits(crate::num::isqrt_u128(s).min(i64::MAX as u128) as i64)
 }
 
 impl Mix32 {
@@ -2617,7 +2617,7 @@ fn shl_q(v: i64, e: i32) -> Q {
 /// `√v` for an I32F32 area (m²) in metres.
 fn isqrt_q(v: Q) -> Q {
     let s = (v.to_bits().max(0) as u128) << 32;
-    Q::from_bits(s.isqrt().min(i64::MAX as u128) as i64)
+    Q::from_bits(crate::num::isqrt_u128(s).min(i64::MAX as u128) as i64)
 }
 
 #[cfg(test)]

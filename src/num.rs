@@ -56,6 +56,26 @@ pub(crate) const fn umul16(a: u32, b: u32) -> u64 {
     (((ah * bh) as u64) << 32) + (cross << 16) + (al * bl) as u64
 }
 
+/// `⌊√v⌋`, a bit a step (the restoring method): a few hundred bytes of
+/// code where the library's `u128::isqrt` is over 2 KB of flash on
+/// Cortex-M. Its users run once a frame (preparation), not a pixel.
+#[inline(never)]
+pub fn isqrt_u128(v: u128) -> u128 {
+    // The largest power of four not above v (1 for v = 0).
+    let mut bit: u128 = 1 << ((127 - v.leading_zeros().min(127)) & !1);
+    let (mut rem, mut root) = (v, 0u128);
+    while bit != 0 {
+        if rem >= root + bit {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    root
+}
+
 /// `a · b mod 2⁶⁴` (the noise generator's hash): on the M0
 /// `mul64_words`, elsewhere the one instruction sequence.
 #[inline(always)]
@@ -322,7 +342,7 @@ impl Wide {
         m <<= room;
         frac += room as i64;
         Some(Wide {
-            mant: m.isqrt() as i128,
+            mant: isqrt_u128(m) as i128,
             frac: (frac / 2) as i32,
         })
     }
@@ -484,6 +504,36 @@ fn bits_from_f64(x: f64, frac: u32) -> Option<i64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn isqrt_u128_is_the_librarys() {
+        let mut x: u128 = 0x9e37_79b9_7f4a_7c15_f39c_c060_5ced_c834;
+        let mut edges = vec![
+            0u128,
+            1,
+            2,
+            3,
+            4,
+            5,
+            u128::MAX,
+            u128::MAX - 1,
+            1 << 126,
+            (1 << 126) - 1,
+        ];
+        for r in [1u128, 2, 3, 0xFFFF_FFFF, 0xFFFF_FFFF_FFFF_FFFF, 1 << 40] {
+            edges.extend([r * r - 1, r * r, r * r + 1]);
+        }
+        for v in edges {
+            assert_eq!(isqrt_u128(v), v.isqrt(), "{v}");
+        }
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = x >> (x % 128);
+            assert_eq!(isqrt_u128(v), v.isqrt(), "{v}");
+        }
+    }
 
     fn w(x: f64) -> Wide {
         Wide::of(Len::from_num(x))
