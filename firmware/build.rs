@@ -107,24 +107,16 @@ fn main() {
     for r in &resolved {
         for v in &variants {
             let budget = hilcam::planner::Budget::default();
-            let mut adaptive = false;
-            if let Ok((_, _, f)) = host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| {
-                let o = v.options(o);
-                adaptive = o.adaptive && o.samples > 1;
-                o
-            }) {
+            if let Ok((_, _, f)) =
+                host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| v.options(o))
+            {
                 table = table.max(f.stages().distortion_lut.unwrap_or(0));
-                let l = f.line_loop();
-                lines.insert(l);
-                use hilcam::render::LineLoop as L;
-                let sampled = matches!(
-                    l,
-                    L::FastGrayPerspectiveSampled
-                        | L::FastRgbPerspectiveSampled
-                        | L::FastGrayParallelSampled
-                        | L::FastRgbParallelSampled
-                );
-                if sampled && adaptive {
+                lines.insert(f.line_loop());
+                let st = f.stages();
+                // The fast sampled loop (the aperture loop takes pixel
+                // centres only) with the adaptive rule.
+                let fast = st.arithmetic == hilcam::render::Arithmetic::Fast && st.aperture == 0;
+                if fast && st.samples > 1 && st.adaptive {
                     corner_keys = corner_keys.max(f.size().0 as usize + 1);
                 }
             }

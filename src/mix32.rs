@@ -2202,10 +2202,17 @@ impl Mix32 {
         let (top, bottom) = (yd_of(yc + (self.dy - (self.dy >> 1))), yd_of(yc - (self.dy >> 1)));
         // The top corners' keys carried from line j − 1, and where this
         // line's bottom ones go (column c: the corner left of pixel c).
-        let (carried, mut keys) = if CARRY && self.adaptive {
+        let (carried, keys) = if CARRY && self.adaptive {
             carry.for_line(j, w)
         } else {
             (false, None)
+        };
+        let stored = keys.is_some();
+        // Column 0's key, and the chunks' right columns (as many as pixels,
+        // chunked as they are).
+        let (key0, mut key_chunks) = match keys {
+            Some([k0, rest @ ..]) => (Some(k0), Some(rest.chunks_mut(CHUNK))),
+            _ => (None, None),
         };
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
@@ -2219,8 +2226,8 @@ impl Mix32 {
         let mut left = Key::OUTSIDE;
         if self.adaptive {
             if let Some(r) = rays.first(1) {
-                let t = match (carried, keys.as_deref()) {
-                    (true, Some([k, ..])) => Key(*k),
+                let t = match (carried, key0.as_deref()) {
+                    (true, Some(k)) => Key(*k),
                     _ => {
                         self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top);
                         r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r))
@@ -2228,16 +2235,12 @@ impl Mix32 {
                 };
                 self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, bottom);
                 let b = r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r));
-                if let Some([k, ..]) = keys.as_deref_mut() {
+                if let Some(k) = key0 {
                     *k = b.0;
                 }
                 left = if t == b { t } else { Key::OUTSIDE };
             }
         }
-        // The chunk's first corner column right of a pixel, and whether
-        // every bottom corner went into `keys`.
-        let mut col = 1usize;
-        let mut complete = true;
         let mut x = self.x0;
         let mut index = j as u32 * self.width as u32;
         for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
@@ -2250,8 +2253,7 @@ impl Mix32 {
             if self.adaptive {
                 // Right corners, top line (carried, or traced) then bottom
                 // line (kept for the next line).
-                let chunk_keys = keys.as_deref_mut().and_then(|k| k.get_mut(col..col + rays.len()));
-                complete &= chunk_keys.is_some();
+                let chunk_keys = key_chunks.as_mut().and_then(Iterator::next);
                 match (carried, &chunk_keys) {
                     (true, Some(k)) => {
                         for (c, k) in corners.iter_mut().zip(k.iter()) {
@@ -2266,6 +2268,8 @@ impl Mix32 {
                     }
                 }
                 self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom);
+                // (Two loops, not one storing where it has a buffer: a test a
+                // ray cost calibration-board 10 M3 instructions a pixel.)
                 match chunk_keys {
                     Some(k) => {
                         for ((c, r), k) in corners.iter_mut().zip(rays.iter()).zip(k.iter_mut()) {
@@ -2343,9 +2347,8 @@ impl Mix32 {
             put(&words, b, pixels);
             x -= self.dx * rays.len() as i64;
             index = index.wrapping_add(rays.len() as u32);
-            col += rays.len();
         }
-        if keys.is_some() && complete {
+        if stored {
             carry.carried(j);
         }
     }

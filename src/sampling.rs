@@ -96,9 +96,9 @@ mod tests {
 #[derive(Debug)]
 pub struct Corners<'a> {
     /// The keys of the last line's bottom corners, by column.
-    pub(crate) keys: &'a mut [u64],
+    keys: &'a mut [u64],
     /// The line whose top corners they are.
-    pub(crate) next: Option<u16>,
+    next: Option<u16>,
 }
 
 impl<'a> Corners<'a> {
