@@ -104,6 +104,9 @@ fn main() {
     // (`hilcam::sampling::Corners`): a sensor's width plus one, for the
     // widest scene rendered with the adaptive rule on that loop (0: none).
     let mut corner_keys = 0usize;
+    // The wide loops' stages those frames use (sampling, aperture rays,
+    // the specular lobe): the others are left out of the wide loop too.
+    let (mut wide_sampled, mut wide_aperture, mut wide_specular) = (false, false, false);
     for r in &resolved {
         for v in &variants {
             let budget = hilcam::planner::Budget::default();
@@ -119,6 +122,11 @@ fn main() {
                 if fast && st.samples > 1 && st.adaptive {
                     corner_keys = corner_keys.max(f.size().0 as usize + 1);
                 }
+                if st.arithmetic == hilcam::render::Arithmetic::Wide {
+                    wide_sampled |= st.samples > 1;
+                    wide_aperture |= st.aperture > 0;
+                    wide_specular |= st.specular;
+                }
             }
         }
     }
@@ -133,6 +141,9 @@ fn main() {
     for l in hilcam::render::LineLoop::ALL {
         let _ = writeln!(code, "    const {}: bool = {};", l.constant(), lines.contains(&l));
     }
+    let _ = writeln!(code, "    const WIDE_SAMPLED: bool = {wide_sampled};");
+    let _ = writeln!(code, "    const WIDE_APERTURE: bool = {wide_aperture};");
+    let _ = writeln!(code, "    const WIDE_SPECULAR: bool = {wide_specular};");
     let _ = writeln!(code, "}}");
     let _ = writeln!(
         code,

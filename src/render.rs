@@ -219,6 +219,14 @@ pub trait Lines {
     const WIDE_PERSPECTIVE: bool = true;
     /// Wide arithmetic, parallel rays.
     const WIDE_PARALLEL: bool = true;
+    /// The wide loops' stages, each left out where no frame the build
+    /// renders needs it (a frame that does is refused like a left-out
+    /// loop): pixel-area sampling ([`crate::sampling`]),
+    const WIDE_SAMPLED: bool = true;
+    /// the aperture's rays (defocus, [`crate::defocus`]),
+    const WIDE_APERTURE: bool = true;
+    /// and the specular lobe.
+    const WIDE_SPECULAR: bool = true;
     /// The sampled fast loops carry their corner keys from line to line
     /// ([`crate::sampling::Corners`]); without, they trace both rows of
     /// corners a line whatever the caller passes (less code).
@@ -1011,7 +1019,17 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
 
     /// Whether this frame's line loop is one of `L`'s.
     pub fn line_built<L: Lines>(&self) -> bool {
-        self.line_loop().built::<L>()
+        let st = &self.stages;
+        let wide_stages = match &self.path {
+            Path::Wide(_) => {
+                (L::WIDE_SAMPLED || st.samples <= 1)
+                    && (L::WIDE_APERTURE || st.aperture == 0)
+                    && (L::WIDE_SPECULAR || !st.specular)
+            }
+            #[cfg(feature = "mix32")]
+            Path::Fast(_) => true,
+        };
+        self.line_loop().built::<L>() && wide_stages
     }
 
     /// [`Frame::render_line`] with only `L`'s line loops compiled in:
@@ -1053,10 +1071,10 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             // Through the aperture, a sample's chief ray is a pinhole ray:
             // one loop for both (a third copy would cost flash).
             (Path::Wide(w), LineLoop::WidePerspective) if L::WIDE_PERSPECTIVE => {
-                w.line::<PINHOLE>(j, pixels, flags)
+                w.line::<L, PINHOLE>(j, pixels, flags)
             }
             (Path::Wide(w), LineLoop::WideParallel) if L::WIDE_PARALLEL => {
-                w.line::<PARALLEL>(j, pixels, flags)
+                w.line::<L, PARALLEL>(j, pixels, flags)
             }
             _ => {}
         }
@@ -1402,13 +1420,13 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
 
     #[inline(never)]
     #[cfg_attr(not(feature = "sensor"), allow(unused_variables, unused_mut))]
-    fn line<const R: u8>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    fn line<L: Lines, const R: u8>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
         let bpp = self.format.bytes_per_pixel();
         let channels = self.format.channels();
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c));
         let yc = self.y0 - self.dy * j as i128;
         let n = self.stages.samples;
-        let corners = n > 1 && self.stages.adaptive;
+        let corners = L::WIDE_SAMPLED && n > 1 && self.stages.adaptive;
         let (hx, hy) = self.half;
         let (top, bottom) = (yc + hy, yc - hy);
         // The keys of the current pixel's left corners (adaptive rule).
@@ -1432,13 +1450,13 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             let xc = acc;
             acc -= self.dx;
             #[cfg(feature = "sensor")]
-            let value = if n <= 1 {
-                self.sample_inline::<R>(xc, yc).map(|(v, _)| v)
+            let value = if !L::WIDE_SAMPLED || n <= 1 {
+                self.sample_inline::<L, R>(xc, yc).map(|(v, _)| v)
             } else {
-                self.area_value::<R>(xc, yc, (top, bottom), &mut left)
+                self.area_value::<L, R>(xc, yc, (top, bottom), &mut left)
             };
             #[cfg(not(feature = "sensor"))]
-            let value = self.sample_inline::<R>(xc, yc).map(|(v, _)| v);
+            let value = self.sample_inline::<L, R>(xc, yc).map(|(v, _)| v);
             let Some(value) = value else {
                 *flag = FLAG_OUTSIDE_FIELD;
                 out.iter_mut().for_each(|b| *b = 0);
@@ -1469,7 +1487,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// grid's mean. Out of line: the one-sample loop stays lean.
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn area_value<const R: u8>(
+    fn area_value<L: Lines, const R: u8>(
         &self,
         xc: i128,
         yc: i128,
@@ -1477,11 +1495,11 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         left: &mut [Option<Key>; 2],
     ) -> Option<V3<S>> {
         if !self.stages.adaptive {
-            return self.grid::<R>(xc, yc);
+            return self.grid::<L, R>(xc, yc);
         }
         let hx = self.half.0;
         let right = [self.key::<R>(xc - hx, top), self.key::<R>(xc - hx, bottom)];
-        let centre = self.sample::<R>(xc, yc);
+        let centre = self.sample::<L, R>(xc, yc);
         let uniform = match centre {
             Some((_, k)) => left.iter().chain(right.iter()).all(|c| *c == Some(k)),
             None => false,
@@ -1489,7 +1507,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         *left = right;
         match centre {
             Some((v, _)) if uniform => Some(v),
-            _ => self.grid::<R>(xc, yc),
+            _ => self.grid::<L, R>(xc, yc),
         }
     }
 
@@ -1524,24 +1542,24 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// copy in flash); the one-sample loop inlines [`Frame::sample_inline`].
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn sample<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
-        self.sample_inline::<R>(xacc, yacc)
+    fn sample<L: Lines, const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
+        self.sample_inline::<L, R>(xacc, yacc)
     }
 
     /// [`Frame::sample`], inlined.
     #[inline(always)]
-    fn sample_inline<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
+    fn sample_inline<L: Lines, const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
         let PixelRay { o, d, a, xy: (x, y) } = self.ray::<R>(xacc, yacc)?;
         #[cfg(feature = "sensor")]
-        let (radiance, key) = if R == PINHOLE && self.stages.aperture > 0 {
-            self.through_aperture((x, y), a)
-        } else if self.stages.specular {
+        let (radiance, key) = if L::WIDE_APERTURE && R == PINHOLE && self.stages.aperture > 0 {
+            self.through_aperture::<L>((x, y), a)
+        } else if L::WIDE_SPECULAR && self.stages.specular {
             self.trace::<true, R>(o, d, a, (x, y))
         } else {
             self.trace::<false, R>(o, d, a, (x, y))
         };
         #[cfg(not(feature = "sensor"))]
-        let (radiance, key) = if self.stages.specular {
+        let (radiance, key) = if L::WIDE_SPECULAR && self.stages.specular {
             self.trace::<true, R>(o, d, a, (x, y))
         } else {
             self.trace::<false, R>(o, d, a, (x, y))
@@ -1570,7 +1588,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// ray sees.
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn through_aperture(&self, (x, y): (S, S), a: S) -> (V3<S>, Key) {
+    fn through_aperture<L: Lines>(&self, (x, y): (S, S), a: S) -> (V3<S>, Key) {
         let mut sum = [S::ZERO; 3];
         let channels = self.format.channels();
         for p in crate::defocus::SPIRAL.iter().take(self.stages.aperture as usize) {
@@ -1578,7 +1596,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             let uy = S::from_q(Q::from_bits(i64::from(p[1]) << self.ap_shift));
             let o = [ux.mul(self.ap_r), uy.mul(self.ap_r), S::ZERO];
             let d = [x.sub(ux.mul(self.ap_rz)), y.sub(uy.mul(self.ap_rz)), S::ONE];
-            let (l, _) = if self.stages.specular {
+            let (l, _) = if L::WIDE_SPECULAR && self.stages.specular {
                 self.trace::<true, APERTURE>(o, d, dot(d, d), (x, y))
             } else {
                 self.trace::<false, APERTURE>(o, d, dot(d, d), (x, y))
@@ -1587,7 +1605,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 *s = s.add(v);
             }
         }
-        let key = if self.stages.adaptive {
+        let key = if L::WIDE_SAMPLED && self.stages.adaptive {
             let chief = self.look::<PINHOLE>([S::ZERO; 3], [x, y, S::ONE], a, (x, y));
             chief.map_or(Key::NOTHING, |s| s.key)
         } else {
@@ -1609,13 +1627,13 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// (I64F64 raw); `None` if any sample lies beyond the fold.
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn grid<const R: u8>(&self, xc: i128, yc: i128) -> Option<V3<S>> {
+    fn grid<L: Lines, const R: u8>(&self, xc: i128, yc: i128) -> Option<V3<S>> {
         let n = self.stages.samples as usize;
         let mut sum = [S::ZERO; 3];
         for oy in self.sub_y.iter().take(n) {
             for ox in self.sub_x.iter().take(n) {
                 // Pixel coordinates grow as x̂_d, ŷ_d fall.
-                let (e, _) = self.sample::<R>(xc - ox, yc - oy)?;
+                let (e, _) = self.sample::<L, R>(xc - ox, yc - oy)?;
                 for (s, v) in sum.iter_mut().zip(e) {
                     *s = s.add(v);
                 }

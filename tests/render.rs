@@ -354,6 +354,59 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
     );
 }
 
+/// The wide loop built with only the stages its frames use (as a firmware
+/// is: `render::Lines::WIDE_SAMPLED`, `WIDE_APERTURE`, `WIDE_SPECULAR`,
+/// `firmware/build.rs`) renders those frames bit for bit as with every
+/// stage, and refuses a frame that needs a stage it left out.
+#[test]
+fn a_wide_frame_whose_stage_is_left_out_is_refused() {
+    use hilcam::render::{Arithmetic, LineLoop, Lines};
+    struct WideAperture;
+    impl Lines for WideAperture {
+        const WIDE_PARALLEL: bool = false;
+        const WIDE_SAMPLED: bool = false;
+        const WIDE_SPECULAR: bool = false;
+    }
+    let lines = |f: &Frame| -> Result<Vec<u8>, RenderError> {
+        let (w, h) = f.size();
+        let mut out = Vec::new();
+        let (mut line, mut flags) = (vec![0u8; f.line_bytes()], vec![0u8; w as usize]);
+        for j in 0..h {
+            f.render_line_with::<WideAperture>(j, &mut line, &mut flags)?;
+            out.extend_from_slice(&line);
+        }
+        Ok(out)
+    };
+    // shallow-dof: the wide arithmetic through the aperture, no sampling,
+    // no lobe.
+    let s = scene("shallow-dof").core_scene().expect("valid");
+    let p = plan(&s, &Budget::default());
+    assert_eq!(p.options.arithmetic, Arithmetic::Wide);
+    assert!(p.options.aperture > 0 && p.options.samples <= 1);
+    let frame = Frame::new(&s, &p.options).expect("frame");
+    assert_eq!(frame.line_loop(), LineLoop::WidePerspective);
+    assert!(frame.line_built::<WideAperture>());
+    let every = host_sim::harness::collect(&frame).expect("renders");
+    assert_eq!(
+        lines(&frame).expect("renders with its stages alone"),
+        every.pixels
+    );
+    // A sampled frame and one with the lobe, in the wide arithmetic.
+    for (name, what) in [
+        ("calibration-board", "sampling"),
+        ("spheres-specular", "the lobe"),
+    ] {
+        let s = scene(name).core_scene().expect("valid");
+        let o = plan(&s, &Budget::default())
+            .options
+            .with_arithmetic(Arithmetic::Wide);
+        let frame = Frame::new(&s, &o).expect("frame");
+        assert_eq!(frame.line_loop(), LineLoop::WidePerspective, "{name}");
+        assert!(!frame.line_built::<WideAperture>(), "{name}: {what} left out");
+        assert_eq!(lines(&frame), Err(RenderError::NotBuilt), "{name}");
+    }
+}
+
 /// The sampled loop's corner keys carried from a line to the next are used
 /// only for the line after the last one rendered with them: lines taken in
 /// another order (here bottom to top, then every other line), or with a
