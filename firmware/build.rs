@@ -107,6 +107,8 @@ fn main() {
     // The wide loops' stages those frames use (sampling, aperture rays,
     // the specular lobe): the others are left out of the wide loop too.
     let (mut wide_sampled, mut wide_aperture, mut wide_specular) = (false, false, false);
+    // And the fast loops' specular lobe, for one channel and for RGB565.
+    let (mut gray_specular, mut rgb_specular) = (false, false);
     for r in &resolved {
         for v in &variants {
             let budget = hilcam::planner::Budget::default();
@@ -121,6 +123,12 @@ fn main() {
                 let fast = st.arithmetic == hilcam::render::Arithmetic::Fast && st.aperture == 0;
                 if fast && st.samples > 1 && st.adaptive {
                     corner_keys = corner_keys.max(f.size().0 as usize + 1);
+                }
+                if st.arithmetic == hilcam::render::Arithmetic::Fast && st.specular {
+                    match st.format.channels() {
+                        3 => rgb_specular = true,
+                        _ => gray_specular = true,
+                    }
                 }
                 if st.arithmetic == hilcam::render::Arithmetic::Wide {
                     wide_sampled |= st.samples > 1;
@@ -141,6 +149,8 @@ fn main() {
     for l in hilcam::render::LineLoop::ALL {
         let _ = writeln!(code, "    const {}: bool = {};", l.constant(), lines.contains(&l));
     }
+    let _ = writeln!(code, "    const FAST_GRAY_SPECULAR: bool = {gray_specular};");
+    let _ = writeln!(code, "    const FAST_RGB_SPECULAR: bool = {rgb_specular};");
     let _ = writeln!(code, "    const WIDE_SAMPLED: bool = {wide_sampled};");
     let _ = writeln!(code, "    const WIDE_APERTURE: bool = {wide_aperture};");
     let _ = writeln!(code, "    const WIDE_SPECULAR: bool = {wide_specular};");

@@ -244,12 +244,28 @@ fn sigma_z(var: Q, z: Q) -> Q {
     Q::from_bits(s16 as i64 * (z.to_bits() >> 16))
 }
 
+/// Whether `L`'s fast loops for `C` channels render the specular lobe
+/// ([`Lines::FAST_GRAY_SPECULAR`], [`Lines::FAST_RGB_SPECULAR`]).
+const fn lobe_built<L: Lines, const C: usize>() -> bool {
+    if C == 3 {
+        L::FAST_RGB_SPECULAR
+    } else {
+        L::FAST_GRAY_SPECULAR
+    }
+}
+
 /// `f(c)` for each of `C` channels (1 or 3), written out: a loop over them
 /// is not unrolled at opt-level "s" (the firmware's), which cost the RGB565
 /// scene 28 M3 instructions a pixel. (A form taking the sums by reference
-/// cost the M0's standard scene 21 more a pixel.)
+/// cost the M0's standard scene 21 more a pixel.) A loop with the `compact`
+/// feature (the driven camera's, bound by flash: written out, the M0's
+/// overflowed its 256 KiB).
 #[inline(always)]
 fn each<const C: usize>(mut f: impl FnMut(usize)) {
+    if cfg!(feature = "compact") {
+        (0..C).for_each(f);
+        return;
+    }
     f(0);
     if C == 3 {
         f(1);
@@ -1821,13 +1837,15 @@ impl Mix32 {
     pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
         match self.line_loop() {
             LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
-                self.line_f::<1, true>(j, pixels, flags)
+                self.line_f::<L, 1, true>(j, pixels, flags)
             }
             LineLoop::FastRgbPerspective if L::FAST_RGB_PERSPECTIVE => {
-                self.line_f::<3, true>(j, pixels, flags)
+                self.line_f::<L, 3, true>(j, pixels, flags)
             }
-            LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => self.line_f::<1, false>(j, pixels, flags),
-            LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => self.line_f::<3, false>(j, pixels, flags),
+            LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => {
+                self.line_f::<L, 1, false>(j, pixels, flags)
+            }
+            LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => self.line_f::<L, 3, false>(j, pixels, flags),
             LineLoop::FastGrayPerspectiveSampled if L::FAST_GRAY_PERSPECTIVE_SAMPLED => {
                 self.sampled::<L, 1, true>(j, pixels, flags, corners)
             }
@@ -1840,8 +1858,8 @@ impl Mix32 {
             LineLoop::FastRgbParallelSampled if L::FAST_RGB_PARALLEL_SAMPLED => {
                 self.sampled::<L, 3, false>(j, pixels, flags, corners)
             }
-            LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<1>(j, pixels, flags),
-            LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<3>(j, pixels, flags),
+            LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<L, 1>(j, pixels, flags),
+            LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<L, 3>(j, pixels, flags),
             _ => {}
         }
     }
@@ -1857,9 +1875,9 @@ impl Mix32 {
         corners: &mut Corners,
     ) {
         if L::CARRY_CORNERS {
-            self.line_s::<C, PERSP, true>(j, pixels, flags, corners)
+            self.line_s::<L, C, PERSP, true>(j, pixels, flags, corners)
         } else {
-            self.line_s::<C, PERSP, false>(j, pixels, flags, corners)
+            self.line_s::<L, C, PERSP, false>(j, pixels, flags, corners)
         }
     }
 
@@ -1891,7 +1909,12 @@ impl Mix32 {
     /// shading, then the pixel bytes. A pass holds one primitive's
     /// constants in registers.
     #[inline(never)]
-    fn line_f<const C: usize, const PERSP: bool>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    fn line_f<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+    ) {
         let w = self.width as usize;
         let b = self.format.bytes_per_pixel();
         let (Some(pixels), Some(flags)) = (pixels.get_mut(..w * b), flags.get_mut(..w)) else {
@@ -1921,7 +1944,7 @@ impl Mix32 {
                 (xd, yd, yd2)
             });
             for ((r, out), flag) in rays.iter().zip(words.iter_mut()).zip(flags.iter_mut()) {
-                *out = self.pixel::<C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
+                *out = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
                 index = index.wrapping_add(1);
             }
             put(&words, b, pixels);
@@ -1999,7 +2022,7 @@ impl Mix32 {
     /// Shades one pixel of a chunk whose nearest hits are known; returns
     /// its [`word`].
     #[inline(always)]
-    fn pixel<const C: usize, const PERSP: bool>(
+    fn pixel<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         r: &Ray,
         dn_max: [u64; 3],
@@ -2012,7 +2035,7 @@ impl Mix32 {
             return 0;
         }
         *flag = 0;
-        let (sum, c4) = self.radiance::<C, PERSP>(r, k);
+        let (sum, c4) = self.radiance::<L, C, PERSP>(r, k);
         Self::dn_word::<C>(sum, c4, dn_max, (noise, index))
     }
 
@@ -2036,10 +2059,14 @@ impl Mix32 {
     /// A ray's (in the field) sum before vignetting (S15 DN, capped) and
     /// its `cos⁴α` (S31).
     #[inline(always)]
-    fn radiance<const C: usize, const PERSP: bool>(&self, r: &Ray, k: &mut KCache) -> ([u64; 3], u32) {
+    fn radiance<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        r: &Ray,
+        k: &mut KCache,
+    ) -> ([u64; 3], u32) {
         let c4 = self.c4(r);
-        let sum = match self.hit::<PERSP>(r) {
-            Some((m, pt, n, away)) => self.shade::<C, PERSP>(r, m, pt, n, away, k),
+        let sum = match self.hit::<L, C, PERSP>(r) {
+            Some((m, pt, n, away)) => self.shade::<L, C, PERSP>(r, m, pt, n, away, k),
             None => self.bg,
         };
         (sum, c4)
@@ -2066,7 +2093,7 @@ impl Mix32 {
     /// the chunk's chief slopes miss its bounds, widened by the blur. The
     /// mean of the `m` sums is exact (`m` a power of two), rounded once.
     #[inline(never)]
-    fn line_d<const C: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    fn line_d<L: Lines, const C: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
         let Some(ap) = self.aperture else {
             return;
         };
@@ -2127,8 +2154,8 @@ impl Mix32 {
                     if r.t == 0 {
                         continue;
                     }
-                    let l = match self.hit_from::<true, true>(r, a) {
-                        Some((m, pt, n, away)) => self.shade::<C, true>(r, m, pt, n, away, &mut k),
+                    let l = match self.hit_from::<L, C, true, true>(r, a) {
+                        Some((m, pt, n, away)) => self.shade::<L, C, true>(r, m, pt, n, away, &mut k),
                         None => self.bg,
                     };
                     for (s, l) in s.iter_mut().zip(l).take(C) {
@@ -2159,8 +2186,12 @@ impl Mix32 {
     /// [`Mix32::radiance`] out of line: one copy of the shading serves the
     /// sampled loop's centres and grids.
     #[inline(never)]
-    fn radiance_s<const C: usize, const PERSP: bool>(&self, r: &Ray, k: &mut KCache) -> ([u64; 3], u32) {
-        self.radiance::<C, PERSP>(r, k)
+    fn radiance_s<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        r: &Ray,
+        k: &mut KCache,
+    ) -> ([u64; 3], u32) {
+        self.radiance::<L, C, PERSP>(r, k)
     }
 
     /// What a traced ray sees, for the adaptive rule: the primitive and its
@@ -2189,7 +2220,7 @@ impl Mix32 {
     /// chunk's passes. A grid's mean is exact (`n²` is a power of two), then
     /// rounded once.
     #[inline(never)]
-    fn line_s<const C: usize, const PERSP: bool, const CARRY: bool>(
+    fn line_s<L: Lines, const C: usize, const PERSP: bool, const CARRY: bool>(
         &self,
         j: u16,
         pixels: &mut [u8],
@@ -2319,7 +2350,7 @@ impl Mix32 {
                 {
                     if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
                         // In the field: its corners are.
-                        let (sum, c4) = self.radiance_s::<C, PERSP>(r, &mut k);
+                        let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, &mut k);
                         *out = Self::dn_word::<C>(sum, c4, dn_max, (noise, index.wrapping_add(q as u32)));
                         *flag = 0;
                         grid &= !(1 << q);
@@ -2333,7 +2364,7 @@ impl Mix32 {
                 let (Some(out), Some(flag)) = (words.get_mut(q), flags.get_mut(q)) else {
                     break;
                 };
-                let value = self.grid::<C, PERSP>(rays, x_at(q), yc, n, log_n, &mut k);
+                let value = self.grid::<L, C, PERSP>(rays, x_at(q), yc, n, log_n, &mut k);
                 let (dn, f) = match value {
                     Some(v) => {
                         let mut dn = [0u32; 3];
@@ -2371,7 +2402,7 @@ impl Mix32 {
     /// (I32F32 DN, exact: a power-of-two mean of exact values, saturated);
     /// `None` if a sample lies beyond the fold. `rays` is scratch.
     #[inline(never)]
-    fn grid<const C: usize, const PERSP: bool>(
+    fn grid<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         rays: &mut [Ray],
         xc: i64,
@@ -2399,7 +2430,7 @@ impl Mix32 {
                 if r.t == 0 {
                     return None;
                 }
-                let (sum, c4) = self.radiance_s::<C, PERSP>(r, k);
+                let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, k);
                 for (a, s) in acc.iter_mut().zip(sum).take(C) {
                     *a = a.saturating_add(vignette_q(s, c4).to_bits());
                 }
@@ -2412,8 +2443,11 @@ impl Mix32 {
     /// point (S18 U), unit normal (S30) and whether it faces away from the
     /// viewer (surfaces are two-sided: shading turns it).
     #[inline(always)]
-    fn hit<const PERSP: bool>(&self, r: &Ray) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
-        self.hit_from::<PERSP, false>(r, [0, 0])
+    fn hit<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        r: &Ray,
+    ) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+        self.hit_from::<L, C, PERSP, false>(r, [0, 0])
     }
 
     /// [`Mix32::hit`]; if `MOVED`, for a ray traced in the frame moved to
@@ -2422,7 +2456,7 @@ impl Mix32 {
     /// this with `a = 0` at run time cost the M4F's standard scene 7
     /// instructions a pixel.)
     #[inline(always)]
-    fn hit_from<const PERSP: bool, const MOVED: bool>(
+    fn hit_from<L: Lines, const C: usize, const PERSP: bool, const MOVED: bool>(
         &self,
         r: &Ray,
         a: [i32; 2],
@@ -2447,7 +2481,7 @@ impl Mix32 {
                 inv_r,
                 fine: true,
                 ..
-            } => {
+            } if lobe_built::<L, C>() => {
                 let mut c = *c;
                 if MOVED {
                     c = [
@@ -2495,7 +2529,7 @@ impl Mix32 {
     /// terms of every light, before vignetting: S15 DN, capped at
     /// [`SUM_CAP`].
     #[inline(always)]
-    fn shade<const C: usize, const PERSP: bool>(
+    fn shade<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         r: &Ray,
         m: usize,
@@ -2534,7 +2568,10 @@ impl Mix32 {
         // The normal turned towards the viewer, and the view direction, for
         // the lobe.
         let nt = if away { n.map(i32::saturating_neg) } else { n };
-        let view = k.lobe.map(|_| Self::view::<PERSP>(r));
+        // The lobe, if this build's loop for `C` channels has it (a frame
+        // with one is refused by a build without: `Frame::line_built`).
+        let lobe = if lobe_built::<L, C>() { k.lobe } else { None };
+        let view = lobe.map(|_| Self::view::<PERSP>(r));
         let dot30 = |a: [i32; 3], b: [i32; 3]| -> i32 {
             ((wmul(a[0], b[0]) + wmul(a[1], b[1]) + wmul(a[2], b[2])) >> 30) as i32
         };
@@ -2572,7 +2609,7 @@ impl Mix32 {
                     *s = (*s + k.mul_to_sum(w, 15)).min(SUM_CAP);
                 }
             });
-            if let (Some(s), Some(v), Some(ld)) = (k.lobe, view, ldir) {
+            if let (Some(s), Some(v), Some(ld)) = (lobe, view, ldir) {
                 // r̂·v̂ = 2 (n̂·l̂)(n̂·v̂) − l̂·v̂, S30.
                 let nl = dot30(nt, ld) as i64;
                 let nv = dot30(nt, v) as i64;

@@ -41,12 +41,22 @@ pub fn normal_q16(key: u64, pixel: u32, channel: u8) -> i32 {
     let base = (u64::from(pixel) << 4) | (u64::from(channel & 3) << 2);
     // The sum of the four 16-bit words of three hashes, written out: the
     // loops are not unrolled at opt-level "s" (the firmware's), which cost
-    // low-light 187 M3 instructions a pixel.
+    // low-light 187 M3 instructions a pixel. Loops with the `compact`
+    // feature (the driven camera's, bound by flash).
     let words = |k: u64| {
         let h = mix(key ^ (base | k));
-        (h & 0xffff) + ((h >> 16) & 0xffff) + ((h >> 32) & 0xffff) + (h >> 48)
+        if cfg!(feature = "compact") {
+            (0..4).map(|w| (h >> (16 * w)) & 0xffff).sum::<u64>()
+        } else {
+            (h & 0xffff) + ((h >> 16) & 0xffff) + ((h >> 32) & 0xffff) + (h >> 48)
+        }
     };
-    ((words(0) + words(1) + words(2)) as i64 - 393_210) as i32
+    let sum = if cfg!(feature = "compact") {
+        (0..3).map(words).sum::<u64>()
+    } else {
+        words(0) + words(1) + words(2)
+    };
+    (sum as i64 - 393_210) as i32
 }
 
 /// The noise stage of a frame, in the renderer's scalar.

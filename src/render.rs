@@ -219,6 +219,12 @@ pub trait Lines {
     const WIDE_PERSPECTIVE: bool = true;
     /// Wide arithmetic, parallel rays.
     const WIDE_PARALLEL: bool = true;
+    /// The fast loops' specular lobe, for one channel and for RGB565: left
+    /// out where no frame the build renders needs it (a frame that does is
+    /// refused like a left-out loop).
+    const FAST_GRAY_SPECULAR: bool = true;
+    /// RGB565's lobe.
+    const FAST_RGB_SPECULAR: bool = true;
     /// The wide loops' stages, each left out where no frame the build
     /// renders needs it (a frame that does is refused like a left-out
     /// loop): pixel-area sampling ([`crate::sampling`]),
@@ -1027,7 +1033,13 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
                     && (L::WIDE_SPECULAR || !st.specular)
             }
             #[cfg(feature = "mix32")]
-            Path::Fast(_) => true,
+            Path::Fast(_) => {
+                let lobe = match st.format.channels() {
+                    3 => L::FAST_RGB_SPECULAR,
+                    _ => L::FAST_GRAY_SPECULAR,
+                };
+                lobe || !st.specular
+            }
         };
         self.line_loop().built::<L>() && wide_stages
     }

@@ -407,6 +407,54 @@ fn a_wide_frame_whose_stage_is_left_out_is_refused() {
     }
 }
 
+/// The fast loops built without the specular lobe for one channel count
+/// (as the default firmware's gray loops are: `render::Lines::
+/// FAST_GRAY_SPECULAR`, `firmware/build.rs`) render frames without a lobe
+/// bit for bit as with it, and refuse a frame of that channel count with
+/// one, while the other count keeps it.
+#[test]
+fn a_fast_frame_whose_lobe_is_left_out_is_refused() {
+    use hilcam::render::{Arithmetic, Lines};
+    struct RgbLobeOnly;
+    impl Lines for RgbLobeOnly {
+        const FAST_GRAY_SPECULAR: bool = false;
+    }
+    let lines = |f: &Frame| -> Result<Vec<u8>, RenderError> {
+        let (w, h) = f.size();
+        let mut out = Vec::new();
+        let (mut line, mut flags) = (vec![0u8; f.line_bytes()], vec![0u8; w as usize]);
+        for j in 0..h {
+            f.render_line_with::<RgbLobeOnly>(j, &mut line, &mut flags)?;
+            out.extend_from_slice(&line);
+        }
+        Ok(out)
+    };
+    let s = scene("standard").core_scene().expect("valid");
+    let p = plan(&s, &Budget::default());
+    assert_eq!(p.options.arithmetic, Arithmetic::Fast);
+    let frame = Frame::new(&s, &p.options).expect("frame");
+    assert!(!frame.stages().specular);
+    let every = host_sim::harness::collect(&frame).expect("renders");
+    assert_eq!(
+        lines(&frame).expect("renders without the gray lobe"),
+        every.pixels
+    );
+    // The same scene with every stage kept: its (zero) lobe is rendered.
+    let mut o = p.options;
+    o.keep_all_stages = true;
+    let kept = Frame::new(&s, &o).expect("frame");
+    assert!(kept.stages().specular);
+    assert_eq!(lines(&kept), Err(RenderError::NotBuilt));
+    // RGB565 with a lobe keeps it.
+    let s = scene("spheres-specular").core_scene().expect("valid");
+    let p = plan(&s, &Budget::default());
+    assert_eq!(p.options.arithmetic, Arithmetic::Fast);
+    let frame = Frame::new(&s, &p.options).expect("frame");
+    assert!(frame.stages().specular);
+    let every = host_sim::harness::collect(&frame).expect("renders");
+    assert_eq!(lines(&frame).expect("renders with the RGB lobe"), every.pixels);
+}
+
 /// The sampled loop's corner keys carried from a line to the next are used
 /// only for the line after the last one rendered with them: lines taken in
 /// another order (here bottom to top, then every other line), or with a
