@@ -354,6 +354,18 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
     );
 }
 
+/// Every line of `f` rendered with `L`'s line loops only.
+fn lines_with<L: hilcam::render::Lines>(f: &Frame) -> Result<Vec<u8>, RenderError> {
+    let (w, h) = f.size();
+    let mut out = Vec::new();
+    let (mut line, mut flags) = (vec![0u8; f.line_bytes()], vec![0u8; w as usize]);
+    for j in 0..h {
+        f.render_line_with::<L>(j, &mut line, &mut flags)?;
+        out.extend_from_slice(&line);
+    }
+    Ok(out)
+}
+
 /// The wide loop built with only the stages its frames use (as a firmware
 /// is: `render::Lines::WIDE_SAMPLED`, `WIDE_APERTURE`, `WIDE_SPECULAR`,
 /// `firmware/build.rs`) renders those frames bit for bit as with every
@@ -367,16 +379,7 @@ fn a_wide_frame_whose_stage_is_left_out_is_refused() {
         const WIDE_SAMPLED: bool = false;
         const WIDE_SPECULAR: bool = false;
     }
-    let lines = |f: &Frame| -> Result<Vec<u8>, RenderError> {
-        let (w, h) = f.size();
-        let mut out = Vec::new();
-        let (mut line, mut flags) = (vec![0u8; f.line_bytes()], vec![0u8; w as usize]);
-        for j in 0..h {
-            f.render_line_with::<WideAperture>(j, &mut line, &mut flags)?;
-            out.extend_from_slice(&line);
-        }
-        Ok(out)
-    };
+    let lines = lines_with::<WideAperture>;
     // shallow-dof: the wide arithmetic through the aperture, no sampling,
     // no lobe.
     let s = scene("shallow-dof").core_scene().expect("valid");
@@ -419,16 +422,7 @@ fn a_fast_frame_whose_lobe_is_left_out_is_refused() {
     impl Lines for RgbLobeOnly {
         const FAST_GRAY_SPECULAR: bool = false;
     }
-    let lines = |f: &Frame| -> Result<Vec<u8>, RenderError> {
-        let (w, h) = f.size();
-        let mut out = Vec::new();
-        let (mut line, mut flags) = (vec![0u8; f.line_bytes()], vec![0u8; w as usize]);
-        for j in 0..h {
-            f.render_line_with::<RgbLobeOnly>(j, &mut line, &mut flags)?;
-            out.extend_from_slice(&line);
-        }
-        Ok(out)
-    };
+    let lines = lines_with::<RgbLobeOnly>;
     let s = scene("standard").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
     assert_eq!(p.options.arithmetic, Arithmetic::Fast);
