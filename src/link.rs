@@ -525,8 +525,10 @@ impl<W: embedded_io::Write> CobsStream<'_, W> {
 
     /// Writes the block so far and starts the next one. Inline: at
     /// opt-level "s" (the firmware's) a call a block cost a dark Gray16
-    /// frame, a block every few bytes, 9 M3 instructions a pixel. A call
-    /// with the `compact` feature (the driven camera's, bound by flash).
+    /// frame, a block every few bytes, 9 M3 instructions a pixel of the
+    /// whole run (a QEMU profile; the frame cost, which measures the
+    /// renderer, does not count the link). A call with the `compact`
+    /// feature (the driven camera's, bound by flash).
     #[cfg_attr(not(feature = "compact"), inline(always))]
     fn emit(&mut self) -> postcard::Result<()> {
         let n = self.fill;
