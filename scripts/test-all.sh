@@ -54,6 +54,10 @@ sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 
   --out target/drive-640 | tail -1
 ./target/release/host-sim drive --board microbit --scene scenes/standard.toml --frames 3 --out target/drive-microbit | tail -1
 
+echo "== where the instructions go: the standard scene's stages on the M3 and the M0 (host-sim profile; fails if the trace misses the -icount frame cost by over 1 %)"
+./target/release/host-sim profile --board lm3s6965evb --out target/profile/lm3s6965evb | tail -n 20
+./target/release/host-sim profile --board microbit --out target/profile/microbit | tail -n 20
+
 echo "== peak RAM (painted stack + static) within 16 KiB on every board, at 160x120 and 640x480, and in the driven camera"
 for j in out/hil/lm3s6965evb/hil.json out/hil/mps2-an386/hil.json out/hil/microbit/hil.json target/hil/lm3s6965evb-640/hil.json \
   out/drive/drive.json out/drive-new/frames/drive.json target/drive-640/drive.json target/drive-microbit/drive.json; do

@@ -247,19 +247,53 @@ pub fn qemu() -> Option<PathBuf> {
 /// converts SysTick ticks to instructions with that shift), with UART0 on
 /// `serial` (QEMU's `-serial` syntax), semihosting on.
 pub fn spawn_qemu(board: Board, elf: &Path, serial: &str) -> Result<std::process::Child, String> {
+    spawn_qemu_with(board, elf, serial, &[], true)
+}
+
+/// [`spawn_qemu`] with `extra` arguments, and without `-icount` unless
+/// `icount` (`host-sim profile` logs the executed blocks, which `-icount`
+/// would rewind and log twice).
+pub fn spawn_qemu_with(
+    board: Board,
+    elf: &Path,
+    serial: &str,
+    extra: &[&str],
+    icount: bool,
+) -> Result<std::process::Child, String> {
     let qemu = qemu().ok_or("qemu-system-arm is not installed (apt-get install qemu-system-arm)")?;
     Command::new(qemu)
         .args(["-cpu", board.cpu(), "-machine", board.machine()])
         .args(["-display", "none", "-monitor", "none"])
         .args(["-serial", serial])
         .args(["-semihosting-config", "enable=on,target=native"])
-        .args(["-icount", "shift=7,align=off,sleep=off"])
+        .args(if icount {
+            &["-icount", "shift=7,align=off,sleep=off"][..]
+        } else {
+            &[]
+        })
+        .args(extra)
         .arg("-kernel")
         .arg(elf)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .map_err(|e| format!("qemu: {e}"))
+}
+
+/// Waits for QEMU to exit, killing it after `timeout`.
+pub fn wait_qemu(child: &mut std::process::Child, timeout: Duration) -> Result<std::process::ExitStatus, String> {
+    let t = Instant::now();
+    loop {
+        match child.try_wait().map_err(|e| format!("qemu: {e}"))? {
+            Some(status) => return Ok(status),
+            None if t.elapsed() > timeout => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!("qemu did not finish within {timeout:?}"));
+            }
+            None => std::thread::sleep(Duration::from_millis(20)),
+        }
+    }
 }
 
 /// Runs the ELF in QEMU ([`spawn_qemu`]); UART0 bytes go to `uart`.

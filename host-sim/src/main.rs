@@ -253,6 +253,28 @@ enum Cmd {
         #[arg(long)]
         out: std::path::PathBuf,
     },
+    /// Where a frame's instructions go on a board, by pipeline stage: the
+    /// firmware holding the scenes runs in QEMU with its executed blocks
+    /// logged, each instruction attributed to the stage whose function
+    /// inlined it (from the ELF's debug information). Writes profile.json
+    /// and profile.md.
+    Profile {
+        /// lm3s6965evb (Cortex-M3), mps2-an386 (Cortex-M4F) or microbit
+        /// (Cortex-M0).
+        #[arg(long)]
+        board: String,
+        /// Scenes the firmware holds, in order (default: the standard
+        /// scene). A frame of 320x240 logs about 1 GB through a pipe;
+        /// shallow-dof's defocus about 50 GB.
+        #[arg(long, num_args = 1..)]
+        scene: Vec<std::path::PathBuf>,
+        /// A firmware ELF built already, holding `--scene` (default: build it).
+        #[arg(long)]
+        elf: Option<std::path::PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
     /// Host throughput of the default render (plan, prepare and render
     /// every frame, lines in parallel on every core, as `render` does),
     /// and on one core: frames/s and ns/pixel (medians over the frames).
@@ -722,6 +744,25 @@ fn main() -> ExitCode {
                 r.link.bad_cobs,
                 r.link.bad_crc,
                 r.link.bad_message
+            ))
+        })()),
+        Cmd::Profile {
+            board,
+            scene,
+            elf,
+            out,
+        } => finish((|| {
+            let board = host_sim::hil_cmd::Board::parse(&board)?;
+            let scenes = if scene.is_empty() {
+                vec![host_sim::hil_cmd::repo_root().join("scenes/standard.toml")]
+            } else {
+                scene
+            };
+            let r = host_sim::profile::profile(board, elf, &scenes, &out)?;
+            Ok(format!(
+                "{}\nprofile.json, profile.md in {}",
+                host_sim::profile::table(&r),
+                out.display()
             ))
         })()),
         Cmd::Hil {

@@ -1,0 +1,694 @@
+//! `host-sim profile`: where a frame's instructions go on a board, by
+//! pipeline stage. Runs the firmware in QEMU with its translation blocks
+//! logged (`-d in_asm,exec,nochain`: every block as translated, and each
+//! execution), counts the instructions executed at each address, and
+//! attributes each address to a stage from its inlined call chain in the
+//! ELF's debug information (the innermost function a stage claims, see
+//! [`stage_of`]). A frame is what runs from one entry of the firmware's
+//! `Runner::run` to the next: its preparation, its lines, and its
+//! streaming (the `link` row, which the frame cost of `hil` leaves out).
+//!
+//! The counts are QEMU's executed guest instructions, as `hil`'s are
+//! (`hil` reads them from SysTick under `-icount`, which counts the same
+//! instructions); this run is without `-icount`, whose rewound blocks the
+//! log would count twice.
+
+use crate::hil_cmd::{build_firmware, run_qemu, spawn_qemu_with, Board};
+use crate::link::decoder::Decoder;
+use crate::scene_file::load;
+use serde::Serialize;
+use std::collections::HashMap;
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// A pipeline stage, or where else an instruction ran.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Stage {
+    /// Scene data read, checks, planning, frame preparation (per frame).
+    Preparation,
+    /// The line loop itself: chunks, the per-pixel dispatch.
+    LineLoop,
+    /// Distortion (the polynomial's inverse, or the table).
+    Distortion,
+    /// Pixel rays: `a = d·d`, `1/a`, parallel origins, the slope box.
+    Rays,
+    /// Ray–primitive intersection and the nearest hit.
+    Intersection,
+    /// The hit point, its normal and texture.
+    Hit,
+    /// The shader: ambient, Lambertian, specular.
+    Shading,
+    /// `cos⁴α` and image irradiance to DN.
+    Vignetting,
+    /// Pixel-area integration (the sample grid, the adaptive rule).
+    Sampling,
+    /// Defocus (the aperture's rays).
+    Defocus,
+    /// Sensor noise.
+    Noise,
+    /// Pixel words and bytes.
+    PixelCodec,
+    /// The link: framing, CRC, COBS, the UART.
+    Link,
+    /// The firmware around the frames: start-up, status lines, timing.
+    Firmware,
+}
+
+impl Stage {
+    /// Every stage, in the table's order.
+    pub const ALL: [Stage; 14] = [
+        Stage::Preparation,
+        Stage::LineLoop,
+        Stage::Distortion,
+        Stage::Rays,
+        Stage::Intersection,
+        Stage::Hit,
+        Stage::Shading,
+        Stage::Vignetting,
+        Stage::Sampling,
+        Stage::Defocus,
+        Stage::Noise,
+        Stage::PixelCodec,
+        Stage::Link,
+        Stage::Firmware,
+    ];
+
+    /// The stage's name in the table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Preparation => "preparation",
+            Stage::LineLoop => "line loop",
+            Stage::Distortion => "distortion",
+            Stage::Rays => "rays",
+            Stage::Intersection => "intersection",
+            Stage::Hit => "hit, normal, texture",
+            Stage::Shading => "shading",
+            Stage::Vignetting => "vignetting, DN",
+            Stage::Sampling => "sampling",
+            Stage::Defocus => "defocus",
+            Stage::Noise => "noise",
+            Stage::PixelCodec => "pixel codec",
+            Stage::Link => "link",
+            Stage::Firmware => "firmware",
+        }
+    }
+}
+
+/// Function-name fragments (demangled, without hashes) and the stage they
+/// claim, matched innermost frame first, so that a shared helper (a
+/// product, a reciprocal) counts for the stage whose function inlined it.
+/// [`MODULES`] claim what none of these does.
+const FUNCTIONS: &[(&str, Stage)] = &[
+    // The fast arithmetic's stages (hilcam::mix32).
+    ("mix32::Mix32::undistort", Stage::Distortion),
+    ("mix32::Ray::new", Stage::Rays),
+    ("mix32::Mix32::trace", Stage::Rays),
+    ("mix32::Ray::plane_t", Stage::Intersection),
+    ("mix32::Ray::keep", Stage::Intersection),
+    ("mix32::MixShape::nearest", Stage::Intersection),
+    ("mix32::Mix32::hit", Stage::Hit),
+    ("mix32::fine_normal", Stage::Hit),
+    ("mix32::MixChecker", Stage::Hit),
+    ("mix32::Ray::point", Stage::Hit),
+    ("mix32::Mix32::shade", Stage::Shading),
+    ("mix32::Mix32::view", Stage::Shading),
+    ("mix32::lobe_pf", Stage::Shading),
+    ("mix32::cos_over_r", Stage::Shading),
+    ("mix32::KCache", Stage::Shading),
+    ("mix32::Mix32::c4", Stage::Vignetting),
+    ("mix32::vignette_", Stage::Vignetting),
+    ("mix32::noisy", Stage::Noise),
+    ("mix32::sigma_z", Stage::Noise),
+    ("mix32::mul_nonneg", Stage::Noise),
+    ("mix32::word", Stage::PixelCodec),
+    ("mix32::put", Stage::PixelCodec),
+    ("mix32::Mix32::line_s", Stage::Sampling),
+    ("mix32::Mix32::grid", Stage::Sampling),
+    ("mix32::Mix32::key", Stage::Sampling),
+    ("mix32::Mix32::radiance_s", Stage::Sampling),
+    ("mix32::Mix32::sampled", Stage::Sampling),
+    ("mix32::Mix32::line_d", Stage::Defocus),
+    ("mix32::MixShape::moved", Stage::Defocus),
+    ("mix32::Aperture", Stage::Defocus),
+    ("mix32::Mix32::fill", Stage::Preparation),
+    ("mix32::Mix32::set_frame_id", Stage::Preparation),
+    ("mix32::Mix32::line", Stage::LineLoop),
+    ("mix32::Mix32::pixel", Stage::LineLoop),
+    ("mix32::Mix32::radiance", Stage::LineLoop),
+    ("mix32::Mix32::dn_word", Stage::LineLoop),
+    ("mix32::Rays", Stage::LineLoop),
+    ("render::Frame<S, _>::prepare", Stage::Preparation),
+    ("render::WideFrame<S, _>::prepare", Stage::Preparation),
+    ("render::cam_prim", Stage::Preparation),
+    ("hilcam::render::intersect", Stage::Intersection),
+    ("hilcam::render::WideFrame<S, _>::through_aperture", Stage::Defocus),
+];
+
+/// Module paths and the stage they claim where no function of
+/// [`FUNCTIONS`] does (the core's stage modules, the wide arithmetic's
+/// line loop, the libraries); `None`: an out-of-line helper, counted for
+/// the stage that called it.
+const MODULES: &[(&str, Option<Stage>)] = &[
+    ("hilcam::distortion::", Some(Stage::Distortion)),
+    ("hilcam::vignetting::", Some(Stage::Vignetting)),
+    ("hilcam::noise::", Some(Stage::Noise)),
+    ("hilcam::sampling::", Some(Stage::Sampling)),
+    ("hilcam::defocus::", Some(Stage::Defocus)),
+    ("hilcam::fmt::", Some(Stage::PixelCodec)),
+    ("hilcam::link::", Some(Stage::Link)),
+    ("crc::", Some(Stage::Link)),
+    ("postcard::", Some(Stage::Link)),
+    ("cobs::", Some(Stage::Link)),
+    ("hilcam_firmware::board::", Some(Stage::Link)),
+    ("hilcam::render::", Some(Stage::LineLoop)),
+    ("hilcam::shading::", Some(Stage::Shading)),
+    ("hilcam::scene_data::", Some(Stage::Preparation)),
+    ("hilcam::scene::", Some(Stage::Preparation)),
+    ("hilcam::planner::", Some(Stage::Preparation)),
+    ("hilcam::extrinsics::", Some(Stage::Preparation)),
+    ("hilcam::intrinsics::", Some(Stage::Preparation)),
+    ("hilcam::lens::", Some(Stage::Preparation)),
+    ("hilcam::camera::", Some(Stage::Preparation)),
+    ("hilcam::projection::", Some(Stage::Preparation)),
+    ("hilcam::num::", None),
+    ("hilcam::scalar::", None),
+    ("hilcam::mix32::", None),
+    ("compiler_builtins::", None),
+    ("__aeabi_", None),
+    ("libm::", None),
+    ("core::", None),
+    ("hilcam_firmware::", Some(Stage::Firmware)),
+    ("cortex_m", Some(Stage::Firmware)),
+];
+
+/// The stage of an address from its call chain (innermost function
+/// first, names demangled without hashes): the innermost function
+/// [`FUNCTIONS`] claims, else the innermost [`MODULES`] claims (`None`:
+/// a helper, its caller's), else [`Stage::Firmware`].
+pub fn stage_of(chain: &[String]) -> Option<Stage> {
+    let function = chain
+        .iter()
+        .find_map(|f| FUNCTIONS.iter().find(|(k, _)| f.contains(k)).map(|(_, s)| *s));
+    if let Some(s) = function {
+        return Some(s);
+    }
+    chain
+        .iter()
+        .find_map(|f| MODULES.iter().find(|(k, _)| f.contains(k)).map(|(_, s)| *s))
+        .unwrap_or(Some(Stage::Firmware))
+}
+
+/// One translated block: its instructions' stages (`None`: a helper's,
+/// counted for the stage that ran before it) and innermost functions.
+struct Block {
+    /// Instructions by stage.
+    stages: Vec<(Option<Stage>, u64)>,
+    /// Instructions by function (index into [`Symbols::names`]).
+    functions: Vec<(usize, u64)>,
+    /// The stage of the block's last instruction (where a call leaves).
+    last: Option<Stage>,
+}
+
+/// One window of the run: instructions by stage and by function.
+#[derive(Default)]
+pub struct Window {
+    /// A frame's (else what runs between frames).
+    pub frame: bool,
+    /// Instructions by stage.
+    pub stages: HashMap<Stage, u64>,
+    /// Instructions by function (index into [`Symbols::names`]).
+    functions: HashMap<usize, u64>,
+}
+
+/// A run's instructions, in windows: before the first frame, then one a
+/// frame.
+pub struct Trace {
+    /// The windows.
+    pub windows: Vec<Window>,
+    /// Function names.
+    pub names: Vec<String>,
+}
+
+impl Trace {
+    /// Reads QEMU's `-d in_asm,exec,nochain` log of `elf`'s run. A frame
+    /// starts at each execution of a block that begins at one of
+    /// `marks.starts` and ends at the next block in one of its callers.
+    /// Each block is attributed once, when it first runs; a helper's
+    /// instructions count for the stage of the block that ran before it
+    /// (its caller: helpers are leaves or call helpers).
+    pub fn read(log: impl BufRead, elf: &Path, marks: &Marks) -> Result<Trace, String> {
+        let mut syms = Symbols::new(elf)?;
+        let mut windows = vec![Window::default()];
+        // Each translation's instruction addresses, and its attribution
+        // once it has run; the translation current at each address (a
+        // block translated anew replaces the old one from then on).
+        let mut listed: Vec<(Vec<u32>, Option<Block>)> = Vec::new();
+        let mut current: HashMap<u32, usize> = HashMap::new();
+        let mut open = false;
+        let mut context = Stage::Firmware;
+        for line in log.split(b'\n') {
+            let line = line.map_err(|e| format!("QEMU log: {e}"))?;
+            if line.starts_with(b"IN:") {
+                open = false;
+            } else if let Some(rest) = line.strip_prefix(b"0x") {
+                // "0x00000084:  4808       ldr ...": an instruction of the
+                // block being listed.
+                let Some(pc) = hex(rest.split(|b| *b == b':').next().unwrap_or(&[])) else {
+                    continue;
+                };
+                match (open, listed.last_mut()) {
+                    (true, Some((pcs, _))) => pcs.push(pc),
+                    _ => {
+                        listed.push((vec![pc], None));
+                        current.insert(pc, listed.len() - 1);
+                        open = true;
+                    }
+                }
+            } else if line.starts_with(b"Trace ") {
+                // "Trace 0: 0x7eff88000500 [00800400/00000084/00000110/ff000200] Reset"
+                open = false;
+                let pc = line
+                    .split(|b| *b == b'[')
+                    .nth(1)
+                    .and_then(|f| f.split(|b| *b == b'/').nth(1))
+                    .and_then(hex)
+                    .ok_or_else(|| format!("QEMU log: unreadable line {:?}", String::from_utf8_lossy(&line)))?;
+                if marks.starts.contains(&pc) {
+                    windows.push(Window {
+                        frame: true,
+                        ..Window::default()
+                    });
+                } else if windows.last().is_some_and(|w| w.frame)
+                    && marks.callers.iter().any(|(a, b)| (*a..*b).contains(&pc))
+                {
+                    // Back in the caller: the frame is over.
+                    windows.push(Window::default());
+                }
+                let (pcs, block) = current
+                    .get(&pc)
+                    .and_then(|k| listed.get_mut(*k))
+                    .ok_or_else(|| format!("QEMU log: block {pc:#x} executed before it was listed"))?;
+                let block = block.get_or_insert_with(|| syms.block(pcs));
+                let Some(w) = windows.last_mut() else {
+                    continue;
+                };
+                for (s, n) in &block.stages {
+                    *w.stages.entry(s.unwrap_or(context)).or_insert(0) += n;
+                }
+                for (f, n) in &block.functions {
+                    *w.functions.entry(*f).or_insert(0) += n;
+                }
+                if let Some(s) = block.last {
+                    context = s;
+                }
+            }
+        }
+        Ok(Trace {
+            windows,
+            names: syms.names,
+        })
+    }
+
+    /// The frames' windows, in order.
+    pub fn frames(&self) -> Vec<&Window> {
+        self.windows.iter().filter(|w| w.frame).collect()
+    }
+
+    /// The functions of window `w` that cost the most: `(name,
+    /// instructions)`, at most `n`.
+    pub fn top_functions(&self, w: &Window, n: usize) -> Vec<(String, u64)> {
+        let mut v: Vec<(String, u64)> = w
+            .functions
+            .iter()
+            .map(|(f, c)| (self.names.get(*f).cloned().unwrap_or_default(), *c))
+            .collect();
+        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        v.truncate(n);
+        v
+    }
+}
+
+fn hex(s: &[u8]) -> Option<u32> {
+    u32::from_str_radix(std::str::from_utf8(s).ok()?.trim(), 16).ok()
+}
+
+/// Call chains of addresses, innermost first, from the ELF's DWARF.
+struct Symbols {
+    loader: addr2line::Loader,
+    /// Function names, and their indices.
+    names: Vec<String>,
+    index: HashMap<String, usize>,
+}
+
+impl Symbols {
+    /// Reads `elf`'s debug information.
+    fn new(elf: &Path) -> Result<Symbols, String> {
+        let loader = addr2line::Loader::new(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+        Ok(Symbols {
+            loader,
+            names: Vec::new(),
+            index: HashMap::new(),
+        })
+    }
+
+    /// The functions at `pc`, innermost first, demangled without hashes
+    /// (the symbol's name where there is no debug information).
+    fn chain(&self, pc: u32) -> Vec<String> {
+        let mut v = Vec::new();
+        if let Ok(mut frames) = self.loader.find_frames(pc as u64) {
+            while let Ok(Some(f)) = frames.next() {
+                if let Some(name) = f.function.as_ref().and_then(|n| n.demangle().ok()) {
+                    v.push(strip_hash(&name));
+                }
+            }
+        }
+        if v.is_empty() {
+            if let Some(s) = self.loader.find_symbol(pc as u64) {
+                v.push(strip_hash(&rustc_demangle::demangle(s).to_string()));
+            }
+        }
+        v
+    }
+
+    /// A block's attribution.
+    fn block(&mut self, pcs: &[u32]) -> Block {
+        let mut stages: Vec<(Option<Stage>, u64)> = Vec::new();
+        let mut functions: Vec<(usize, u64)> = Vec::new();
+        let mut last = None;
+        for pc in pcs {
+            let chain = self.chain(*pc);
+            let s = stage_of(&chain);
+            match stages.iter_mut().find(|(x, _)| *x == s) {
+                Some((_, n)) => *n += 1,
+                None => stages.push((s, 1)),
+            }
+            // The innermost of the core's functions (not a `core::` helper).
+            let name = chain
+                .iter()
+                .find(|f| f.contains("hilcam"))
+                .or(chain.first())
+                .cloned()
+                .unwrap_or_else(|| format!("{pc:#x}"));
+            let k = match self.index.get(&name) {
+                Some(k) => *k,
+                None => {
+                    self.names.push(name.clone());
+                    self.index.insert(name, self.names.len() - 1);
+                    self.names.len() - 1
+                }
+            };
+            match functions.iter_mut().find(|(x, _)| *x == k) {
+                Some((_, n)) => *n += 1,
+                None => functions.push((k, 1)),
+            }
+            last = s;
+        }
+        Block {
+            stages,
+            functions,
+            last,
+        }
+    }
+}
+
+fn strip_hash(name: &str) -> String {
+    match name.rfind("::h") {
+        Some(i) if name.len() - i == 19 && name[i + 3..].bytes().all(|b| b.is_ascii_hexdigit()) => {
+            name[..i].to_string()
+        }
+        _ => name.to_string(),
+    }
+}
+
+/// Where the firmware's frames start and end: the entries of its
+/// `<Run as Runner>::run` instances (one a number type), and the address
+/// ranges of the loops that call them (`sweep`, the camera's `run`), to
+/// which each frame returns.
+pub fn frame_marks(elf: &Path) -> Result<Marks, String> {
+    use object::{Object, ObjectSymbol};
+    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let mut m = Marks::default();
+    for s in file.symbols() {
+        let Ok(name) = s.name() else { continue };
+        let name = strip_hash(&rustc_demangle::demangle(name).to_string());
+        let start = (s.address() as u32) & !1;
+        if name.contains("as hilcam_firmware::Runner>::run") {
+            m.starts.push(start);
+        } else if name == "hilcam_firmware::sweep" || name == "hilcam_firmware::camera::run" {
+            m.callers.push((start, start + s.size() as u32));
+        }
+    }
+    if m.starts.is_empty() || m.callers.is_empty() {
+        return Err(format!(
+            "{}: no Runner::run or no sweep: not hilcam's firmware",
+            elf.display()
+        ));
+    }
+    Ok(m)
+}
+
+/// Frame boundaries in a firmware ([`frame_marks`]).
+#[derive(Clone, Debug, Default)]
+pub struct Marks {
+    /// Entries of the frame's function.
+    starts: Vec<u32>,
+    /// Address ranges of its callers.
+    callers: Vec<(u32, u32)>,
+}
+
+/// One frame's profile.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameProfile {
+    /// Scene name.
+    pub scene: String,
+    /// Pixels.
+    pub pixels: u64,
+    /// Instructions a pixel by stage (stages with none left out).
+    pub stages: Vec<(Stage, f64)>,
+    /// Instructions a pixel of every stage but the link and the firmware:
+    /// the renderer's (with the preparation).
+    pub render_per_pixel: f64,
+    /// The firmware's instructions in the frame, a pixel: its clock reads,
+    /// which the frame's cost counts (14 a pixel on the M0, whose 64-bit
+    /// divisions are library calls; under 0.1 on the M3).
+    pub firmware_per_pixel: f64,
+    /// The frame's cost under `-icount` (what `hil` reports), a pixel.
+    pub icount_per_pixel: Option<f64>,
+    /// Instructions a pixel with the link and the firmware.
+    pub total_per_pixel: f64,
+    /// The innermost functions that cost the most, instructions a pixel.
+    pub functions: Vec<(String, f64)>,
+}
+
+/// `profile.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ProfileReport {
+    /// Board.
+    pub board: String,
+    /// Frames.
+    pub frames: Vec<FrameProfile>,
+}
+
+/// Profiles the planned renderer's frames of `scenes` on `board` (a
+/// firmware holding them is built unless `elf` is given; then `scenes`
+/// name what it holds, in order). Writes `profile.json` and `profile.md`;
+/// fails, writing nothing, if a frame's traced instructions are more than
+/// 1 % off its cost under `-icount`.
+pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -> Result<ProfileReport, String> {
+    if scenes.is_empty() {
+        return Err("--scene: name the scenes the firmware holds, in order".into());
+    }
+    let resolved = scenes.iter().map(|p| load(p)).collect::<Result<Vec<_>, _>>()?;
+    let mut outputs = crate::output::Outputs::prepare(out)?;
+    let elf = match elf {
+        Some(e) => e,
+        None => build_firmware(board, scenes, &[])?,
+    };
+    let marks = frame_marks(&elf)?;
+    let uart = out.join("uart.bin");
+    let mut child = spawn_qemu_with(
+        board,
+        &elf,
+        &format!("file:{}", uart.display()),
+        &["-d", "in_asm,exec,nochain", "-D", "/dev/stderr"],
+        false,
+    )?;
+    let log = child.stderr.take().ok_or("qemu: no log")?;
+    // Read as QEMU writes it (a frame of 320x240 logs about 1 GB): on a
+    // thread, so that a firmware that hangs is killed at the timeout.
+    let reader = std::thread::spawn({
+        let (marks, elf) = (marks.clone(), elf.clone());
+        move || Trace::read(std::io::BufReader::with_capacity(1 << 20, log), &elf, &marks)
+    });
+    let status = crate::hil_cmd::wait_qemu(&mut child, Duration::from_secs(1800));
+    let trace = reader.join().map_err(|_| "QEMU log: the reader failed")?;
+    let _ = std::fs::remove_file(&uart);
+    let status = status?;
+    let trace = trace?;
+    if !status.success() {
+        return Err(format!("firmware exited with {status}"));
+    }
+    let windows = trace.frames();
+    if windows.len() != resolved.len() {
+        return Err(format!(
+            "{} frames traced, {} scenes held: --scene must name what the firmware holds",
+            windows.len(),
+            resolved.len()
+        ));
+    }
+    // The same firmware under -icount, as `hil` runs it: each frame's cost
+    // from its FrameEnd, against which the trace's count is checked.
+    run_qemu(board, &elf, &uart, Duration::from_secs(600))?;
+    let bytes = std::fs::read(&uart).map_err(|e| format!("{}: {e}", uart.display()))?;
+    let _ = std::fs::remove_file(&uart);
+    let mut costs = Vec::new();
+    Decoder::new(1 << 20, 1 << 24).push(&bytes, &mut |f| costs.push(f.end.cost));
+    let mut frames = Vec::new();
+    for (k, (r, w)) in resolved.iter().zip(&windows).enumerate() {
+        let px = r.desc.camera.width as u64 * r.desc.camera.height as u64;
+        let per = |n: u64| n as f64 / px as f64;
+        let stages: Vec<(Stage, f64)> = Stage::ALL
+            .iter()
+            .filter_map(|s| w.stages.get(s).map(|n| (*s, per(*n))))
+            .collect();
+        let total: u64 = w.stages.values().sum();
+        let outside: u64 = [Stage::Link, Stage::Firmware]
+            .iter()
+            .filter_map(|s| w.stages.get(s))
+            .sum();
+        frames.push(FrameProfile {
+            scene: r.desc.name.clone(),
+            pixels: px,
+            stages,
+            render_per_pixel: per(total - outside),
+            firmware_per_pixel: per(w.stages.get(&Stage::Firmware).copied().unwrap_or(0)),
+            icount_per_pixel: costs.get(k).copied().flatten().map(per),
+            total_per_pixel: per(total),
+            functions: trace
+                .top_functions(w, 25)
+                .into_iter()
+                .map(|(f, n)| (f, per(n)))
+                .collect(),
+        });
+    }
+    // The trace must account for the frame's cost: its windows hold the
+    // frame's instructions and nothing else's.
+    for f in &frames {
+        if let Some(c) = f.icount_per_pixel {
+            let traced = f.render_per_pixel + f.firmware_per_pixel;
+            if (traced - c).abs() > 0.01 * c {
+                return Err(format!(
+                    "{}: the trace counts {traced:.1} instructions a pixel, -icount {c:.1}: the profile does \
+                     not account for the frame",
+                    f.scene
+                ));
+            }
+        }
+    }
+    let report = ProfileReport {
+        board: board.machine().into(),
+        frames,
+    };
+    outputs.write(
+        "profile.json",
+        &serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?,
+    )?;
+    outputs.write("profile.md", table(&report).as_bytes())?;
+    outputs.commit()?;
+    Ok(report)
+}
+
+/// The stages table: a row a stage, a column a frame, instructions a pixel.
+pub fn table(r: &ProfileReport) -> String {
+    let mut s = format!(
+        "Instructions a pixel by stage on {} (QEMU's executed instructions, `host-sim profile`):\n\n| stage |",
+        r.board
+    );
+    for f in &r.frames {
+        s.push_str(&format!(" {} |", f.scene));
+    }
+    s.push_str("\n|---|");
+    s.push_str(&"---|".repeat(r.frames.len()));
+    s.push('\n');
+    let cell = |v: Option<f64>| match v {
+        Some(v) if v >= 0.05 => format!(" {v:.1} |"),
+        Some(_) => " <0.1 |".into(),
+        None => " – |".into(),
+    };
+    let of = |f: &FrameProfile, st: Stage| f.stages.iter().find(|(x, _)| *x == st).map(|(_, v)| *v);
+    let row = |s: &mut String, name: &str, v: &dyn Fn(&FrameProfile) -> Option<f64>| {
+        s.push_str(&format!("| {name} |"));
+        for f in &r.frames {
+            s.push_str(&cell(v(f)));
+        }
+        s.push('\n');
+    };
+    for st in Stage::ALL {
+        if matches!(st, Stage::Link | Stage::Firmware) || !r.frames.iter().any(|f| of(f, st).is_some()) {
+            continue;
+        }
+        row(&mut s, st.name(), &|f| of(f, st));
+    }
+    row(&mut s, "**the renderer** (the stages above)", &|f| Some(f.render_per_pixel));
+    row(&mut s, "firmware: its clock reads in the frame", &|f| of(f, Stage::Firmware));
+    row(&mut s, "the frame's cost: renderer and clock reads", &|f| {
+        Some(f.render_per_pixel + of(f, Stage::Firmware).unwrap_or(0.0))
+    });
+    row(&mut s, "the frame's cost under `-icount` (`hil`)", &|f| f.icount_per_pixel);
+    row(&mut s, "link (streaming: not in the frame's cost)", &|f| of(f, Stage::Link));
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chain(names: &[&str]) -> Vec<String> {
+        names.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn a_helper_counts_for_the_stage_that_inlined_it() {
+        // recip inlined in the plane's intersection, in the line loop.
+        let c = chain(&[
+            "hilcam::mix32::recip",
+            "hilcam::mix32::Ray::plane_t",
+            "hilcam::mix32::MixShape::nearest",
+            "hilcam::mix32::Mix32::trace",
+            "hilcam::mix32::Mix32::line_f",
+        ]);
+        assert_eq!(stage_of(&c), Some(Stage::Intersection));
+        // The same helper for a ray's 1/a.
+        let c = chain(&["hilcam::mix32::recip", "hilcam::mix32::Ray::new", "hilcam::mix32::Mix32::trace"]);
+        assert_eq!(stage_of(&c), Some(Stage::Rays));
+        // The sampled loop's own code, not the plain loop's.
+        let c = chain(&["core::cmp::Ord::min", "hilcam::mix32::Mix32::line_s"]);
+        assert_eq!(stage_of(&c), Some(Stage::Sampling));
+        let c = chain(&["hilcam::mix32::Mix32::line_f"]);
+        assert_eq!(stage_of(&c), Some(Stage::LineLoop));
+    }
+
+    #[test]
+    fn modules_claim_what_no_function_does_and_helpers_are_their_callers() {
+        let c = chain(&["hilcam::noise::normal_q16", "hilcam::noise::Stage<S>::apply_with"]);
+        assert_eq!(stage_of(&c), Some(Stage::Noise));
+        let c = chain(&["crc::crc32::update_table", "hilcam::link::CobsStream<W>::emit"]);
+        assert_eq!(stage_of(&c), Some(Stage::Link));
+        // Out of line: the caller's stage (None).
+        assert_eq!(stage_of(&chain(&["compiler_builtins::float::add::__adddf3"])), None);
+        assert_eq!(stage_of(&chain(&["hilcam::num::Wide::checked_div"])), None);
+        // Neither: the firmware's.
+        assert_eq!(stage_of(&chain(&["Reset"])), Some(Stage::Firmware));
+        assert_eq!(stage_of(&[]), Some(Stage::Firmware));
+    }
+
+    #[test]
+    fn hashes_are_stripped_and_nothing_else() {
+        assert_eq!(strip_hash("hilcam::mix32::recip::h0123456789abcdef"), "hilcam::mix32::recip");
+        assert_eq!(strip_hash("hilcam::mix32::recip"), "hilcam::mix32::recip");
+        assert_eq!(strip_hash("a::hb::c"), "a::hb::c");
+    }
+}
