@@ -689,9 +689,11 @@ fn smul_u16(a: i32, b: u32) -> i64 {
 fn shl64_words(v: u64, z: u32) -> u64 {
     let (hi, lo) = ((v >> 32) as u32, v as u32);
     if z >= 32 {
-        (lo.checked_shl(z - 32).unwrap_or(0) as u64) << 32
+        // z − 32 < 32 (z < 64).
+        ((lo << ((z - 32) & 31)) as u64) << 32
     } else {
-        let top = (hi << z) | lo.checked_shr(32 - z).unwrap_or(0);
+        // lo >> (32 − z) in two shifts, each below 32 (0 for z = 0).
+        let top = (hi << z) | ((lo >> 1) >> (31 - z));
         ((top as u64) << 32) | (lo << z) as u64
     }
 }
