@@ -139,11 +139,11 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("mix32::Mix32::radiance", Stage::LineLoop),
     ("mix32::Mix32::dn_word", Stage::LineLoop),
     ("mix32::Rays", Stage::LineLoop),
-    ("render::Frame<S, _>::prepare", Stage::Preparation),
-    ("render::WideFrame<S, _>::prepare", Stage::Preparation),
+    ("render::Frame<S,_>::prepare", Stage::Preparation),
+    ("render::WideFrame<S,_>::prepare", Stage::Preparation),
     ("render::cam_prim", Stage::Preparation),
     ("hilcam::render::intersect", Stage::Intersection),
-    ("hilcam::render::WideFrame<S, _>::through_aperture", Stage::Defocus),
+    ("hilcam::render::WideFrame<S,_>::through_aperture", Stage::Defocus),
 ];
 
 /// Module paths and the stage they claim where no function of
@@ -186,18 +186,29 @@ const MODULES: &[(&str, Option<Stage>)] = &[
 /// The stage of an address from its call chain (innermost function
 /// first, names demangled without hashes): the innermost function
 /// [`FUNCTIONS`] claims, else the innermost [`MODULES`] claims (`None`:
-/// a helper, its caller's), else [`Stage::Firmware`].
+/// a helper, its caller's), else a bare symbol's caller's, else
+/// [`Stage::Firmware`].
 pub fn stage_of(chain: &[String]) -> Option<Stage> {
+    // Without spaces: demanglers write `Frame<S,_>` or `Frame<S, _>`.
+    let chain: Vec<String> = chain.iter().map(|f| f.replace(' ', "")).collect();
+    let claim = |f: &String, k: &str| f.contains(&k.replace(' ', ""));
     let function = chain
         .iter()
-        .find_map(|f| FUNCTIONS.iter().find(|(k, _)| f.contains(k)).map(|(_, s)| *s));
+        .find_map(|f| FUNCTIONS.iter().find(|(k, _)| claim(f, k)).map(|(_, s)| *s));
     if let Some(s) = function {
         return Some(s);
     }
-    chain
+    let module = chain
         .iter()
-        .find_map(|f| MODULES.iter().find(|(k, _)| f.contains(k)).map(|(_, s)| *s))
-        .unwrap_or(Some(Stage::Firmware))
+        .find_map(|f| MODULES.iter().find(|(k, _)| claim(f, k)).map(|(_, s)| *s));
+    match module {
+        Some(s) => s,
+        // A bare symbol (`__clzsi2`, `fmax`, an exception handler): the
+        // compiler's runtime or libm, counted for its caller (an interrupt
+        // for what it interrupted, as -icount counts it).
+        None if chain.iter().all(|f| !f.contains("::")) => None,
+        None => Some(Stage::Firmware),
+    }
 }
 
 /// One translated block: its instructions' stages (`None`: a helper's,
@@ -205,8 +216,8 @@ pub fn stage_of(chain: &[String]) -> Option<Stage> {
 struct Block {
     /// Instructions by stage.
     stages: Vec<(Option<Stage>, u64)>,
-    /// Instructions by function (index into [`Symbols::names`]).
-    functions: Vec<(usize, u64)>,
+    /// Instructions by function (index into [`Symbols::names`]) and stage.
+    functions: Vec<(usize, Option<Stage>, u64)>,
     /// The stage of the block's last instruction (where a call leaves).
     last: Option<Stage>,
 }
@@ -218,8 +229,8 @@ pub struct Window {
     pub frame: bool,
     /// Instructions by stage.
     pub stages: HashMap<Stage, u64>,
-    /// Instructions by function (index into [`Symbols::names`]).
-    functions: HashMap<usize, u64>,
+    /// Instructions by function (index into [`Symbols::names`]) and stage.
+    functions: HashMap<(usize, Stage), u64>,
 }
 
 /// A run's instructions, in windows: before the first frame, then one a
@@ -297,8 +308,8 @@ impl Trace {
                 for (s, n) in &block.stages {
                     *w.stages.entry(s.unwrap_or(context)).or_insert(0) += n;
                 }
-                for (f, n) in &block.functions {
-                    *w.functions.entry(*f).or_insert(0) += n;
+                for (f, s, n) in &block.functions {
+                    *w.functions.entry((*f, s.unwrap_or(context))).or_insert(0) += n;
                 }
                 if let Some(s) = block.last {
                     context = s;
@@ -316,15 +327,15 @@ impl Trace {
         self.windows.iter().filter(|w| w.frame).collect()
     }
 
-    /// The functions of window `w` that cost the most: `(name,
-    /// instructions)`, at most `n`.
-    pub fn top_functions(&self, w: &Window, n: usize) -> Vec<(String, u64)> {
-        let mut v: Vec<(String, u64)> = w
+    /// The functions of window `w` that cost the most, by stage: `(name,
+    /// stage, instructions)`, at most `n`.
+    pub fn top_functions(&self, w: &Window, n: usize) -> Vec<(String, Stage, u64)> {
+        let mut v: Vec<(String, Stage, u64)> = w
             .functions
             .iter()
-            .map(|(f, c)| (self.names.get(*f).cloned().unwrap_or_default(), *c))
+            .map(|((f, s), c)| (self.names.get(*f).cloned().unwrap_or_default(), *s, *c))
             .collect();
-        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        v.sort_by(|a, b| b.2.cmp(&a.2).then(a.0.cmp(&b.0)));
         v.truncate(n);
         v
     }
@@ -375,7 +386,7 @@ impl Symbols {
     /// A block's attribution.
     fn block(&mut self, pcs: &[u32]) -> Block {
         let mut stages: Vec<(Option<Stage>, u64)> = Vec::new();
-        let mut functions: Vec<(usize, u64)> = Vec::new();
+        let mut functions: Vec<(usize, Option<Stage>, u64)> = Vec::new();
         let mut last = None;
         for pc in pcs {
             let chain = self.chain(*pc);
@@ -399,9 +410,9 @@ impl Symbols {
                     self.names.len() - 1
                 }
             };
-            match functions.iter_mut().find(|(x, _)| *x == k) {
-                Some((_, n)) => *n += 1,
-                None => functions.push((k, 1)),
+            match functions.iter_mut().find(|(x, t, _)| *x == k && *t == s) {
+                Some((_, _, n)) => *n += 1,
+                None => functions.push((k, s, 1)),
             }
             last = s;
         }
@@ -471,16 +482,16 @@ pub struct FrameProfile {
     /// Instructions a pixel of every stage but the link and the firmware:
     /// the renderer's (with the preparation).
     pub render_per_pixel: f64,
-    /// The firmware's instructions in the frame, a pixel: its clock reads,
-    /// which the frame's cost counts (14 a pixel on the M0, whose 64-bit
-    /// divisions are library calls; under 0.1 on the M3).
+    /// The firmware's instructions in the frame, a pixel (its clock reads,
+    /// which the frame's cost counts: under 0.3 a pixel).
     pub firmware_per_pixel: f64,
     /// The frame's cost under `-icount` (what `hil` reports), a pixel.
     pub icount_per_pixel: Option<f64>,
     /// Instructions a pixel with the link and the firmware.
     pub total_per_pixel: f64,
-    /// The innermost functions that cost the most, instructions a pixel.
-    pub functions: Vec<(String, f64)>,
+    /// The innermost functions that cost the most, with the stage they
+    /// counted for, instructions a pixel.
+    pub functions: Vec<(String, Stage, f64)>,
 }
 
 /// `profile.json`.
@@ -568,9 +579,9 @@ pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Pat
             icount_per_pixel: costs.get(k).copied().flatten().map(per),
             total_per_pixel: per(total),
             functions: trace
-                .top_functions(w, 25)
+                .top_functions(w, 40)
                 .into_iter()
-                .map(|(f, n)| (f, per(n)))
+                .map(|(f, s, n)| (f, s, per(n)))
                 .collect(),
         });
     }
@@ -633,8 +644,8 @@ pub fn table(r: &ProfileReport) -> String {
         row(&mut s, st.name(), &|f| of(f, st));
     }
     row(&mut s, "**the renderer** (the stages above)", &|f| Some(f.render_per_pixel));
-    row(&mut s, "firmware: its clock reads in the frame", &|f| of(f, Stage::Firmware));
-    row(&mut s, "the frame's cost: renderer and clock reads", &|f| {
+    row(&mut s, "firmware (its clock reads) in the frame", &|f| of(f, Stage::Firmware));
+    row(&mut s, "the frame's cost: renderer and firmware", &|f| {
         Some(f.render_per_pixel + of(f, Stage::Firmware).unwrap_or(0.0))
     });
     row(&mut s, "the frame's cost under `-icount` (`hil`)", &|f| f.icount_per_pixel);
@@ -669,6 +680,13 @@ mod tests {
         assert_eq!(stage_of(&c), Some(Stage::Sampling));
         let c = chain(&["hilcam::mix32::Mix32::line_f"]);
         assert_eq!(stage_of(&c), Some(Stage::LineLoop));
+        // The frame's preparation, however the demangler spaces generics
+        // (not the render module's line loop).
+        for f in ["hilcam::render::Frame<S,_>::prepare_inner", "hilcam::render::Frame<S, _>::prepare_mix32"] {
+            assert_eq!(stage_of(&chain(&["hilcam::mix32::shl_q", f])), Some(Stage::Preparation));
+        }
+        let c = chain(&["hilcam::render::Frame<S,_>::render_carried"]);
+        assert_eq!(stage_of(&c), Some(Stage::LineLoop));
     }
 
     #[test]
@@ -680,9 +698,12 @@ mod tests {
         // Out of line: the caller's stage (None).
         assert_eq!(stage_of(&chain(&["compiler_builtins::float::add::__adddf3"])), None);
         assert_eq!(stage_of(&chain(&["hilcam::num::Wide::checked_div"])), None);
+        // Bare runtime symbols: their caller's.
+        assert_eq!(stage_of(&chain(&["__clzsi2"])), None);
+        assert_eq!(stage_of(&chain(&["fmax"])), None);
         // Neither: the firmware's.
-        assert_eq!(stage_of(&chain(&["Reset"])), Some(Stage::Firmware));
-        assert_eq!(stage_of(&[]), Some(Stage::Firmware));
+        assert_eq!(stage_of(&chain(&["hilcam_firmware::ticks"])), Some(Stage::Firmware));
+        assert_eq!(stage_of(&chain(&["some_crate::f"])), Some(Stage::Firmware));
     }
 
     #[test]
