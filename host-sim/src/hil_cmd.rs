@@ -300,27 +300,16 @@ pub fn wait_qemu(child: &mut std::process::Child, timeout: Duration) -> Result<s
 /// Returns the semihosting text.
 pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Result<String, String> {
     let mut child = spawn_qemu(board, elf, &format!("file:{}", uart.display()))?;
-    let t = Instant::now();
-    loop {
-        match child.try_wait().map_err(|e| format!("qemu: {e}"))? {
-            Some(status) => {
-                let out = child.wait_with_output().map_err(|e| format!("qemu: {e}"))?;
-                let text = String::from_utf8_lossy(&out.stdout).to_string();
-                if !status.success() {
-                    return Err(format!(
-                        "firmware exited with {status}:\n{text}{}",
-                        String::from_utf8_lossy(&out.stderr)
-                    ));
-                }
-                return Ok(text);
-            }
-            None if t.elapsed() > timeout => {
-                let _ = child.kill();
-                return Err(format!("qemu did not finish within {timeout:?}"));
-            }
-            None => std::thread::sleep(Duration::from_millis(20)),
-        }
+    let status = wait_qemu(&mut child, timeout)?;
+    let out = child.wait_with_output().map_err(|e| format!("qemu: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    if !status.success() {
+        return Err(format!(
+            "firmware exited with {status}:\n{text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
     }
+    Ok(text)
 }
 
 /// One frame's result.

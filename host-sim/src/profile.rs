@@ -370,14 +370,14 @@ impl Symbols {
         let mut v = Vec::new();
         if let Ok(mut frames) = self.loader.find_frames(pc as u64) {
             while let Ok(Some(f)) = frames.next() {
-                if let Some(name) = f.function.as_ref().and_then(|n| n.demangle().ok()) {
-                    v.push(strip_hash(&name));
+                if let Some(raw) = f.function.as_ref().and_then(|n| n.raw_name().ok()) {
+                    v.push(name_of(&raw));
                 }
             }
         }
         if v.is_empty() {
             if let Some(s) = self.loader.find_symbol(pc as u64) {
-                v.push(strip_hash(&rustc_demangle::demangle(s).to_string()));
+                v.push(name_of(s));
             }
         }
         v
@@ -424,13 +424,10 @@ impl Symbols {
     }
 }
 
-fn strip_hash(name: &str) -> String {
-    match name.rfind("::h") {
-        Some(i) if name.len() - i == 19 && name[i + 3..].bytes().all(|b| b.is_ascii_hexdigit()) => {
-            name[..i].to_string()
-        }
-        _ => name.to_string(),
-    }
+/// A symbol's path, demangled without its hash (`rustc_demangle`'s
+/// alternate form; a name that is not mangled stays as it is).
+fn name_of(raw: &str) -> String {
+    format!("{:#}", rustc_demangle::demangle(raw))
 }
 
 /// Where the firmware's frames start and end: the entries of its
@@ -444,7 +441,7 @@ pub fn frame_marks(elf: &Path) -> Result<Marks, String> {
     let mut m = Marks::default();
     for s in file.symbols() {
         let Ok(name) = s.name() else { continue };
-        let name = strip_hash(&rustc_demangle::demangle(name).to_string());
+        let name = name_of(name);
         let start = (s.address() as u32) & !1;
         if name.contains("as hilcam_firmware::Runner>::run") {
             m.starts.push(start);
@@ -708,8 +705,9 @@ mod tests {
 
     #[test]
     fn hashes_are_stripped_and_nothing_else() {
-        assert_eq!(strip_hash("hilcam::mix32::recip::h0123456789abcdef"), "hilcam::mix32::recip");
-        assert_eq!(strip_hash("hilcam::mix32::recip"), "hilcam::mix32::recip");
-        assert_eq!(strip_hash("a::hb::c"), "a::hb::c");
+        assert_eq!(name_of("_ZN6hilcam5mix325recip17h0123456789abcdefE"), "hilcam::mix32::recip");
+        assert_eq!(name_of("hilcam::mix32::recip"), "hilcam::mix32::recip");
+        assert_eq!(name_of("a::hb::c"), "a::hb::c");
+        assert_eq!(name_of("__clzsi2"), "__clzsi2");
     }
 }
