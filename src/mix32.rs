@@ -1949,7 +1949,7 @@ impl Mix32 {
             // Inlined here (not `trace_row`): the loop without sampling stays
             // as fast as it was (an out-of-line pass cost the standard scene
             // 9 M3 instructions a pixel).
-            self.trace::<PERSP>(rays, |_| {
+            self.trace::<PERSP, true>(rays, |_| {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
                 (xd, yd, yd2)
@@ -1968,7 +1968,7 @@ impl Mix32 {
     #[inline(never)]
     fn trace_row<const PERSP: bool>(&self, rays: &mut [Ray], x: i64, step: i64, (yd, yd2): (i32, i64)) {
         let mut acc = x;
-        self.trace::<PERSP>(rays, |_| {
+        self.trace::<PERSP, false>(rays, |_| {
             let xd = (acc >> 32) as i32;
             acc -= step;
             (xd, yd, yd2)
@@ -1978,8 +1978,14 @@ impl Mix32 {
     /// Fills `rays` with the rays of the distorted slopes `slope(q) = (x̂_d,
     /// ŷ_d, ŷ_d²)` (S26, S26, S52) of ray `q` and runs every primitive's
     /// pass over them: each ray's nearest hit (`t = 0` outside the field).
+    /// With `TRIM` a bounded primitive's pass skips the rays at either end
+    /// of the chunk that lie outside its bounds.
     #[inline(always)]
-    fn trace<const PERSP: bool>(&self, rays: &mut [Ray], mut slope: impl FnMut(usize) -> (i32, i32, i64)) {
+    fn trace<const PERSP: bool, const TRIM: bool>(
+        &self,
+        rays: &mut [Ray],
+        mut slope: impl FnMut(usize) -> (i32, i32, i64),
+    ) {
         let korigin = self.parallel.unwrap_or(0);
         // The rays' slope box (rays outside the field count as (0, 0): a
         // larger box, never a skipped hit).
@@ -2021,11 +2027,25 @@ impl Mix32 {
             }
         }
         for (i, p) in self.prims.iter().enumerate() {
+            let (mut lo, mut hi) = (0, rays.len());
             if let Some(b) = p.bounds {
                 if x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3] {
                     continue;
                 }
+                // The chunk's test, ray by ray, from each end: the pass
+                // runs over the rays from the first to the last that lie
+                // within the bounds.
+                let out = |r: &Ray| r.x < b[0] || r.x > b[1] || r.y < b[2] || r.y > b[3];
+                while TRIM && rays.get(lo).is_some_and(out) {
+                    lo += 1;
+                }
+                while TRIM && hi > lo && rays.get(hi - 1).is_some_and(out) {
+                    hi -= 1;
+                }
             }
+            let Some(rays) = rays.get_mut(lo..hi) else {
+                continue;
+            };
             p.shape.nearest::<PERSP>(i as u8, rays);
         }
     }
