@@ -866,6 +866,23 @@ struct MixPrim {
     /// Undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` (S26) outside which no
     /// ray meets it: a chunk whose rays all lie outside skips its pass.
     bounds: Option<[i32; 4]>,
+    /// A planar primitive's `n·l` towards each point light, S48 U²: the
+    /// same at each of its points, `n·P_L − dist` (the light's height
+    /// above the plane), a per-frame constant instead of a product of the
+    /// hit point's rounding. 0 where it is taken per pixel: a sphere, a
+    /// directional light, a light within 2⁻¹⁰ U of the plane.
+    nl: [i64; crate::scene::MAX_LIGHTS],
+}
+
+/// A ray's nearest hit, as shading takes it: material, point (S18 U), unit
+/// normal (S30), whether it faces away from the viewer (surfaces are
+/// two-sided: shading turns it), and its primitive's [`MixPrim::nl`].
+struct Hit<'a> {
+    m: usize,
+    pt: [i32; 3],
+    n: [i32; 3],
+    away: bool,
+    nl: &'a [i64; crate::scene::MAX_LIGHTS],
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -1115,8 +1132,21 @@ impl Ray {
 struct Rays([Ray; CHUNK]);
 
 impl Default for Rays {
+    /// All zero (every ray is filled before it is read): a zeroed buffer
+    /// rather than [`Ray::OUTSIDE`] built and copied in (per line, that
+    /// cost the M3's standard scene 19 instructions a pixel).
     fn default() -> Rays {
-        Rays([Ray::OUTSIDE; CHUNK])
+        const ZERO: Ray = Ray {
+            x: 0,
+            y: 0,
+            ox: 0,
+            oy: 0,
+            a: 0,
+            ra: (0, 0),
+            t: 0,
+            hit: 0,
+        };
+        Rays([ZERO; CHUNK])
     }
 }
 
@@ -1667,6 +1697,7 @@ impl Mix32 {
                 material: p.material,
                 checker,
                 bounds: p.bounds.map(|b| b.map(|q| sat32(q.to_bits() >> 6))),
+                nl: [0; crate::scene::MAX_LIGHTS],
             });
         }
         // I/r² with r in U: I / U² = I 2^(−2e).
@@ -1687,6 +1718,23 @@ impl Mix32 {
                 },
             };
             let _ = lights.push(m);
+        }
+        // A light's height above a planar primitive, S48 U² (|n·P_L| <
+        // 2⁶², |dist 2²⁴| < 2⁵⁵): at least 2⁻¹⁰ U, so that `n·l` stays
+        // below `|n| r` by more than the hit point's rounding does.
+        for p in prims.iter_mut() {
+            let (MixShape::Plane { n, dist, .. }
+            | MixShape::Disc { n, dist, .. }
+            | MixShape::Rect { n, dist, .. }) = p.shape
+            else {
+                continue;
+            };
+            for (c, l) in p.nl.iter_mut().zip(lights.iter()) {
+                if let MixLight::Point { p: pl, .. } = l {
+                    let h = dot48(n, *pl) - ((dist as i64) << 24);
+                    *c = if h.unsigned_abs() >> 38 != 0 { h } else { 0 };
+                }
+            }
         }
         let gain = f.gain.map(Pf::of_q);
         self.kd = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
@@ -1819,18 +1867,10 @@ impl Mix32 {
     /// `(x̂, ŷ)` (S26) of a distorted point, or `None` beyond the fold.
     #[inline(always)]
     fn undistort(&self, xd: i32, yd: i32, yd2: i64) -> Option<(i32, i32)> {
-        let Some([k1, k2]) = self.k else {
-            return Some((xd, yd));
-        };
-        // u S20 = (xd² + yd²) S52 >> 32.
-        let u = ((wsq(xd) as i64 + yd2) >> 32) as i32;
-        if u > self.limit {
-            return None;
+        match self.k {
+            Some(k) => undistort_k(k, self.limit, xd, yd, yd2),
+            None => Some((xd, yd)),
         }
-        // g − 1 = u (k1 + k2 u), S28; bounded per frame.
-        let s = k1 + ((wmul_px(k2, u)) >> 20) as i32;
-        let g = (1 << 28) + ((wmul_px(s, u)) >> 20) as i32;
-        Some((((wmul_px(xd, g)) >> 28) as i32, ((wmul_px(yd, g)) >> 28) as i32))
     }
 
     /// The undistorted point of pixel `(i, j)` in I32F32, or `None` outside
@@ -1984,27 +2024,18 @@ impl Mix32 {
     fn trace<const PERSP: bool, const TRIM: bool>(
         &self,
         rays: &mut [Ray],
-        mut slope: impl FnMut(usize) -> (i32, i32, i64),
+        slope: impl FnMut(usize) -> (i32, i32, i64),
     ) {
         let korigin = self.parallel.unwrap_or(0);
         // The rays' slope box (rays outside the field count as (0, 0): a
-        // larger box, never a skipped hit).
-        let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
-        let mut outside = false;
-        for (q, r) in rays.iter_mut().enumerate() {
-            let (xd, yd, yd2) = slope(q);
-            *r = match self.undistort(xd, yd, yd2) {
-                Some((x, y)) => Ray::new::<PERSP>(x, y, korigin),
-                None => {
-                    outside = true;
-                    Ray::OUTSIDE
-                }
-            };
-            if ARMV6M {
-                (x0, x1) = (x0.min(r.x), x1.max(r.x));
-            }
-            (y0, y1) = (y0.min(r.y), y1.max(r.y));
-        }
+        // larger box, never a skipped hit). A frame without distortion
+        // has a loop without its test.
+        let ([mut x0, mut x1, y0, y1], outside) = match self.k {
+            Some(k) => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, yd2| {
+                undistort_k(k, self.limit, xd, yd, yd2)
+            }),
+            None => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, _| Some((xd, yd))),
+        };
         // Along a row (`ŷ_d` fixed) `x̂` is monotone in `x̂_d` within the
         // field: ∂x̂/∂x̂_d = g + 2 x̂_d² g'(u) ≥ g + 2u g'(u) ≥ 0 before the
         // fold (x̂_d² ≤ u). So the ends bound the rest, to twice
@@ -2097,7 +2128,7 @@ impl Mix32 {
     ) -> ([u64; 3], u32) {
         let c4 = self.c4(r);
         let sum = match self.hit::<L, C, PERSP>(r) {
-            Some((m, pt, n, away)) => self.shade::<L, C, PERSP>(r, m, pt, n, away, k),
+            Some(h) => self.shade::<L, C, PERSP>(r, &h, k),
             None => self.bg,
         };
         (sum, c4)
@@ -2186,7 +2217,7 @@ impl Mix32 {
                         continue;
                     }
                     let l = match self.hit_from::<L, C, true, true>(r, a) {
-                        Some((m, pt, n, away)) => self.shade::<L, C, true>(r, m, pt, n, away, &mut k),
+                        Some(h) => self.shade::<L, C, true>(r, &h, &mut k),
                         None => self.bg,
                     };
                     for (s, l) in s.iter_mut().zip(l).take(C) {
@@ -2470,14 +2501,9 @@ impl Mix32 {
         Some(acc.map(|a| Q::from_bits(a >> (2 * log_n))))
     }
 
-    /// The nearest hit of a ray after every primitive's pass: material,
-    /// point (S18 U), unit normal (S30) and whether it faces away from the
-    /// viewer (surfaces are two-sided: shading turns it).
+    /// The nearest hit of a ray after every primitive's pass.
     #[inline(always)]
-    fn hit<L: Lines, const C: usize, const PERSP: bool>(
-        &self,
-        r: &Ray,
-    ) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+    fn hit<L: Lines, const C: usize, const PERSP: bool>(&self, r: &Ray) -> Option<Hit<'_>> {
         self.hit_from::<L, C, PERSP, false>(r, [0, 0])
     }
 
@@ -2491,7 +2517,7 @@ impl Mix32 {
         &self,
         r: &Ray,
         a: [i32; 2],
-    ) -> Option<(usize, [i32; 3], [i32; 3], bool)> {
+    ) -> Option<Hit<'_>> {
         if r.t == NO_HIT {
             return None;
         }
@@ -2536,7 +2562,13 @@ impl Mix32 {
                 m = k.material as usize;
             }
         }
-        Some((m, pt, n, away))
+        Some(Hit {
+            m,
+            pt,
+            n,
+            away,
+            nl: &p.nl,
+        })
     }
 
     /// The unit direction from a ray's hit towards the viewer, S30:
@@ -2563,12 +2595,16 @@ impl Mix32 {
     fn shade<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         r: &Ray,
-        m: usize,
-        pt: [i32; 3],
-        n: [i32; 3],
-        away: bool,
+        h: &Hit,
         k: &mut KCache,
     ) -> [u64; 3] {
+        let Hit {
+            m,
+            pt,
+            n,
+            away,
+            nl: nls,
+        } = *h;
         let channels = C;
         if k.material != m {
             let (Some(kd), Some(&ka), Some(ks), Some(&lobe)) =
@@ -2607,12 +2643,16 @@ impl Mix32 {
             ((wmul(a[0], b[0]) + wmul(a[1], b[1]) + wmul(a[2], b[2])) >> 30) as i32
         };
         let mut sum = k.ka;
-        for ((l, kl), ksl) in self.lights.iter().zip(&k.k).zip(&k.ks) {
+        for (((l, kl), ksl), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
             let (w, ldir) = match l {
                 MixLight::Point { p, .. } => {
                     let lv = zip3(*p, pt, i32::saturating_sub);
-                    // n·l, S48 U.
-                    let nl = wmul_px(nt[0], lv[0]) + wmul_px(nt[1], lv[1]) + wmul_px(nt[2], lv[2]);
+                    // n·l, S48 U: the plane's constant, or from the hit.
+                    let nl = match (nl, away) {
+                        (0, _) => wmul_px(nt[0], lv[0]) + wmul_px(nt[1], lv[1]) + wmul_px(nt[2], lv[2]),
+                        (c, false) => c,
+                        (c, true) => -c,
+                    };
                     if nl <= 0 {
                         continue;
                     }
@@ -2682,6 +2722,52 @@ fn lobe_pf(x: i32, s: u16) -> Pf {
         }
         base = base * base;
     }
+}
+
+/// [`Mix32::undistort`] by `k1`, `k2` (S28) within the field's `u` limit
+/// (S20).
+#[inline(always)]
+fn undistort_k([k1, k2]: [i32; 2], limit: i32, xd: i32, yd: i32, yd2: i64) -> Option<(i32, i32)> {
+    // u S20 = (xd² + yd²) S52 >> 32.
+    let u = ((wsq(xd) as i64 + yd2) >> 32) as i32;
+    if u > limit {
+        return None;
+    }
+    // g − 1 = u (k1 + k2 u), S28; bounded per frame.
+    let s = k1 + ((wmul_px(k2, u)) >> 20) as i32;
+    let g = (1 << 28) + ((wmul_px(s, u)) >> 20) as i32;
+    Some((((wmul_px(xd, g)) >> 28) as i32, ((wmul_px(yd, g)) >> 28) as i32))
+}
+
+/// Fills `rays` with the rays of the distorted slopes `slope(q) = (x̂_d,
+/// ŷ_d, ŷ_d²)` undistorted by `undistort` (`korigin`: [`Ray::new`]'s `k`):
+/// the slope box `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` of the rays (rays outside the
+/// field count as (0, 0)), with the `x̂` part only on the M0 (elsewhere the
+/// caller takes it from the ends), and whether any ray is outside the field.
+#[inline(always)]
+fn fill_rays<const PERSP: bool>(
+    rays: &mut [Ray],
+    korigin: i32,
+    mut slope: impl FnMut(usize) -> (i32, i32, i64),
+    undistort: impl Fn(i32, i32, i64) -> Option<(i32, i32)>,
+) -> ([i32; 4], bool) {
+    let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
+    let mut outside = false;
+    for (q, r) in rays.iter_mut().enumerate() {
+        let (xd, yd, yd2) = slope(q);
+        *r = match undistort(xd, yd, yd2) {
+            Some((x, y)) => Ray::new::<PERSP>(x, y, korigin),
+            None => {
+                outside = true;
+                Ray::OUTSIDE
+            }
+        };
+        if ARMV6M {
+            (x0, x1) = (x0.min(r.x), x1.max(r.x));
+        }
+        (y0, y1) = (y0.min(r.y), y1.max(r.y));
+    }
+    ([x0, x1, y0, y1], outside)
 }
 
 /// `1/n_z` of a unit vector in S30 as [`recip`] gives it (`(0, 0)` for

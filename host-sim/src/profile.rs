@@ -103,6 +103,8 @@ impl Stage {
 const FUNCTIONS: &[(&str, Stage)] = &[
     // The fast arithmetic's stages (hilcam::mix32).
     ("mix32::Mix32::undistort", Stage::Distortion),
+    ("mix32::undistort_k", Stage::Distortion),
+    ("mix32::fill_rays", Stage::Rays),
     ("mix32::Ray::new", Stage::Rays),
     ("mix32::Mix32::trace", Stage::Rays),
     ("mix32::Ray::plane_t", Stage::Intersection),
