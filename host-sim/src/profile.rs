@@ -564,6 +564,12 @@ pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Pat
         if costs.len() == resolved.len() && costs.iter().all(Option::is_some) {
             break;
         }
+        eprintln!(
+            "profile: the -icount run gave {} of {} frame costs ({} UART bytes)",
+            costs.iter().flatten().count(),
+            resolved.len(),
+            bytes.len()
+        );
     }
     if let Some(k) = (0..resolved.len()).find(|k| costs.get(*k).copied().flatten().is_none()) {
         return Err(format!(
