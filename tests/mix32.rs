@@ -167,6 +167,21 @@ fn point_light_at_the_surface() {
     meets_targets(&m);
 }
 
+/// A point light 20 µm above the floor, under 2⁻¹⁰ of the frame's length
+/// unit: the floor's `n·l` is taken per pixel there, not as the plane's
+/// per-frame constant; within the targets as well.
+#[test]
+fn point_light_in_the_plane() {
+    let r = scene(
+        &format!(
+            "{CHECKER_FLOOR}[[lights]]\nkind = \"point\"\nposition = [0.1, 0.00002, 0.2]\nintensity = 5.0\n"
+        ),
+        &[],
+    );
+    let (m, _) = mix(&r).expect("renders");
+    meets_targets(&m);
+}
+
 /// A fold inside the sensor: the pixels beyond it are flagged and black,
 /// the flags agree with the reference's.
 #[test]
