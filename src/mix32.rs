@@ -1081,6 +1081,19 @@ impl Ray {
         }
     }
 
+    /// The ray of the column mirrored about the principal point (`x̂`,
+    /// `o_x` negated; `a` and `1/a` are even in `x̂`), its hit forgotten.
+    /// A ray outside the field (`t = 0`) stays outside.
+    #[inline(always)]
+    fn mirror(&mut self) {
+        self.x = self.x.saturating_neg();
+        self.ox = self.ox.saturating_neg();
+        if self.t != 0 {
+            self.t = NO_HIT;
+            self.hit = 0;
+        }
+    }
+
     /// The point at `t` (S18 U) along the ray, S18 U.
     #[inline(always)]
     fn point<const PERSP: bool>(&self, t: i32) -> [i32; 3] {
@@ -1388,6 +1401,10 @@ pub struct Mix32 {
     adaptive: bool,
     /// Defocus: the aperture pixel centres are lit through.
     aperture: Option<Aperture>,
+    /// The right half's rays are the left half's mirrored ([`Ray::mirror`]):
+    /// the principal point is centred and the frame's loop is
+    /// [`Mix32::line_f`].
+    mirror: bool,
 }
 
 /// What [`Mix32::new`] takes from the frame the generic path prepared (all
@@ -1420,6 +1437,8 @@ pub(crate) struct Input<'a> {
     /// Defocus: the aperture pattern's points (16, 64 or 256; the lens
     /// gives its radius and focused depth), or 0: the chief ray alone.
     pub aperture: u16,
+    /// The principal point is the sensor's centre (`o_x = (W − 1)/2`).
+    pub centred: bool,
 }
 
 impl Input<'_> {
@@ -1586,6 +1605,7 @@ impl Mix32 {
         samples: 1,
         adaptive: false,
         aperture: None,
+        mirror: false,
     };
 
     /// Converts a prepared frame in place (the path's state is kilobytes:
@@ -1851,6 +1871,7 @@ impl Mix32 {
             _ if f.samples > 1 || parallel.is_some() => return Err(RenderError::Degenerate),
             m => Some(Aperture::new(f, m, e)?),
         };
+        self.mirror = f.centred && self.samples == 1 && self.aperture.is_none();
         self.set_frame_id(0);
         Ok(())
     }
@@ -1878,10 +1899,18 @@ impl Mix32 {
     /// The undistorted point of pixel `(i, j)` in I32F32, or `None` outside
     /// the lens field — the pixel loop's own arithmetic.
     pub fn undistorted(&self, i: u16, j: u16) -> Option<(Q, Q)> {
+        // The right half of a mirrored frame: its left column's, mirrored.
+        let (i, sign) = match self.width.checked_sub(1 + i) {
+            Some(m) if self.mirror && m < i => (m, -1),
+            _ => (i, 1),
+        };
         let xd = ((self.x0 - self.dx * i as i64) >> 32) as i32;
         let yd = self.yd(j);
         let (x, y) = self.undistort(xd, yd, wmul(yd, yd))?;
-        Some((Q::from_bits((x as i64) << 6), Q::from_bits((y as i64) << 6)))
+        Some((
+            Q::from_bits(sign * ((x as i64) << 6)),
+            Q::from_bits((y as i64) << 6),
+        ))
     }
 
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
@@ -1960,7 +1989,11 @@ impl Mix32 {
     /// line in chunks of [`CHUNK`] pixels, each in passes — the undistorted
     /// rays, then one pass a primitive keeping the nearest hit, then
     /// shading, then the pixel bytes. A pass holds one primitive's
-    /// constants in registers.
+    /// constants in registers. With the principal point centred
+    /// ([`Mix32::mirror`]) a chunk of the left half's rays, once shaded, is
+    /// mirrored ([`Ray::mirror`]) into the right half's columns and run
+    /// through the passes again: the right half's rays are not undistorted
+    /// anew (the error of each is the mirror image of its column's).
     #[inline(never)]
     fn line_f<L: Lines, const C: usize, const PERSP: bool>(
         &self,
@@ -1982,25 +2015,67 @@ impl Mix32 {
         let noise = self.noise.as_ref();
         let mut rays = Rays::default();
         let mut words = [0u16; CHUNK];
-        // The index of the chunk's first pixel in the frame (the noise's key).
-        let mut index = j as u32 * self.width as u32;
-        for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
-            let Some(rays) = rays.first(flags.len()) else {
+        let mut fl = [0u8; CHUNK];
+        // The index of the line's first pixel in the frame (the noise's key).
+        let line = j as u32 * self.width as u32;
+        // Columns `w − half ..` take the rays of columns `.. half` mirrored.
+        let half = if self.mirror { w / 2 } else { 0 };
+        let direct = w - half;
+        // One body for both kinds of chunk (a copy of the passes and the
+        // shading each would cost flash): columns `s + q` from their
+        // slopes, then, if any, the mirrored columns `w − 1 − s − q` of the
+        // first `m` of those rays `q`.
+        let (mut s, mut n, mut mirrored) = (0, 0, false);
+        let (mut bounds, mut outside) = ([0i32; 4], false);
+        while s < direct {
+            let m = n.min(half.saturating_sub(s));
+            let (cnt, first, step) = if mirrored {
+                let [x0, x1, y0, y1] = bounds;
+                bounds = [x1.saturating_neg(), x0.saturating_neg(), y0, y1];
+                (m, w - s - m, u32::MAX)
+            } else {
+                n = CHUNK.min(direct - s);
+                (n, s, 1)
+            };
+            let (Some(rays), Some(out), Some(flags), Some(words), Some(fl)) = (
+                rays.first(cnt),
+                pixels.get_mut(first * b..(first + cnt) * b),
+                flags.get_mut(first..first + cnt),
+                words.get_mut(..cnt),
+                fl.get_mut(..cnt),
+            ) else {
                 return;
             };
-            // Inlined here (not `trace_row`): the loop without sampling stays
-            // as fast as it was (an out-of-line pass cost the standard scene
-            // 9 M3 instructions a pixel).
-            self.trace::<PERSP, true>(rays, |_| {
-                let xd = (acc >> 32) as i32;
-                acc -= self.dx;
-                (xd, yd, yd2)
-            });
-            for ((r, out), flag) in rays.iter().zip(words.iter_mut()).zip(flags.iter_mut()) {
-                *out = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
-                index = index.wrapping_add(1);
+            if mirrored {
+                rays.iter_mut().for_each(Ray::mirror);
+            } else {
+                // Inlined here (not `trace_row`): the loop without sampling
+                // stays as fast as it was (an out-of-line pass cost the
+                // standard scene 9 M3 instructions a pixel).
+                (bounds, outside) = self.rays::<PERSP>(rays, |_| {
+                    let xd = (acc >> 32) as i32;
+                    acc -= self.dx;
+                    (xd, yd, yd2)
+                });
             }
-            put(&words, b, pixels);
+            self.passes::<PERSP, true>(rays, bounds, outside);
+            let mut index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
+            for ((r, word), flag) in rays.iter().zip(words.iter_mut()).zip(fl.iter_mut()) {
+                *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
+                index = index.wrapping_add(step);
+            }
+            // The mirrored columns run right to left.
+            if mirrored {
+                words.reverse();
+                fl.reverse();
+            }
+            put(words, b, out);
+            flags.iter_mut().zip(fl.iter()).for_each(|(d, f)| *d = *f);
+            if !mirrored && n.min(half.saturating_sub(s)) > 0 {
+                mirrored = true;
+            } else {
+                (s, mirrored) = (s + n, false);
+            }
         }
     }
 
@@ -2028,16 +2103,34 @@ impl Mix32 {
         rays: &mut [Ray],
         slope: impl FnMut(usize) -> (i32, i32, i64),
     ) {
+        let (bounds, outside) = self.rays::<PERSP>(rays, slope);
+        self.passes::<PERSP, TRIM>(rays, bounds, outside);
+    }
+
+    /// [`fill_rays`] with this frame's undistortion (a frame without
+    /// distortion has a loop without its test).
+    #[inline(always)]
+    fn rays<const PERSP: bool>(
+        &self,
+        rays: &mut [Ray],
+        slope: impl FnMut(usize) -> (i32, i32, i64),
+    ) -> ([i32; 4], bool) {
         let korigin = self.parallel.unwrap_or(0);
-        // The rays' slope box (rays outside the field count as (0, 0): a
-        // larger box, never a skipped hit). A frame without distortion
-        // has a loop without its test.
-        let ([mut x0, mut x1, y0, y1], outside) = match self.k {
+        match self.k {
             Some(k) => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, yd2| {
                 undistort_k(k, self.limit, xd, yd, yd2)
             }),
             None => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, _| Some((xd, yd))),
-        };
+        }
+    }
+
+    /// Every primitive's pass over `rays`, given their slope box `[x̂_lo,
+    /// x̂_hi, ŷ_lo, ŷ_hi]` ([`fill_rays`]; rays outside the field count as
+    /// (0, 0): a larger box, never a skipped hit) and whether any is
+    /// outside the field.
+    #[inline(always)]
+    fn passes<const PERSP: bool, const TRIM: bool>(&self, rays: &mut [Ray], bounds: [i32; 4], outside: bool) {
+        let [mut x0, mut x1, y0, y1] = bounds;
         // Along a row (`ŷ_d` fixed) `x̂` is monotone in `x̂_d` within the
         // field: ∂x̂/∂x̂_d = g + 2 x̂_d² g'(u) ≥ g + 2u g'(u) ≥ 0 before the
         // fold (x̂_d² ≤ u). So the ends bound the rest, to twice

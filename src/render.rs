@@ -938,6 +938,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             samples: fast.samples,
             adaptive: fast.adaptive,
             aperture: fast.aperture,
+            centred: fast.centred,
         };
         self.path = Path::Fast(crate::mix32::Mix32::EMPTY);
         let Path::Fast(m) = &mut self.path else {
@@ -1166,6 +1167,10 @@ struct FastInput {
     adaptive: bool,
     /// Defocus: the aperture pattern's points (0: none).
     aperture: u16,
+    /// The principal point is the sensor's centre, `o_x = (W − 1)/2`
+    /// exactly: column `W − 1 − i` sees the mirror image of column `i`'s
+    /// slopes.
+    centred: bool,
 }
 
 impl<S: Scalar, const T: usize> WideFrame<S, T> {
@@ -1371,6 +1376,8 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 samples: self.stages.samples,
                 adaptive: self.stages.adaptive,
                 aperture: opts.aperture,
+                centred: i64::from(scene.camera.intrinsics.principal_point().0.to_bits()) * 2
+                    == (i64::from(self.width) - 1) << 16,
             }));
         }
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
