@@ -300,16 +300,32 @@ pub fn wait_qemu(child: &mut std::process::Child, timeout: Duration) -> Result<s
 /// Returns the semihosting text.
 pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Result<String, String> {
     let mut child = spawn_qemu(board, elf, &format!("file:{}", uart.display()))?;
-    let status = wait_qemu(&mut child, timeout)?;
-    let out = child.wait_with_output().map_err(|e| format!("qemu: {e}"))?;
-    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
+    let status = wait_qemu(&mut child, timeout);
+    // QEMU has exited (or been killed): the pipes are closed.
+    let text = String::from_utf8_lossy(&stdout.join().unwrap_or_default()).to_string();
+    let stderr = stderr.join().unwrap_or_default();
+    let status = status?;
     if !status.success() {
         return Err(format!(
             "firmware exited with {status}:\n{text}{}",
-            String::from_utf8_lossy(&out.stderr)
+            String::from_utf8_lossy(&stderr)
         ));
     }
     Ok(text)
+}
+
+/// Reads a child's pipe to its end on a thread, as the child writes it: a
+/// pipe holds 64 KiB, and a firmware that wrote more semihosting text than
+/// that before anyone read it would stall until [`wait_qemu`]'s timeout.
+pub fn drain(pipe: Option<impl std::io::Read + Send + 'static>) -> std::thread::JoinHandle<Vec<u8>> {
+    std::thread::spawn(move || {
+        let mut bytes = Vec::new();
+        if let Some(mut p) = pipe {
+            let _ = p.read_to_end(&mut bytes);
+        }
+        bytes
+    })
 }
 
 /// One frame's result.

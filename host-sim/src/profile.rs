@@ -527,6 +527,8 @@ pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Pat
         false,
     )?;
     let log = child.stderr.take().ok_or("qemu: no log")?;
+    // Its semihosting text, read as it comes (a full pipe would stall QEMU).
+    let _text = crate::hil_cmd::drain(child.stdout.take());
     // Read as QEMU writes it (a frame of 320x240 logs about 1 GB): on a
     // thread, so that a firmware that hangs is killed at the timeout.
     let reader = std::thread::spawn({
