@@ -302,6 +302,28 @@ fn put(words: &[u16], bytes_per_pixel: usize, out: &mut [u8]) {
     }
 }
 
+/// [`put`]s a chunk's words in `out` and its flags in `flags`, from `fl`;
+/// `reversed`: the chunk's rays ran right to left (the mirrored columns of
+/// [`Mix32::line_f`]). Out of line in a `compact` build: one copy for
+/// every build of the loop (flash; a call a chunk).
+#[cfg_attr(feature = "compact", inline(never))]
+#[cfg_attr(not(feature = "compact"), inline(always))]
+fn store(
+    words: &mut [u16],
+    fl: &mut [u8],
+    reversed: bool,
+    bytes_per_pixel: usize,
+    out: &mut [u8],
+    flags: &mut [u8],
+) {
+    if reversed {
+        words.reverse();
+        fl.reverse();
+    }
+    put(words, bytes_per_pixel, out);
+    flags.iter_mut().zip(fl.iter()).for_each(|(d, f)| *d = *f);
+}
+
 impl core::ops::Mul for Pf {
     type Output = Pf;
 
@@ -1092,6 +1114,14 @@ impl Ray {
             self.t = NO_HIT;
             self.hit = 0;
         }
+    }
+
+    /// [`Ray::mirror`] on each ray. Out of line in a `compact` build: one
+    /// copy for every build of [`Mix32::line_f`] (flash).
+    #[cfg_attr(feature = "compact", inline(never))]
+    #[cfg_attr(not(feature = "compact"), inline(always))]
+    fn mirror_all(rays: &mut [Ray]) {
+        rays.iter_mut().for_each(Ray::mirror);
     }
 
     /// The point at `t` (S18 U) along the ray, S18 U.
@@ -2047,7 +2077,7 @@ impl Mix32 {
                 return;
             };
             if mirrored {
-                rays.iter_mut().for_each(Ray::mirror);
+                Ray::mirror_all(rays);
             } else {
                 // Inlined here (not `trace_row`): the loop without sampling
                 // stays as fast as it was (an out-of-line pass cost the
@@ -2064,13 +2094,7 @@ impl Mix32 {
                 *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
                 index = index.wrapping_add(step);
             }
-            // The mirrored columns run right to left.
-            if mirrored {
-                words.reverse();
-                fl.reverse();
-            }
-            put(words, b, out);
-            flags.iter_mut().zip(fl.iter()).for_each(|(d, f)| *d = *f);
+            store(words, fl, mirrored, b, out, flags);
             if !mirrored && n.min(half.saturating_sub(s)) > 0 {
                 mirrored = true;
             } else {
@@ -2127,8 +2151,10 @@ impl Mix32 {
     /// Every primitive's pass over `rays`, given their slope box `[x̂_lo,
     /// x̂_hi, ŷ_lo, ŷ_hi]` ([`fill_rays`]; rays outside the field count as
     /// (0, 0): a larger box, never a skipped hit) and whether any is
-    /// outside the field.
-    #[inline(always)]
+    /// outside the field. Out of line in a `compact` build: one copy
+    /// serves the loops for one and three channels (flash).
+    #[cfg_attr(feature = "compact", inline(never))]
+    #[cfg_attr(not(feature = "compact"), inline(always))]
     fn passes<const PERSP: bool, const TRIM: bool>(&self, rays: &mut [Ray], bounds: [i32; 4], outside: bool) {
         let [mut x0, mut x1, y0, y1] = bounds;
         // Along a row (`ŷ_d` fixed) `x̂` is monotone in `x̂_d` within the
