@@ -1927,13 +1927,12 @@ impl Mix32 {
     }
 
     /// The undistorted point of pixel `(i, j)` in I32F32, or `None` outside
-    /// the lens field — the pixel loop's own arithmetic.
+    /// the lens field or past the sensor's last column — the pixel loop's
+    /// own arithmetic.
     pub fn undistorted(&self, i: u16, j: u16) -> Option<(Q, Q)> {
         // The right half of a mirrored frame: its left column's, mirrored.
-        let (i, sign) = match self.width.checked_sub(1 + i) {
-            Some(m) if self.mirror && m < i => (m, -1),
-            _ => (i, 1),
-        };
+        let m = self.width.checked_sub(i)?.checked_sub(1)?;
+        let (i, sign) = if self.mirror && m < i { (m, -1) } else { (i, 1) };
         let xd = ((self.x0 - self.dx * i as i64) >> 32) as i32;
         let yd = self.yd(j);
         let (x, y) = self.undistort(xd, yd, wmul(yd, yd))?;

@@ -996,9 +996,12 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     }
 
     /// The undistorted normalized point `(x̂, ŷ)` the renderer uses for
-    /// pixel `(i, j)`, or `None` outside the lens field — the same code path
-    /// as the pixel loop.
+    /// pixel `(i, j)`, or `None` outside the lens field or the sensor — the
+    /// same code path as the pixel loop.
     pub fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
+        if i >= self.width || j >= self.height {
+            return None;
+        }
         match &self.path {
             Path::Wide(w) => w.undistorted(i, j),
             #[cfg(feature = "mix32")]

@@ -347,6 +347,33 @@ intensity = 20.0
     }
 }
 
+/// A mirrored frame's `undistorted` (the geometry the metrics check):
+/// column `W − 1` is column 0 mirrored, and a pixel past the sensor's
+/// last column or line is `None` (it overflowed the column's slope).
+#[test]
+fn mirrored_undistorted_columns() {
+    let r = scene(
+        CHECKER_FLOOR,
+        &[(
+            "tolerable_blur = 12e-6",
+            "tolerable_blur = 12e-6\ndistortion = [0.15, 0.05]",
+        )],
+    );
+    let v = Variant::parse("mix32-poly").expect("variant");
+    let (_, _, frame) = prepare::<I32F32>(&r, &Budget::default(), |o| {
+        v.options(o).with(Override::Aperture { points: 0 })
+    })
+    .expect("prepares");
+    for j in [0, 31, 63] {
+        let (left, right) = (frame.undistorted(0, j), frame.undistorted(95, j));
+        assert!(left.is_some_and(|(x, _)| x != 0));
+        assert_eq!(left.map(|(x, y)| (-x, y)), right, "line {j}");
+        assert_eq!(frame.undistorted(96, j), None);
+        assert_eq!(frame.undistorted(u16::MAX, j), None);
+        assert_eq!(frame.undistorted(0, 64 + j), None);
+    }
+}
+
 /// What the formats cannot hold is refused when the frame is prepared, with
 /// a typed error: a distortion whose factor `g` leaves ±8, and a sphere
 /// smaller than 2⁻¹⁰ of the frame's length unit (set by a light 900 m away).
