@@ -562,11 +562,13 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
             }
             let pa = crate::harness::collect(&planned)?;
             let pb_ = crate::harness::collect(&full)?;
+            // Per channel value (DN), not per byte: a byte of an RGB565 or
+            // Gray16 pixel is not a value.
             let max_between = pa
-                .pixels
+                .dn(scene.format)
                 .iter()
-                .zip(&pb_.pixels)
-                .map(|(x, y)| x.abs_diff(*y) as u32)
+                .zip(&pb_.dn(scene.format))
+                .flat_map(|(x, y)| x.iter().zip(y).map(|(a, b)| a.abs_diff(*b)))
                 .max()
                 .unwrap_or(0);
             pruning.push(Pruning {
