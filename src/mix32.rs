@@ -2088,6 +2088,8 @@ impl Mix32 {
                 });
             }
             self.passes::<PERSP, true>(rays, bounds, outside);
+            // Each pixel's noise key is its index in the frame: the mirrored
+            // rays' columns run right to left (`step` is −1 modulo 2³²).
             let mut index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
             for ((r, word), flag) in rays.iter().zip(words.iter_mut()).zip(fl.iter_mut()) {
                 *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
