@@ -2057,6 +2057,9 @@ impl Mix32 {
         let (mut s, mut n, mut mirrored) = (0, 0, false);
         let (mut bounds, mut outside) = ([0i32; 4], false);
         while s < direct {
+            // (Computed twice, here and below, not kept from the chunk's
+            // start: kept, it cost the M3's standard scene 6 instructions a
+            // pixel, 412 against 406.)
             let m = n.min(half.saturating_sub(s));
             let (cnt, first, step) = if mirrored {
                 let [x0, x1, y0, y1] = bounds;

@@ -1380,7 +1380,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 adaptive: self.stages.adaptive,
                 aperture: opts.aperture,
                 centred: i64::from(scene.camera.intrinsics.principal_point().0.to_bits()) * 2
-                    == (i64::from(self.width) - 1) << 16,
+                    == (i64::from(self.width) - 1) << crate::num::Px::FRAC_NBITS,
             }));
         }
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {

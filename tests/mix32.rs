@@ -153,19 +153,24 @@ fn exposure_saturation_in_every_format() {
     }
 }
 
+/// A checkered floor lit by a point light `height` metres above it, on
+/// the mix32 path against the reference.
+fn floor_lit_from(height: f64) -> Metrics {
+    let r = scene(
+        &format!(
+            "{CHECKER_FLOOR}[[lights]]\nkind = \"point\"\nposition = [0.1, {height}, 0.2]\nintensity = 5.0\n"
+        ),
+        &[],
+    );
+    mix(&r).expect("renders").0
+}
+
 /// A point light 1 mm above a lit floor: `1/r³` of 10⁹ m⁻³ saturates the
 /// pixels under it, as the reference's irradiance does; elsewhere within
 /// 1 LSB.
 #[test]
 fn point_light_at_the_surface() {
-    let r = scene(
-        &format!(
-            "{CHECKER_FLOOR}[[lights]]\nkind = \"point\"\nposition = [0.1, 0.001, 0.2]\nintensity = 5.0\n"
-        ),
-        &[],
-    );
-    let (m, _) = mix(&r).expect("renders");
-    meets_targets(&m);
+    meets_targets(&floor_lit_from(0.001));
 }
 
 /// A point light 20 µm above the floor, under 2⁻¹⁰ of the frame's length
@@ -173,14 +178,7 @@ fn point_light_at_the_surface() {
 /// per-frame constant; within the targets as well.
 #[test]
 fn point_light_in_the_plane() {
-    let r = scene(
-        &format!(
-            "{CHECKER_FLOOR}[[lights]]\nkind = \"point\"\nposition = [0.1, 0.00002, 0.2]\nintensity = 5.0\n"
-        ),
-        &[],
-    );
-    let (m, _) = mix(&r).expect("renders");
-    meets_targets(&m);
+    meets_targets(&floor_lit_from(0.00002));
 }
 
 /// A fold inside the sensor: the pixels beyond it are flagged and black,

@@ -107,6 +107,11 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("mix32::fill_rays", Stage::Rays),
     ("mix32::Ray::new", Stage::Rays),
     ("mix32::Mix32::trace", Stage::Rays),
+    ("mix32::Mix32::rays", Stage::Rays),
+    // The chunk's slope box and each primitive's cull by its bounds (the
+    // passes themselves are `MixShape::nearest`'s).
+    ("mix32::Mix32::passes", Stage::Intersection),
+    ("mix32::Ray::mirror", Stage::Rays),
     ("mix32::Ray::plane_t", Stage::Intersection),
     ("mix32::Ray::keep", Stage::Intersection),
     ("mix32::MixShape::nearest", Stage::Intersection),
@@ -126,6 +131,7 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("mix32::mul_nonneg", Stage::Noise),
     ("mix32::word", Stage::PixelCodec),
     ("mix32::put", Stage::PixelCodec),
+    ("mix32::store", Stage::PixelCodec),
     ("mix32::Mix32::line_s", Stage::Sampling),
     ("mix32::Mix32::grid", Stage::Sampling),
     ("mix32::Mix32::key", Stage::Sampling),
