@@ -197,7 +197,8 @@ fn vignette_q(sum: u64, c4: u32) -> Q {
 /// ([`crate::noise::Stage::apply_with`]) on the exact noise-free value,
 /// with [`sigma_z`] for its noise term. Out of line: the noiseless pixel
 /// loop stays lean.
-#[inline(never)]
+#[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn noisy<const C: usize>(
     z: &crate::noise::Stage<Q>,
     sum: [u64; 3],
@@ -1945,6 +1946,7 @@ impl Mix32 {
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
     /// Only `L`'s loops are compiled in; a line of another is left as it
     /// is ([`crate::render::Frame::render_with`] refuses such a frame first).
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
         match self.line_loop() {
             LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
@@ -2023,7 +2025,8 @@ impl Mix32 {
     /// mirrored ([`Ray::mirror`]) into the right half's columns and run
     /// through the passes again: the right half's rays are not undistorted
     /// anew (the error of each is the mirror image of its column's).
-    #[inline(never)]
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn line_f<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         j: u16,
@@ -2110,7 +2113,8 @@ impl Mix32 {
     /// [`Mix32::trace`] along a row: ray `q` at `x̂_d = x − q·step` (S58)
     /// and `(ŷ_d, ŷ_d²)` (S26, S52). Out of line: one copy serves every row
     /// of rays of the sampled loop (pixel centres, corners, grid rows).
-    #[inline(never)]
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn trace_row<const PERSP: bool>(&self, rays: &mut [Ray], x: i64, step: i64, (yd, yd2): (i32, i64)) {
         let mut acc = x;
         self.trace::<PERSP, false>(rays, |_| {
@@ -2279,7 +2283,8 @@ impl Mix32 {
     /// is shaded in the camera frame. A primitive's pass is skipped where
     /// the chunk's chief slopes miss its bounds, widened by the blur. The
     /// mean of the `m` sums is exact (`m` a power of two), rounded once.
-    #[inline(never)]
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn line_d<L: Lines, const C: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
         let Some(ap) = self.aperture else {
             return;
@@ -2372,7 +2377,8 @@ impl Mix32 {
 
     /// [`Mix32::radiance`] out of line: one copy of the shading serves the
     /// sampled loop's centres and grids.
-    #[inline(never)]
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn radiance_s<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         r: &Ray,
@@ -2406,7 +2412,8 @@ impl Mix32 {
     /// centres, then the grids of the pixels that need one, each in the
     /// chunk's passes. A grid's mean is exact (`n²` is a power of two), then
     /// rounded once.
-    #[inline(never)]
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn line_s<L: Lines, const C: usize, const PERSP: bool, const CARRY: bool>(
         &self,
         j: u16,
@@ -2588,7 +2595,8 @@ impl Mix32 {
     /// at `(x̂_d, ŷ_d)` (S58, I64F64 raw) per channel, before rounding
     /// (I32F32 DN, exact: a power-of-two mean of exact values, saturated);
     /// `None` if a sample lies beyond the fold. `rays` is scratch.
-    #[inline(never)]
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn grid<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         rays: &mut [Ray],

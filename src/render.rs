@@ -1063,6 +1063,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     /// carried in `corners` from the line before (the same frame's line
     /// `j − 1`, rendered with them): the same bytes, with one row of
     /// corners traced instead of two.
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn render_line_in<L: Lines>(
         &self,
         j: u16,
@@ -1123,6 +1124,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     /// line to line in `keys` ([`Corners`]: `width + 1` words; shorter,
     /// unused): the same frame, one row of corners traced a line instead
     /// of two.
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn render_carried<L: Lines, K: FrameSink>(
         &self,
         pixels: &mut [u8],
@@ -1150,6 +1152,43 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             }
         }
         sink.end(None).map_err(FrameError::Sink)
+    }
+
+    /// [`Frame::render_line`] compiled for x86-64-v3 processors (AVX2,
+    /// BMI1, BMI2, FMA, LZCNT, MOVBE, POPCNT: Haswell and later, Zen): the
+    /// fast loops' variable shifts and leading-zero counts are then one
+    /// instruction each. The same bytes (integer arithmetic; host-sim's
+    /// tests compare every shipped scene). The loops are inlined into it
+    /// on x86-64 — there the loops the Cortex-M builds keep out of line
+    /// are `inline(always)` — so this is a second copy of them, built for
+    /// those processors; the caller checks that the processor has them
+    /// (host-sim's `harness::x86_64_v3`).
+    ///
+    /// # Safety
+    ///
+    /// Call only on a processor with those features.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
+    pub fn render_line_v3(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
+        self.render_line_in::<AllLines>(j, pixels, flags, &mut Corners::new(&mut []))
+    }
+
+    /// [`Frame::render_carried`] (every loop) compiled for x86-64-v3, as
+    /// [`Frame::render_line_v3`].
+    ///
+    /// # Safety
+    ///
+    /// Call only on a processor with x86-64-v3's features.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
+    pub fn render_carried_v3<K: FrameSink>(
+        &self,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        keys: &mut [u64],
+        sink: &mut K,
+    ) -> Result<(), FrameError<K::Error>> {
+        self.render_carried::<AllLines, K>(pixels, flags, keys, sink)
     }
 }
 

@@ -4,6 +4,7 @@
 
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, FrameSink, RenderError, RenderModel, FLAG_OUTSIDE_FIELD};
+use hilcam::scene::PixelFormat;
 use host_sim::harness::{render, Metrics};
 use host_sim::scene_file::{load, parse, Resolved};
 use std::path::PathBuf;
@@ -285,6 +286,57 @@ fn parallel_host_render_is_byte_identical_with_one_core() {
             assert_eq!(par.flags, one.flags, "{}", path.display());
         }
     }
+}
+
+/// On x86-64 the host renders with the core's loops built for x86-64-v3
+/// where the processor has it (`harness::x86_64_v3`); their bytes and
+/// flags are the baseline build's, on every shipped scene in every format,
+/// with the default (planned) and the wide arithmetic.
+#[test]
+fn the_x86_64_v3_build_renders_the_baseline_bytes() {
+    if !host_sim::harness::x86_64_v3() {
+        eprintln!("this processor lacks x86-64-v3: both sides are the baseline build");
+    }
+    let mut frames = 0;
+    for path in scenes() {
+        let base = load(&path).expect("loads");
+        for format in [
+            PixelFormat::Gray8,
+            PixelFormat::Gray16 { bits: 12 },
+            PixelFormat::Rgb565,
+        ] {
+            let mut r = base.clone();
+            r.format = format;
+            // (A scene's noise may not fit another format: golden pins
+            // those as refused.)
+            let Ok(s) = r.core_scene() else { continue };
+            let p = plan(&s, &Budget::default());
+            for opts in [
+                p.options,
+                p.options.with_arithmetic(hilcam::render::Arithmetic::Wide),
+            ] {
+                let frame = Frame::new(&s, &opts).expect("frame");
+                frames += 1;
+                let (w, h) = frame.size();
+                let (mut line, mut flags) = (vec![0u8; frame.line_bytes()], vec![0u8; w as usize]);
+                let (mut pixels, mut all_flags) = (Vec::new(), Vec::new());
+                for j in 0..h {
+                    frame.render_line(j, &mut line, &mut flags).expect("renders");
+                    pixels.extend_from_slice(&line);
+                    all_flags.extend_from_slice(&flags);
+                }
+                let host = host_sim::harness::collect(&frame).expect("host");
+                let one = host_sim::harness::collect_serial(&frame).expect("serial");
+                let what = format!("{} {format:?} {:?}", path.display(), opts.arithmetic);
+                assert_eq!(host.pixels, pixels, "{what}");
+                assert_eq!(host.flags, all_flags, "{what}");
+                assert_eq!(one.pixels, pixels, "{what}");
+            }
+        }
+    }
+    // 8 scenes × 3 formats × 2 arithmetics, less the scenes whose noise
+    // does not fit a format.
+    assert!(frames >= 40, "{frames} frames compared");
 }
 
 /// A renderer built with some line loops only (as a firmware is, with

@@ -8,7 +8,7 @@ use crate::reference::render::{RefFrame, RefRow, RefScene};
 use crate::reference::sampling::Pattern;
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{Frame, FrameSink, Options, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, FrameSink, Options, RenderError, FLAG_OUTSIDE_FIELD};
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
@@ -274,6 +274,41 @@ pub fn core_render(
     Ok((scene, plan, frame, core))
 }
 
+/// Whether this processor runs the core's loops built for x86-64-v3
+/// ([`Frame::render_line_v3`]: AVX2, BMI1, BMI2, FMA, LZCNT, MOVBE,
+/// POPCNT; Haswell and Zen on). `HILCAM_BASELINE=1` says no: the baseline
+/// build of the same loops.
+pub fn x86_64_v3() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::is_x86_feature_detected as has;
+        static HAS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+        *HAS.get_or_init(|| {
+            std::env::var_os("HILCAM_BASELINE").is_none_or(|v| v != "1")
+                && has!("avx2")
+                && has!("bmi1")
+                && has!("bmi2")
+                && has!("fma")
+                && has!("lzcnt")
+                && has!("movbe")
+                && has!("popcnt")
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// [`Frame::render_line`], in the core's loops built for this processor
+/// ([`x86_64_v3`]): the same bytes either way (tests/render.rs compares them).
+pub fn render_line<S: Scalar>(frame: &Frame<S>, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
+    #[cfg(target_arch = "x86_64")]
+    if x86_64_v3() {
+        // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
+        return unsafe { frame.render_line_v3(j, pixels, flags) };
+    }
+    frame.render_line(j, pixels, flags)
+}
+
 /// Renders a prepared frame into memory, its lines in parallel on every
 /// core (rayon): each line is rendered straight into its place, so the
 /// bytes are those of [`collect_serial`] (tested).
@@ -292,7 +327,7 @@ pub fn collect<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
         .par_chunks_mut(lb)
         .zip(core.flags.par_chunks_mut(w as usize))
         .enumerate()
-        .try_for_each(|(j, (p, f))| frame.render_line(j as u16, p, f))
+        .try_for_each(|(j, (p, f))| render_line(frame, j as u16, p, f))
         .map_err(|e| format!("render failed: {e:?}"))?;
     Ok(core)
 }
@@ -309,9 +344,16 @@ pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
         flags: Vec::with_capacity(w as usize * h as usize),
     };
     let mut keys = vec![0u64; w as usize + 1];
-    frame
-        .render_carried::<hilcam::render::AllLines, _>(&mut line, &mut flags, &mut keys, &mut core)
-        .map_err(|e| format!("render failed: {e:?}"))?;
+    #[cfg(target_arch = "x86_64")]
+    let done = if x86_64_v3() {
+        // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
+        unsafe { frame.render_carried_v3(&mut line, &mut flags, &mut keys, &mut core) }
+    } else {
+        frame.render_carried::<hilcam::render::AllLines, _>(&mut line, &mut flags, &mut keys, &mut core)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let done = frame.render_carried::<hilcam::render::AllLines, _>(&mut line, &mut flags, &mut keys, &mut core);
+    done.map_err(|e| format!("render failed: {e:?}"))?;
     Ok(core)
 }
 
@@ -692,8 +734,7 @@ pub fn run_lines<S: Scalar>(
             .map(|j| -> Result<LineOut, String> {
                 let mut pixels = vec![0u8; frame.line_bytes()];
                 let mut flags = vec![0u8; w as usize];
-                frame
-                    .render_line(j as u16, &mut pixels, &mut flags)
+                render_line(frame, j as u16, &mut pixels, &mut flags)
                     .map_err(|e| format!("render failed: {e:?}"))?;
                 let core_dn = decode_all(rs.format, &pixels);
                 let reference = rs.render_line(j);
