@@ -1105,12 +1105,15 @@ impl Ray {
     }
 
     /// The ray of the column mirrored about the principal point (`x̂`,
-    /// `o_x` negated; `a` and `1/a` are even in `x̂`), its hit forgotten.
-    /// A ray outside the field (`t = 0`) stays outside.
+    /// `o_x` negated — perspective rays' is 0; `a` and `1/a` are even in
+    /// `x̂`), its hit forgotten. A ray outside the field (`t = 0`) stays
+    /// outside.
     #[inline(always)]
-    fn mirror(&mut self) {
+    fn mirror<const PERSP: bool>(&mut self) {
         self.x = self.x.saturating_neg();
-        self.ox = self.ox.saturating_neg();
+        if !PERSP {
+            self.ox = self.ox.saturating_neg();
+        }
         if self.t != 0 {
             self.t = NO_HIT;
             self.hit = 0;
@@ -1121,8 +1124,8 @@ impl Ray {
     /// copy for every build of [`Mix32::line_f`] (flash).
     #[cfg_attr(feature = "compact", inline(never))]
     #[cfg_attr(not(feature = "compact"), inline(always))]
-    fn mirror_all(rays: &mut [Ray]) {
-        rays.iter_mut().for_each(Ray::mirror);
+    fn mirror_all<const PERSP: bool>(rays: &mut [Ray]) {
+        rays.iter_mut().for_each(Ray::mirror::<PERSP>);
     }
 
     /// The point at `t` (S18 U) along the ray, S18 U.
@@ -2082,7 +2085,7 @@ impl Mix32 {
                 return;
             };
             if mirrored {
-                Ray::mirror_all(rays);
+                Ray::mirror_all::<PERSP>(rays);
             } else {
                 // Inlined here (not `trace_row`): the loop without sampling
                 // stays as fast as it was (an out-of-line pass cost the
