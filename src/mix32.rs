@@ -89,9 +89,9 @@ impl Pf {
         if v == 0 {
             return Pf::default();
         }
-        let z = clz64(v);
+        let (m, z) = norm_top(v);
         Pf {
-            m: (shl64(v, z) >> 32) as u32,
+            m,
             e: e + 32 - z as i32,
         }
     }
@@ -238,9 +238,9 @@ fn sigma_z(var: Q, z: Q) -> Q {
     if s2 == 0 {
         return Q::ZERO;
     }
-    // √(s2 2^-32) 2^16 = √(m/2^64) 2^(32 − e/2): (m/2^64)·y in Q2.62.
+    // √(s2 2^-32) 2^16 = √(m/2^32) 2^(32 − e/2): (m/2^32)·y in Q2.62.
     let (m, y, e) = rsqrt_norm(s2);
-    let s16 = (umul((m >> 32) as u32, y) >> (30 + e / 2)).min(u32::MAX as u64);
+    let s16 = (umul(m, y) >> (30 + e / 2)).min(u32::MAX as u64);
     // S16 · S16 → S32; |z| < 2^19 in S16: within i64.
     Q::from_bits(s16 as i64 * (z.to_bits() >> 16))
 }
@@ -416,22 +416,21 @@ const SEED: [u16; 768] = {
     t
 };
 
-/// For `x ≠ 0`: `(m, y, z)` with `m = x << z` in `[2⁶², 2⁶⁴)`, `z` even, and
-/// `y ≈ 1/√(m/2⁶⁴)` in Q2.30 (in `(1, 2]`; relative error < 2⁻¹⁹): one
-/// Newton step from a 768-entry seed, three products.
+/// For `x ≠ 0`: `(m, y, z)` with `m` the top word of `x << z` in `[2³⁰,
+/// 2³²)`, `z` even, and `y ≈ 1/√(m/2³²)` in Q2.30 (in `(1, 2]`; relative
+/// error < 2⁻¹⁹): one Newton step from a 768-entry seed, three products.
 #[inline]
-fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
+fn rsqrt_norm(x: u64) -> (u32, u32, u32) {
     let z = clz64(x) & !1;
-    let m = shl64(x, z);
-    let idx = ((m >> 54) as usize).saturating_sub(256);
+    let m32 = (shl64(x, z) >> 32) as u32;
+    let idx = ((m32 >> 22) as usize).saturating_sub(256);
     // y = seed 2^16: y² and the last product are by the 16-bit seed.
     let seed = SEED.get(idx).copied().unwrap_or(1 << 14);
-    let m32 = (m >> 32) as u32;
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
     let y2 = (seed as u32 * seed as u32) << 1;
     let my2 = (umul(m32, y2) >> 31) as u32;
     let y = (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32;
-    (m, y, z)
+    (m32, y, z)
 }
 
 /// [`rsqrt_norm`] refined by a second Newton step in 64-bit arithmetic:
@@ -440,7 +439,8 @@ fn rsqrt_norm(x: u64) -> (u64, u32, u32) {
 /// error (`s` up to 1 000).
 #[inline]
 fn rsqrt_fine(x: u64) -> (u32, u32) {
-    let (m, y, z) = rsqrt_norm(x);
+    let (_, y, z) = rsqrt_norm(x);
+    let m = shl64(x, z);
     // y (3 − m y²) / 2: y² Q4.60, m y² Q4.60 (m/2^64 < 1), then Q2.30.
     let y2 = y as u64 * y as u64;
     let my2 = ((m as u128 * y2 as u128) >> 64) as u64;
@@ -465,7 +465,7 @@ pub fn cos_over_r2(nl: u64, r2: u64) -> Pf {
 fn cos_over_r3(nl: u64, y: u32, z: u32) -> Pf {
     // 1/r³ = y3 2^(3z/2 − 70) with y² in Q3.29, y³ in Q5.28; n·l's top
     // word q: n·l ≈ q 2^(32 − z/2) 2⁻⁴⁸. Product: q y3 2^(z − 86).
-    let q = (shl64(nl, z / 2) >> 32) as u32;
+    let q = top_shl(nl, z / 2);
     let y2 = (umul(y, y) >> 31) as u32;
     let y3 = (umul(y2, y) >> 31) as u32;
     Pf::new(umul(q, y3), z as i32 - 86)
@@ -545,8 +545,8 @@ fn sqrt_s44_to_s22(x: u64) -> i32 {
         return 0;
     }
     let (m, y, z) = rsqrt_norm(x);
-    // √(m/2^64) = (m/2^64) · y in Q0.32; √x_real = that · 2^((20 − z)/2).
-    let s = (umul((m >> 32) as u32, y) >> 30).min(u32::MAX as u64);
+    // √(m/2^32) = (m/2^32) · y in Q0.32; √x_real = that · 2^((20 − z)/2).
+    let s = (umul(m, y) >> 30).min(u32::MAX as u64);
     (s >> (z / 2)).min(i32::MAX as u64) as i32
 }
 
@@ -647,6 +647,32 @@ fn shl64(v: u64, z: u32) -> u64 {
     } else {
         v << z
     }
+}
+
+/// For `v ≠ 0`: the top word of `v << z` and `z`, the count of `v`'s
+/// leading zeros, in 32-bit words: [`Pf::new`]'s normalization, which the
+/// 64-bit count and shift by a variable amount took the M3 twelve
+/// instructions. ([`rsqrt_norm`]'s, through an even-count form of this,
+/// cost the M3's wide-vignetting 8 instructions a pixel more, though it
+/// runs no [`rsqrt_norm`]: the shading's registers.)
+#[inline(always)]
+fn norm_top(v: u64) -> (u32, u32) {
+    let (hi, lo) = ((v >> 32) as u32, v as u32);
+    if hi != 0 {
+        let z = clz32(hi);
+        ((hi << z) | ((lo >> 1) >> (31 - z)), z)
+    } else {
+        // lo ≠ 0: z < 32.
+        let z = clz32(lo) & 31;
+        (lo << z, z + 32)
+    }
+}
+
+/// The top word of `v << s` for `s` < 32 (bits shifted out are lost).
+#[inline(always)]
+fn top_shl(v: u64, s: u32) -> u32 {
+    let (hi, lo, s) = ((v >> 32) as u32, v as u32, s & 31);
+    (hi << s) | ((lo >> 1) >> (31 - s))
 }
 
 /// Leading zeros of a `u32` (32 for 0).
@@ -3060,8 +3086,9 @@ mod wmul_tests {
         }
     }
 
-    /// The Cortex-M0's products and counts of leading zeros are the exact
-    /// ones, at the extremes and on a spread of values.
+    /// The Cortex-M0's products and counts of leading zeros, and the
+    /// 32-bit normalizations every target uses, are the exact ones, at the
+    /// extremes and on a spread of values.
     #[test]
     fn m0_products_and_counts_are_exact() {
         let edges = [
@@ -3106,6 +3133,15 @@ mod wmul_tests {
                 }
                 let w = (a as u64) << 32 | b as u64;
                 assert_eq!(super::clz64_table(w), w.leading_zeros(), "{w}");
+                for v in [w, b as u64, w >> (b % 64)] {
+                    for s in [0, 1, b % 32, 31] {
+                        assert_eq!(super::top_shl(v, s), ((v << s) >> 32) as u32, "{v} << {s}");
+                    }
+                    if v != 0 {
+                        let z = v.leading_zeros();
+                        assert_eq!(super::norm_top(v), (((v << z) >> 32) as u32, z), "{v}");
+                    }
+                }
                 assert_eq!(super::clz64_table(b as u64), (b as u64).leading_zeros());
             }
         }
