@@ -8,7 +8,7 @@ use crate::reference::render::{RefFrame, RefRow, RefScene};
 use crate::reference::sampling::Pattern;
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{Frame, FrameSink, Options, RenderError, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{Frame, FrameError, FrameSink, Options, RenderError, FLAG_OUTSIDE_FIELD};
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
@@ -307,6 +307,22 @@ pub fn render_line<S: Scalar>(frame: &Frame<S>, j: u16, pixels: &mut [u8], flags
         return unsafe { frame.render_line_v3(j, pixels, flags) };
     }
     frame.render_line(j, pixels, flags)
+}
+
+/// [`Frame::render`] (every line through `sink`), in the core's loops
+/// built for this processor ([`x86_64_v3`]).
+pub fn render_through<S: Scalar, K: FrameSink>(
+    frame: &Frame<S>,
+    pixels: &mut [u8],
+    flags: &mut [u8],
+    sink: &mut K,
+) -> Result<(), FrameError<K::Error>> {
+    #[cfg(target_arch = "x86_64")]
+    if x86_64_v3() {
+        // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
+        return unsafe { frame.render_carried_v3(pixels, flags, &mut [], sink) };
+    }
+    frame.render(pixels, flags, sink)
 }
 
 /// Renders a prepared frame into memory, its lines in parallel on every
