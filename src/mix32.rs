@@ -1975,8 +1975,31 @@ impl Mix32 {
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.
     /// Only `L`'s loops are compiled in; a line of another is left as it
     /// is ([`crate::render::Frame::render_with`] refuses such a frame first).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    ///
+    /// On x86-64 the loops the Cortex-M builds keep out of line are
+    /// inlined here and into [`Mix32::line_v3`]: two copies of them, one
+    /// built for x86-64-v3 processors.
+    #[cfg_attr(target_arch = "x86_64", inline(never))]
     pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
+        self.line_any::<L>(j, pixels, flags, corners)
+    }
+
+    /// [`Mix32::line`] built for x86-64-v3 processors (AVX2, BMI1, BMI2,
+    /// FMA, LZCNT, MOVBE, POPCNT): variable shifts and leading-zero counts
+    /// are one instruction each there. The same bytes.
+    ///
+    /// # Safety
+    ///
+    /// Call only on a processor with those features.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
+    pub fn line_v3<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
+        self.line_any::<L>(j, pixels, flags, corners)
+    }
+
+    /// [`Mix32::line`]'s dispatch to the frame's loop.
+    #[inline(always)]
+    fn line_any<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
         match self.line_loop() {
             LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
                 self.line_f::<L, 1, true>(j, pixels, flags)

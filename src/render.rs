@@ -1063,7 +1063,6 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     /// carried in `corners` from the line before (the same frame's line
     /// `j − 1`, rendered with them): the same bytes, with one row of
     /// corners traced instead of two.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn render_line_in<L: Lines>(
         &self,
         j: u16,
@@ -1124,7 +1123,6 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     /// line to line in `keys` ([`Corners`]: `width + 1` words; shorter,
     /// unused): the same frame, one row of corners traced a line instead
     /// of two.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn render_carried<L: Lines, K: FrameSink>(
         &self,
         pixels: &mut [u8],
@@ -1136,6 +1134,19 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         if !self.line_built::<L>() {
             return Err(FrameError::Render(RenderError::NotBuilt));
         }
+        self.render_each(pixels, flags, sink, |j, p, f| {
+            self.render_line_in::<L>(j, p, f, &mut corners)
+        })
+    }
+
+    /// Every line through `sink`, each rendered by `line`.
+    fn render_each<K: FrameSink>(
+        &self,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        sink: &mut K,
+        mut line: impl FnMut(u16, &mut [u8], &mut [u8]) -> Result<(), RenderError>,
+    ) -> Result<(), FrameError<K::Error>> {
         let info = FrameInfo {
             width: self.width,
             height: self.height,
@@ -1143,8 +1154,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         };
         sink.begin(&info).map_err(FrameError::Sink)?;
         for j in 0..self.height {
-            self.render_line_in::<L>(j, pixels, flags, &mut corners)
-                .map_err(FrameError::Render)?;
+            line(j, pixels, flags).map_err(FrameError::Render)?;
             let n = self.line_bytes();
             let (p, f) = (pixels.get(..n), flags.get(..self.width as usize));
             if let (Some(p), Some(f)) = (p, f) {
@@ -1154,26 +1164,24 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         sink.end(None).map_err(FrameError::Sink)
     }
 
-    /// [`Frame::render_line`] compiled for x86-64-v3 processors (AVX2,
-    /// BMI1, BMI2, FMA, LZCNT, MOVBE, POPCNT: Haswell and later, Zen): the
-    /// fast loops' variable shifts and leading-zero counts are then one
-    /// instruction each. The same bytes (integer arithmetic; host-sim's
-    /// tests compare every shipped scene). The loops are inlined into it
-    /// on x86-64 — there the loops the Cortex-M builds keep out of line
-    /// are `inline(always)` — so this is a second copy of them, built for
-    /// those processors; the caller checks that the processor has them
-    /// (host-sim's `harness::x86_64_v3`).
+    /// [`Frame::render_line`] with the fast arithmetic's loops built for
+    /// x86-64-v3 processors ([`crate::mix32::Mix32::line_v3`]; the wide
+    /// arithmetic's are the baseline's). The same bytes (integer
+    /// arithmetic; host-sim's tests compare every shipped scene). The
+    /// caller checks that the processor has them (host-sim's
+    /// `harness::x86_64_v3`).
     ///
     /// # Safety
     ///
-    /// Call only on a processor with those features.
+    /// Call only on a processor with x86-64-v3's features (AVX2, BMI1,
+    /// BMI2, FMA, LZCNT, MOVBE, POPCNT).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
     pub fn render_line_v3(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
-        self.render_line_in::<AllLines>(j, pixels, flags, &mut Corners::new(&mut []))
+        self.render_line_v3_in(j, pixels, flags, &mut Corners::new(&mut []))
     }
 
-    /// [`Frame::render_carried`] (every loop) compiled for x86-64-v3, as
+    /// [`Frame::render_carried`] (every loop) with the loops of
     /// [`Frame::render_line_v3`].
     ///
     /// # Safety
@@ -1188,7 +1196,32 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         keys: &mut [u64],
         sink: &mut K,
     ) -> Result<(), FrameError<K::Error>> {
-        self.render_carried::<AllLines, K>(pixels, flags, keys, sink)
+        let mut corners = Corners::new(keys);
+        self.render_each(pixels, flags, sink, |j, p, f| {
+            self.render_line_v3_in(j, p, f, &mut corners)
+        })
+    }
+
+    /// [`Frame::render_line_in`] (every loop) with the loops of
+    /// [`Frame::render_line_v3`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
+    fn render_line_v3_in(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        corners: &mut Corners,
+    ) -> Result<(), RenderError> {
+        #[cfg(feature = "mix32")]
+        if let Path::Fast(m) = &self.path {
+            if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
+                return Err(RenderError::BufferTooSmall);
+            }
+            m.line_v3::<AllLines>(j, pixels, flags, corners);
+            return Ok(());
+        }
+        self.render_line_in::<AllLines>(j, pixels, flags, corners)
     }
 }
 
