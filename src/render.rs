@@ -1073,9 +1073,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         // Only the fast arithmetic's sampled loop carries them.
         #[cfg(not(feature = "mix32"))]
         let _ = corners;
-        if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
-            return Err(RenderError::BufferTooSmall);
-        }
+        self.check_buffers(pixels, flags)?;
         if !self.line_built::<L>() {
             return Err(RenderError::NotBuilt);
         }
@@ -1093,6 +1091,15 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
                 w.line::<L, PARALLEL>(j, pixels, flags)
             }
             _ => {}
+        }
+        Ok(())
+    }
+
+    /// [`RenderError::BufferTooSmall`] unless `pixels` holds a line
+    /// ([`Frame::line_bytes`]) and `flags` the width.
+    fn check_buffers(&self, pixels: &[u8], flags: &[u8]) -> Result<(), RenderError> {
+        if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
+            return Err(RenderError::BufferTooSmall);
         }
         Ok(())
     }
@@ -1215,9 +1222,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     ) -> Result<(), RenderError> {
         #[cfg(feature = "mix32")]
         if let Path::Fast(m) = &self.path {
-            if pixels.len() < self.line_bytes() || flags.len() < self.width as usize {
-                return Err(RenderError::BufferTooSmall);
-            }
+            self.check_buffers(pixels, flags)?;
             m.line_v3::<AllLines>(j, pixels, flags, corners);
             return Ok(());
         }

@@ -309,20 +309,22 @@ pub fn render_line<S: Scalar>(frame: &Frame<S>, j: u16, pixels: &mut [u8], flags
     frame.render_line(j, pixels, flags)
 }
 
-/// [`Frame::render`] (every line through `sink`), in the core's loops
-/// built for this processor ([`x86_64_v3`]).
-pub fn render_through<S: Scalar, K: FrameSink>(
+/// [`Frame::render_carried`] with every loop (every line through `sink`,
+/// the sampled loop's corner keys carried in `keys`; empty, none), in the
+/// core's loops built for this processor ([`x86_64_v3`]).
+pub fn render_carried<S: Scalar, K: FrameSink>(
     frame: &Frame<S>,
     pixels: &mut [u8],
     flags: &mut [u8],
+    keys: &mut [u64],
     sink: &mut K,
 ) -> Result<(), FrameError<K::Error>> {
     #[cfg(target_arch = "x86_64")]
     if x86_64_v3() {
         // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
-        return unsafe { frame.render_carried_v3(pixels, flags, &mut [], sink) };
+        return unsafe { frame.render_carried_v3(pixels, flags, keys, sink) };
     }
-    frame.render(pixels, flags, sink)
+    frame.render_carried::<hilcam::render::AllLines, K>(pixels, flags, keys, sink)
 }
 
 /// Renders a prepared frame into memory, its lines in parallel on every
@@ -360,16 +362,8 @@ pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
         flags: Vec::with_capacity(w as usize * h as usize),
     };
     let mut keys = vec![0u64; w as usize + 1];
-    #[cfg(target_arch = "x86_64")]
-    let done = if x86_64_v3() {
-        // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
-        unsafe { frame.render_carried_v3(&mut line, &mut flags, &mut keys, &mut core) }
-    } else {
-        frame.render_carried::<hilcam::render::AllLines, _>(&mut line, &mut flags, &mut keys, &mut core)
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let done = frame.render_carried::<hilcam::render::AllLines, _>(&mut line, &mut flags, &mut keys, &mut core);
-    done.map_err(|e| format!("render failed: {e:?}"))?;
+    render_carried(frame, &mut line, &mut flags, &mut keys, &mut core)
+        .map_err(|e| format!("render failed: {e:?}"))?;
     Ok(core)
 }
 

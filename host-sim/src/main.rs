@@ -594,51 +594,53 @@ fn main() -> ExitCode {
         Cmd::Costfit { out } => finish(
             host_sim::hil_cmd::Board::parse("lm3s6965evb").and_then(|b| host_sim::costfit::run(b, &out)),
         ),
-        Cmd::Throughput { scene, frames } => {
-            finish((|| {
-                if !(1..=10_000).contains(&frames) {
-                    return Err("--frames: must be 1 to 10000".into());
+        Cmd::Throughput { scene, frames } => finish((|| {
+            if !(1..=10_000).contains(&frames) {
+                return Err("--frames: must be 1 to 10000".into());
+            }
+            let r = host_sim::scene_file::load(&scene)?;
+            let s = r.core_scene()?;
+            let budget = hilcam::planner::Budget::default();
+            let time = |parallel: bool| -> Result<(f64, String), String> {
+                let mut secs = Vec::new();
+                let mut arith = String::new();
+                for _ in 0..frames {
+                    let t = std::time::Instant::now();
+                    let p = hilcam::planner::plan(&s, &budget);
+                    let f = hilcam::render::Frame::new(&s, &p.options)
+                        .map_err(|e| format!("{}: cannot render: {e:?}", scene.display()))?;
+                    let c = if parallel {
+                        host_sim::harness::collect(&f)?
+                    } else {
+                        host_sim::harness::collect_serial(&f)?
+                    };
+                    secs.push(t.elapsed().as_secs_f64());
+                    std::hint::black_box(c);
+                    arith = f.stages().arithmetic.name().to_string();
                 }
-                let r = host_sim::scene_file::load(&scene)?;
-                let s = r.core_scene()?;
-                let budget = hilcam::planner::Budget::default();
-                let time = |parallel: bool| -> Result<(f64, String), String> {
-                    let mut secs = Vec::new();
-                    let mut arith = String::new();
-                    for _ in 0..frames {
-                        let t = std::time::Instant::now();
-                        let p = hilcam::planner::plan(&s, &budget);
-                        let f = hilcam::render::Frame::new(&s, &p.options)
-                            .map_err(|e| format!("{}: cannot render: {e:?}", scene.display()))?;
-                        let c = if parallel {
-                            host_sim::harness::collect(&f)?
-                        } else {
-                            host_sim::harness::collect_serial(&f)?
-                        };
-                        secs.push(t.elapsed().as_secs_f64());
-                        std::hint::black_box(c);
-                        arith = f.stages().arithmetic.name().to_string();
-                    }
-                    secs.sort_by(f64::total_cmp);
-                    Ok((secs[secs.len() / 2], arith))
-                };
-                let (w, h) = s.camera.intrinsics.size();
-                let px = w as f64 * h as f64;
-                let (par, arith) = time(true)?;
-                let (one, _) = time(false)?;
-                Ok(format!(
-                "{} {w}x{h} ({arith} arithmetic, {} loops): {:.1} frames/s, {:.1} ns/pixel on {} threads; \
+                secs.sort_by(f64::total_cmp);
+                Ok((secs[secs.len() / 2], arith))
+            };
+            let (w, h) = s.camera.intrinsics.size();
+            let px = w as f64 * h as f64;
+            let (par, arith) = time(true)?;
+            let loops = if host_sim::harness::x86_64_v3() {
+                "x86-64-v3"
+            } else {
+                "baseline"
+            };
+            let (one, _) = time(false)?;
+            Ok(format!(
+                "{} {w}x{h} ({arith} arithmetic, {loops} loops): {:.1} frames/s, {:.1} ns/pixel on {} threads; \
                  {:.1} frames/s, {:.1} ns/pixel on one (median of {frames} frames; plan + prepare + render)",
                 r.desc.name,
-                if host_sim::harness::x86_64_v3() { "x86-64-v3" } else { "baseline" },
                 1.0 / par,
                 par / px * 1e9,
                 rayon::current_num_threads(),
                 1.0 / one,
                 one / px * 1e9
             ))
-            })())
-        }
+        })()),
         Cmd::Drive {
             board,
             scene,

@@ -134,7 +134,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// Host ns per pixel of a variant: median over `repeats` of preparing the
 /// frame and rendering every line on one core, in the loops built for
-/// this processor (`harness::render_through`).
+/// this processor (`harness::render_carried`).
 fn host_ns_per_pixel(v: &Variant, r: &Resolved, repeats: usize) -> Result<f64, String> {
     struct Time<'a> {
         scene: &'a hilcam::scene::Scene,
@@ -151,7 +151,7 @@ fn host_ns_per_pixel(v: &Variant, r: &Resolved, repeats: usize) -> Result<f64, S
             for _ in 0..self.repeats {
                 let t = Instant::now();
                 let frame = Frame::<S>::build(self.scene, &self.opts).map_err(|e| format!("{e:?}"))?;
-                crate::harness::render_through(&frame, &mut line, &mut flags, &mut Discard)
+                crate::harness::render_carried(&frame, &mut line, &mut flags, &mut [], &mut Discard)
                     .map_err(|e| format!("{e:?}"))?;
                 times.push(t.elapsed().as_nanos() as f64 / (w as f64 * h as f64));
             }
