@@ -16,7 +16,13 @@
 //! A line is rendered in chunks of 32 pixels, each in passes: the rays
 //! (undistorted slopes, `a`, `1/a`), then one pass a primitive keeping each
 //! ray's nearest hit (in scene order, so ties go to the first primitive, as
-//! on the generic path), then shading. A pass holds one primitive's
+//! on the generic path), then shading. A frame's plane without a checker or
+//! a lobe (a floor, a wall) has no pass of its own in the one-sample loop:
+//! it is tested only on the rays another primitive hits, and the rays no
+//! other primitive hits are shaded from the plane in closed form
+//! ([`Closed`]: its ambient and directional terms once a frame, each point
+//! light's `kd I h (|n·d| / |w P_L − dist d|)³` from the ray's slopes — no
+//! `t`, no hit point). A pass holds one primitive's
 //! constants in registers: on the Cortex-M3 that saves more than the chunk
 //! buffer's loads and stores cost. With pixel-area sampling
 //! (camera-model.md §7, [`crate::sampling`]) the same passes run over rows
@@ -38,6 +44,7 @@
 //! | `t`, hit points, vectors to lights | i32 S18 (U) | ±8 192 U, saturating |
 //! | sphere `b = d·c`, `d × c` / discriminant `a r² − |d × c|²` | i32 S22 / i64 S44 | ≤ 189 U / 3.6·10⁴ U² |
 //! | `r²` to a point light | u64 S36 (U²) | exact |
+//! | closed form: `w = n·d`; `q = w P_L − dist d`, then `|q|²` | i32 S24; i64 S50 (exact), i32 S22 U; u64 S44 U² | `|w| < 23`; `|q| ≤ 363 U` |
 //! | `cos⁴α` | u32 S31 | (0, 1] |
 //! | albedos × gain, irradiance, `1/r³` | [`Pf`] | any |
 //! | pixel sum before `cos⁴α` | u64 S15 DN | capped at 2³² DN ([`SUM_CAP`]) |
@@ -423,14 +430,19 @@ const SEED: [u16; 768] = {
 fn rsqrt_norm(x: u64) -> (u32, u32, u32) {
     let z = clz64(x) & !1;
     let m32 = (shl64(x, z) >> 32) as u32;
+    (m32, rsqrt_top(m32), z)
+}
+
+/// [`rsqrt_norm`]'s `y` for its `m` (in `[2³⁰, 2³²)`).
+#[inline(always)]
+fn rsqrt_top(m32: u32) -> u32 {
     let idx = ((m32 >> 22) as usize).saturating_sub(256);
     // y = seed 2^16: y² and the last product are by the 16-bit seed.
     let seed = SEED.get(idx).copied().unwrap_or(1 << 14);
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
     let y2 = (seed as u32 * seed as u32) << 1;
     let my2 = (umul(m32, y2) >> 31) as u32;
-    let y = (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32;
-    (m32, y, z)
+    (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32
 }
 
 /// [`rsqrt_norm`] refined by a second Newton step in 64-bit arithmetic:
@@ -941,6 +953,40 @@ enum MixLight {
     Point { p: [i32; 3], i: [Pf; 3] },
     /// Unit direction S30; irradiance per channel.
     Directional { l: [i32; 3], e: [Pf; 3] },
+}
+
+/// The frame's plane shaded in closed form ([`Mix32::closed_run`]): a
+/// plane without a checker or a lobe, perspective rays, every point light
+/// off it by 2⁻¹⁰ U or more. Along the ray `t d` (`d = (x̂, ŷ, 1)`) it is
+/// met where `w = n·d` has the sign of `dist` (at `t = dist/w`), and a
+/// point light at `P_L` lies at `r = |q| / |w|` with `q = w P_L − dist d`,
+/// linear in `d`: its term `kd I h / r³` (`h = n·P_L − dist`, the light's
+/// height, constant) is `kd I h (|w| / |q|)³`, with no `t`, no hit point
+/// and no vector to the light.
+#[derive(Clone, Debug)]
+struct Closed {
+    /// The plane's index among the primitives (its pass is not run:
+    /// [`Mix32::passes`]).
+    index: u8,
+    /// Unit normal, S30; `dist`, S24 U; `−dist`, S24 U and S50 U.
+    n: [i32; 3],
+    dist: i32,
+    ndist: i32,
+    ndist50: i64,
+    /// The ambient and directional terms (S15 DN, capped), facing the
+    /// viewer and facing away: the same at every point.
+    flat: [[u64; 3]; 2],
+    lights: heapless::Vec<ClosedLight, { crate::scene::MAX_LIGHTS }>,
+}
+
+/// A point light of [`Closed`]: position (S26 U: within 8 U), `kd I |h|`
+/// per channel (`I` per U², `h` in U), and whether it lies in front of the
+/// plane (on the side its normal points to).
+#[derive(Clone, Copy, Debug)]
+struct ClosedLight {
+    p26: [i32; 3],
+    k: [Pf; 3],
+    front: bool,
 }
 
 /// Defocus (camera-model.md §8): the aperture pattern pixel centres are lit
@@ -1461,6 +1507,8 @@ pub struct Mix32 {
     adaptive: bool,
     /// Defocus: the aperture pixel centres are lit through.
     aperture: Option<Aperture>,
+    /// The plane shaded in closed form, if the frame has one.
+    closed: Option<Closed>,
     /// The right half's rays are the left half's mirrored ([`Ray::mirror`]):
     /// the principal point is centred and the frame's loop is
     /// [`Mix32::line_f`].
@@ -1665,6 +1713,7 @@ impl Mix32 {
         samples: 1,
         adaptive: false,
         aperture: None,
+        closed: None,
         mirror: false,
     };
 
@@ -1932,8 +1981,76 @@ impl Mix32 {
             m => Some(Aperture::new(f, m, e)?),
         };
         self.mirror = f.centred && self.samples == 1 && self.aperture.is_none();
+        self.closed = self.closed_plane();
         self.set_frame_id(0);
         Ok(())
+    }
+
+    /// The frame's first plane that [`Mix32::closed_run`] can shade: no
+    /// checker, no lobe, perspective rays, the camera off it by 2⁻¹⁰ U or
+    /// more (so that `t = dist/w` never rounds to 0: where `w` has the sign
+    /// of `dist` the plane's pass keeps a hit), and a constant `n·l`
+    /// ([`MixPrim::nl`]) towards every point light. Out of line: once a
+    /// frame.
+    #[inline(never)]
+    fn closed_plane(&self) -> Option<Closed> {
+        if self.parallel.is_some() {
+            return None;
+        }
+        let (index, p) = self.prims.iter().enumerate().find(|(_, p)| {
+            matches!(p.shape, MixShape::Plane { dist, .. } if dist.unsigned_abs() >= 1 << 14)
+                && p.checker.is_none()
+                && self.lobe.get(p.material as usize).is_some_and(Option::is_none)
+                && (self.lights.iter().zip(&p.nl))
+                    .all(|(l, h)| matches!(l, MixLight::Directional { .. }) || *h != 0)
+        })?;
+        let MixShape::Plane { n, dist, .. } = p.shape else {
+            return None;
+        };
+        let m = p.material as usize;
+        let (kd, ka) = (self.kd.get(m)?, self.ka.get(m)?);
+        let mut c = Closed {
+            index: u8::try_from(index).ok()?,
+            n,
+            dist,
+            ndist: dist.saturating_neg(),
+            ndist50: -((dist as i64) << 26),
+            flat: [*ka; 2],
+            lights: heapless::Vec::new(),
+        };
+        for (l, &h) in self.lights.iter().zip(&p.nl) {
+            match l {
+                // Added and capped as `shade` adds them: the terms are never
+                // negative, so their order does not change the capped sum.
+                MixLight::Directional { l, e } => {
+                    for (sum, nt) in c.flat.iter_mut().zip([n, n.map(i32::saturating_neg)]) {
+                        if let Some(w) = directional_w(nt, *l) {
+                            for ((s, d), e) in sum.iter_mut().zip(kd).zip(e) {
+                                *s = (*s + (*d * *e).mul_to_sum(w, 15)).min(SUM_CAP);
+                            }
+                        }
+                    }
+                }
+                MixLight::Point { p, i } => {
+                    let hk = Pf::new(h.unsigned_abs(), -48);
+                    // |P_L| ≤ 8 U: S26 holds it.
+                    if p.iter().any(|v| v.unsigned_abs() > 1 << 21) {
+                        return None;
+                    }
+                    let _ = c.lights.push(ClosedLight {
+                        p26: p.map(|v| v << 8),
+                        k: zip3(*kd, *i, |d, i| d * i * hk),
+                        front: h > 0,
+                    });
+                }
+            }
+        }
+        Some(c)
+    }
+
+    /// The index of the plane shaded in closed form, if any.
+    pub fn closed_plane_index(&self) -> Option<usize> {
+        self.closed.as_ref().map(|c| c.index as usize)
     }
 
     /// Sets the frame id the noise is keyed by (0 after preparation).
@@ -2145,12 +2262,28 @@ impl Mix32 {
                     (xd, yd, yd2)
                 });
             }
-            self.passes::<PERSP, true>(rays, bounds, outside);
+            // The closed plane, if any: tested only where another primitive
+            // was hit; the rays no other primitive hit (and those outside
+            // the field) see it or nothing, shaded in closed form.
+            let closed = if PERSP { self.closed.as_ref() } else { None };
+            self.passes::<PERSP, true>(rays, bounds, outside, closed.map(|c| c.index as usize));
             // Each pixel's noise key is its index in the frame: the mirrored
             // rays' columns run right to left (`step` is −1 modulo 2³²).
             let mut index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
+            if let Some(c) = closed {
+                Self::closed_keep(c, rays);
+                // A `compact` build sums three channels for either format:
+                // one copy of the run (flash).
+                if cfg!(feature = "compact") {
+                    self.closed_run::<3>(c, C == 3, rays, words, fl, dn_max, (noise, index, step));
+                } else {
+                    self.closed_run::<C>(c, C == 3, rays, words, fl, dn_max, (noise, index, step));
+                }
+            }
             for ((r, word), flag) in rays.iter().zip(words.iter_mut()).zip(fl.iter_mut()) {
-                *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
+                if closed.is_none() || (r.t != 0 && r.t != NO_HIT) {
+                    *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
+                }
                 index = index.wrapping_add(step);
             }
             store(words, fl, mirrored, b, out, flags);
@@ -2188,7 +2321,7 @@ impl Mix32 {
         slope: impl FnMut(usize) -> (i32, i32, i64),
     ) {
         let (bounds, outside) = self.rays::<PERSP>(rays, slope);
-        self.passes::<PERSP, TRIM>(rays, bounds, outside);
+        self.passes::<PERSP, TRIM>(rays, bounds, outside, None);
     }
 
     /// [`fill_rays`] with this frame's undistortion (a frame without
@@ -2213,9 +2346,18 @@ impl Mix32 {
     /// (0, 0): a larger box, never a skipped hit) and whether any is
     /// outside the field. Out of line in a `compact` build: one copy
     /// serves the loops for one and three channels (flash).
+    /// Primitive `skip` (the frame's [`Closed`] plane in the one-sample
+    /// loop) has no pass: [`Mix32::closed_keep`] tests it on the rays
+    /// another primitive hits, [`Mix32::closed_run`] shades the others.
     #[cfg_attr(feature = "compact", inline(never))]
     #[cfg_attr(not(feature = "compact"), inline(always))]
-    fn passes<const PERSP: bool, const TRIM: bool>(&self, rays: &mut [Ray], bounds: [i32; 4], outside: bool) {
+    fn passes<const PERSP: bool, const TRIM: bool>(
+        &self,
+        rays: &mut [Ray],
+        bounds: [i32; 4],
+        outside: bool,
+        skip: Option<usize>,
+    ) {
         let [mut x0, mut x1, y0, y1] = bounds;
         // Along a row (`ŷ_d` fixed) `x̂` is monotone in `x̂_d` within the
         // field: ∂x̂/∂x̂_d = g + 2 x̂_d² g'(u) ≥ g + 2u g'(u) ≥ 0 before the
@@ -2239,6 +2381,9 @@ impl Mix32 {
             }
         }
         for (i, p) in self.prims.iter().enumerate() {
+            if skip == Some(i) {
+                continue;
+            }
             let (mut lo, mut hi) = (0, rays.len());
             if let Some(b) = p.bounds {
                 if x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3] {
@@ -2259,6 +2404,81 @@ impl Mix32 {
                 continue;
             };
             p.shape.nearest::<PERSP>(i as u8, rays);
+        }
+    }
+
+    /// The [`Closed`] plane's test on the rays another primitive hit: kept
+    /// as its own pass in scene order would keep it (nearer, or as near and
+    /// first). Perspective rays. Out of line in a `compact` build (flash).
+    #[cfg_attr(feature = "compact", inline(never))]
+    #[cfg_attr(not(feature = "compact"), inline(always))]
+    fn closed_keep(c: &Closed, rays: &mut [Ray]) {
+        for r in rays.iter_mut().filter(|r| r.t != 0 && r.t != NO_HIT) {
+            if let Some((t, away)) = r.plane_t::<true>(c.n, c.dist, (0, 0)) {
+                if t < r.t || (t == r.t && c.index < r.hit & !AWAY) {
+                    r.t = t;
+                    r.hit = c.index | if away { AWAY } else { 0 };
+                }
+            }
+        }
+    }
+
+    /// The words and flags of a chunk's rays that see the [`Closed`] plane
+    /// or nothing (no other primitive's hit; `t` is [`NO_HIT`]) and of
+    /// those outside the field; the others are left as they are. The
+    /// pixel's sum is the plane's ambient and directional terms and, for
+    /// each point light on the side it faces, `kd I h (|w| / |q|)³`: `w`
+    /// (S24) as [`Ray::plane_t`] takes it, `q` exact in S42 U, then S22 U,
+    /// `1/|q|` from [`rsqrt_norm`]. `C` channels are summed, and packed in
+    /// RGB565 if `rgb`, else one. Out of line: its own registers.
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[allow(clippy::too_many_arguments)]
+    fn closed_run<const C: usize>(
+        &self,
+        c: &Closed,
+        rgb: bool,
+        rays: &[Ray],
+        words: &mut [u16],
+        fl: &mut [u8],
+        dn_max: [u64; 3],
+        (noise, mut index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
+    ) {
+        let n = c.n;
+        for ((r, word), flag) in rays.iter().zip(words.iter_mut()).zip(fl.iter_mut()) {
+            let k = index;
+            index = index.wrapping_add(step);
+            if r.t == 0 {
+                (*word, *flag) = (0, FLAG_OUTSIDE_FIELD);
+                continue;
+            }
+            if r.t != NO_HIT {
+                continue;
+            }
+            *flag = 0;
+            // w = n·d, S24, as `plane_t` takes it: ahead where it has the
+            // sign of dist (t = dist/w > 0), facing away where w > 0.
+            let w = ((wmul_px(n[0], r.x) + wmul_px(n[1], r.y) + ((n[2] as i64) << 26)) >> 32) as i32;
+            // (dist ≠ 0: `w ^ dist` has the sign bit where the signs differ.)
+            let sum = if w != 0 && (w ^ c.dist) >= 0 {
+                let away = w > 0;
+                let mut sum = c.flat.get(away as usize).copied().unwrap_or_default();
+                // One light (the common case) without the loop's overhead.
+                match c.lights.as_slice() {
+                    [l] => closed_term::<C>(c, l, r, w, away, &mut sum),
+                    ls => ls
+                        .iter()
+                        .for_each(|l| closed_term::<C>(c, l, r, w, away, &mut sum)),
+                }
+                sum
+            } else {
+                self.bg
+            };
+            *word = if rgb {
+                Self::dn_word::<3>(sum, self.c4(r), dn_max, (noise, k))
+            } else {
+                Self::dn_word::<1>(sum, self.c4(r), dn_max, (noise, k))
+            };
         }
     }
 
@@ -2824,9 +3044,6 @@ impl Mix32 {
         // with one is refused by a build without: `Frame::line_built`).
         let lobe = if lobe_built::<L, C>() { k.lobe } else { None };
         let view = lobe.map(|_| Self::view::<PERSP>(r));
-        let dot30 = |a: [i32; 3], b: [i32; 3]| -> i32 {
-            ((wmul(a[0], b[0]) + wmul(a[1], b[1]) + wmul(a[2], b[2])) >> 30) as i32
-        };
         let mut sum = k.ka;
         for (((l, kl), ksl), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
             let (w, ldir) = match l {
@@ -2853,11 +3070,10 @@ impl Mix32 {
                     (cos_over_r3(nl as u64, y, z), ldir)
                 }
                 MixLight::Directional { l, .. } => {
-                    let nl = dot30(nt, *l);
-                    if nl <= 0 {
+                    let Some(w) = directional_w(nt, *l) else {
                         continue;
-                    }
-                    (Pf::new32(nl as u32, -30), Some(*l))
+                    };
+                    (w, Some(*l))
                 }
             };
             each::<C>(|c| {
@@ -2907,6 +3123,94 @@ fn lobe_pf(x: i32, s: u16) -> Pf {
         }
         base = base * base;
     }
+}
+
+/// Adds point light `l`'s term to `sum` for ray `r` on the [`Closed`]
+/// plane (`w = n·d`, S24; `away`: the plane faces away), if the light lies
+/// on the side the ray sees: `kd I h (|w| / |q|)³`.
+#[inline(always)]
+fn closed_term<const C: usize>(c: &Closed, l: &ClosedLight, r: &Ray, w: i32, away: bool, sum: &mut [u64; 3]) {
+    if l.front == away {
+        return;
+    }
+    // q = w P_L − dist d, exact in S50 U (|q| = |w| r ≤ 363 U: |w| ≤ |d| <
+    // 23, |P_L| and |dist| ≤ 8 U), then S22 U.
+    let q22 = |v: i64| (v >> 28) as i32;
+    let qx = q22(wmul(w, l.p26[0]) + wmul(c.ndist, r.x));
+    let qy = q22(wmul(w, l.p26[1]) + wmul(c.ndist, r.y));
+    let qz = q22(wmul(w, l.p26[2]) + c.ndist50);
+    // |q|², S44 U² (< 2^62).
+    let q2 = wsq(qx) + wsq(qy) + wsq(qz);
+    if q2 == 0 {
+        return;
+    }
+    let s3 = cube_over(w.unsigned_abs(), q2);
+    each::<C>(|ch| {
+        if let (Some(x), Some(k)) = (sum.get_mut(ch), l.k.get(ch)) {
+            *x = (*x + s3.times(*k)).min(SUM_CAP);
+        }
+    });
+}
+
+/// `(a / |q|)³` for `a` in S24 (`|w|`) and `|q|²` in S44 U² (non-zero):
+/// [`Closed`]'s `(1/r)³` in U⁻³, as `m 2^e` with `m` in `[2²⁹, 2³²)`
+/// (not normalized: [`Cube::times`] takes it as it is).
+#[derive(Clone, Copy, Debug)]
+struct Cube {
+    m: u32,
+    e: i32,
+}
+
+/// [`Cube`] of `a / √q2`: `1/|q| = y 2^(z/2 − 40)` ([`rsqrt_norm`]), so
+/// `s = a y 2^(z/2 − 64)`; `a y` normalized once (`m` in `[2³¹, 2³²)`),
+/// then `m²` and `m³` as the high words of two products. Relative error:
+/// `1/√` 2⁻¹⁹ (three times), the truncations below 2⁻²⁸ together.
+#[inline(always)]
+fn cube_over(a: u32, q2: u64) -> Cube {
+    let (_, y, z) = rsqrt_norm(q2);
+    // a y ≈ m 2^(32 − lz): s = m 2^(z/2 − lz − 32).
+    let (m, lz) = norm_top(umul(a, y));
+    let m2 = (umul(m, m) >> 32) as u32;
+    let m3 = (umul(m2, m) >> 32) as u32;
+    // s³ = m³ 2^(3e) = m3 2^(3e + 64).
+    Cube {
+        m: m3,
+        e: 3 * (z as i32 / 2 - lz as i32 - 32) + 64,
+    }
+}
+
+impl Cube {
+    /// `k · self` in S15 DN (low by under one unit of the product's top
+    /// word: 2⁻²⁸ relative; capped at [`SUM_CAP`]).
+    #[inline(always)]
+    fn times(self, k: Pf) -> u64 {
+        // k·s³ = p 2^(k.e + e + 32), p = (k.m m3) / 2^32 in [2^28, 2^32).
+        let p = (umul(k.m, self.m) >> 32) as u32;
+        let s = k.e + self.e + 32 + 15;
+        if s <= 0 {
+            p.checked_shr(s.unsigned_abs()).unwrap_or(0) as u64
+        } else if s <= 15 {
+            (p as u64) << s
+        } else if p == 0 {
+            0
+        } else {
+            SUM_CAP
+        }
+    }
+}
+
+/// `a·b` of two S30 unit vectors, S30.
+#[inline(always)]
+fn dot30(a: [i32; 3], b: [i32; 3]) -> i32 {
+    ((wmul(a[0], b[0]) + wmul(a[1], b[1]) + wmul(a[2], b[2])) >> 30) as i32
+}
+
+/// A directional light's `n̂·l̂` for a normal `nt` and direction `l` (S30),
+/// or `None` if the light lies behind the surface.
+#[inline(always)]
+fn directional_w(nt: [i32; 3], l: [i32; 3]) -> Option<Pf> {
+    let nl = dot30(nt, l);
+    (nl > 0).then(|| Pf::new32(nl as u32, -30))
 }
 
 /// [`Mix32::undistort`] by `k1`, `k2` (S28) within the field's `u` limit

@@ -350,8 +350,10 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 }
                 _ => g.direct_geom_err(arithmetic, scene),
             };
-            let cost =
-                CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion)) * spp(arithmetic);
+            // The closed form runs in the fast one-sample loop.
+            let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
+            let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion, closed))
+                * spp(arithmetic);
             let _ = cands.push(Candidate {
                 arithmetic,
                 distortion,
@@ -672,6 +674,10 @@ struct Geometry {
     /// Sum over the bounded primitives of the fraction of the sensor whose
     /// rays hit each (sampled).
     bounded_area: f64,
+    /// Fraction of the sensor whose rays see the plane the fast arithmetic
+    /// shades in closed form (`mix32::Closed`) and no other primitive
+    /// (sampled; 0 without such a plane).
+    closed_area: f64,
 }
 
 /// How far a primitive's points lie from the camera, in the camera frame:
@@ -917,10 +923,29 @@ impl Geometry {
             })
             .fold(0.0, f64::max);
         let dn_max = (0..fmt.channels()).map(|c| fmt.dn_max(c)).max().unwrap_or(255) as f64;
+        // The plane the fast arithmetic shades in closed form, as
+        // `mix32::Mix32::closed_plane` picks it: the first plane without a
+        // checker or a lobe, perspective rays, the camera and every point
+        // light off it by 2⁻¹⁰ of the fast unit or more.
+        let unit = libm::ldexp(1.0, e);
+        let closed = (origin_scale.is_none())
+            .then(|| {
+                prims.iter().zip(&scene.primitives).position(|(p, sp)| {
+                    matches!(p.shape, Shape::Plane { .. })
+                        && sp.checker.is_none()
+                        && p.ks == 0.0
+                        && libm::fabs(dot3(p.c, p.n)) >= unit / 1024.0
+                        && lights
+                            .iter()
+                            .flatten()
+                            .all(|l| prim_light_distance(p, *l) >= unit / 1024.0)
+                })
+            })
+            .flatten();
         // Coverage: a grid of COVERAGE_GRID rays over the sensor (distortion
         // ignored), each tested against every primitive.
         let (gx, gy) = COVERAGE_GRID;
-        let (mut hits, mut bounded) = (0u32, 0u32);
+        let (mut hits, mut bounded, mut closed_hits) = (0u32, 0u32, 0u32);
         for a in 0..gx {
             for b in 0..gy {
                 let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
@@ -929,14 +954,16 @@ impl Geometry {
                     None => ([0.0; 3], [x, y, 1.0]),
                     Some(k) => ([x * k, y * k, 0.0], [0.0, 0.0, 1.0]),
                 };
-                let mut any = false;
-                for p in &prims {
+                let (mut any, mut others) = (false, false);
+                for (i, p) in prims.iter().enumerate() {
                     if p.hit(o, d) {
                         any = true;
                         bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
+                        others |= closed != Some(i);
                     }
                 }
                 hits += any as u32;
+                closed_hits += (any && !others) as u32;
             }
         }
         Geometry {
@@ -949,7 +976,7 @@ impl Geometry {
             origin_scale,
             extent,
             fast_extent,
-            unit: libm::ldexp(1.0, e),
+            unit,
             aperture: None,
             prims,
             lights,
@@ -957,6 +984,7 @@ impl Geometry {
             dn_max,
             coverage: hits as f64 / (gx * gy) as f64,
             bounded_area: bounded as f64 / (gx * gy) as f64,
+            closed_area: closed_hits as f64 / (gx * gy) as f64,
         }
     }
 
@@ -1085,6 +1113,11 @@ pub struct ErrorModel {
     /// A sphere under a specular lobe takes its normal from the ray and the
     /// sphere (`mix32::fine_normal`), not from the rounded hit point.
     pub fine_normal: bool,
+    /// A plane without a lobe seen by perspective rays may be shaded in
+    /// closed form (`mix32::Closed`): its point lights' terms from
+    /// `w = n·d` and `q = w P_L − dist d` instead of the hit point. Its
+    /// length unit `U`, metres, or `None`.
+    pub closed_plane: Option<f64>,
 }
 
 impl ErrorModel {
@@ -1122,6 +1155,7 @@ impl ErrorModel {
                 unit: libm::ldexp(1.0, -28),
                 per_term_dn: libm::ldexp(1.0, -14),
                 fine_normal: true,
+                closed_plane: Some(u),
             },
             // I32F32 throughout: 2⁻³² m per rounding (each product, the
             // camera-frame centre's components), some 40 roundings of
@@ -1142,6 +1176,7 @@ impl ErrorModel {
                 per_term_dn: q32,
                 ap_origin: 0.0,
                 fine_normal: false,
+                closed_plane: None,
             },
         }
     }
@@ -1230,6 +1265,11 @@ impl ErrorModel {
             } else {
                 self.light_terms(scene, g, p, dn, dp, dn, None)
             };
+            // A plane's rays that meet nothing else take the closed form.
+            let e = match (self.closed_plane, p.shape, g.origin_scale) {
+                (Some(u), Shape::Plane { .. }, None) => e.max(self.closed_terms(scene, g, p, dn, u)),
+                _ => e,
+            };
             worst = worst.max(base + e.min(g.dn_max * 2.0));
         }
         worst
@@ -1301,6 +1341,54 @@ impl ErrorModel {
                     }
                 };
             }
+        }
+        e
+    }
+
+    /// The error, DN, of the terms of every light on plane `p` shaded in
+    /// closed form (`mix32::Closed`, lengths in `U = u` metres), with the
+    /// normal's error `dn`. A point light at distance `L` from the camera
+    /// and height `h` over the plane (distance `dist` from the camera)
+    /// gives `E = D h³/r³` at distance `r = x h ≥ h` (`D` its term at `h`),
+    /// and `E ∝ (|w|/|q|)³` with `|q| = |w| r` and `1/|w| ≤ (r + L)/dist`
+    /// (the hit lies within `r + L` of the camera). So `w`'s error `δw`
+    /// (its S24 truncation, `n`'s and `d`'s roundings: below 2⁻²³) moves
+    /// `E` by `3 δw (r + L)²/(dist r) ≤ 3 δw x (h + L)²/(dist h)` relative,
+    /// which grows with `r` where `E` falls: with the pixel saturating above
+    /// `DN_max`, `min(E, DN_max) x ≤ min(D, DN_max) x_c`, `x_c = max(1,
+    /// (D/DN_max)^⅓)` where `E` reaches `DN_max`. `q`'s roundings (its S22
+    /// truncation, `dist`'s and `d`'s over `|w| r`, `P_L`'s S18 over `r`)
+    /// and the rest (`1/√` three times, the products) are largest at
+    /// `r = h`.
+    #[inline(never)]
+    fn closed_terms(&self, scene: &Scene, g: &Geometry, p: &PrimGeom, dn: f64, u: f64) -> f64 {
+        let cap = g.dn_max * 1.01;
+        let dist = libm::fabs(dot3(p.c, p.n)).max(1e-300);
+        let mut e = 0.0;
+        for (l, lp) in scene.lights.iter().zip(&g.lights) {
+            let (irradiance, pos) = match (*l, lp) {
+                (Light::Point { intensity, .. }, Some(pos)) => (intensity, *pos),
+                (Light::Directional { irradiance, .. }, _) => (irradiance, [f64::INFINITY; 3]),
+                _ => continue,
+            };
+            let i = irradiance.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max);
+            // Directional terms are the general path's, summed once a frame.
+            let (d, rel) = if pos[0].is_finite() {
+                let h = prim_light_distance(p, pos).max(1e-9);
+                let hl = h + norm3(pos);
+                let d = g.gain * p.kd * i / (h * h);
+                let rel_q = (1.74 * libm::ldexp(u, -22) + libm::ldexp(u, -24)) * hl / dist
+                    + 1.74 * libm::ldexp(u, -18)
+                    + 1.42 * libm::ldexp(hl, -26);
+                let x_c = libm::pow((d / cap).max(1.0), 1.0 / 3.0);
+                (
+                    d,
+                    1e-8 + 3.0 * (rel_q + libm::ldexp(x_c * hl * hl / dist, -23)) / h,
+                )
+            } else {
+                (g.gain * p.kd * i, 0.0)
+            };
+            e += d * dn + d.min(cap) * (self.rel + rel);
         }
         e
     }
@@ -1426,6 +1514,10 @@ pub struct Features {
     /// Channels that draw sensor noise (the scene's channels if it has
     /// noise, else 0): the noise stage runs on every pixel in the field.
     pub noise_channels: f64,
+    /// Fraction of the sensor shaded in closed form (the fast arithmetic's
+    /// one-sample loop: a plane's pixels that see nothing else; a sampled
+    /// estimate), alone and times the point lights.
+    pub closed: f64,
 }
 
 impl Features {
@@ -1434,13 +1526,14 @@ impl Features {
     pub fn of_options(scene: &Scene, opts: &Options) -> Features {
         let distortion =
             (!scene.distortion.is_none() || opts.keep_all_stages).then_some(opts.distortion_eval);
-        Features::of(scene, &Geometry::of(scene, opts.model), distortion)
+        let closed = opts.arithmetic == Arithmetic::Fast && opts.samples <= 1 && opts.aperture == 0;
+        Features::of(scene, &Geometry::of(scene, opts.model), distortion, closed)
     }
 
     /// The features of `scene` rendered with `distortion` and `g`'s rays.
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
-    fn of(scene: &Scene, g: &Geometry, distortion: Option<DistortionEval>) -> Features {
+    fn of(scene: &Scene, g: &Geometry, distortion: Option<DistortionEval>, closed: bool) -> Features {
         let mut f = Features::default();
         for p in &scene.primitives {
             match p.shape {
@@ -1474,6 +1567,7 @@ impl Features {
         } else {
             0.0
         };
+        f.closed = if closed { g.closed_area } else { 0.0 };
         f
     }
 
@@ -1498,12 +1592,14 @@ impl Features {
             self.bounded_area,
             self.bounded_area * self.parallel,
             self.noise_channels,
+            self.closed,
+            self.closed * self.point_lights,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 17;
+pub const COST_TERMS: usize = 19;
 
 /// M3 instructions a pixel as a linear function of [`Features`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1539,8 +1635,8 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        134.1, 42.8, -2.1, -10.0, -23.1, 22.8, 185.4, 88.3, 27.9, 0.0, 302.8, 71.0, 6.9, 17.2, 148.7, -55.1,
-        269.0,
+        105.0, 29.8, 5.9, 14.1, -5.3, -9.0, 148.0, 21.7, 8.9, 0.0, 253.2, 69.6, -11.4, 157.7, 88.2, -25.1,
+        273.0, -157.8, -31.5,
     ],
 };
 
@@ -1549,7 +1645,7 @@ pub const FAST_COST: CostModel = CostModel {
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
         1081.8, 649.6, 41.6, -53.1, -92.2, 190.0, 1821.2, 199.5, 392.9, 446.8, 2474.0, 363.1, -386.1, 197.2,
-        1455.9, 11.6, 866.2,
+        1455.9, 11.6, 866.2, 0.0, 0.0,
     ],
 };
 

@@ -962,6 +962,18 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         }
     }
 
+    /// The primitive (its index in the scene) whose pixels are shaded in
+    /// closed form, if any: the fast arithmetic's plane without a checker
+    /// or a lobe, seen by perspective rays, with its point lights off it
+    /// (`mix32`'s `Closed`).
+    pub fn closed_plane(&self) -> Option<usize> {
+        match &self.path {
+            Path::Wide(_) => None,
+            #[cfg(feature = "mix32")]
+            Path::Fast(m) => m.closed_plane_index(),
+        }
+    }
+
     /// The stages this frame runs.
     pub fn stages(&self) -> Stages {
         self.stages

@@ -483,3 +483,93 @@ fn a_zero_albedo_channel_stays_dark() {
         .map(|p| (u16::from_le_bytes([p[0], p[1]]) >> 5) & 63);
     assert!(green.into_iter().all(|g| g == 0), "green must stay 0");
 }
+
+/// A plane without a checker lit by point lights (2⁻⁹ of the frame's
+/// length unit to metres above it, in front of or behind it) and a
+/// directional light, seen from above or from below (facing away), with
+/// and without distortion: every pixel that sees it and nothing else is
+/// shaded in closed form (`Frame::closed_plane`). In 16 bits, at exposures
+/// that put the lit plane up to full scale and past it, its smooth pixels
+/// are within the fast candidate's predicted error (+ rounding) of the
+/// reference.
+#[test]
+fn a_point_lit_plane_in_closed_form_within_the_prediction() {
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+    let mut config = Config::with_cases(120);
+    config.failure_persistence = None;
+    let mut runner = TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
+    let light = (
+        -3.0f64..3.0,
+        0.0f64..1.0,
+        -3.0f64..3.0,
+        any::<bool>(),
+        1.0f64..100.0,
+    );
+    let case = (
+        (-0.3f64..0.3, -0.3f64..0.3),
+        (0.05f64..2.0, any::<bool>(), -1.0f64..1.0),
+        prop::collection::vec(light, 1..3),
+        prop::option::of(0.0f64..0.3),
+        common::log_uniform(30.0, 3000.0),
+    );
+    let worst = std::cell::Cell::new(0.0f64);
+    let result = runner.run(&case, |((nx, nz), (height, below, ex), lights, k1, exposure)| {
+        // Heights from 2^-8 m, 2^-10 of the frame's unit or more (the
+        // content lies within 8 m of the camera: U ≤ 1 m), up to 1 m.
+        let unit_floor = libm::ldexp(1.0, -8);
+        let mut t = format!(
+            "name = \"closed\"\n[output]\nformat = \"gray16\"\nbits = 16\nexposure = {exposure}\n[camera]\n\
+             width = 64\nheight = 48\nfocal_length = 2.4e-3\npitch = 24e-6\nf_number = 2.0\n\
+             focus_distance = 3.0\ntolerable_blur = 24e-6\n"
+        );
+        if let Some(k1) = k1 {
+            t += &format!("distortion = [{k1}, 0.02]\n");
+        }
+        let ey = if below { -height } else { height };
+        t += &format!(
+            "pose = {{ eye = [{ex}, {ey}, -3.0], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0] }}\n\
+             [environment]\nambient = 0.1\nbackground = 0.3\n\
+             [[materials]]\nname = \"a\"\nalbedo = 0.7\n\
+             [[primitives]]\nkind = \"plane\"\nmaterial = \"a\"\npoint = [0.0, 0.0, 0.0]\nnormal = [{nx}, 1.0, {nz}]\n\
+             [[lights]]\nkind = \"directional\"\ndirection = [0.3, 1.0, -0.5]\nirradiance = 2.0\n"
+        );
+        for (x, h, z, behind, i) in &lights {
+            // Over the plane y = 0 (tilted by n): lifted along y by h m, at
+            // least 2^-9 U.
+            let h = h.max(unit_floor) * if *behind { -1.0 } else { 1.0 };
+            let y = h - (nx * x + nz * z);
+            t += &format!("[[lights]]\nkind = \"point\"\nposition = [{x}, {y}, {z}]\nintensity = {i}\n");
+        }
+        let r = host_sim::scene_file::parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let v = Variant::parse("mix32-poly").expect("variant");
+        let budget = Budget::default();
+        let (_, plan, frame) = prepare::<I32F32>(&r, &budget, |o| v.options(o)).map_err(TestCaseError::fail)?;
+        prop_assert_eq!(frame.closed_plane(), Some(0), "not in closed form:\n{}", t);
+        let fast = plan
+            .candidates
+            .iter()
+            .find(|c| c.arithmetic == hilcam::render::Arithmetic::Fast)
+            .expect("a fast candidate");
+        let core = collect(&frame).map_err(TestCaseError::fail)?;
+        let rs = RefScene::new(&r);
+        let reference = rs.render();
+        let m = host_sim::harness::compare(&r, &rs, &reference, &plan, &budget, &frame, &core);
+        worst.set(worst.get().max(m.max_abs_lsb_smooth as f64 / (fast.lsb + 1.0)));
+        prop_assert!(
+            m.max_abs_lsb_smooth as f64 <= fast.lsb.floor() + 1.0,
+            "smooth {} LSB, predicted {}:\n{}",
+            m.max_abs_lsb_smooth,
+            fast.lsb,
+            t
+        );
+        Ok(())
+    });
+    eprintln!(
+        "closed form: largest measured / (predicted + 1) {:.3}",
+        worst.get()
+    );
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+}

@@ -56,6 +56,8 @@ pub const TERMS: [&str; COST_TERMS] = [
     "bounded_area",
     "bounded_area_parallel",
     "noise_channels",
+    "closed",
+    "closed_point_lights",
 ];
 
 /// What one calibration scene holds beyond the base (a floor plane, one
