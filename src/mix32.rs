@@ -2456,9 +2456,9 @@ impl Mix32 {
                 continue;
             }
             *flag = 0;
-            // w = n·d, S24, as `plane_t` takes it: ahead where it has the
-            // sign of dist (t = dist/w > 0), facing away where w > 0.
-            let w = ((wmul_px(n[0], r.x) + wmul_px(n[1], r.y) + ((n[2] as i64) << 26)) >> 32) as i32;
+            // Ahead where w has the sign of dist (t = dist/w > 0), facing
+            // away where w > 0.
+            let w = closed_w(n, r);
             // (dist ≠ 0: `w ^ dist` has the sign bit where the signs differ.)
             let sum = if w != 0 && (w ^ c.dist) >= 0 {
                 let away = w > 0;
@@ -3123,6 +3123,13 @@ fn lobe_pf(x: i32, s: u16) -> Pf {
         }
         base = base * base;
     }
+}
+
+/// `w = n·d` (S24) of ray `r` for a plane of normal `n` (S30), as
+/// [`Ray::plane_t`] takes it.
+#[inline(always)]
+fn closed_w(n: [i32; 3], r: &Ray) -> i32 {
+    ((wmul_px(n[0], r.x) + wmul_px(n[1], r.y) + ((n[2] as i64) << 26)) >> 32) as i32
 }
 
 /// Adds point light `l`'s term to `sum` for ray `r` on the [`Closed`]

@@ -119,7 +119,17 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("mix32::fine_normal", Stage::Hit),
     ("mix32::MixChecker", Stage::Hit),
     ("mix32::Ray::point", Stage::Hit),
+    // The closed-form plane: its w = n·d and its test where another
+    // primitive was hit (intersection), its terms (shading); the run's own
+    // loop is the line loop's.
+    ("mix32::closed_w", Stage::Intersection),
+    ("mix32::Mix32::closed_keep", Stage::Intersection),
+    ("mix32::closed_term", Stage::Shading),
+    ("mix32::cube_over", Stage::Shading),
+    ("mix32::Cube", Stage::Shading),
+    ("mix32::Mix32::closed_run", Stage::LineLoop),
     ("mix32::Mix32::shade", Stage::Shading),
+    ("mix32::directional_w", Stage::Shading),
     ("mix32::Mix32::view", Stage::Shading),
     ("mix32::lobe_pf", Stage::Shading),
     ("mix32::cos_over_r", Stage::Shading),
@@ -141,6 +151,7 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("mix32::MixShape::moved", Stage::Defocus),
     ("mix32::Aperture", Stage::Defocus),
     ("mix32::Mix32::fill", Stage::Preparation),
+    ("mix32::Mix32::closed_plane", Stage::Preparation),
     ("mix32::Mix32::set_frame_id", Stage::Preparation),
     ("mix32::Mix32::line", Stage::LineLoop),
     ("mix32::Mix32::pixel", Stage::LineLoop),
@@ -709,6 +720,20 @@ mod tests {
         let c = chain(&["core::cmp::Ord::min", "hilcam::mix32::Mix32::line_s"]);
         assert_eq!(stage_of(&c), Some(Stage::Sampling));
         let c = chain(&["hilcam::mix32::Mix32::line_f"]);
+        assert_eq!(stage_of(&c), Some(Stage::LineLoop));
+        // The closed-form plane: 1/|q| in its term is shading, its w the
+        // intersection's, the run's own loop the line loop's.
+        let c = chain(&[
+            "hilcam::mix32::rsqrt_top",
+            "hilcam::mix32::rsqrt_norm",
+            "hilcam::mix32::cube_over",
+            "hilcam::mix32::closed_term",
+            "hilcam::mix32::Mix32::closed_run",
+        ]);
+        assert_eq!(stage_of(&c), Some(Stage::Shading));
+        let c = chain(&["hilcam::mix32::wmul_px", "hilcam::mix32::closed_w", "hilcam::mix32::Mix32::closed_run"]);
+        assert_eq!(stage_of(&c), Some(Stage::Intersection));
+        let c = chain(&["hilcam::mix32::Mix32::closed_run"]);
         assert_eq!(stage_of(&c), Some(Stage::LineLoop));
         // The frame's preparation, however the demangler spaces generics
         // (not the render module's line loop).
