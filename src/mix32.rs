@@ -2445,6 +2445,8 @@ impl Mix32 {
         (noise, mut index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
     ) {
         let n = c.n;
+        // A compile-time constant but in a `compact` build (one copy).
+        let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
         for ((r, word), flag) in rays.iter().zip(words.iter_mut()).zip(fl.iter_mut()) {
             let k = index;
             index = index.wrapping_add(step);
@@ -3188,21 +3190,12 @@ fn cube_over(a: u32, q2: u64) -> Cube {
 
 impl Cube {
     /// `k · self` in S15 DN (low by under one unit of the product's top
-    /// word: 2⁻²⁸ relative; capped at [`SUM_CAP`]).
+    /// word, in `[2²⁸, 2³²)`: 2⁻²⁸ relative; capped at [`SUM_CAP`]):
+    /// [`Pf::mul_to_sum`], which takes the top word as it is (it does not
+    /// need `m` normalized).
     #[inline(always)]
     fn times(self, k: Pf) -> u64 {
-        // k·s³ = p 2^(k.e + e + 32), p = (k.m m3) / 2^32 in [2^28, 2^32).
-        let p = (umul(k.m, self.m) >> 32) as u32;
-        let s = k.e + self.e + 32 + 15;
-        if s <= 0 {
-            p.checked_shr(s.unsigned_abs()).unwrap_or(0) as u64
-        } else if s <= 15 {
-            (p as u64) << s
-        } else if p == 0 {
-            0
-        } else {
-            SUM_CAP
-        }
+        k.mul_to_sum(Pf { m: self.m, e: self.e }, 15)
     }
 }
 
