@@ -488,10 +488,10 @@ fn a_zero_albedo_channel_stays_dark() {
 /// length unit to metres above it, in front of or behind it) and a
 /// directional light, seen from above or from below (facing away), with
 /// and without distortion: every pixel that sees it and nothing else is
-/// shaded in closed form (`Frame::closed_plane`). In 16 bits, at exposures
-/// that put the lit plane up to full scale and past it, its smooth pixels
-/// are within the fast candidate's predicted error (+ rounding) of the
-/// reference.
+/// shaded in closed form (`Frame::closed_plane`). In 16 bits and in
+/// RGB565, at exposures that put the lit plane up to full scale and past
+/// it, its smooth pixels are within the fast candidate's predicted error
+/// (+ rounding) of the reference.
 #[test]
 fn a_point_lit_plane_in_closed_form_within_the_prediction() {
     use proptest::prelude::*;
@@ -512,14 +512,20 @@ fn a_point_lit_plane_in_closed_form_within_the_prediction() {
         prop::collection::vec(light, 1..3),
         prop::option::of(0.0f64..0.3),
         common::log_uniform(30.0, 3000.0),
+        prop::bool::weighted(0.25),
     );
     let worst = std::cell::Cell::new(0.0f64);
-    let result = runner.run(&case, |((nx, nz), (height, below, ex), lights, k1, exposure)| {
+    let result = runner.run(&case, |((nx, nz), (height, below, ex), lights, k1, exposure, rgb)| {
         // Heights from 2^-8 m, 2^-10 of the frame's unit or more (the
         // content lies within 8 m of the camera: U ≤ 1 m), up to 1 m.
         let unit_floor = libm::ldexp(1.0, -8);
+        let format = if rgb {
+            "format = \"rgb565\""
+        } else {
+            "format = \"gray16\"\nbits = 16"
+        };
         let mut t = format!(
-            "name = \"closed\"\n[output]\nformat = \"gray16\"\nbits = 16\nexposure = {exposure}\n[camera]\n\
+            "name = \"closed\"\n[output]\n{format}\nexposure = {exposure}\n[camera]\n\
              width = 64\nheight = 48\nfocal_length = 2.4e-3\npitch = 24e-6\nf_number = 2.0\n\
              focus_distance = 3.0\ntolerable_blur = 24e-6\n"
         );
@@ -527,10 +533,11 @@ fn a_point_lit_plane_in_closed_form_within_the_prediction() {
             t += &format!("distortion = [{k1}, 0.02]\n");
         }
         let ey = if below { -height } else { height };
+        let albedo = if rgb { "[0.7, 0.5, 0.3]" } else { "0.7" };
         t += &format!(
             "pose = {{ eye = [{ex}, {ey}, -3.0], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0] }}\n\
              [environment]\nambient = 0.1\nbackground = 0.3\n\
-             [[materials]]\nname = \"a\"\nalbedo = 0.7\n\
+             [[materials]]\nname = \"a\"\nalbedo = {albedo}\n\
              [[primitives]]\nkind = \"plane\"\nmaterial = \"a\"\npoint = [0.0, 0.0, 0.0]\nnormal = [{nx}, 1.0, {nz}]\n\
              [[lights]]\nkind = \"directional\"\ndirection = [0.3, 1.0, -0.5]\nirradiance = 2.0\n"
         );
@@ -555,7 +562,11 @@ fn a_point_lit_plane_in_closed_form_within_the_prediction() {
         let rs = RefScene::new(&r);
         let reference = rs.render();
         let m = host_sim::harness::compare(&r, &rs, &reference, &plan, &budget, &frame, &core);
-        worst.set(worst.get().max(m.max_abs_lsb_smooth as f64 / (fast.lsb + 1.0)));
+        // The largest ratio in 16 bits (RGB565's 1 LSB roundings of a tiny
+        // predicted error are near 1 and say nothing).
+        if !rgb {
+            worst.set(worst.get().max(m.max_abs_lsb_smooth as f64 / (fast.lsb + 1.0)));
+        }
         prop_assert!(
             m.max_abs_lsb_smooth as f64 <= fast.lsb.floor() + 1.0,
             "smooth {} LSB, predicted {}:\n{}",
@@ -566,10 +577,35 @@ fn a_point_lit_plane_in_closed_form_within_the_prediction() {
         Ok(())
     });
     eprintln!(
-        "closed form: largest measured / (predicted + 1) {:.3}",
+        "closed form, 16 bits: largest measured / (predicted + 1) {:.3}",
         worst.get()
     );
     if let Err(e) = result {
         panic!("{e}");
+    }
+}
+
+/// A plane without a checker lit by a point light 20 µm above it, under
+/// 2⁻¹⁰ of the frame's length unit: its `n·l` is not a per-frame constant
+/// there, so it is not shaded in closed form (`Frame::closed_plane` is
+/// `None`) but by the general path, within the targets; 1 m above it, it
+/// is.
+#[test]
+fn a_light_at_the_plane_leaves_the_closed_form() {
+    let floor = "[[primitives]]\nkind = \"plane\"\nmaterial = \"a\"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\n";
+    for (height, closed) in [(0.00002, None), (1.0, Some(0))] {
+        let r = scene(
+            &format!(
+                "{floor}[[lights]]\nkind = \"point\"\nposition = [0.1, {height}, 0.2]\nintensity = 5.0\n"
+            ),
+            &[],
+        );
+        let v = Variant::parse("mix32-poly").expect("variant");
+        let (_, _, frame) = prepare::<I32F32>(&r, &Budget::default(), |o| {
+            v.options(o).with(Override::Aperture { points: 0 })
+        })
+        .expect("prepares");
+        assert_eq!(frame.closed_plane(), closed, "light {height} m above the floor");
+        meets_targets(&mix(&r).expect("renders").0);
     }
 }
