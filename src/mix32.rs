@@ -426,7 +426,7 @@ const SEED: [u16; 768] = {
 /// For `x ≠ 0`: `(m, y, z)` with `m` the top word of `x << z` in `[2³⁰,
 /// 2³²)`, `z` even, and `y ≈ 1/√(m/2³²)` in Q2.30 (in `(1, 2]`; relative
 /// error < 2⁻¹⁹): one Newton step from a 768-entry seed, three products.
-#[inline]
+#[inline(always)]
 fn rsqrt_norm(x: u64) -> (u32, u32, u32) {
     let z = clz64(x) & !1;
     let m32 = (shl64(x, z) >> 32) as u32;
@@ -973,20 +973,22 @@ struct Closed {
     dist: i32,
     ndist: i32,
     ndist50: i64,
-    /// The ambient and directional terms (S15 DN, capped), facing the
-    /// viewer and facing away: the same at every point.
-    flat: [[u64; 3]; 2],
+    /// The ambient and directional terms (S15 DN, capped) on the side the
+    /// rays see: the same at every point. (A ray meets the plane where `w`
+    /// has the sign of `dist`, so every hit faces away if `dist > 0`, and
+    /// none does otherwise.)
+    flat: [u64; 3],
+    /// The point lights on that side.
     lights: heapless::Vec<ClosedLight, { crate::scene::MAX_LIGHTS }>,
 }
 
-/// A point light of [`Closed`]: position (S26 U: within 8 U), `kd I |h|`
-/// per channel (`I` per U², `h` in U), and whether it lies in front of the
-/// plane (on the side its normal points to).
+/// A point light of [`Closed`] on the side of the plane the rays see:
+/// position (S26 U: within 8 U) and `kd I |h|` per channel (`I` per U²,
+/// `h` in U).
 #[derive(Clone, Copy, Debug)]
 struct ClosedLight {
     p26: [i32; 3],
     k: [Pf; 3],
-    front: bool,
 }
 
 /// Defocus (camera-model.md §8): the aperture pattern pixel centres are lit
@@ -1136,6 +1138,12 @@ struct Ray {
     t: i32,
     /// The nearest hit's primitive, with [`AWAY`].
     hit: u8,
+    /// On the Cortex-M0, `cos⁴α` (S31) for the pixel it is shaded for:
+    /// [`cos4`] if the frame vignettes, else 1 ([`fill_rays`]); once for a
+    /// ray and its mirror, where a product is four 16-bit ones. (The M3
+    /// takes it a pixel: stored, checkerboard-barrel took 11 instructions
+    /// a pixel more and the standard scene none fewer.)
+    c4: u32,
 }
 
 impl Ray {
@@ -1148,6 +1156,7 @@ impl Ray {
         ra: (1 << 31, 11),
         t: 0,
         hit: 0,
+        c4: 1 << 31,
     };
 
     /// The ray of the undistorted point `(x̂, ŷ)`; `k` is the parallel
@@ -1173,6 +1182,7 @@ impl Ray {
             ra,
             t: NO_HIT,
             hit: 0,
+            c4: 1 << 31,
         }
     }
 
@@ -1264,6 +1274,7 @@ impl Default for Rays {
             ra: (0, 0),
             t: 0,
             hit: 0,
+            c4: 0,
         };
         Rays([ZERO; CHUNK])
     }
@@ -2009,13 +2020,16 @@ impl Mix32 {
         };
         let m = p.material as usize;
         let (kd, ka) = (self.kd.get(m)?, self.ka.get(m)?);
+        // The side the rays see: hits face away where dist > 0 (`plane_t`).
+        let away = dist > 0;
+        let nt = if away { n.map(i32::saturating_neg) } else { n };
         let mut c = Closed {
             index: u8::try_from(index).ok()?,
             n,
             dist,
             ndist: dist.saturating_neg(),
             ndist50: -((dist as i64) << 26),
-            flat: [*ka; 2],
+            flat: *ka,
             lights: heapless::Vec::new(),
         };
         for (l, &h) in self.lights.iter().zip(&p.nl) {
@@ -2023,25 +2037,26 @@ impl Mix32 {
                 // Added and capped as `shade` adds them: the terms are never
                 // negative, so their order does not change the capped sum.
                 MixLight::Directional { l, e } => {
-                    for (sum, nt) in c.flat.iter_mut().zip([n, n.map(i32::saturating_neg)]) {
-                        if let Some(w) = directional_w(nt, *l) {
-                            for ((s, d), e) in sum.iter_mut().zip(kd).zip(e) {
-                                *s = (*s + (*d * *e).mul_to_sum(w, 15)).min(SUM_CAP);
-                            }
+                    if let Some(w) = directional_w(nt, *l) {
+                        for ((s, d), e) in c.flat.iter_mut().zip(kd).zip(e) {
+                            *s = (*s + (*d * *e).mul_to_sum(w, 15)).min(SUM_CAP);
                         }
                     }
                 }
                 MixLight::Point { p, i } => {
-                    let hk = Pf::new(h.unsigned_abs(), -48);
                     // |P_L| ≤ 8 U: S26 holds it.
                     if p.iter().any(|v| v.unsigned_abs() > 1 << 21) {
                         return None;
                     }
-                    let _ = c.lights.push(ClosedLight {
-                        p26: p.map(|v| v << 8),
-                        k: zip3(*kd, *i, |d, i| d * i * hk),
-                        front: h > 0,
-                    });
+                    // On the side the rays see (n·l > 0 there, as `shade`
+                    // takes it: h facing the viewer, −h facing away).
+                    if (h > 0) != away {
+                        let hk = Pf::new(h.unsigned_abs(), -48);
+                        let _ = c.lights.push(ClosedLight {
+                            p26: p.map(|v| v << 8),
+                            k: zip3(*kd, *i, |d, i| d * i * hk),
+                        });
+                    }
                 }
             }
         }
@@ -2227,15 +2242,13 @@ impl Mix32 {
         // slopes, then, if any, the mirrored columns `w − 1 − s − q` of the
         // first `m` of those rays `q`.
         let (mut s, mut n, mut mirrored) = (0, 0, false);
-        let (mut bounds, mut outside) = ([0i32; 4], false);
+        let (mut ys, mut outside) = ([0i32; 2], false);
         while s < direct {
             // (Computed twice, here and below, not kept from the chunk's
             // start: kept, it cost the M3's standard scene 6 instructions a
             // pixel, 412 against 406.)
             let m = n.min(half.saturating_sub(s));
             let (cnt, first, step) = if mirrored {
-                let [x0, x1, y0, y1] = bounds;
-                bounds = [x1.saturating_neg(), x0.saturating_neg(), y0, y1];
                 (m, w - s - m, u32::MAX)
             } else {
                 n = CHUNK.min(direct - s);
@@ -2256,17 +2269,21 @@ impl Mix32 {
                 // Inlined here (not `trace_row`): the loop without sampling
                 // stays as fast as it was (an out-of-line pass cost the
                 // standard scene 9 M3 instructions a pixel).
-                (bounds, outside) = self.rays::<PERSP>(rays, |_| {
-                    let xd = (acc >> 32) as i32;
-                    acc -= self.dx;
-                    (xd, yd, yd2)
-                });
+                (ys, outside) = self.rays::<PERSP>(
+                    rays,
+                    |_| {
+                        let xd = (acc >> 32) as i32;
+                        acc -= self.dx;
+                        (xd, yd, yd2)
+                    },
+                    true,
+                );
             }
             // The closed plane, if any: tested only where another primitive
             // was hit; the rays no other primitive hit (and those outside
             // the field) see it or nothing, shaded in closed form.
             let closed = if PERSP { self.closed.as_ref() } else { None };
-            self.passes::<PERSP, true>(rays, bounds, outside, closed.map(|c| c.index as usize));
+            self.passes::<PERSP, true>(rays, ys, outside, closed.map(|c| c.index as usize));
             // Each pixel's noise key is its index in the frame: the mirrored
             // rays' columns run right to left (`step` is −1 modulo 2³²).
             let mut index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
@@ -2300,13 +2317,24 @@ impl Mix32 {
     /// of rays of the sampled loop (pixel centres, corners, grid rows).
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     #[cfg_attr(target_arch = "x86_64", inline(always))]
-    fn trace_row<const PERSP: bool>(&self, rays: &mut [Ray], x: i64, step: i64, (yd, yd2): (i32, i64)) {
+    fn trace_row<const PERSP: bool>(
+        &self,
+        rays: &mut [Ray],
+        x: i64,
+        step: i64,
+        (yd, yd2): (i32, i64),
+        shade: bool,
+    ) {
         let mut acc = x;
-        self.trace::<PERSP, false>(rays, |_| {
-            let xd = (acc >> 32) as i32;
-            acc -= step;
-            (xd, yd, yd2)
-        });
+        self.trace::<PERSP, false>(
+            rays,
+            |_| {
+                let xd = (acc >> 32) as i32;
+                acc -= step;
+                (xd, yd, yd2)
+            },
+            shade,
+        );
     }
 
     /// Fills `rays` with the rays of the distorted slopes `slope(q) = (x̂_d,
@@ -2319,32 +2347,39 @@ impl Mix32 {
         &self,
         rays: &mut [Ray],
         slope: impl FnMut(usize) -> (i32, i32, i64),
+        shade: bool,
     ) {
-        let (bounds, outside) = self.rays::<PERSP>(rays, slope);
-        self.passes::<PERSP, TRIM>(rays, bounds, outside, None);
+        let (ys, outside) = self.rays::<PERSP>(rays, slope, shade);
+        self.passes::<PERSP, TRIM>(rays, ys, outside, None);
     }
 
     /// [`fill_rays`] with this frame's undistortion (a frame without
-    /// distortion has a loop without its test).
+    /// distortion has a loop without its test). With `shade` (rays to be
+    /// shaded, not only looked at), each ray's `cos⁴α` on the M0.
     #[inline(always)]
     fn rays<const PERSP: bool>(
         &self,
         rays: &mut [Ray],
         slope: impl FnMut(usize) -> (i32, i32, i64),
-    ) -> ([i32; 4], bool) {
+        shade: bool,
+    ) -> ([i32; 2], bool) {
         let korigin = self.parallel.unwrap_or(0);
+        let vignette = ARMV6M && shade && self.vignetting;
         match self.k {
-            Some(k) => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, yd2| {
-                undistort_k(k, self.limit, xd, yd, yd2)
-            }),
-            None => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, _| Some((xd, yd))),
+            Some(k) => fill_rays::<PERSP>(
+                rays,
+                korigin,
+                slope,
+                |xd, yd, yd2| undistort_k(k, self.limit, xd, yd, yd2),
+                vignette,
+            ),
+            None => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, _| Some((xd, yd)), vignette),
         }
     }
 
-    /// Every primitive's pass over `rays`, given their slope box `[x̂_lo,
-    /// x̂_hi, ŷ_lo, ŷ_hi]` ([`fill_rays`]; rays outside the field count as
-    /// (0, 0): a larger box, never a skipped hit) and whether any is
-    /// outside the field. Out of line in a `compact` build: one copy
+    /// Every primitive's pass over `rays`, given their `[ŷ_lo, ŷ_hi]`
+    /// ([`fill_rays`]; rays outside the field count as 0: a larger box,
+    /// never a skipped hit) and whether any is outside the field. Out of line in a `compact` build: one copy
     /// serves the loops for one and three channels (flash).
     /// Primitive `skip` (the frame's [`Closed`] plane in the one-sample
     /// loop) has no pass: [`Mix32::closed_keep`] tests it on the rays
@@ -2354,30 +2389,25 @@ impl Mix32 {
     fn passes<const PERSP: bool, const TRIM: bool>(
         &self,
         rays: &mut [Ray],
-        bounds: [i32; 4],
+        [y0, y1]: [i32; 2],
         outside: bool,
         skip: Option<usize>,
     ) {
-        let [mut x0, mut x1, y0, y1] = bounds;
         // Along a row (`ŷ_d` fixed) `x̂` is monotone in `x̂_d` within the
         // field: ∂x̂/∂x̂_d = g + 2 x̂_d² g'(u) ≥ g + 2u g'(u) ≥ 0 before the
         // fold (x̂_d² ≤ u). So the ends bound the rest, to twice
         // `undistort`'s rounding (`box_margin`). A chunk with rays outside
-        // the field takes them all. (The M0 keeps the plain box: with the
-        // ends its standard scene took 5 more instructions a pixel, where
-        // the M3's took 10 fewer.)
-        if !ARMV6M {
-            let m = self.box_margin;
-            (x0, x1) = match (rays.first(), rays.last()) {
-                (Some(a), Some(b)) if !outside => {
-                    (a.x.min(b.x).saturating_sub(m), a.x.max(b.x).saturating_add(m))
-                }
-                _ => (i32::MAX, i32::MIN),
-            };
-            if outside {
-                for r in rays.iter() {
-                    (x0, x1) = (x0.min(r.x), x1.max(r.x));
-                }
+        // the field takes them all.
+        let m = self.box_margin;
+        let (mut x0, mut x1) = match (rays.first(), rays.last()) {
+            (Some(a), Some(b)) if !outside => {
+                (a.x.min(b.x).saturating_sub(m), a.x.max(b.x).saturating_add(m))
+            }
+            _ => (i32::MAX, i32::MIN),
+        };
+        if outside {
+            for r in rays.iter() {
+                (x0, x1) = (x0.min(r.x), x1.max(r.x));
             }
         }
         for (i, p) in self.prims.iter().enumerate() {
@@ -2458,19 +2488,15 @@ impl Mix32 {
                 continue;
             }
             *flag = 0;
-            // Ahead where w has the sign of dist (t = dist/w > 0), facing
-            // away where w > 0.
+            // Ahead where w has the sign of dist (t = dist/w > 0; dist ≠ 0:
+            // `w ^ dist` has the sign bit where the signs differ).
             let w = closed_w(n, r);
-            // (dist ≠ 0: `w ^ dist` has the sign bit where the signs differ.)
             let sum = if w != 0 && (w ^ c.dist) >= 0 {
-                let away = w > 0;
-                let mut sum = c.flat.get(away as usize).copied().unwrap_or_default();
+                let mut sum = c.flat;
                 // One light (the common case) without the loop's overhead.
                 match c.lights.as_slice() {
-                    [l] => closed_term::<C>(c, l, r, w, away, &mut sum),
-                    ls => ls
-                        .iter()
-                        .for_each(|l| closed_term::<C>(c, l, r, w, away, &mut sum)),
+                    [l] => closed_term::<C>(c, l, r, w, &mut sum),
+                    ls => ls.iter().for_each(|l| closed_term::<C>(c, l, r, w, &mut sum)),
                 }
                 sum
             } else {
@@ -2537,12 +2563,13 @@ impl Mix32 {
         (sum, c4)
     }
 
-    /// A ray's `cos⁴α = (1/a)²`, S31 (1/a_real = r 2^(z − 42), z ≤ 11).
+    /// A shaded ray's `cos⁴α` (S31): on the M0 as [`fill_rays`] set it.
     #[inline(always)]
     fn c4(&self, r: &Ray) -> u32 {
-        if self.vignetting {
-            let inv = r.ra.0 >> (11u32.saturating_sub(r.ra.1));
-            (umul(inv, inv) >> 31) as u32
+        if ARMV6M {
+            r.c4
+        } else if self.vignetting {
+            cos4(r.ra)
         } else {
             1 << 31
         }
@@ -2586,7 +2613,13 @@ impl Mix32 {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
                 *r = match self.undistort(xd, yd, yd2) {
-                    Some((x, y)) => Ray::new::<true>(x, y, 0),
+                    Some((x, y)) => {
+                        let mut r = Ray::new::<true>(x, y, 0);
+                        if ARMV6M && self.vignetting {
+                            r.c4 = cos4(r.ra);
+                        }
+                        r
+                    }
                     None => Ray::OUTSIDE,
                 };
                 (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
@@ -2741,11 +2774,11 @@ impl Mix32 {
                 let t = match (carried, key0.as_deref()) {
                     (true, Some(k)) => Key(*k),
                     _ => {
-                        self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top);
+                        self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top, false);
                         r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r))
                     }
                 };
-                self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, bottom);
+                self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, bottom, false);
                 let b = r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r));
                 if let Some(k) = key0 {
                     *k = b.0;
@@ -2773,13 +2806,13 @@ impl Mix32 {
                         }
                     }
                     _ => {
-                        self.trace_row::<PERSP>(rays, x - hx, self.dx, top);
+                        self.trace_row::<PERSP>(rays, x - hx, self.dx, top, false);
                         for (c, r) in corners.iter_mut().zip(rays.iter()) {
                             *c = self.key::<PERSP>(r);
                         }
                     }
                 }
-                self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom);
+                self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom, false);
                 // (Two loops, not one storing where it has a buffer: a test a
                 // ray cost calibration-board 10 M3 instructions a pixel.)
                 match chunk_keys {
@@ -2809,7 +2842,7 @@ impl Mix32 {
                     left = right;
                 }
                 // Centres: their own sample where the corners agree with it.
-                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc));
+                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), true);
                 for (q, ((r, c), (out, flag))) in rays
                     .iter()
                     .zip(&corners)
@@ -2894,7 +2927,7 @@ impl Mix32 {
         let step = self.dx >> log_n;
         for b in 0..n {
             let yd = ((yc - off_y(b)) >> 38) as i32;
-            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)));
+            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)), true);
             for r in row.iter() {
                 if r.t == 0 {
                     return None;
@@ -3128,26 +3161,29 @@ fn lobe_pf(x: i32, s: u16) -> Pf {
 }
 
 /// `w = n·d` (S24) of ray `r` for a plane of normal `n` (S30), as
-/// [`Ray::plane_t`] takes it.
+/// [`Ray::plane_t`] takes it. On the Cortex-M0, where a product is four
+/// 16-bit ones, a product by a zero component (a floor or a wall seen by a
+/// camera without roll: `n_x = 0`) is left out — the same sum.
 #[inline(always)]
 fn closed_w(n: [i32; 3], r: &Ray) -> i32 {
-    ((wmul_px(n[0], r.x) + wmul_px(n[1], r.y) + ((n[2] as i64) << 26)) >> 32) as i32
+    let nx = if ARMV6M && n[0] == 0 {
+        0
+    } else {
+        wmul_px(n[0], r.x)
+    };
+    ((nx + wmul_px(n[1], r.y) + ((n[2] as i64) << 26)) >> 32) as i32
 }
 
-/// Adds point light `l`'s term to `sum` for ray `r` on the [`Closed`]
-/// plane (`w = n·d`, S24; `away`: the plane faces away), if the light lies
-/// on the side the ray sees: `kd I h (|w| / |q|)³`.
+/// Adds point light `l`'s term `kd I h (|w| / |q|)³` to `sum` for ray `r`
+/// on the [`Closed`] plane (`w = n·d`, S24).
 #[inline(always)]
-fn closed_term<const C: usize>(c: &Closed, l: &ClosedLight, r: &Ray, w: i32, away: bool, sum: &mut [u64; 3]) {
-    if l.front == away {
-        return;
-    }
+fn closed_term<const C: usize>(c: &Closed, l: &ClosedLight, r: &Ray, w: i32, sum: &mut [u64; 3]) {
     // q = w P_L − dist d, exact in S50 U (|q| = |w| r ≤ 363 U: |w| ≤ |d| <
     // 23, |P_L| and |dist| ≤ 8 U), then S22 U.
     let q22 = |v: i64| (v >> 28) as i32;
-    let qx = q22(wmul(w, l.p26[0]) + wmul(c.ndist, r.x));
-    let qy = q22(wmul(w, l.p26[1]) + wmul(c.ndist, r.y));
-    let qz = q22(wmul(w, l.p26[2]) + c.ndist50);
+    let qx = q22(wmul_px(w, l.p26[0]) + wmul_px(c.ndist, r.x));
+    let qy = q22(wmul_px(w, l.p26[1]) + wmul_px(c.ndist, r.y));
+    let qz = q22(wmul_px(w, l.p26[2]) + c.ndist50);
     // |q|², S44 U² (< 2^62).
     let q2 = wsq(qx) + wsq(qy) + wsq(qz);
     if q2 == 0 {
@@ -3229,34 +3265,46 @@ fn undistort_k([k1, k2]: [i32; 2], limit: i32, xd: i32, yd: i32, yd2: i64) -> Op
 }
 
 /// Fills `rays` with the rays of the distorted slopes `slope(q) = (x̂_d,
-/// ŷ_d, ŷ_d²)` undistorted by `undistort` (`korigin`: [`Ray::new`]'s `k`):
-/// the slope box `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` of the rays (rays outside the
-/// field count as (0, 0)), with the `x̂` part only on the M0 (elsewhere the
-/// caller takes it from the ends), and whether any ray is outside the field.
+/// ŷ_d, ŷ_d²)` undistorted by `undistort` (`korigin`: [`Ray::new`]'s `k`;
+/// with `vignette`, each ray's [`Ray::c4`]): the rays' `[ŷ_lo, ŷ_hi]` (rays
+/// outside the field count as 0) and whether any is outside the field.
+/// ([`Mix32::passes`] takes `x̂`'s range from the chunk's ends.)
 #[inline(always)]
 fn fill_rays<const PERSP: bool>(
     rays: &mut [Ray],
     korigin: i32,
     mut slope: impl FnMut(usize) -> (i32, i32, i64),
     undistort: impl Fn(i32, i32, i64) -> Option<(i32, i32)>,
-) -> ([i32; 4], bool) {
-    let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
+    vignette: bool,
+) -> ([i32; 2], bool) {
+    let (mut y0, mut y1) = (i32::MAX, i32::MIN);
     let mut outside = false;
     for (q, r) in rays.iter_mut().enumerate() {
         let (xd, yd, yd2) = slope(q);
         *r = match undistort(xd, yd, yd2) {
-            Some((x, y)) => Ray::new::<PERSP>(x, y, korigin),
+            Some((x, y)) => {
+                let mut r = Ray::new::<PERSP>(x, y, korigin);
+                if vignette {
+                    r.c4 = cos4(r.ra);
+                }
+                r
+            }
             None => {
                 outside = true;
                 Ray::OUTSIDE
             }
         };
-        if ARMV6M {
-            (x0, x1) = (x0.min(r.x), x1.max(r.x));
-        }
         (y0, y1) = (y0.min(r.y), y1.max(r.y));
     }
-    ([x0, x1, y0, y1], outside)
+    ([y0, y1], outside)
+}
+
+/// `cos⁴α = (1/a)²` (S31) from a ray's `1/a = r 2^(z − 62)` (`a` in S20,
+/// so `1/a_real = r 2^(z − 42)`, `z ≤ 11`).
+#[inline(always)]
+fn cos4((r, z): (u32, u32)) -> u32 {
+    let inv = r >> (11u32.saturating_sub(z));
+    (umul(inv, inv) >> 31) as u32
 }
 
 /// `1/n_z` of a unit vector in S30 as [`recip`] gives it (`(0, 0)` for
