@@ -256,8 +256,9 @@ enum Cmd {
     /// Where a frame's instructions go on a board, by pipeline stage: the
     /// firmware holding the scenes runs in QEMU with its executed blocks
     /// logged, each instruction attributed to the stage whose function
-    /// inlined it (from the ELF's debug information). Writes profile.json
-    /// and profile.md.
+    /// inlined it (from the ELF's debug information), and to its source
+    /// line. Writes profile.json and profile.md (stages, then each frame's
+    /// costliest source lines).
     Profile {
         /// lm3s6965evb (Cortex-M3), mps2-an386 (Cortex-M4F) or microbit
         /// (Cortex-M0).

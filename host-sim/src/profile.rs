@@ -4,7 +4,8 @@
 //! execution), counts the instructions executed at each address, and
 //! attributes each address to a stage from its inlined call chain in the
 //! ELF's debug information (the innermost function a stage claims, see
-//! [`stage_of`]). A frame is what runs from one entry of the firmware's
+//! [`stage_of`]), and to a source line (the innermost in this repository:
+//! a `core::` helper counts for the line that inlined it). A frame is what runs from one entry of the firmware's
 //! `Runner::run` to the next: its preparation, its lines, and its
 //! streaming (the `link` row, which the frame cost of `hil` leaves out).
 //!
@@ -237,6 +238,8 @@ struct Block {
     stages: Vec<(Option<Stage>, u64)>,
     /// Instructions by function (index into [`Symbols::names`]) and stage.
     functions: Vec<(usize, Option<Stage>, u64)>,
+    /// Instructions by source line (index into [`Symbols::lines`]).
+    lines: Vec<(usize, u64)>,
     /// The stage of the block's last instruction (where a call leaves).
     last: Option<Stage>,
 }
@@ -250,6 +253,8 @@ pub struct Window {
     pub stages: HashMap<Stage, u64>,
     /// Instructions by function (index into [`Symbols::names`]) and stage.
     functions: HashMap<(usize, Stage), u64>,
+    /// Instructions by source line (index into [`Symbols::lines`]).
+    lines: HashMap<usize, u64>,
 }
 
 /// A run's instructions, in windows: before the first frame, then one a
@@ -259,6 +264,8 @@ pub struct Trace {
     pub windows: Vec<Window>,
     /// Function names.
     pub names: Vec<String>,
+    /// Source lines (`file:line`).
+    pub lines: Vec<String>,
 }
 
 impl Trace {
@@ -330,6 +337,9 @@ impl Trace {
                 for (f, s, n) in &block.functions {
                     *w.functions.entry((*f, s.unwrap_or(context))).or_insert(0) += n;
                 }
+                for (l, n) in &block.lines {
+                    *w.lines.entry(*l).or_insert(0) += n;
+                }
                 if let Some(s) = block.last {
                     context = s;
                 }
@@ -338,6 +348,7 @@ impl Trace {
         Ok(Trace {
             windows,
             names: syms.names,
+            lines: syms.lines,
         })
     }
 
@@ -358,6 +369,19 @@ impl Trace {
         v.truncate(n);
         v
     }
+
+    /// The source lines of window `w` that cost the most: `(file:line,
+    /// instructions)`, at most `n`.
+    pub fn top_lines(&self, w: &Window, n: usize) -> Vec<(String, u64)> {
+        let mut v: Vec<(String, u64)> = w
+            .lines
+            .iter()
+            .map(|(l, c)| (self.lines.get(*l).cloned().unwrap_or_default(), *c))
+            .collect();
+        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        v.truncate(n);
+        v
+    }
 }
 
 fn hex(s: &[u8]) -> Option<u32> {
@@ -370,6 +394,11 @@ struct Symbols {
     /// Function names, and their indices.
     names: Vec<String>,
     index: HashMap<String, usize>,
+    /// Source lines, and their indices.
+    lines: Vec<String>,
+    line_index: HashMap<String, usize>,
+    /// The repository's root, which source lines are given relative to.
+    root: PathBuf,
 }
 
 impl Symbols {
@@ -380,6 +409,9 @@ impl Symbols {
             loader,
             names: Vec::new(),
             index: HashMap::new(),
+            lines: Vec::new(),
+            line_index: HashMap::new(),
+            root: std::fs::canonicalize(crate::hil_cmd::repo_root()).unwrap_or_else(|_| crate::hil_cmd::repo_root()),
         })
     }
 
@@ -402,12 +434,58 @@ impl Symbols {
         v
     }
 
+    /// The source line at `pc`, `file:line` (relative to the repository
+    /// where it lies in it): the innermost location outside the standard
+    /// library and the registry's crates (for a `core::` helper inlined in
+    /// the renderer, the renderer's line that called it); without one,
+    /// `? in` the outermost function there.
+    fn line(&self, pc: u32) -> String {
+        let mut found = None;
+        if let Ok(mut frames) = self.loader.find_frames(pc as u64) {
+            while let Ok(Some(f)) = frames.next() {
+                // (Line 0: code the compiler made up; the caller's line says
+                // where it was inlined.)
+                let Some((file, line)) = f.location.and_then(|l| Some((l.file?, l.line.filter(|k| *k > 0)?))) else {
+                    continue;
+                };
+                if file.starts_with("/rustc/") || file.contains("/.cargo/registry/") || file.contains("/rustlib/") {
+                    continue;
+                }
+                let file = Path::new(file);
+                found = Some(format!("{}:{line}", file.strip_prefix(&self.root).unwrap_or(file).display()));
+                break;
+            }
+        }
+        // Else the function: a library's or the runtime's (`crc`,
+        // `compiler_builtins`, `memcpy`).
+        found.unwrap_or_else(|| format!("? in {}", self.chain(pc).last().map_or("?", String::as_str)))
+    }
+
+    /// Interns a source line.
+    fn line_of(&mut self, pc: u32) -> usize {
+        let l = self.line(pc);
+        match self.line_index.get(&l) {
+            Some(k) => *k,
+            None => {
+                self.lines.push(l.clone());
+                self.line_index.insert(l, self.lines.len() - 1);
+                self.lines.len() - 1
+            }
+        }
+    }
+
     /// A block's attribution.
     fn block(&mut self, pcs: &[u32]) -> Block {
         let mut stages: Vec<(Option<Stage>, u64)> = Vec::new();
         let mut functions: Vec<(usize, Option<Stage>, u64)> = Vec::new();
+        let mut lines: Vec<(usize, u64)> = Vec::new();
         let mut last = None;
         for pc in pcs {
+            let l = self.line_of(*pc);
+            match lines.iter_mut().find(|(x, _)| *x == l) {
+                Some((_, n)) => *n += 1,
+                None => lines.push((l, 1)),
+            }
             let chain = self.chain(*pc);
             let s = stage_of(&chain);
             match stages.iter_mut().find(|(x, _)| *x == s) {
@@ -438,6 +516,7 @@ impl Symbols {
         Block {
             stages,
             functions,
+            lines,
             last,
         }
     }
@@ -508,6 +587,9 @@ pub struct FrameProfile {
     /// The innermost functions that cost the most, with the stage they
     /// counted for, instructions a pixel.
     pub functions: Vec<(String, Stage, f64)>,
+    /// The workspace's source lines that cost the most (a library helper
+    /// counted for the line that inlined it), instructions a pixel.
+    pub lines: Vec<(String, f64)>,
 }
 
 /// `profile.json`.
@@ -624,6 +706,11 @@ pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Pat
                 .into_iter()
                 .map(|(f, s, n)| (f, s, per(n)))
                 .collect(),
+            lines: trace
+                .top_lines(w, 40)
+                .into_iter()
+                .map(|(l, n)| (l, per(n)))
+                .collect(),
         });
     }
     // The trace must account for the frame's cost: its windows hold the
@@ -648,7 +735,7 @@ pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Pat
         "profile.json",
         &serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?,
     )?;
-    outputs.write("profile.md", table(&report).as_bytes())?;
+    outputs.write("profile.md", format!("{}\n{}", table(&report), lines_table(&report, 25)).as_bytes())?;
     outputs.commit()?;
     Ok(report)
 }
@@ -691,6 +778,39 @@ pub fn table(r: &ProfileReport) -> String {
     });
     row(&mut s, "the frame's cost under `-icount` (`hil`)", &|f| f.icount_per_pixel);
     row(&mut s, "link (streaming: not in the frame's cost)", &|f| of(f, Stage::Link));
+    s
+}
+
+/// Each frame's `n` costliest source lines (a library helper counted
+/// for the line that inlined it), with the line's text where the file is
+/// in the repository.
+pub fn lines_table(r: &ProfileReport, n: usize) -> String {
+    let root = crate::hil_cmd::repo_root();
+    let mut files: HashMap<String, Vec<String>> = HashMap::new();
+    let mut s = String::new();
+    for f in &r.frames {
+        s.push_str(&format!(
+            "Source lines of {} that cost the most on {} (instructions a pixel, the frame's window: the link's \
+             streaming too):\n\n| instr./px | line | source |\n|---|---|---|\n",
+            f.scene, r.board
+        ));
+        for (line, v) in f.lines.iter().take(n) {
+            let text = line
+                .rsplit_once(':')
+                .and_then(|(file, k)| {
+                    let k: usize = k.parse().ok()?;
+                    let lines = files.entry(file.to_string()).or_insert_with(|| {
+                        std::fs::read_to_string(root.join(file))
+                            .map(|t| t.lines().map(str::to_string).collect())
+                            .unwrap_or_default()
+                    });
+                    lines.get(k.checked_sub(1)?).map(|t| t.trim().replace('|', "\\|"))
+                })
+                .unwrap_or_default();
+            s.push_str(&format!("| {v:.1} | {line} | `{text}` |\n"));
+        }
+        s.push('\n');
+    }
     s
 }
 
@@ -759,6 +879,34 @@ mod tests {
         // Neither: the firmware's.
         assert_eq!(stage_of(&chain(&["hilcam_firmware::ticks"])), Some(Stage::Firmware));
         assert_eq!(stage_of(&chain(&["some_crate::f"])), Some(Stage::Firmware));
+    }
+
+    #[test]
+    fn the_lines_table_quotes_each_line_from_its_file() {
+        let first = include_str!("../../src/mix32.rs").lines().nth(1).unwrap_or_default().trim().to_string();
+        let r = ProfileReport {
+            board: "lm3s6965evb".into(),
+            frames: vec![FrameProfile {
+                scene: "standard".into(),
+                pixels: 1,
+                stages: vec![],
+                render_per_pixel: 0.0,
+                firmware_per_pixel: 0.0,
+                icount_per_pixel: None,
+                total_per_pixel: 0.0,
+                functions: vec![],
+                lines: vec![
+                    ("src/mix32.rs:2".into(), 12.25),
+                    ("? in crc::crc32::update".into(), 3.0),
+                    ("src/nowhere.rs:7".into(), 1.0),
+                ],
+            }],
+        };
+        let t = lines_table(&r, 2);
+        assert!(t.contains(&format!("| 12.2 | src/mix32.rs:2 | `{}` |", first.replace('|', "\\|"))), "{t}");
+        assert!(t.contains("| 3.0 | ? in crc::crc32::update | `` |"), "{t}");
+        // At most n lines a frame.
+        assert!(!t.contains("nowhere"), "{t}");
     }
 
     #[test]
