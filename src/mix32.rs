@@ -175,8 +175,10 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
     // (hi 2^32 + lo) c4 + 2^45 over 2^46 = (hi c4 + ⌊(lo c4 + 2^45) / 2^32⌋) / 2^14
     // (nested floors of integers); hi c4 < 2^46.
     let (hi, lo) = ((sum >> 32) as u32, sum as u32);
-    // hi < 2^16 below the cap: a 16-bit product on the M0.
+    // hi < 2^16 below the cap: a 16-bit product on the M0, and none where
+    // the sum is below 2^17 DN (hi = 0: a pixel that is not saturated).
     let hc = match u16::try_from(hi) {
+        Ok(0) if ARMV6M => 0,
         Ok(h) if ARMV6M => umul_h(c4, h),
         _ => umul(hi, c4),
     };
@@ -2288,7 +2290,6 @@ impl Mix32 {
             // rays' columns run right to left (`step` is −1 modulo 2³²).
             let mut index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
             if let Some(c) = closed {
-                Self::closed_keep(c, rays);
                 // A `compact` build sums three channels for either format:
                 // one copy of the run (flash).
                 if cfg!(feature = "compact") {
@@ -2437,18 +2438,17 @@ impl Mix32 {
         }
     }
 
-    /// The [`Closed`] plane's test on the rays another primitive hit: kept
-    /// as its own pass in scene order would keep it (nearer, or as near and
-    /// first). Perspective rays. Out of line in a `compact` build (flash).
-    #[cfg_attr(feature = "compact", inline(never))]
-    #[cfg_attr(not(feature = "compact"), inline(always))]
-    fn closed_keep(c: &Closed, rays: &mut [Ray]) {
-        for r in rays.iter_mut().filter(|r| r.t != 0 && r.t != NO_HIT) {
-            if let Some((t, away)) = r.plane_t::<true>(c.n, c.dist, (0, 0)) {
-                if t < r.t || (t == r.t && c.index < r.hit & !AWAY) {
-                    r.t = t;
-                    r.hit = c.index | if away { AWAY } else { 0 };
-                }
+    /// The [`Closed`] plane's test on a ray another primitive hit: kept as
+    /// its own pass in scene order would keep it (nearer, or as near and
+    /// first). Perspective rays. In [`Mix32::closed_run`]'s loop (a pass of
+    /// its own over the chunk's rays cost the M3's standard scene 15
+    /// instructions a pixel).
+    #[inline(always)]
+    fn closed_keep(c: &Closed, r: &mut Ray) {
+        if let Some((t, away)) = r.plane_t::<true>(c.n, c.dist, (0, 0)) {
+            if t < r.t || (t == r.t && c.index < r.hit & !AWAY) {
+                r.t = t;
+                r.hit = c.index | if away { AWAY } else { 0 };
             }
         }
     }
@@ -2468,7 +2468,7 @@ impl Mix32 {
         &self,
         c: &Closed,
         rgb: bool,
-        rays: &[Ray],
+        rays: &mut [Ray],
         words: &mut [u16],
         fl: &mut [u8],
         dn_max: [u64; 3],
@@ -2477,7 +2477,7 @@ impl Mix32 {
         let n = c.n;
         // A compile-time constant but in a `compact` build (one copy).
         let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
-        for ((r, word), flag) in rays.iter().zip(words.iter_mut()).zip(fl.iter_mut()) {
+        for ((r, word), flag) in rays.iter_mut().zip(words.iter_mut()).zip(fl.iter_mut()) {
             let k = index;
             index = index.wrapping_add(step);
             if r.t == 0 {
@@ -2485,6 +2485,7 @@ impl Mix32 {
                 continue;
             }
             if r.t != NO_HIT {
+                Self::closed_keep(c, r);
                 continue;
             }
             *flag = 0;
