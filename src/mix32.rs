@@ -1090,6 +1090,10 @@ const CHUNK: usize = 32;
 /// `Ray::t` of a ray that has hit nothing yet.
 const NO_HIT: i32 = i32::MAX;
 
+/// A perspective ray's `oy` before [`closed_term`] keeps a part of `|q|²`
+/// there (whose high word is below 2³⁰).
+const NO_YZ: i32 = -1;
+
 /// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
 /// [`NO_HIT`].
 const T_MAX: i32 = i32::MAX - 1;
@@ -1129,7 +1133,10 @@ struct Ray {
     /// `x̂`, `ŷ`, S26.
     x: i32,
     y: i32,
-    /// Parallel rays' origin, S18 U (0 for perspective rays).
+    /// Parallel rays' origin, S18 U. A perspective ray has none: on the
+    /// Cortex-M0, [`closed_term`] keeps there, as the low and high words,
+    /// the part of its `|q|²` that its mirror shares (`oy` is [`NO_YZ`]
+    /// until then).
     ox: i32,
     oy: i32,
     /// `a = d·d`, S20, and `1/a = r 2^(z − 62)` as `(r, z)`.
@@ -1170,7 +1177,7 @@ impl Ray {
         let a = (1 << 20) + ((wsq(x) + wsq(y)) >> 32) as i32;
         let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
         let (ox, oy) = if PERSP {
-            (0, 0)
+            (0, if ARMV6M { NO_YZ } else { 0 })
         } else {
             // S26 · S24 → S18; |o| ≤ 64 U, checked per frame.
             (((wmul(x, k)) >> 32) as i32, ((wmul(y, k)) >> 32) as i32)
@@ -2475,6 +2482,9 @@ impl Mix32 {
         (noise, mut index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
     ) {
         let n = c.n;
+        // On the M0, with n_x = 0, a ray and its mirror share w, q_y and
+        // q_z (`closed_term`).
+        let keep = ARMV6M && n[0] == 0 && self.mirror;
         // A compile-time constant but in a `compact` build (one copy).
         let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
         for ((r, word), flag) in rays.iter_mut().zip(words.iter_mut()).zip(fl.iter_mut()) {
@@ -2496,8 +2506,10 @@ impl Mix32 {
                 let mut sum = c.flat;
                 // One light (the common case) without the loop's overhead.
                 match c.lights.as_slice() {
-                    [l] => closed_term::<C>(c, l, r, w, &mut sum),
-                    ls => ls.iter().for_each(|l| closed_term::<C>(c, l, r, w, &mut sum)),
+                    [l] => closed_term::<C>(c, l, r, w, keep, &mut sum),
+                    ls => ls
+                        .iter()
+                        .for_each(|l| closed_term::<C>(c, l, r, w, false, &mut sum)),
                 }
                 sum
             } else {
@@ -3176,17 +3188,37 @@ fn closed_w(n: [i32; 3], r: &Ray) -> i32 {
 }
 
 /// Adds point light `l`'s term `kd I h (|w| / |q|)³` to `sum` for ray `r`
-/// on the [`Closed`] plane (`w = n·d`, S24).
+/// on the [`Closed`] plane (`w = n·d`, S24). With `keep` (the frame's only
+/// light, a plane with `n_x = 0` whose rays are mirrored: `w`, `q_y` and
+/// `q_z` are even in `x̂`), `q_y² + q_z²` is kept in the ray for its mirror,
+/// or taken from it: on the Cortex-M0, where it is three 64-bit products.
 #[inline(always)]
-fn closed_term<const C: usize>(c: &Closed, l: &ClosedLight, r: &Ray, w: i32, sum: &mut [u64; 3]) {
+fn closed_term<const C: usize>(
+    c: &Closed,
+    l: &ClosedLight,
+    r: &mut Ray,
+    w: i32,
+    keep: bool,
+    sum: &mut [u64; 3],
+) {
     // q = w P_L − dist d, exact in S50 U (|q| = |w| r ≤ 363 U: |w| ≤ |d| <
     // 23, |P_L| and |dist| ≤ 8 U), then S22 U.
     let q22 = |v: i64| (v >> 28) as i32;
     let qx = q22(wmul_px(w, l.p26[0]) + wmul_px(c.ndist, r.x));
-    let qy = q22(wmul_px(w, l.p26[1]) + wmul_px(c.ndist, r.y));
-    let qz = q22(wmul_px(w, l.p26[2]) + c.ndist50);
+    // q_y² + q_z², S44 U² (< 2^62).
+    let yz = if keep && r.oy != NO_YZ {
+        ((r.oy as u32 as u64) << 32) | r.ox as u32 as u64
+    } else {
+        let qy = q22(wmul_px(w, l.p26[1]) + wmul_px(c.ndist, r.y));
+        let qz = q22(wmul_px(w, l.p26[2]) + c.ndist50);
+        let yz = wsq(qy) + wsq(qz);
+        if keep {
+            (r.ox, r.oy) = (yz as u32 as i32, (yz >> 32) as i32);
+        }
+        yz
+    };
     // |q|², S44 U² (< 2^62).
-    let q2 = wsq(qx) + wsq(qy) + wsq(qz);
+    let q2 = wsq(qx) + yz;
     if q2 == 0 {
         return;
     }
