@@ -1084,8 +1084,10 @@ impl KCache {
     };
 }
 
-/// Pixels a pass handles at once.
+/// Pixels a pass handles at once (at most 32: [`Mix32::line_f`] keeps a
+/// bit a ray).
 const CHUNK: usize = 32;
+const _: () = assert!(CHUNK <= 32);
 
 /// `Ray::t` of a ray that has hit nothing yet.
 const NO_HIT: i32 = i32::MAX;
@@ -2295,21 +2297,28 @@ impl Mix32 {
             self.passes::<PERSP, true>(rays, ys, outside, closed.map(|c| c.index as usize));
             // Each pixel's noise key is its index in the frame: the mirrored
             // rays' columns run right to left (`step` is −1 modulo 2³²).
-            let mut index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
-            if let Some(c) = closed {
+            let index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
+            // The rays left to shade here, a bit each: those the run left
+            // (another primitive's hits), else all.
+            let mut left = match closed {
                 // A `compact` build sums three channels for either format:
                 // one copy of the run (flash).
-                if cfg!(feature = "compact") {
-                    self.closed_run::<3>(c, C == 3, rays, words, fl, dn_max, (noise, index, step));
-                } else {
-                    self.closed_run::<C>(c, C == 3, rays, words, fl, dn_max, (noise, index, step));
+                Some(c) if cfg!(feature = "compact") => {
+                    self.closed_run::<3>(c, C == 3, rays, words, fl, dn_max, (noise, index, step))
                 }
-            }
-            for ((r, word), flag) in rays.iter().zip(words.iter_mut()).zip(fl.iter_mut()) {
-                if closed.is_none() || (r.t != 0 && r.t != NO_HIT) {
-                    *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, index));
+                Some(c) => self.closed_run::<C>(c, C == 3, rays, words, fl, dn_max, (noise, index, step)),
+                // (1 to 32 rays: a shift of 0 to 31. None gives a mask
+                // whose rays `get` does not find.)
+                None => u32::MAX.wrapping_shr(CHUNK.saturating_sub(rays.len()) as u32),
+            };
+            while left != 0 {
+                let q = left.trailing_zeros();
+                left &= left - 1;
+                let key = index.wrapping_add(q.wrapping_mul(step));
+                let q = q as usize;
+                if let (Some(r), Some(word), Some(flag)) = (rays.get(q), words.get_mut(q), fl.get_mut(q)) {
+                    *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, key));
                 }
-                index = index.wrapping_add(step);
             }
             store(words, fl, mirrored, b, out, flags);
             if !mirrored && n.min(half.saturating_sub(s)) > 0 {
@@ -2462,7 +2471,9 @@ impl Mix32 {
 
     /// The words and flags of a chunk's rays that see the [`Closed`] plane
     /// or nothing (no other primitive's hit; `t` is [`NO_HIT`]) and of
-    /// those outside the field; the others are left as they are. The
+    /// those outside the field; the others, a bit each in the mask
+    /// returned, are left to the general path, the plane tested on them
+    /// ([`Mix32::closed_keep`]). The
     /// pixel's sum is the plane's ambient and directional terms and, for
     /// each point light on the side it faces, `kd I h (|w| / |q|)³`: `w`
     /// (S24) as [`Ray::plane_t`] takes it, `q` exact in S42 U, then S22 U,
@@ -2480,14 +2491,20 @@ impl Mix32 {
         fl: &mut [u8],
         dn_max: [u64; 3],
         (noise, mut index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
-    ) {
+    ) -> u32 {
         let n = c.n;
+        let mut left = 0;
         // On the M0, with n_x = 0, a ray and its mirror share w, q_y and
         // q_z (`closed_term`).
         let keep = ARMV6M && n[0] == 0 && self.mirror;
         // A compile-time constant but in a `compact` build (one copy).
         let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
-        for ((r, word), flag) in rays.iter_mut().zip(words.iter_mut()).zip(fl.iter_mut()) {
+        for (q, ((r, word), flag)) in rays
+            .iter_mut()
+            .zip(words.iter_mut())
+            .zip(fl.iter_mut())
+            .enumerate()
+        {
             let k = index;
             index = index.wrapping_add(step);
             if r.t == 0 {
@@ -2496,6 +2513,7 @@ impl Mix32 {
             }
             if r.t != NO_HIT {
                 Self::closed_keep(c, r);
+                left |= 1 << q;
                 continue;
             }
             *flag = 0;
@@ -2521,6 +2539,7 @@ impl Mix32 {
                 Self::dn_word::<1>(sum, self.c4(r), dn_max, (noise, k))
             };
         }
+        left
     }
 
     /// Shades one pixel of a chunk whose nearest hits are known; returns
