@@ -2490,7 +2490,7 @@ impl Mix32 {
         words: &mut [u16],
         fl: &mut [u8],
         dn_max: [u64; 3],
-        (noise, mut index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
+        (noise, index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
     ) -> u32 {
         let n = c.n;
         let mut left = 0;
@@ -2505,8 +2505,8 @@ impl Mix32 {
             .zip(fl.iter_mut())
             .enumerate()
         {
-            let k = index;
-            index = index.wrapping_add(step);
+            // The pixel's noise key (computed where the noise draws).
+            let k = index.wrapping_add((q as u32).wrapping_mul(step));
             if r.t == 0 {
                 (*word, *flag) = (0, FLAG_OUTSIDE_FIELD);
                 continue;
