@@ -1197,6 +1197,16 @@ impl Ray {
         }
     }
 
+    /// The ray with its [`Ray::c4`] from its `1/a` ([`cos4`]) if
+    /// `vignette` (on the M0, for a frame that vignettes).
+    #[inline(always)]
+    fn with_c4(mut self, vignette: bool) -> Ray {
+        if vignette {
+            self.c4 = cos4(self.ra);
+        }
+        self
+    }
+
     /// The ray of the column mirrored about the principal point (`x̂`,
     /// `o_x` negated — perspective rays' is 0; `a` and `1/a` are even in
     /// `x̂`), its hit forgotten. A ray outside the field (`t = 0`) stays
@@ -2645,13 +2655,7 @@ impl Mix32 {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
                 *r = match self.undistort(xd, yd, yd2) {
-                    Some((x, y)) => {
-                        let mut r = Ray::new::<true>(x, y, 0);
-                        if ARMV6M && self.vignetting {
-                            r.c4 = cos4(r.ra);
-                        }
-                        r
-                    }
+                    Some((x, y)) => Ray::new::<true>(x, y, 0).with_c4(ARMV6M && self.vignetting),
                     None => Ray::OUTSIDE,
                 };
                 (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
@@ -3334,13 +3338,7 @@ fn fill_rays<const PERSP: bool>(
     for (q, r) in rays.iter_mut().enumerate() {
         let (xd, yd, yd2) = slope(q);
         *r = match undistort(xd, yd, yd2) {
-            Some((x, y)) => {
-                let mut r = Ray::new::<PERSP>(x, y, korigin);
-                if vignette {
-                    r.c4 = cos4(r.ra);
-                }
-                r
-            }
+            Some((x, y)) => Ray::new::<PERSP>(x, y, korigin).with_c4(vignette),
             None => {
                 outside = true;
                 Ray::OUTSIDE

@@ -5,9 +5,10 @@
 //! attributes each address to a stage from its inlined call chain in the
 //! ELF's debug information (the innermost function a stage claims, see
 //! [`stage_of`]), and to a source line (the innermost in this repository:
-//! a `core::` helper counts for the line that inlined it). A frame is what runs from one entry of the firmware's
-//! `Runner::run` to the next: its preparation, its lines, and its
-//! streaming (the `link` row, which the frame cost of `hil` leaves out).
+//! a `core::` helper counts for the line that inlined it). A frame is what
+//! runs from one entry of the firmware's `Runner::run` to the next: its
+//! preparation, its lines, and its streaming (the `link` row, which the
+//! frame cost of `hil` leaves out).
 //!
 //! The counts are QEMU's executed guest instructions, as `hil`'s are
 //! (`hil` reads them from SysTick under `-icount`, which counts the same
@@ -347,8 +348,8 @@ impl Trace {
         }
         Ok(Trace {
             windows,
-            names: syms.names,
-            lines: syms.lines,
+            names: syms.names.list,
+            lines: syms.lines.list,
         })
     }
 
@@ -388,15 +389,32 @@ fn hex(s: &[u8]) -> Option<u32> {
     u32::from_str_radix(std::str::from_utf8(s).ok()?.trim(), 16).ok()
 }
 
+/// Strings, each kept once, and their indices.
+#[derive(Default)]
+struct Interned {
+    list: Vec<String>,
+    index: HashMap<String, usize>,
+}
+
+impl Interned {
+    /// `s`'s index, added if it is new.
+    fn id(&mut self, s: String) -> usize {
+        if let Some(k) = self.index.get(&s) {
+            return *k;
+        }
+        self.list.push(s.clone());
+        self.index.insert(s, self.list.len() - 1);
+        self.list.len() - 1
+    }
+}
+
 /// Call chains of addresses, innermost first, from the ELF's DWARF.
 struct Symbols {
     loader: addr2line::Loader,
-    /// Function names, and their indices.
-    names: Vec<String>,
-    index: HashMap<String, usize>,
-    /// Source lines, and their indices.
-    lines: Vec<String>,
-    line_index: HashMap<String, usize>,
+    /// Function names.
+    names: Interned,
+    /// Source lines (`file:line`).
+    lines: Interned,
     /// The repository's root, which source lines are given relative to.
     root: PathBuf,
 }
@@ -407,10 +425,8 @@ impl Symbols {
         let loader = addr2line::Loader::new(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
         Ok(Symbols {
             loader,
-            names: Vec::new(),
-            index: HashMap::new(),
-            lines: Vec::new(),
-            line_index: HashMap::new(),
+            names: Interned::default(),
+            lines: Interned::default(),
             root: std::fs::canonicalize(crate::hil_cmd::repo_root()).unwrap_or_else(|_| crate::hil_cmd::repo_root()),
         })
     }
@@ -461,19 +477,6 @@ impl Symbols {
         found.unwrap_or_else(|| format!("? in {}", self.chain(pc).last().map_or("?", String::as_str)))
     }
 
-    /// Interns a source line.
-    fn line_of(&mut self, pc: u32) -> usize {
-        let l = self.line(pc);
-        match self.line_index.get(&l) {
-            Some(k) => *k,
-            None => {
-                self.lines.push(l.clone());
-                self.line_index.insert(l, self.lines.len() - 1);
-                self.lines.len() - 1
-            }
-        }
-    }
-
     /// A block's attribution.
     fn block(&mut self, pcs: &[u32]) -> Block {
         let mut stages: Vec<(Option<Stage>, u64)> = Vec::new();
@@ -481,7 +484,7 @@ impl Symbols {
         let mut lines: Vec<(usize, u64)> = Vec::new();
         let mut last = None;
         for pc in pcs {
-            let l = self.line_of(*pc);
+            let l = self.lines.id(self.line(*pc));
             match lines.iter_mut().find(|(x, _)| *x == l) {
                 Some((_, n)) => *n += 1,
                 None => lines.push((l, 1)),
@@ -499,14 +502,7 @@ impl Symbols {
                 .or(chain.first())
                 .cloned()
                 .unwrap_or_else(|| format!("{pc:#x}"));
-            let k = match self.index.get(&name) {
-                Some(k) => *k,
-                None => {
-                    self.names.push(name.clone());
-                    self.index.insert(name, self.names.len() - 1);
-                    self.names.len() - 1
-                }
-            };
+            let k = self.names.id(name);
             match functions.iter_mut().find(|(x, t, _)| *x == k && *t == s) {
                 Some((_, _, n)) => *n += 1,
                 None => functions.push((k, s, 1)),
