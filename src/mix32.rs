@@ -202,10 +202,9 @@ fn vignette_q(sum: u64, c4: u32) -> Q {
 }
 
 /// The recorded values of a pixel whose channels' sums before `cos⁴α` are
-/// `sum` (S15 DN), with sensor noise: the EMVA 1288 stage
-/// ([`crate::noise::Stage::apply_with`]) on the exact noise-free value,
-/// with [`sigma_z`] for its noise term. Out of line: the noiseless pixel
-/// loop stays lean.
+/// `sum` (S15 DN), with sensor noise: [`noisy_dn`] of each channel's draw
+/// on the exact noise-free value. Out of line: the noiseless pixel loop
+/// stays lean.
 #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
 #[cfg_attr(target_arch = "x86_64", inline(always))]
 fn noisy<const C: usize>(
@@ -217,9 +216,32 @@ fn noisy<const C: usize>(
 ) -> [u32; 3] {
     let mut dn = [0u32; 3];
     for (c, ((d, s), max)) in dn.iter_mut().zip(sum).zip(dn_max).take(C).enumerate() {
-        *d = z.apply_with(vignette_q(s, c4), index, c, max as u32, mul_nonneg, sigma_z);
+        *d = noisy_dn(z.draw(index, c), vignette_q(s, c4), max as u16);
     }
     dn
+}
+
+/// The EMVA 1288 stage's value ([`crate::noise::Stage::apply_with`] with
+/// [`mul_nonneg`] and [`sigma_z`], I32F32) of a draw `d` on the noise-free
+/// value `mu`, clamped to `[0, dn_max]`, without its saturating sums: both
+/// of its sums are exact where `μ` and `μ_y,dark + ½` lie below 2⁶¹ (the
+/// noise term is within ±2⁵¹), and where either does not, both clamp to
+/// `dn_max` (the value exceeds 2²⁹ − 2¹⁹ DN either way: `σ z` is their only
+/// negative term). Equal to `apply_with`'s (`tests`).
+#[inline(always)]
+fn noisy_dn(d: crate::noise::Draw<Q>, mu: Q, dn_max: u16) -> u32 {
+    let mu = mu.to_bits().max(0);
+    let off = d.offset.to_bits();
+    if (mu | off) as u64 >> 61 != 0 {
+        return dn_max as u32;
+    }
+    // σ² = K_sys μ + (K_sys σ_d)², both ≥ 0: their u64 sum saturated at
+    // i64::MAX as the scalar sum is.
+    let var = (mul_nonneg(d.ksys, Q::from_bits(mu)).to_bits() as u64)
+        .saturating_add(d.dark_var.to_bits().max(0) as u64)
+        .min(i64::MAX as u64);
+    let v = mu + sigma_z16(var, d.z) + off;
+    (v >> 32).clamp(0, dn_max as i64) as u32
 }
 
 /// `a · b` for `a, b ≥ 0` (I32F32), equal to [`crate::scalar::Scalar::mul`]'s
@@ -239,19 +261,25 @@ pub fn mul_nonneg(a: Q, b: Q) -> Q {
 }
 
 /// `σ z` (I32F32 DN) from `σ²` (I32F32 DN²; 0 below 0) and the draw `z`
-/// (a multiple of 2⁻¹⁶ within ±6): `σ` from [`rsqrt_norm`] (2⁻¹⁹ relative)
+/// (a multiple of 2⁻¹⁶ within ±6): [`sigma_z16`].
+fn sigma_z(var: Q, z: Q) -> Q {
+    Q::from_bits(sigma_z16(var.to_bits().max(0) as u64, (z.to_bits() >> 16) as i32))
+}
+
+/// `σ z` (I32F32 DN bits, within ±2⁵¹) from `σ²` (I32F32 DN² bits) and
+/// `65 536 z` (within ±2¹⁹): `σ` from [`rsqrt_norm`] (2⁻¹⁹ relative)
 /// truncated to 2⁻¹⁶ DN — below 10⁻³ DN times `|z|` where `σ < 64 DN` —
 /// instead of a bitwise square root, then one exact 64-bit product.
-fn sigma_z(var: Q, z: Q) -> Q {
-    let s2 = var.to_bits().max(0) as u64;
+#[inline(always)]
+fn sigma_z16(s2: u64, z: i32) -> i64 {
     if s2 == 0 {
-        return Q::ZERO;
+        return 0;
     }
     // √(s2 2^-32) 2^16 = √(m/2^32) 2^(32 − e/2): (m/2^32)·y in Q2.62.
     let (m, y, e) = rsqrt_norm(s2);
     let s16 = (umul(m, y) >> (30 + e / 2)).min(u32::MAX as u64);
     // S16 · S16 → S32; |z| < 2^19 in S16: within i64.
-    Q::from_bits(s16 as i64 * (z.to_bits() >> 16))
+    s16 as i64 * z as i64
 }
 
 /// Whether `L`'s fast loops for `C` channels render the specular lobe
@@ -3415,6 +3443,40 @@ mod tests {
             for (a, b) in [(a, b), (a, u64::MAX), (a, 0), (a, 1 << 32)] {
                 let (a, b) = (Q::from_bits((a >> 1) as i64), Q::from_bits((b >> 1) as i64));
                 assert_eq!(mul_nonneg(a, b), a.mul(b), "{a:?} * {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_noisy_value_is_the_noise_stages() {
+        use crate::scene::{Noise, PixelFormat};
+        let mut s = 0x0dd5_eed5_0000_0007;
+        // Constants from the scene's ranges and beyond them (a saturation
+        // below 1 e⁻, offsets and dark noise past any full scale).
+        let q = |v: u64| Q::from_bits((v >> 1) as i64);
+        for _ in 0..400 {
+            let noise = Noise {
+                saturation_e: q(rng(&mut s) >> (rng(&mut s) % 64)),
+                dark_noise_e: q(rng(&mut s) >> (rng(&mut s) % 64)),
+                dark_offset_dn: q(rng(&mut s) >> (rng(&mut s) % 64)),
+                seed: rng(&mut s),
+            };
+            for format in [
+                PixelFormat::Gray8,
+                PixelFormat::Gray16 { bits: 12 },
+                PixelFormat::Rgb565,
+            ] {
+                let stage = crate::noise::Stage::<Q>::new(&noise, format, rng(&mut s) as u32);
+                for _ in 0..200 {
+                    let mu = Q::from_bits(rng(&mut s) as i64 >> (rng(&mut s) % 64));
+                    let (p, c) = (rng(&mut s) as u32, (rng(&mut s) % 3) as usize);
+                    let max = format.dn_max(c) as u16;
+                    assert_eq!(
+                        noisy_dn(stage.draw(p, c), mu, max),
+                        stage.apply_with(mu, p, c, max as u32, mul_nonneg, sigma_z),
+                        "{noise:?} {format:?} mu {mu:?} pixel {p} channel {c}"
+                    );
+                }
             }
         }
     }

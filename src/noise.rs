@@ -113,6 +113,19 @@ impl<S: Scalar> Stage<S> {
         })
     }
 
+    /// The constants of channel `c` and the draw `z` of channel `c` of pixel
+    /// `pixel`: what [`Stage::apply_with`] combines, for an arithmetic that
+    /// combines them its own way (the fast one's [`crate::mix32`]).
+    #[inline(always)]
+    pub fn draw(&self, pixel: u32, c: usize) -> Draw<S> {
+        Draw {
+            ksys: self.ksys.get(c).copied().unwrap_or(S::ZERO),
+            dark_var: self.dark_var.get(c).copied().unwrap_or(S::ZERO),
+            offset: self.offset.get(c).copied().unwrap_or(S::HALF),
+            z: normal_q16(self.key, pixel, c as u8),
+        }
+    }
+
     /// [`Stage::apply`] with `mul` giving `K_sys μ_y` (both ≥ 0) as
     /// [`Scalar::mul`] does, and `noise` the noise term `σ z` from `σ²` and
     /// the draw `z`: the fast arithmetic's own products and square root.
@@ -128,18 +141,25 @@ impl<S: Scalar> Stage<S> {
         mul: impl FnOnce(S, S) -> S,
         noise: impl FnOnce(S, S) -> S,
     ) -> u32 {
-        let (k, var, off) = (
-            self.ksys.get(c).copied().unwrap_or(S::ZERO),
-            self.dark_var.get(c).copied().unwrap_or(S::ZERO),
-            self.offset.get(c).copied().unwrap_or(S::HALF),
-        );
+        let d = self.draw(pixel, c);
         let mu = if mu > S::ZERO { mu } else { S::ZERO };
-        let z = S::from_q(Q::from_bits(
-            i64::from(normal_q16(self.key, pixel, c as u8)) << 16,
-        ));
-        let v = mu.add(noise(mul(k, mu).add(var), z)).add(off);
+        let z = S::from_q(Q::from_bits(i64::from(d.z) << 16));
+        let v = mu.add(noise(mul(d.ksys, mu).add(d.dark_var), z)).add(d.offset);
         v.floor_int().clamp(0, i64::from(dn_max)) as u32
     }
+}
+
+/// One draw of [`Stage::draw`]: a channel's constants and the pixel's `z`.
+#[derive(Clone, Copy, Debug)]
+pub struct Draw<S> {
+    /// `K_sys`, DN per electron (≥ 0).
+    pub ksys: S,
+    /// `(K_sys σ_d)²`, DN² (≥ 0).
+    pub dark_var: S,
+    /// `μ_y,dark + ½`, DN (≥ ½).
+    pub offset: S,
+    /// `65 536 z` ([`normal_q16`]: within ±393 210).
+    pub z: i32,
 }
 
 /// `K_sys = dn/μ_e,sat`, `(K_sys σ_d)²` and `μ_y,dark · dn/dn0 + ½` of a
