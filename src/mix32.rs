@@ -1153,6 +1153,12 @@ impl Key {
         const LOW28: u64 = (1 << 28) - 1;
         Key((u as u32 as u64 & LOW28) | ((v as u32 as u64 & LOW28) << 28) | ((prim as u64) << 56))
     }
+
+    /// Whether its cell's `u + v` is odd (the checker's second material).
+    #[inline(always)]
+    const fn odd(self) -> bool {
+        (self.0 ^ (self.0 >> 28)) & 1 != 0
+    }
 }
 
 /// One pixel's ray and its nearest hit so far: from the origin along
@@ -2596,7 +2602,7 @@ impl Mix32 {
             return 0;
         }
         *flag = 0;
-        let (sum, c4) = self.radiance::<L, C, PERSP>(r, k);
+        let (sum, c4) = self.radiance::<L, C, PERSP>(r, k, None);
         Self::dn_word::<C>(sum, c4, dn_max, (noise, index))
     }
 
@@ -2624,9 +2630,10 @@ impl Mix32 {
         &self,
         r: &Ray,
         k: &mut KCache,
+        key: Option<Key>,
     ) -> ([u64; 3], u32) {
         let c4 = self.c4(r);
-        let sum = match self.hit::<L, C, PERSP>(r) {
+        let sum = match self.hit_from::<L, C, PERSP, false>(r, [0, 0], key) {
             Some(h) => self.shade::<L, C, PERSP>(r, &h, k),
             None => self.bg,
         };
@@ -2717,7 +2724,7 @@ impl Mix32 {
                     if r.t == 0 {
                         continue;
                     }
-                    let l = match self.hit_from::<L, C, true, true>(r, a) {
+                    let l = match self.hit_from::<L, C, true, true>(r, a, None) {
                         Some(h) => self.shade::<L, C, true>(r, &h, &mut k),
                         None => self.bg,
                     };
@@ -2747,15 +2754,17 @@ impl Mix32 {
     }
 
     /// [`Mix32::radiance`] out of line: one copy of the shading serves the
-    /// sampled loop's centres and grids.
+    /// sampled loop's centres (whose [`Key`] is known: a checker's cell is
+    /// not found twice) and grids.
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn radiance_s<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         r: &Ray,
         k: &mut KCache,
+        key: Option<Key>,
     ) -> ([u64; 3], u32) {
-        self.radiance::<L, C, PERSP>(r, k)
+        self.radiance::<L, C, PERSP>(r, k, key)
     }
 
     /// What a traced ray sees, for the adaptive rule: the primitive and its
@@ -2915,7 +2924,7 @@ impl Mix32 {
                 {
                     if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
                         // In the field: its corners are.
-                        let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, &mut k);
+                        let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, &mut k, Some(*c));
                         *out = Self::dn_word::<C>(sum, c4, dn_max, (noise, index.wrapping_add(q as u32)));
                         *flag = 0;
                         grid &= !(1 << q);
@@ -2996,7 +3005,7 @@ impl Mix32 {
                 if r.t == 0 {
                     return None;
                 }
-                let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, k);
+                let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, k, None);
                 for (a, s) in acc.iter_mut().zip(sum).take(C) {
                     *a = a.saturating_add(vignette_q(s, c4).to_bits());
                 }
@@ -3005,22 +3014,19 @@ impl Mix32 {
         Some(acc.map(|a| Q::from_bits(a >> (2 * log_n))))
     }
 
-    /// The nearest hit of a ray after every primitive's pass.
-    #[inline(always)]
-    fn hit<L: Lines, const C: usize, const PERSP: bool>(&self, r: &Ray) -> Option<Hit<'_>> {
-        self.hit_from::<L, C, PERSP, false>(r, [0, 0])
-    }
-
-    /// [`Mix32::hit`]; if `MOVED`, for a ray traced in the frame moved to
+    /// The nearest hit of a ray after every primitive's pass; if `MOVED`,
+    /// for a ray traced in the frame moved to
     /// `(a_x, a_y, 0)` (S18 U; [`MixShape::moved`]): the hit point moved
     /// back, the rest in the camera frame. (`MOVED` a constant: `hit` as
     /// this with `a = 0` at run time cost the M4F's standard scene 7
-    /// instructions a pixel.)
+    /// instructions a pixel.) With `key`, the ray's [`Key`] as
+    /// [`Mix32::key`] found it: a checker's material from its cell's parity.
     #[inline(always)]
     fn hit_from<L: Lines, const C: usize, const PERSP: bool, const MOVED: bool>(
         &self,
         r: &Ray,
         a: [i32; 2],
+        key: Option<Key>,
     ) -> Option<Hit<'_>> {
         if r.t == NO_HIT {
             return None;
@@ -3060,9 +3066,15 @@ impl Mix32 {
         };
         let mut m = p.material as usize;
         if let Some(k) = &p.checker {
-            let (cu, cv) = k.cells(pt);
-            // The parity of cu + cv.
-            if (cu ^ cv) & 1 != 0 {
+            let odd = match key {
+                Some(key) => key.odd(),
+                None => {
+                    let (cu, cv) = k.cells(pt);
+                    // The parity of cu + cv.
+                    (cu ^ cv) & 1 != 0
+                }
+            };
+            if odd {
                 m = k.material as usize;
             }
         }
