@@ -72,7 +72,7 @@
 //! ([`crate::render::RenderError::OutsideFormat`]); the generic path renders
 //! them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
-use crate::num::{umul16, ARMV6M};
+use crate::num::{clz32_table, clz64_table, umul16, ARMV6M};
 use crate::render::from_acc;
 use crate::render::{LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::sampling::Corners;
@@ -562,7 +562,7 @@ fn fine_normal<const PERSP: bool>(
     });
     // S24 → S30 by 1/r: six more bits of shift than from S18.
     let sh = (inv_r.1 + 6).min(63);
-    rel.map(|v| sat32(smul_u(v, inv_r.0) >> sh))
+    rel.map(|v| sat32(sar64(smul_u(v, inv_r.0), sh)))
 }
 
 /// `√x` for `x < 2⁵⁶` (S48 → S24), within 2⁻²⁸ relative and one unit:
@@ -691,6 +691,16 @@ fn shl64(v: u64, z: u32) -> u64 {
     }
 }
 
+/// `v >> s` (arithmetic) for `s` < 64.
+#[inline(always)]
+fn sar64(v: i64, s: u32) -> i64 {
+    if ARMV6M {
+        sar64_words(v, s)
+    } else {
+        v >> s
+    }
+}
+
 /// For `v ≠ 0`: the top word of `v << z` and `z`, the count of `v`'s
 /// leading zeros, in 32-bit words: [`Pf::new`]'s normalization, which the
 /// 64-bit count and shift by a variable amount took the M3 twelve
@@ -784,6 +794,20 @@ fn smul_u16(a: i32, b: u32) -> i64 {
     }
 }
 
+/// [`sar64`] in 32-bit words (the M0's is a library call).
+#[inline(always)]
+fn sar64_words(v: i64, s: u32) -> i64 {
+    let (hi, lo) = ((v >> 32) as i32, v as u32);
+    if s >= 32 {
+        // s − 32 < 32 (s < 64).
+        (hi >> ((s - 32) & 31)) as i64
+    } else {
+        // hi << (32 − s) in two shifts, each below 32 (0 for s = 0).
+        let low = (lo >> s) | (((hi as u32) << 1) << (31 - s));
+        (((hi >> s) as i64) << 32) | low as i64
+    }
+}
+
 /// [`shl64`] in 32-bit words (the M0's 64-bit shift is a library call).
 #[inline(always)]
 fn shl64_words(v: u64, z: u32) -> u64 {
@@ -797,46 +821,6 @@ fn shl64_words(v: u64, z: u32) -> u64 {
         ((top as u64) << 32) | (lo << z) as u64
     }
 }
-
-/// [`clz32`]: the highest non-zero byte's count from a table.
-#[inline(always)]
-fn clz32_table(x: u32) -> u32 {
-    let (byte, n) = if x >> 16 != 0 {
-        if x >> 24 != 0 {
-            (x >> 24, 0)
-        } else {
-            (x >> 16, 8)
-        }
-    } else if x >> 8 != 0 {
-        (x >> 8, 16)
-    } else {
-        (x, 24)
-    };
-    n + CLZ8.get(byte as usize).copied().unwrap_or(0) as u32
-}
-
-/// [`clz64`] from [`clz32_table`].
-#[inline(always)]
-fn clz64_table(x: u64) -> u32 {
-    let hi = (x >> 32) as u32;
-    if hi == 0 {
-        32 + clz32_table(x as u32)
-    } else {
-        clz32_table(hi)
-    }
-}
-
-/// Leading zeros of a byte (8 for 0), for [`clz32`] on the M0.
-#[allow(clippy::indexing_slicing)]
-const CLZ8: [u8; 256] = {
-    let mut t = [0u8; 256];
-    let mut i = 0;
-    while i < 256 {
-        t[i] = (i as u8).leading_zeros() as u8;
-        i += 1;
-    }
-    t
-};
 
 #[inline(always)]
 fn sat32(v: i64) -> i32 {
@@ -1114,6 +1098,12 @@ impl KCache {
 
 /// Pixels a pass handles at once (at most 32: [`Mix32::line_f`] keeps a
 /// bit a ray).
+/// Whether the one-sample loop's rays keep their `cos⁴α` ([`Ray::c4`]):
+/// on the boards, where a ray and its mirror then share one (M3 standard
+/// 306 → 297 instructions a pixel); the x86-64 host computes it per pixel.
+/// The sampled loop's rays keep theirs on the M0 only (on the M3 the keep
+/// cost calibration-board 10 a pixel).
+const KEEP_C4: bool = cfg!(target_arch = "arm");
 const CHUNK: usize = 32;
 const _: () = assert!(CHUNK <= 32);
 
@@ -2331,7 +2321,7 @@ impl Mix32 {
                         acc -= self.dx;
                         (xd, yd, yd2)
                     },
-                    true,
+                    KEEP_C4,
                 );
             }
             // The closed plane, if any: tested only where another primitive
@@ -2384,7 +2374,7 @@ impl Mix32 {
         x: i64,
         step: i64,
         (yd, yd2): (i32, i64),
-        shade: bool,
+        keep_c4: bool,
     ) {
         let mut acc = x;
         self.trace::<PERSP, false>(
@@ -2394,7 +2384,7 @@ impl Mix32 {
                 acc -= step;
                 (xd, yd, yd2)
             },
-            shade,
+            keep_c4,
         );
     }
 
@@ -2408,24 +2398,24 @@ impl Mix32 {
         &self,
         rays: &mut [Ray],
         slope: impl FnMut(usize) -> (i32, i32, i64),
-        shade: bool,
+        keep_c4: bool,
     ) {
-        let (ys, outside) = self.rays::<PERSP>(rays, slope, shade);
+        let (ys, outside) = self.rays::<PERSP>(rays, slope, keep_c4);
         self.passes::<PERSP, TRIM>(rays, ys, outside, None);
     }
 
     /// [`fill_rays`] with this frame's undistortion (a frame without
-    /// distortion has a loop without its test). With `shade` (rays to be
-    /// shaded, not only looked at), each ray's `cos⁴α` on the M0.
+    /// distortion has a loop without its test). With `keep_c4`, each ray's
+    /// `cos⁴α` ([`Ray::c4`], for [`Mix32::c4`]).
     #[inline(always)]
     fn rays<const PERSP: bool>(
         &self,
         rays: &mut [Ray],
         slope: impl FnMut(usize) -> (i32, i32, i64),
-        shade: bool,
+        keep_c4: bool,
     ) -> ([i32; 2], bool) {
         let korigin = self.parallel.unwrap_or(0);
-        let vignette = ARMV6M && shade && self.vignetting;
+        let vignette = keep_c4 && self.vignetting;
         match self.k {
             Some(k) => fill_rays::<PERSP>(
                 rays,
@@ -2578,9 +2568,9 @@ impl Mix32 {
                 self.bg
             };
             *word = if rgb {
-                Self::dn_word::<3>(sum, self.c4(r), dn_max, (noise, k))
+                Self::dn_word::<3>(sum, self.c4::<KEEP_C4>(r), dn_max, (noise, k))
             } else {
-                Self::dn_word::<1>(sum, self.c4(r), dn_max, (noise, k))
+                Self::dn_word::<1>(sum, self.c4::<KEEP_C4>(r), dn_max, (noise, k))
             };
         }
         left
@@ -2602,7 +2592,7 @@ impl Mix32 {
             return 0;
         }
         *flag = 0;
-        let (sum, c4) = self.radiance::<L, C, PERSP>(r, k, None);
+        let (sum, c4) = self.radiance::<L, C, PERSP, KEEP_C4>(r, k, None);
         Self::dn_word::<C>(sum, c4, dn_max, (noise, index))
     }
 
@@ -2624,15 +2614,15 @@ impl Mix32 {
     }
 
     /// A ray's (in the field) sum before vignetting (S15 DN, capped) and
-    /// its `cos⁴α` (S31).
+    /// its `cos⁴α` (S31; [`Mix32::c4`]).
     #[inline(always)]
-    fn radiance<L: Lines, const C: usize, const PERSP: bool>(
+    fn radiance<L: Lines, const C: usize, const PERSP: bool, const KEPT: bool>(
         &self,
         r: &Ray,
         k: &mut KCache,
         key: Option<Key>,
     ) -> ([u64; 3], u32) {
-        let c4 = self.c4(r);
+        let c4 = self.c4::<KEPT>(r);
         let sum = match self.hit_from::<L, C, PERSP, false>(r, [0, 0], key) {
             Some(h) => self.shade::<L, C, PERSP>(r, &h, k),
             None => self.bg,
@@ -2640,10 +2630,12 @@ impl Mix32 {
         (sum, c4)
     }
 
-    /// A shaded ray's `cos⁴α` (S31): on the M0 as [`fill_rays`] set it.
+    /// A shaded ray's `cos⁴α` (S31): if `KEPT`, as [`fill_rays`] set it
+    /// (the rays of the one-sample loop on the boards, whose mirrors share
+    /// it; every shaded ray on the M0).
     #[inline(always)]
-    fn c4(&self, r: &Ray) -> u32 {
-        if ARMV6M {
+    fn c4<const KEPT: bool>(&self, r: &Ray) -> u32 {
+        if KEPT {
             r.c4
         } else if self.vignetting {
             cos4(r.ra)
@@ -2745,7 +2737,7 @@ impl Mix32 {
                 } else {
                     *flag = 0;
                     let sum = s.map(|v| v >> ap.m.trailing_zeros());
-                    Self::dn_word::<C>(sum, self.c4(c), dn_max, (noise, index))
+                    Self::dn_word::<C>(sum, self.c4::<ARMV6M>(c), dn_max, (noise, index))
                 };
                 index = index.wrapping_add(1);
             }
@@ -2764,7 +2756,7 @@ impl Mix32 {
         k: &mut KCache,
         key: Option<Key>,
     ) -> ([u64; 3], u32) {
-        self.radiance::<L, C, PERSP>(r, k, key)
+        self.radiance::<L, C, PERSP, ARMV6M>(r, k, key)
     }
 
     /// What a traced ray sees, for the adaptive rule: the primitive and its
@@ -2915,7 +2907,7 @@ impl Mix32 {
                     left = right;
                 }
                 // Centres: their own sample where the corners agree with it.
-                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), true);
+                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), ARMV6M);
                 for (q, ((r, c), (out, flag))) in rays
                     .iter()
                     .zip(&corners)
@@ -3000,7 +2992,7 @@ impl Mix32 {
         let step = self.dx >> log_n;
         for b in 0..n {
             let yd = ((yc - off_y(b)) >> 38) as i32;
-            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)), true);
+            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)), ARMV6M);
             for r in row.iter() {
                 if r.t == 0 {
                     return None;
@@ -3061,7 +3053,7 @@ impl Mix32 {
             }
             MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {
                 let rel = p.saturating_sub(c);
-                sat32(smul_u(rel, inv_r.0) >> inv_r.1)
+                sat32(sar64(smul_u(rel, inv_r.0), inv_r.1))
             }),
         };
         let mut m = p.material as usize;
@@ -3098,8 +3090,8 @@ impl Mix32 {
         let (y, z) = rsqrt_fine(r.a as u64);
         let sh = 26 + (44 - z.min(44)) / 2;
         [
-            -((smul_u(r.x, y) >> sh) as i32),
-            -((smul_u(r.y, y) >> sh) as i32),
+            -(sar64(smul_u(r.x, y), sh) as i32),
+            -(sar64(smul_u(r.y, y), sh) as i32),
             -((y >> ((44 - z.min(44)) / 2)) as i32),
         ]
     }
@@ -3625,13 +3617,14 @@ mod wmul_tests {
                 assert_eq!(super::smul_u16(a as i32, b), a as i32 as i64 * b as i64);
                 assert_eq!(super::usq16(a as i32), (a as i32 as i64 * a as i32 as i64) as u64);
                 assert_eq!(super::umul_h16(a, b as u16), a as u64 * (b as u16) as u64);
-                assert_eq!(super::clz32_table(a), a.leading_zeros(), "{a}");
+                assert_eq!(crate::num::clz32_table(a), a.leading_zeros(), "{a}");
                 for z in [0, 1, b % 64, 31, 32, 33, 63] {
                     let v = (a as u64) << 32 | b as u64;
                     assert_eq!(super::shl64_words(v, z), v << z, "{v} << {z}");
+                    assert_eq!(super::sar64_words(v as i64, z), v as i64 >> z, "{v} >> {z}");
                 }
                 let w = (a as u64) << 32 | b as u64;
-                assert_eq!(super::clz64_table(w), w.leading_zeros(), "{w}");
+                assert_eq!(crate::num::clz64_table(w), w.leading_zeros(), "{w}");
                 for v in [w, b as u64, w >> (b % 64)] {
                     for s in [0, 1, b % 32, 31] {
                         assert_eq!(super::top_shl(v, s), ((v << s) >> 32) as u32, "{v} << {s}");
@@ -3641,7 +3634,7 @@ mod wmul_tests {
                         assert_eq!(super::norm_top(v), (((v << z) >> 32) as u32, z), "{v}");
                     }
                 }
-                assert_eq!(super::clz64_table(b as u64), (b as u64).leading_zeros());
+                assert_eq!(crate::num::clz64_table(b as u64), (b as u64).leading_zeros());
             }
         }
     }

@@ -56,13 +56,76 @@ pub(crate) const fn umul16(a: u32, b: u32) -> u64 {
     (((ah * bh) as u64) << 32) + (cross << 16) + (al * bl) as u64
 }
 
+/// Leading zeros of a `u32` (32 for 0): the highest non-zero byte's count
+/// from a table (the M0 has no `clz`; the library's routine is a loop).
+#[inline(always)]
+pub(crate) fn clz32_table(x: u32) -> u32 {
+    let (byte, n) = if x >> 16 != 0 {
+        if x >> 24 != 0 {
+            (x >> 24, 0)
+        } else {
+            (x >> 16, 8)
+        }
+    } else if x >> 8 != 0 {
+        (x >> 8, 16)
+    } else {
+        (x, 24)
+    };
+    n + CLZ8.get(byte as usize).copied().unwrap_or(0) as u32
+}
+
+/// Leading zeros of a `u64` from [`clz32_table`].
+#[inline(always)]
+pub(crate) fn clz64_table(x: u64) -> u32 {
+    let hi = (x >> 32) as u32;
+    if hi == 0 {
+        32 + clz32_table(x as u32)
+    } else {
+        clz32_table(hi)
+    }
+}
+
+/// Leading zeros of a byte (8 for 0), for [`clz32_table`].
+#[allow(clippy::indexing_slicing)]
+const CLZ8: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut i = 0;
+    while i < 256 {
+        t[i] = (i as u8).leading_zeros() as u8;
+        i += 1;
+    }
+    t
+};
+
+/// Leading zeros of a `u128` (128 for 0): on the M0 [`clz128_words`] (the
+/// library's 128-bit count is four calls of a bit loop there; per-frame
+/// preparation only).
+pub(crate) fn clz128(v: u128) -> u32 {
+    if ARMV6M {
+        clz128_words(v)
+    } else {
+        v.leading_zeros()
+    }
+}
+
+/// [`clz128`] from the top non-zero word's [`clz32_table`].
+fn clz128_words(v: u128) -> u32 {
+    let mut n = 0;
+    let mut w = v;
+    while n < 96 && (w >> 96) == 0 {
+        w <<= 32;
+        n += 32;
+    }
+    n + clz32_table((w >> 96) as u32)
+}
+
 /// `⌊√v⌋`, a bit a step (the restoring method): a few hundred bytes of
 /// code where the library's `u128::isqrt` is over 2 KB of flash on
 /// Cortex-M. Its users run once a frame (preparation), not a pixel.
 #[inline(never)]
 pub fn isqrt_u128(v: u128) -> u128 {
     // The largest power of four not above v (1 for v = 0).
-    let mut bit: u128 = 1 << ((127 - v.leading_zeros().min(127)) & !1);
+    let mut bit: u128 = 1 << ((127 - clz128(v).min(127)) & !1);
     let (mut rem, mut root) = (v, 0u128);
     while bit != 0 {
         if rem >= root + bit {
@@ -232,7 +295,7 @@ fn shr_round(m: i128, s: u32) -> i128 {
 }
 
 fn sig_bits(m: i128) -> u32 {
-    128 - m.unsigned_abs().leading_zeros()
+    128 - clz128(m.unsigned_abs())
 }
 
 /// `⌊n / d⌋`, `None` for `d = 0`. For a divisor of 63 bits (`d` in
@@ -260,6 +323,23 @@ fn div_by_63_bits(n: u128, d: u128) -> Option<u128> {
             Some(x as u128)
         }
         _ => n.checked_div(d),
+    }
+}
+
+/// `a · b` for `|a|, |b| < 2⁶³` (mantissas [`Wide::normalized`] to
+/// [`MUL_BITS`]) from four 32 × 32-bit products ([`umul16`]): on the M0
+/// the library's 128-bit product is calls of its 64-bit one.
+#[inline(never)]
+fn mul_63_words(a: i128, b: i128) -> i128 {
+    let (x, y) = (a.unsigned_abs() as u64, b.unsigned_abs() as u64);
+    let (xh, xl, yh, yl) = ((x >> 32) as u32, x as u32, (y >> 32) as u32, y as u32);
+    // Each cross product is below 2⁶³: their sum fits u64.
+    let cross = umul16(xh, yl) + umul16(xl, yh);
+    let p = ((umul16(xh, yh) as u128) << 64) + ((cross as u128) << 32) + umul16(xl, yl) as u128;
+    if (a < 0) != (b < 0) {
+        -(p as i128)
+    } else {
+        p as i128
     }
 }
 
@@ -366,7 +446,7 @@ impl Wide {
             m <<= 1;
             frac += 1;
         }
-        let room = m.leading_zeros().saturating_sub(2) & !1;
+        let room = clz128(m).saturating_sub(2) & !1;
         m <<= room;
         frac += room as i64;
         Some(Wide {
@@ -453,7 +533,11 @@ impl Mul for Wide {
         let a = self.normalized(MUL_BITS);
         let b = o.normalized(MUL_BITS);
         Wide {
-            mant: a.mant * b.mant,
+            mant: if ARMV6M {
+                mul_63_words(a.mant, b.mant)
+            } else {
+                a.mant * b.mant
+            },
             frac: a.frac.saturating_add(b.frac),
         }
     }
@@ -563,6 +647,39 @@ mod tests {
             (7, 0),
         ] {
             assert_eq!(div_by_63_bits(n, d), n.checked_div(d));
+        }
+    }
+
+    #[test]
+    fn the_word_count_of_leading_zeros_is_the_librarys() {
+        let mut x = 0x2545_F491_4F6C_DD1Du128 | (0x9E37_79B9_7F4A_7C15u128 << 64);
+        for _ in 0..2000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            for s in [0, 1, 31, 32, 33, 63, 64, 65, 95, 96, 97, 127] {
+                let v = x >> s;
+                assert_eq!(clz128_words(v), v.leading_zeros(), "{v}");
+            }
+        }
+        assert_eq!(clz128_words(0), 128);
+        assert_eq!(clz128_words(1), 127);
+    }
+
+    #[test]
+    fn the_word_product_is_the_128_bit_product() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..20_000 {
+            let (a, b) = ((next() >> 1) as i128, (next() >> (1 + next() % 63)) as i128);
+            for (a, b) in [(a, b), (-a, b), (a, -b), (-a, -b), (a, 0), ((1 << 63) - 1, -b)] {
+                assert_eq!(mul_63_words(a, b), a * b, "{a} x {b}");
+            }
         }
     }
 
