@@ -20,7 +20,7 @@
 //! a lobe (a floor, a wall) has no pass of its own in the one-sample loop:
 //! it is tested only on the rays another primitive hits, and the rays no
 //! other primitive hits are shaded from the plane in closed form
-//! ([`Closed`]: its ambient and directional terms once a frame, each point
+//! (`Closed`: its ambient and directional terms once a frame, each point
 //! light's `kd I h (|n·d| / |w P_L − dist d|)³` from the ray's slopes — no
 //! `t`, no hit point). A pass holds one primitive's
 //! constants in registers: on the Cortex-M3 that saves more than the chunk

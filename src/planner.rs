@@ -141,7 +141,7 @@ pub struct Candidate {
     /// differs from the reference's: a look (sample, corner, centre)
     /// within the geometric error of an edge can see the other side. The
     /// expected count, not a bound: edge length per pixel area
-    /// ([`edge_fraction`]'s estimate) × 2 × `geom_err_px` × looks per pixel
+    /// (`edge_fraction`'s estimate) × 2 × `geom_err_px` × looks per pixel
     /// area (`n²`, with the adaptive rule `+ 5`: a corner decides for four
     /// pixels, the centre for one).
     pub edge_differing: f64,

@@ -206,7 +206,7 @@ const MODULES: &[(&str, Option<Stage>)] = &[
 
 /// The stage of an address from its call chain (innermost function
 /// first, names demangled without hashes): the innermost function
-/// [`FUNCTIONS`] claims, else the innermost [`MODULES`] claims (`None`:
+/// `FUNCTIONS` claims, else the innermost `MODULES` claims (`None`:
 /// a helper, its caller's), else a bare symbol's caller's, else
 /// [`Stage::Firmware`].
 pub fn stage_of(chain: &[String]) -> Option<Stage> {
