@@ -119,22 +119,49 @@ fn clz128_words(v: u128) -> u32 {
     n + clz32_table((w >> 96) as u32)
 }
 
-/// `⌊√v⌋`, a bit a step (the restoring method): a few hundred bytes of
-/// code where the library's `u128::isqrt` is over 2 KB of flash on
-/// Cortex-M. Its users run once a frame (preparation), not a pixel.
+/// `⌊√v⌋`, two bits of `v` a step (the digit-by-digit method): a few
+/// hundred bytes of code where the library's `u128::isqrt` is over 2 KB
+/// of flash on Cortex-M. After `k` steps the root is below `2^k` and the
+/// remainder at most twice it, so the first 61 steps run in 64-bit words
+/// (half the M0's work of 128-bit ones), the last three at most in 128.
+/// Its users run once a frame (preparation), not a pixel.
 #[inline(never)]
 pub fn isqrt_u128(v: u128) -> u128 {
-    // The largest power of four not above v (1 for v = 0).
-    let mut bit: u128 = 1 << ((127 - clz128(v).min(127)) & !1);
-    let (mut rem, mut root) = (v, 0u128);
-    while bit != 0 {
-        if rem >= root + bit {
-            rem -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
+    // Steps: the bit pairs from the highest non-zero one; the pairs are
+    // taken from the top of (hi, lo), shifted two bits a step.
+    let steps = (129 - clz128(v)) / 2;
+    if steps == 0 {
+        return 0;
+    }
+    let x = v << (128 - 2 * steps);
+    let (mut hi, mut lo) = ((x >> 64) as u64, x as u64);
+    let mut pair = || {
+        let p = hi >> 62;
+        hi = (hi << 2) | (lo >> 62);
+        lo <<= 2;
+        p
+    };
+    let (mut root, mut rem) = (0u64, 0u64);
+    let narrow = steps.min(61);
+    for _ in 0..narrow {
+        // rem ≤ 2 root < 2^(k+1): rem·4 + 3 < 2^64 for k ≤ 60.
+        rem = (rem << 2) | pair();
+        let trial = (root << 2) | 1;
+        root <<= 1;
+        if rem >= trial {
+            rem -= trial;
+            root |= 1;
         }
-        bit >>= 2;
+    }
+    let (mut root, mut rem) = (root as u128, rem as u128);
+    for _ in narrow..steps {
+        rem = (rem << 2) | pair() as u128;
+        let trial = (root << 2) | 1;
+        root <<= 1;
+        if rem >= trial {
+            rem -= trial;
+            root |= 1;
+        }
     }
     root
 }
