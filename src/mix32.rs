@@ -72,7 +72,7 @@
 //! ([`crate::render::RenderError::OutsideFormat`]); the generic path renders
 //! them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
-use crate::num::{clz32_table, clz64_table, umul16, ARMV6M};
+use crate::num::{clz32, clz64, umul16, ARMV6M};
 use crate::render::from_acc;
 use crate::render::{LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::sampling::Corners;
@@ -222,7 +222,7 @@ fn noisy<const C: usize>(
 }
 
 /// The EMVA 1288 stage's value ([`crate::noise::Stage::apply_with`] with
-/// [`mul_nonneg`] and [`sigma_z`], I32F32) of a draw `d` on the noise-free
+/// [`mul_nonneg`] and [`sigma_z16`], I32F32) of a draw `d` on the noise-free
 /// value `mu`, clamped to `[0, dn_max]`, without its saturating sums: both
 /// of its sums are exact where `μ` and `μ_y,dark + ½` lie below 2⁶¹ (the
 /// noise term is within ±2⁵¹), and where either does not, both clamp to
@@ -261,7 +261,9 @@ pub fn mul_nonneg(a: Q, b: Q) -> Q {
 }
 
 /// `σ z` (I32F32 DN) from `σ²` (I32F32 DN²; 0 below 0) and the draw `z`
-/// (a multiple of 2⁻¹⁶ within ±6): [`sigma_z16`].
+/// (a multiple of 2⁻¹⁶ within ±6): [`sigma_z16`], as
+/// [`crate::noise::Stage::apply_with`] takes it (the test of [`noisy_dn`]).
+#[cfg(test)]
 fn sigma_z(var: Q, z: Q) -> Q {
     Q::from_bits(sigma_z16(var.to_bits().max(0) as u64, (z.to_bits() >> 16) as i32))
 }
@@ -727,26 +729,6 @@ fn top_shl(v: u64, s: u32) -> u32 {
     (hi << s) | ((lo >> 1) >> (31 - s))
 }
 
-/// Leading zeros of a `u32` (32 for 0).
-#[inline(always)]
-fn clz32(x: u32) -> u32 {
-    if ARMV6M {
-        clz32_table(x)
-    } else {
-        x.leading_zeros()
-    }
-}
-
-/// Leading zeros of a `u64` (64 for 0).
-#[inline(always)]
-fn clz64(x: u64) -> u32 {
-    if ARMV6M {
-        clz64_table(x)
-    } else {
-        x.leading_zeros()
-    }
-}
-
 // The M0's versions, compiled everywhere so that the tests check them.
 
 /// `a · b` from 16 × 16-bit products: `a = a_h 2¹⁶ + a_l` (`a_h` signed,
@@ -1096,14 +1078,18 @@ impl KCache {
     };
 }
 
-/// Pixels a pass handles at once (at most 32: [`Mix32::line_f`] keeps a
-/// bit a ray).
 /// Whether the one-sample loop's rays keep their `cos⁴α` ([`Ray::c4`]):
 /// on the boards, where a ray and its mirror then share one (M3 standard
 /// 306 → 297 instructions a pixel); the x86-64 host computes it per pixel.
-/// The sampled loop's rays keep theirs on the M0 only (on the M3 the keep
-/// cost calibration-board 10 a pixel).
 const KEEP_C4: bool = cfg!(target_arch = "arm");
+
+/// Whether the sampled and aperture loops' shaded rays keep theirs: on the
+/// M0 only (on the M3 the keep cost calibration-board 10 a pixel). The
+/// rays are filled ([`Mix32::rays`]) and read ([`Mix32::c4`]) alike.
+const KEEP_C4_SAMPLED: bool = ARMV6M;
+
+/// Pixels a pass handles at once (at most 32: [`Mix32::line_f`] keeps a
+/// bit a ray).
 const CHUNK: usize = 32;
 const _: () = assert!(CHUNK <= 32);
 
@@ -1223,7 +1209,7 @@ impl Ray {
     }
 
     /// The ray with its [`Ray::c4`] from its `1/a` ([`cos4`]) if
-    /// `vignette` (on the M0, for a frame that vignettes).
+    /// `vignette` (a loop that keeps it, in a frame that vignettes).
     #[inline(always)]
     fn with_c4(mut self, vignette: bool) -> Ray {
         if vignette {
@@ -2631,9 +2617,9 @@ impl Mix32 {
         (sum, c4)
     }
 
-    /// A shaded ray's `cos⁴α` (S31): if `KEPT`, as [`fill_rays`] set it
-    /// (the rays of the one-sample loop on the boards, whose mirrors share
-    /// it; every shaded ray on the M0).
+    /// A shaded ray's `cos⁴α` (S31): if `KEPT` ([`KEEP_C4`] in the
+    /// one-sample loop, [`KEEP_C4_SAMPLED`] in the others), as
+    /// [`fill_rays`] set it.
     #[inline(always)]
     fn c4<const KEPT: bool>(&self, r: &Ray) -> u32 {
         if KEPT {
@@ -2683,7 +2669,7 @@ impl Mix32 {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
                 *r = match self.undistort(xd, yd, yd2) {
-                    Some((x, y)) => Ray::new::<true>(x, y, 0).with_c4(ARMV6M && self.vignetting),
+                    Some((x, y)) => Ray::new::<true>(x, y, 0).with_c4(KEEP_C4_SAMPLED && self.vignetting),
                     None => Ray::OUTSIDE,
                 };
                 (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
@@ -2738,7 +2724,7 @@ impl Mix32 {
                 } else {
                     *flag = 0;
                     let sum = s.map(|v| v >> ap.m.trailing_zeros());
-                    Self::dn_word::<C>(sum, self.c4::<ARMV6M>(c), dn_max, (noise, index))
+                    Self::dn_word::<C>(sum, self.c4::<KEEP_C4_SAMPLED>(c), dn_max, (noise, index))
                 };
                 index = index.wrapping_add(1);
             }
@@ -2757,7 +2743,7 @@ impl Mix32 {
         k: &mut KCache,
         key: Option<Key>,
     ) -> ([u64; 3], u32) {
-        self.radiance::<L, C, PERSP, ARMV6M>(r, k, key)
+        self.radiance::<L, C, PERSP, KEEP_C4_SAMPLED>(r, k, key)
     }
 
     /// What a traced ray sees, for the adaptive rule: the primitive and its
@@ -2908,7 +2894,7 @@ impl Mix32 {
                     left = right;
                 }
                 // Centres: their own sample where the corners agree with it.
-                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), ARMV6M);
+                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), KEEP_C4_SAMPLED);
                 for (q, ((r, c), (out, flag))) in rays
                     .iter()
                     .zip(&corners)
@@ -2937,14 +2923,7 @@ impl Mix32 {
                         let mut dn = [0u32; 3];
                         for (c, ((d, v), max)) in dn.iter_mut().zip(v).zip(dn_max).take(C).enumerate() {
                             *d = match noise {
-                                Some(z) => z.apply_with(
-                                    v,
-                                    index.wrapping_add(q as u32),
-                                    c,
-                                    max as u32,
-                                    mul_nonneg,
-                                    sigma_z,
-                                ),
+                                Some(z) => noisy_dn(z.draw(index.wrapping_add(q as u32), c), v, max as u16),
                                 None => crate::vignetting::round_dn(v, max as u32),
                             };
                         }
@@ -2993,7 +2972,7 @@ impl Mix32 {
         let step = self.dx >> log_n;
         for b in 0..n {
             let yd = ((yc - off_y(b)) >> 38) as i32;
-            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)), ARMV6M);
+            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)), KEEP_C4_SAMPLED);
             for r in row.iter() {
                 if r.t == 0 {
                     return None;
@@ -3618,14 +3597,12 @@ mod wmul_tests {
                 assert_eq!(super::smul_u16(a as i32, b), a as i32 as i64 * b as i64);
                 assert_eq!(super::usq16(a as i32), (a as i32 as i64 * a as i32 as i64) as u64);
                 assert_eq!(super::umul_h16(a, b as u16), a as u64 * (b as u16) as u64);
-                assert_eq!(crate::num::clz32_table(a), a.leading_zeros(), "{a}");
                 for z in [0, 1, b % 64, 31, 32, 33, 63] {
                     let v = (a as u64) << 32 | b as u64;
                     assert_eq!(super::shl64_words(v, z), v << z, "{v} << {z}");
                     assert_eq!(super::sar64_words(v as i64, z), v as i64 >> z, "{v} >> {z}");
                 }
                 let w = (a as u64) << 32 | b as u64;
-                assert_eq!(crate::num::clz64_table(w), w.leading_zeros(), "{w}");
                 for v in [w, b as u64, w >> (b % 64)] {
                     for s in [0, 1, b % 32, 31] {
                         assert_eq!(super::top_shl(v, s), ((v << s) >> 32) as u32, "{v} << {s}");
@@ -3635,7 +3612,6 @@ mod wmul_tests {
                         assert_eq!(super::norm_top(v), (((v << z) >> 32) as u32, z), "{v}");
                     }
                 }
-                assert_eq!(crate::num::clz64_table(b as u64), (b as u64).leading_zeros());
             }
         }
     }

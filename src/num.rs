@@ -56,10 +56,33 @@ pub(crate) const fn umul16(a: u32, b: u32) -> u64 {
     (((ah * bh) as u64) << 32) + (cross << 16) + (al * bl) as u64
 }
 
-/// Leading zeros of a `u32` (32 for 0): the highest non-zero byte's count
-/// from a table (the M0 has no `clz`; the library's routine is a loop).
+/// Leading zeros of a `u32` (32 for 0): on the M0 [`clz32_table`].
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 #[inline(always)]
-pub(crate) fn clz32_table(x: u32) -> u32 {
+pub(crate) fn clz32(x: u32) -> u32 {
+    if ARMV6M {
+        clz32_table(x)
+    } else {
+        x.leading_zeros()
+    }
+}
+
+/// Leading zeros of a `u64` (64 for 0): on the M0 [`clz64_table`].
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+#[inline(always)]
+pub(crate) fn clz64(x: u64) -> u32 {
+    if ARMV6M {
+        clz64_table(x)
+    } else {
+        x.leading_zeros()
+    }
+}
+
+/// [`clz32`] from the highest non-zero byte's count in a table (the M0 has
+/// no `clz`; the library's routine is a loop). Compiled everywhere, like
+/// the M0's other routines, so that the tests check it.
+#[inline(always)]
+fn clz32_table(x: u32) -> u32 {
     let (byte, n) = if x >> 16 != 0 {
         if x >> 24 != 0 {
             (x >> 24, 0)
@@ -74,9 +97,10 @@ pub(crate) fn clz32_table(x: u32) -> u32 {
     n + CLZ8.get(byte as usize).copied().unwrap_or(0) as u32
 }
 
-/// Leading zeros of a `u64` from [`clz32_table`].
+/// [`clz64`] from [`clz32_table`].
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 #[inline(always)]
-pub(crate) fn clz64_table(x: u64) -> u32 {
+fn clz64_table(x: u64) -> u32 {
     let hi = (x >> 32) as u32;
     if hi == 0 {
         32 + clz32_table(x as u32)
@@ -677,33 +701,38 @@ mod tests {
         }
     }
 
+    /// A small deterministic generator (xorshift on 128 bits).
+    fn next(x: &mut u128) -> u128 {
+        *x ^= *x << 13;
+        *x ^= *x >> 7;
+        *x ^= *x << 17;
+        *x
+    }
+
     #[test]
-    fn the_word_count_of_leading_zeros_is_the_librarys() {
+    fn the_table_counts_of_leading_zeros_are_the_librarys() {
         let mut x = 0x2545_F491_4F6C_DD1Du128 | (0x9E37_79B9_7F4A_7C15u128 << 64);
         for _ in 0..2000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            let x = next(&mut x);
             for s in [0, 1, 31, 32, 33, 63, 64, 65, 95, 96, 97, 127] {
                 let v = x >> s;
                 assert_eq!(clz128_words(v), v.leading_zeros(), "{v}");
+                assert_eq!(clz64_table(v as u64), (v as u64).leading_zeros(), "{v}");
+                assert_eq!(clz32_table(v as u32), (v as u32).leading_zeros(), "{v}");
             }
         }
         assert_eq!(clz128_words(0), 128);
         assert_eq!(clz128_words(1), 127);
+        assert_eq!(clz64_table(0), 64);
+        assert_eq!(clz32_table(0), 32);
     }
 
     #[test]
     fn the_word_product_is_the_128_bit_product() {
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x
-        };
+        let mut x = 0x9E37_79B9_7F4A_7C15u128;
         for _ in 0..20_000 {
-            let (a, b) = ((next() >> 1) as i128, (next() >> (1 + next() % 63)) as i128);
+            let (p, q, s) = (next(&mut x) as u64, next(&mut x) as u64, next(&mut x) as u64);
+            let (a, b) = ((p >> 1) as i128, (q >> (1 + s % 63)) as i128);
             for (a, b) in [(a, b), (-a, b), (a, -b), (-a, -b), (a, 0), ((1 << 63) - 1, -b)] {
                 assert_eq!(mul_63_words(a, b), a * b, "{a} x {b}");
             }
@@ -732,9 +761,7 @@ mod tests {
             assert_eq!(isqrt_u128(v), v.isqrt(), "{v}");
         }
         for _ in 0..200_000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            let x = next(&mut x);
             let v = x >> (x % 128);
             assert_eq!(isqrt_u128(v), v.isqrt(), "{v}");
         }
