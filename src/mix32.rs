@@ -141,7 +141,7 @@ impl Pf {
     #[inline(always)]
     pub fn mul_to_sum(self, o: Pf, frac: i32) -> u64 {
         // p in [2^30, 2^32) (or 0); value · 2^frac = p · 2^s.
-        let p = (umul(self.m, o.m) >> 32) as u32;
+        let p = (umul_px(self.m, o.m) >> 32) as u32;
         let s = self.e + o.e + frac + 32;
         if s <= 0 {
             // 32-bit shifts: the common case.
@@ -180,9 +180,9 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
     let hc = match u16::try_from(hi) {
         Ok(0) if ARMV6M => 0,
         Ok(h) if ARMV6M => umul_h(c4, h),
-        _ => umul(hi, c4),
+        _ => umul_px(hi, c4),
     };
-    (hc + ((umul(lo, c4) + (1 << 45)) >> 32)) >> 14
+    (hc + ((umul_px(lo, c4) + (1 << 45)) >> 32)) >> 14
 }
 
 /// The noise-free value `sum · cos⁴α` (DN, before rounding) as I32F32,
@@ -473,7 +473,7 @@ fn rsqrt_top(m32: u32) -> u32 {
     let seed = SEED.get(idx).copied().unwrap_or(1 << 14);
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
     let y2 = (seed as u32 * seed as u32) << 1;
-    let my2 = (umul(m32, y2) >> 31) as u32;
+    let my2 = (umul_px(m32, y2) >> 31) as u32;
     (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32
 }
 
@@ -749,6 +749,35 @@ fn wmul16(a: i32, b: i32) -> i64 {
         .wrapping_add(c2 >> 16)
         .wrapping_add(k1 as i32 + k2 as i32);
     (((hi as u32 as u64) << 32) | lo as u64) as i64
+}
+
+/// [`umul`] from 16 × 16-bit products in 32-bit words, as [`wmul16`]
+/// (the cross terms' `c 2¹⁶` added to the low word with their carries,
+/// `c >> 16` to the high word; the high word cannot overflow). The
+/// per-pixel route: cheaper than [`umul16`]'s 64-bit sums there.
+#[inline(always)]
+fn umul16_words(a: u32, b: u32) -> u64 {
+    let (ah, al) = (a >> 16, a & 0xFFFF);
+    let (bh, bl) = (b >> 16, b & 0xFFFF);
+    let (c1, c2) = (ah * bl, al * bh);
+    let (lo, k1) = (al * bl).overflowing_add(c1 << 16);
+    let (lo, k2) = lo.overflowing_add(c2 << 16);
+    let hi = (ah * bh) + (c1 >> 16) + (c2 >> 16) + k1 as u32 + k2 as u32;
+    ((hi as u64) << 32) | lo as u64
+}
+
+/// [`umul`] with the M0's product in 32-bit words ([`umul16_words`]): at
+/// the sites where that measured cheaper on the M0 (`rsqrt_top`'s `m y²`,
+/// [`vignette_dn`], [`Pf::mul_to_sum`]: standard 887.8 → 873.2 a pixel,
+/// every scene down). In [`cube_over`] and [`cos_over_r3`] it cost more
+/// (the registers around them), so those keep [`umul`].
+#[inline(always)]
+fn umul_px(a: u32, b: u32) -> u64 {
+    if ARMV6M {
+        umul16_words(a, b)
+    } else {
+        a as u64 * b as u64
+    }
 }
 
 /// [`umul_h`] from two 32-bit products.
@@ -3588,6 +3617,7 @@ mod wmul_tests {
                 assert_eq!(super::wmul16(*a, *b), *a as i64 * *b as i64, "{a} x {b}");
                 let (a, b) = (*a as u32, *b as u32);
                 assert_eq!(crate::num::umul16(a, b), a as u64 * b as u64, "{a} x {b}");
+                assert_eq!(super::umul16_words(a, b), a as u64 * b as u64, "{a} x {b}");
                 let (wa, wb) = ((a as u64) << 32 | b as u64, (b as u64) << 32 | a as u64);
                 assert_eq!(
                     crate::num::mul64_words(wa, wb),
