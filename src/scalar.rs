@@ -91,9 +91,13 @@ fn powi_clamped<S: Scalar>(x: S, mut n: u16) -> S {
 /// each pixel loop 25 KB on Cortex-M (the 64-bit product with its saturation
 /// checks is long there).
 ///
-/// Magnitudes are multiplied as four 32 × 32 → 64-bit products (one `UMULL`
-/// each on Cortex-M3/M4) rather than through the library's signed 128-bit
-/// multiply; the result equals `saturating_mul`'s (rounded down).
+/// Magnitudes are multiplied as 32 × 32 → 64-bit products (one `UMULL`
+/// each on Cortex-M3/M4) summed in 64 bits, rather than through the
+/// library's signed 128-bit multiply; where a factor is below 1 (the
+/// common case) two products suffice. The result equals `saturating_mul`'s
+/// (rounded down). (The 128-bit sums this replaced cost shallow-dof, the
+/// wide arithmetic's scene, 247 515 M3 instructions a pixel against
+/// 212 203.)
 #[inline(never)]
 fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     let (x, y) = (a.to_bits(), b.to_bits());
@@ -102,22 +106,29 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     let (xh, xl, yh, yl) = (ux >> 32, ux & 0xFFFF_FFFF, uy >> 32, uy & 0xFFFF_FFFF);
     let ll = xl * yl;
     // |a·b| / 2^32 = xh·yh·2^32 + xh·yl + xl·yh + ll/2^32, with the low 32
-    // bits of ll as the fraction below.
-    let r = ((xh * yh) as u128) << 32;
-    let r = r + (xh * yl) as u128 + (xl * yh) as u128 + (ll >> 32) as u128;
-    let frac = ll & 0xFFFF_FFFF != 0;
-    if neg {
-        // floor(−|p|) = −ceil(|p|)
-        let m = r + frac as u128;
-        if m > 1u128 << 63 {
-            I32F32::MIN
-        } else {
-            I32F32::from_bits((m as u64).wrapping_neg() as i64)
-        }
-    } else if r > i64::MAX as u128 {
-        I32F32::MAX
+    // bits of ll as the fraction below; None where it reaches 2^64.
+    let r = if xh == 0 || yh == 0 {
+        // A factor below 1 (the common case): two products, the sum below
+        // 2^63 (xh, yh ≤ 2^31, and xl = 0 where xh = 2^31).
+        Some(xh * yl + xl * yh + (ll >> 32))
     } else {
-        I32F32::from_bits(r as i64)
+        let hh = xh * yh;
+        // hh ≥ 2^32 would put the sum past 2^64.
+        (hh >> 32 == 0)
+            .then_some(hh << 32)
+            .and_then(|r| r.checked_add(xh * yl))
+            .and_then(|r| r.checked_add(xl * yh))
+            .and_then(|r| r.checked_add(ll >> 32))
+    };
+    let frac = ll & 0xFFFF_FFFF != 0;
+    match r {
+        // floor(−|p|) = −ceil(|p|), down to −2^63.
+        Some(r) if neg && (r < 1 << 63 || (r == 1 << 63 && !frac)) => {
+            I32F32::from_bits((r + frac as u64).wrapping_neg() as i64)
+        }
+        Some(r) if !neg && r < 1 << 63 => I32F32::from_bits(r as i64),
+        _ if neg => I32F32::MIN,
+        _ => I32F32::MAX,
     }
 }
 
@@ -433,6 +444,11 @@ mod tests {
                 (c, i64::MAX),
                 (c, -1),
                 (i64::MIN, -1),
+                // A factor below 1 in magnitude.
+                (c, b as u32 as i64),
+                (-(a as u32 as i64), d),
+                (i64::MIN, b as u32 as i64),
+                (i64::MAX, -(a as u32 as i64)),
             ] {
                 let (p, q) = (I32F32::from_bits(p), I32F32::from_bits(q));
                 assert_eq!(mul_q(p, q), p.saturating_mul(q), "{p:?} * {q:?}");
