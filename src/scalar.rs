@@ -103,6 +103,12 @@ fn powi_clamped<S: Scalar>(x: S, mut n: u16) -> S {
 #[inline(never)]
 fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     let (x, y) = (a.to_bits(), b.to_bits());
+    // A zero factor (an axis-aligned normal's or axis's components, an
+    // aperture point's z) returns at once: shallow-dof M3 193 858 → 186 616,
+    // M0 766 373 → 592 573 (its products are 16-bit ones).
+    if x == 0 || y == 0 {
+        return I32F32::ZERO;
+    }
     let neg = (x < 0) != (y < 0);
     let (ux, uy) = (x.unsigned_abs(), y.unsigned_abs());
     let (xh, xl, yh, yl) = (ux >> 32, ux & 0xFFFF_FFFF, uy >> 32, uy & 0xFFFF_FFFF);
