@@ -19,6 +19,8 @@
 
 use core::num::{NonZeroU32, NonZeroU64};
 
+use crate::num::ARMV6M;
+
 pub use fixed::types::I32F32;
 
 /// A number the per-pixel pipeline runs in.
@@ -112,20 +114,41 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     let neg = (x < 0) != (y < 0);
     let (ux, uy) = (x.unsigned_abs(), y.unsigned_abs());
     let (xh, xl, yh, yl) = (ux >> 32, ux & 0xFFFF_FFFF, uy >> 32, uy & 0xFFFF_FFFF);
-    let ll = xl * yl;
+    // 32 × 32 → 64-bit products: on the M0 four 16-bit ones (the library's
+    // 64-bit multiply is a call that multiplies 64 by 64 bits).
+    let mul = |a: u64, b: u64| {
+        if ARMV6M {
+            crate::num::umul16(a as u32, b as u32)
+        } else {
+            a * b
+        }
+    };
+    let ll = mul(xl, yl);
     // |a·b| / 2^32 = xh·yh·2^32 + xh·yl + xl·yh + ll/2^32, with the low 32
     // bits of ll as the fraction below; None where it reaches 2^64.
     let r = if xh == 0 || yh == 0 {
-        // A factor below 1 (the common case): two products, the sum below
-        // 2^63 (xh, yh ≤ 2^31, and xl = 0 where xh = 2^31).
-        Some(xh * yl + xl * yh + (ll >> 32))
+        // A factor below 1 (the common case): one cross product, the sum
+        // below 2^63 (xh, yh ≤ 2^31, and xl = 0 where xh = 2^31). On the
+        // M0 that one alone, and none where both are below 1 (on the M3 two
+        // `UMULL`s cost less than the choice).
+        let cross = if ARMV6M {
+            let (h, l) = if yh == 0 { (xh, yl) } else { (yh, xl) };
+            if h == 0 {
+                0
+            } else {
+                mul(h, l)
+            }
+        } else {
+            xh * yl + xl * yh
+        };
+        Some(cross + (ll >> 32))
     } else {
-        let hh = xh * yh;
+        let hh = mul(xh, yh);
         // hh ≥ 2^32 would put the sum past 2^64.
         (hh >> 32 == 0)
             .then_some(hh << 32)
-            .and_then(|r| r.checked_add(xh * yl))
-            .and_then(|r| r.checked_add(xl * yh))
+            .and_then(|r| r.checked_add(mul(xh, yl)))
+            .and_then(|r| r.checked_add(mul(xl, yh)))
             .and_then(|r| r.checked_add(ll >> 32))
     };
     let frac = ll & 0xFFFF_FFFF != 0;
@@ -201,7 +224,7 @@ fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
 /// 64-bit one is the library's routine: then [`div_64_32`] divides by
 /// 16-bit digits; elsewhere (the host; the M0, whose 32-bit division is a
 /// routine too) the 64-bit division is used. The same quotients.
-const UDIV32: bool = cfg!(target_arch = "arm") && !crate::num::ARMV6M;
+const UDIV32: bool = cfg!(target_arch = "arm") && !ARMV6M;
 
 /// `n / d` and `n mod d` for a 32-bit `d > 0`.
 #[inline(always)]
