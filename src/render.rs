@@ -28,7 +28,7 @@ use crate::num::{quotient, Len, Norm, Wide};
 use crate::sampling::Corners;
 use crate::scalar::Scalar;
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
-use crate::shading::{axpy, dot, from_q3, scale3, sub3, Brdf, ShadingLight, V3};
+use crate::shading::{axpy, dot, dot_k, from_q3, scale3, sub3, Brdf, ShadingLight, V3};
 use crate::vignetting;
 use core::ops::{Add as _, Mul as _};
 use fixed::types::I64F64;
@@ -1777,8 +1777,8 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         let mut cell = (0, 0);
         if let Some(ch) = &p.checker {
             let rel = sub3(point, ch.origin);
-            let cu = dot(rel, ch.u).mul(ch.inv_cell).floor_int();
-            let cv = dot(rel, ch.v).mul(ch.inv_cell).floor_int();
+            let cu = dot_k(ch.u, rel).mul(ch.inv_cell).floor_int();
+            let cv = dot_k(ch.v, rel).mul(ch.inv_cell).floor_int();
             if (cu + cv) & 1 != 0 {
                 m = ch.material as usize;
             }
@@ -1919,7 +1919,7 @@ fn intersect<S: Scalar, const R: u8>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) 
             let td = plane_t::<S, R>(n, dist, o, d)?;
             let p = axpy(td.0, d, o);
             let rel = sub3(p, c);
-            (dot(rel, u).abs() <= hu && dot(rel, v).abs() <= hv).then(|| flat(n, td, Some(p)))
+            (dot_k(u, rel).abs() <= hu && dot_k(v, rel).abs() <= hv).then(|| flat(n, td, Some(p)))
         }
         CamShape::Sphere { c, r2, inv_r } => {
             // |o + t d − c|² = r²: a t² − 2 b t + cc = 0 with b = d·oc,
@@ -1967,11 +1967,12 @@ fn intersect<S: Scalar, const R: u8>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S) 
 #[inline]
 /// `t > 0` and `n̂·d` where the ray meets the plane `n̂·P = dist`.
 fn plane_t<S: Scalar, const R: u8>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Option<(S, S)> {
-    let denom = if R != PARALLEL { dot(n, d) } else { n[2] };
+    let denom = if R != PARALLEL { dot_k(n, d) } else { n[2] };
     let num = if R == PINHOLE {
         dist
     } else {
-        dist.sub(n[0].mul(o[0]).add(n[1].mul(o[1])))
+        // n_x o_x + n_y o_y (o_z = 0).
+        dist.sub(dot_k([n[0], n[1], S::ZERO], o))
     };
     let t = num.div(denom)?;
     (t > S::ZERO).then_some((t, denom))

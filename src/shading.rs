@@ -20,6 +20,15 @@ pub type V3<S = Q> = [S; 3];
 pub(crate) fn dot<S: Scalar>(a: V3<S>, b: V3<S>) -> S {
     a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]))
 }
+/// [`dot`] of a frame's constant `k` (a plane's normal, a rectangle's or a
+/// checker's axis) and `v`, leaving out `k`'s zero components: the same
+/// sum (a product by zero is zero, and adding zero never saturates),
+/// without their products, which axis-aligned geometry has two of each.
+#[inline(always)]
+pub(crate) fn dot_k<S: Scalar>(k: V3<S>, v: V3<S>) -> S {
+    let term = |a: S, b: S| if a == S::ZERO { S::ZERO } else { a.mul(b) };
+    term(k[0], v[0]).add(term(k[1], v[1])).add(term(k[2], v[2]))
+}
 #[inline(always)]
 pub(crate) fn sub3<S: Scalar>(a: V3<S>, b: V3<S>) -> V3<S> {
     [a[0].sub(b[0]), a[1].sub(b[1]), a[2].sub(b[2])]
