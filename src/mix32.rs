@@ -645,6 +645,20 @@ fn umul(a: u32, b: u32) -> u64 {
     }
 }
 
+/// [`umul`] with the M0's product in 32-bit words ([`umul16_words`]): at
+/// the sites where that measured cheaper on the M0 (`rsqrt_top`'s `m y²`,
+/// [`vignette_dn`], [`Pf::mul_to_sum`]: standard 887.8 → 873.2 a pixel,
+/// every scene down). In [`cube_over`] and [`cos_over_r3`] it cost more
+/// (the registers around them), so those keep [`umul`].
+#[inline(always)]
+fn umul_px(a: u32, b: u32) -> u64 {
+    if ARMV6M {
+        umul16_words(a, b)
+    } else {
+        a as u64 * b as u64
+    }
+}
+
 /// `a · b` for a 16-bit `b` (u32 × u16 → u64).
 #[inline(always)]
 fn umul_h(a: u32, b: u16) -> u64 {
@@ -764,20 +778,6 @@ fn umul16_words(a: u32, b: u32) -> u64 {
     let (lo, k2) = lo.overflowing_add(c2 << 16);
     let hi = (ah * bh) + (c1 >> 16) + (c2 >> 16) + k1 as u32 + k2 as u32;
     ((hi as u64) << 32) | lo as u64
-}
-
-/// [`umul`] with the M0's product in 32-bit words ([`umul16_words`]): at
-/// the sites where that measured cheaper on the M0 (`rsqrt_top`'s `m y²`,
-/// [`vignette_dn`], [`Pf::mul_to_sum`]: standard 887.8 → 873.2 a pixel,
-/// every scene down). In [`cube_over`] and [`cos_over_r3`] it cost more
-/// (the registers around them), so those keep [`umul`].
-#[inline(always)]
-fn umul_px(a: u32, b: u32) -> u64 {
-    if ARMV6M {
-        umul16_words(a, b)
-    } else {
-        a as u64 * b as u64
-    }
 }
 
 /// [`umul_h`] from two 32-bit products.
