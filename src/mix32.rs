@@ -72,7 +72,7 @@
 //! ([`crate::render::RenderError::OutsideFormat`]); the generic path renders
 //! them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
-use crate::num::{clz32, clz64, umul16, ARMV6M};
+use crate::num::{clz32, clz64, umul16, umul16_words, ARMV6M};
 use crate::render::from_acc;
 use crate::render::{LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::sampling::Corners;
@@ -765,21 +765,6 @@ fn wmul16(a: i32, b: i32) -> i64 {
     (((hi as u32 as u64) << 32) | lo as u64) as i64
 }
 
-/// [`umul`] from 16 × 16-bit products in 32-bit words, as [`wmul16`]
-/// (the cross terms' `c 2¹⁶` added to the low word with their carries,
-/// `c >> 16` to the high word; the high word cannot overflow). The
-/// per-pixel route: cheaper than [`umul16`]'s 64-bit sums there.
-#[inline(always)]
-fn umul16_words(a: u32, b: u32) -> u64 {
-    let (ah, al) = (a >> 16, a & 0xFFFF);
-    let (bh, bl) = (b >> 16, b & 0xFFFF);
-    let (c1, c2) = (ah * bl, al * bh);
-    let (lo, k1) = (al * bl).overflowing_add(c1 << 16);
-    let (lo, k2) = lo.overflowing_add(c2 << 16);
-    let hi = (ah * bh) + (c1 >> 16) + (c2 >> 16) + k1 as u32 + k2 as u32;
-    ((hi as u64) << 32) | lo as u64
-}
-
 /// [`umul_h`] from two 32-bit products.
 #[inline(always)]
 fn umul_h16(a: u32, b: u16) -> u64 {
@@ -1107,15 +1092,10 @@ impl KCache {
     };
 }
 
-/// Whether the one-sample loop's rays keep their `cos⁴α` ([`Ray::c4`]), so
-/// that a ray and its mirror share one: on every target (M3 standard 306 →
-/// 297 instructions a pixel; the x86-64 host's 1080p standard 38.5 → 40.3
-/// frames/s on 2 threads, three interleaved runs of `host-sim throughput`).
-const KEEP_C4: bool = true;
-
-/// Whether the sampled and aperture loops' shaded rays keep theirs: on the
-/// M0 only (on the M3 the keep cost calibration-board 10 a pixel). The
-/// rays are filled ([`Mix32::rays`]) and read ([`Mix32::c4`]) alike.
+/// Whether the sampled and aperture loops' shaded rays keep their `cos⁴α`
+/// ([`Ray::c4`]; the one-sample loop's always do): on the M0 only (on the
+/// M3 the keep cost calibration-board 10 a pixel). The rays are filled
+/// ([`Mix32::rays`]) and read ([`Mix32::c4`]) alike.
 const KEEP_C4_SAMPLED: bool = ARMV6M;
 
 /// Pixels a pass handles at once (at most 32: [`Mix32::line_f`] keeps a
@@ -1135,9 +1115,9 @@ const NO_YZ: i32 = -1;
 /// ([`closed_term`]): on the M0, where it is three 64-bit products of
 /// 16-bit ones, and on the x86-64 host (1080p standard 39.2–40.2 →
 /// 40.7–41.0 frames/s on 2 threads, 20.5–20.6 → 21.1 on one: three
-/// interleaved runs of `host-sim throughput`). Not on the M3/M4F, where the products are one `SMULL`
-/// each: kept there, standard took 310 M3 instructions a pixel against
-/// 297, low-light 541 against 531.
+/// interleaved runs of `host-sim throughput`). Not on the M3/M4F, where
+/// the products are one `SMULL` each: kept there, standard took 310 M3
+/// instructions a pixel against 297, low-light 541 against 531.
 const KEEP_YZ: bool = ARMV6M || cfg!(target_arch = "x86_64");
 
 /// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
@@ -1199,12 +1179,15 @@ struct Ray {
     t: i32,
     /// The nearest hit's primitive, with [`AWAY`].
     hit: u8,
-    /// Where kept ([`KEEP_C4`], [`Mix32::c4`]), `cos⁴α` (S31) for the
+    /// Where kept (the one-sample loop's rays on every target, the others'
+    /// where [`KEEP_C4_SAMPLED`]; [`Mix32::c4`]), `cos⁴α` (S31) for the
     /// pixel it is shaded for: [`cos4`] if the frame vignettes, else 1
     /// ([`fill_rays`]); once for a ray and its mirror. (At acf5f59 the M3
     /// keeping it took checkerboard-barrel 11 instructions a pixel more and
     /// the standard scene none fewer; at 858df5f, with the closed plane's
-    /// run, it takes 6 and 9 off them.)
+    /// run, it takes 6 and 9 off them: M3 standard 306 → 297. The x86-64
+    /// host's 1080p standard 38.5 → 40.3 frames/s on 2 threads, three
+    /// interleaved runs of `host-sim throughput`.)
     c4: u32,
 }
 
@@ -2348,7 +2331,7 @@ impl Mix32 {
                         acc -= self.dx;
                         (xd, yd, yd2)
                     },
-                    KEEP_C4,
+                    true,
                 );
             }
             // The closed plane, if any: tested only where another primitive
@@ -2595,9 +2578,9 @@ impl Mix32 {
                 self.bg
             };
             *word = if rgb {
-                Self::dn_word::<3>(sum, self.c4::<KEEP_C4>(r), dn_max, (noise, k))
+                Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
             } else {
-                Self::dn_word::<1>(sum, self.c4::<KEEP_C4>(r), dn_max, (noise, k))
+                Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
             };
         }
         left
@@ -2619,7 +2602,7 @@ impl Mix32 {
             return 0;
         }
         *flag = 0;
-        let (sum, c4) = self.radiance::<L, C, PERSP, KEEP_C4>(r, k, None);
+        let (sum, c4) = self.radiance::<L, C, PERSP, true>(r, k, None);
         Self::dn_word::<C>(sum, c4, dn_max, (noise, index))
     }
 
@@ -2657,9 +2640,8 @@ impl Mix32 {
         (sum, c4)
     }
 
-    /// A shaded ray's `cos⁴α` (S31): if `KEPT` ([`KEEP_C4`] in the
-    /// one-sample loop, [`KEEP_C4_SAMPLED`] in the others), as
-    /// [`fill_rays`] set it.
+    /// A shaded ray's `cos⁴α` (S31): if `KEPT` (always in the one-sample
+    /// loop, [`KEEP_C4_SAMPLED`] in the others), as [`fill_rays`] set it.
     #[inline(always)]
     fn c4<const KEPT: bool>(&self, r: &Ray) -> u32 {
         if KEPT {
@@ -3628,7 +3610,7 @@ mod wmul_tests {
                 assert_eq!(super::wmul16(*a, *b), *a as i64 * *b as i64, "{a} x {b}");
                 let (a, b) = (*a as u32, *b as u32);
                 assert_eq!(crate::num::umul16(a, b), a as u64 * b as u64, "{a} x {b}");
-                assert_eq!(super::umul16_words(a, b), a as u64 * b as u64, "{a} x {b}");
+                assert_eq!(crate::num::umul16_words(a, b), a as u64 * b as u64, "{a} x {b}");
                 let (wa, wb) = ((a as u64) << 32 | b as u64, (b as u64) << 32 | a as u64);
                 assert_eq!(
                     crate::num::mul64_words(wa, wb),

@@ -56,6 +56,23 @@ pub(crate) const fn umul16(a: u32, b: u32) -> u64 {
     (((ah * bh) as u64) << 32) + (cross << 16) + (al * bl) as u64
 }
 
+/// [`umul16`] in 32-bit words, as `mix32::wmul16`: each cross term's
+/// `c 2¹⁶` added to the low word with its carry, `c >> 16` to the high
+/// word (which cannot overflow). The same bits; which of the two is
+/// cheaper on the M0 depends on the registers around the product, so the
+/// per-pixel sites that measured it cheaper take this one (`mix32::umul_px`).
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+#[inline(always)]
+pub(crate) fn umul16_words(a: u32, b: u32) -> u64 {
+    let (ah, al) = (a >> 16, a & 0xFFFF);
+    let (bh, bl) = (b >> 16, b & 0xFFFF);
+    let (c1, c2) = (ah * bl, al * bh);
+    let (lo, k1) = (al * bl).overflowing_add(c1 << 16);
+    let (lo, k2) = lo.overflowing_add(c2 << 16);
+    let hi = (ah * bh) + (c1 >> 16) + (c2 >> 16) + k1 as u32 + k2 as u32;
+    ((hi as u64) << 32) | lo as u64
+}
+
 /// Leading zeros of a `u32` (32 for 0): on the M0 [`clz32_table`].
 #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 #[inline(always)]
@@ -165,27 +182,27 @@ pub fn isqrt_u128(v: u128) -> u128 {
         lo <<= 2;
         p
     };
+    // One step: the next pair into the remainder, a bit of the root.
+    macro_rules! step {
+        ($root:ident, $rem:ident, $t:ty) => {
+            $rem = ($rem << 2) | pair() as $t;
+            let trial = ($root << 2) | 1;
+            $root <<= 1;
+            if $rem >= trial {
+                $rem -= trial;
+                $root |= 1;
+            }
+        };
+    }
     let (mut root, mut rem) = (0u64, 0u64);
     let narrow = steps.min(61);
     for _ in 0..narrow {
         // rem ≤ 2 root < 2^(k+1): rem·4 + 3 < 2^64 for k ≤ 60.
-        rem = (rem << 2) | pair();
-        let trial = (root << 2) | 1;
-        root <<= 1;
-        if rem >= trial {
-            rem -= trial;
-            root |= 1;
-        }
+        step!(root, rem, u64);
     }
     let (mut root, mut rem) = (root as u128, rem as u128);
     for _ in narrow..steps {
-        rem = (rem << 2) | pair() as u128;
-        let trial = (root << 2) | 1;
-        root <<= 1;
-        if rem >= trial {
-            rem -= trial;
-            root |= 1;
-        }
+        step!(root, rem, u128);
     }
     root
 }

@@ -141,7 +141,7 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
                 mul(h, l)
             }
         } else {
-            xh * yl + xl * yh
+            mul(xh, yl) + mul(xl, yh)
         };
         Some(cross + (ll >> 32))
     } else {

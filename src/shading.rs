@@ -231,3 +231,37 @@ pub fn radiance<S: Scalar, const SPEC: bool>(
     }
     l
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fixed::types::I32F32;
+
+    /// `dot_k` is `dot` where the constant has zero components, on values
+    /// that saturate as well as on ordinary ones (I32F32, the wide
+    /// arithmetic's type).
+    #[test]
+    fn the_sparse_dot_is_the_dot() {
+        let mut next = crate::scalar::spread_i32();
+        let mut zeros = 0;
+        for _ in 0..100_000 {
+            let mut v = || {
+                let (a, b) = (next(), next());
+                I32F32::from_bits(((a as i64) << (b as u32 & 31)) ^ b as i64)
+            };
+            let mut k = [v(), v(), v()];
+            let w = [v(), v(), v()];
+            // Zero one or two of the constant's components, or none.
+            let pick = (w[0].to_bits() as u64 % 7) as usize;
+            for (i, c) in k.iter_mut().enumerate() {
+                if pick & (1 << i) != 0 {
+                    *c = I32F32::ZERO;
+                    zeros += 1;
+                }
+            }
+            assert_eq!(dot_k(k, w), dot(k, w), "{k:?} . {w:?}");
+            assert_eq!(dot_k(k, w), dot(w, k), "{w:?} . {k:?}");
+        }
+        assert!(zeros > 50_000, "{zeros}");
+    }
+}
