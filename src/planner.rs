@@ -30,7 +30,9 @@
 //!   scene's features (primitives by kind, their sampled screen coverage,
 //!   lights and lobe per shaded pixel, distortion, colour, parallel rays),
 //!   with coefficients fitted to QEMU counts (`host-sim costfit` fits them
-//!   and reports predicted vs measured; `docs/cost-model.md`).
+//!   and reports predicted vs measured; `docs/cost-model.md`); a pixel's
+//!   samples (a grid over its area, points of the aperture) multiply it by
+//!   a factor fitted to the same counts ([`SampleCost`]).
 //! - **Choice.** The cheapest candidate that the arithmetic's formats hold
 //!   and whose predictions are within the budget; if none is, the most
 //!   accurate, with `meets_budget = false`.
@@ -203,11 +205,13 @@ pub struct Plan {
     /// Predicted edge-placement error of the sample pattern, pixels
     /// ([`crate::sampling::edge_error`]; ½ for one sample at the centre).
     pub predicted_edge_err_px: f64,
-    /// Predicted samples a pixel (with the adaptive rule's corner tests
-    /// counted as [`KEY_COST`] of a sample each, and a sample through the
-    /// aperture as [`APERTURE_COST`]): what the costs above are multiplied
-    /// by.
-    pub predicted_samples_per_pixel: f64,
+    /// What a pixel takes beyond one sample: its grid's samples (predicted
+    /// with the adaptive rule), corner looks and aperture points.
+    pub samples: Samples,
+    /// What those cost, as a multiple of one sample's cost
+    /// ([`SampleCost::factor`], the chosen arithmetic's): the costs above
+    /// include it.
+    pub predicted_sample_factor: f64,
     /// Defocus: the content's blur and the aperture pattern chosen for it.
     pub defocus: Defocus,
 }
@@ -230,19 +234,6 @@ pub struct Defocus {
     /// blur).
     pub err_px: f64,
 }
-
-/// The cost of the adaptive rule's look at a corner (intersection, no
-/// shading), as a fraction of a sample's.
-pub const KEY_COST: f64 = 0.6;
-
-/// A sample through the aperture's `m` points costs `APERTURE_COST.0 + m ·
-/// APERTURE_COST.1` samples: its own work (undistortion, vignetting,
-/// quantization) once, and `m` rays. Fitted to the M3 counts of
-/// shallow-dof through 16, 64 and 256 points against the pinhole
-/// (`host-sim hil --board lm3s6965evb --scene scenes/shallow-dof.toml
-/// --variant i32f32-ap0 i32f32-ap16 planned i32f32-ap256`: 9 347, 115 796,
-/// 454 151 and 1 807 816 instructions/pixel).
-pub const APERTURE_COST: (f64, f64) = (0.316, 0.754);
 
 fn ray_model_and_bound(scene: &Scene, budget: &Budget) -> (RenderModel, Option<(f64, Len)>) {
     let half = budget.max_geom_err_px / 2.0;
@@ -296,11 +287,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         g.through_aperture(scene);
     }
     let (samples, adaptive) = crate::sampling::of_scene(scene);
-    let through = match df.points {
-        0 => 1.0,
-        m => APERTURE_COST.0 + f64::from(m) * APERTURE_COST.1,
-    };
-    let spp = |a: Arithmetic| samples_per_pixel(scene, &g, samples, adaptive, a) * through;
+    let terms = Samples::of(scene, &g, samples, adaptive, df.points);
+    let factor = |a: Arithmetic| CostModel::of(a).samples.factor(&terms);
     // Edge length per pixel area times looks per pixel area (see
     // `Candidate::edge_differing`).
     let looks = match (samples, adaptive) {
@@ -353,7 +341,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             // The closed form runs in the fast one-sample loop.
             let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
             let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion, closed))
-                * spp(arithmetic);
+                * factor(arithmetic);
             let _ = cands.push(Candidate {
                 arithmetic,
                 distortion,
@@ -416,7 +404,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         candidates: cands,
         chosen,
         predicted_edge_err_px: crate::sampling::edge_error(samples),
-        predicted_samples_per_pixel: spp(c.arithmetic),
+        samples: terms,
+        predicted_sample_factor: factor(c.arithmetic),
         defocus: df,
     }
 }
@@ -540,25 +529,6 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
         } else {
             blur_px
         },
-    }
-}
-
-/// Samples a pixel for an `n×n` grid: `n²` on every pixel, or with the
-/// adaptive rule one at the centre, corner looks ([`KEY_COST`] each) and
-/// `n²` on the estimated fraction of pixels an edge crosses. A line looks
-/// at two rows of corners, a pixel's right corners in each; the fast
-/// arithmetic's sampled loop takes the top row from the line before
-/// (`sampling::Corners`, as the firmware renders), so one look a pixel.
-fn samples_per_pixel(scene: &Scene, g: &Geometry, n: u8, adaptive: bool, a: Arithmetic) -> f64 {
-    let n2 = f64::from(n) * f64::from(n);
-    let corner_looks = match a {
-        Arithmetic::Fast => 1.0,
-        Arithmetic::Wide => 2.0,
-    };
-    match (n, adaptive) {
-        (0 | 1, _) => 1.0,
-        (_, false) => n2,
-        (_, true) => 1.0 + corner_looks * KEY_COST + n2 * edge_fraction(scene, g),
     }
 }
 
@@ -1601,11 +1571,113 @@ impl Features {
 /// Terms of the cost model.
 pub const COST_TERMS: usize = 19;
 
-/// M3 instructions a pixel as a linear function of [`Features`].
+/// M3 instructions a pixel as a linear function of [`Features`] (one
+/// sample a pixel), times what the pixel's samples cost ([`SampleCost`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CostModel {
     /// Coefficients, in [`Features::to_array`]'s order.
     pub coef: [f64; COST_TERMS],
+    /// A pixel's samples, as a multiple of one sample.
+    pub samples: SampleCost,
+}
+
+/// What a pixel takes beyond one sample at its centre: the terms of
+/// [`SampleCost`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Samples {
+    /// Samples of the pixel's area: 1 for one sample; `n²` for an `n×n`
+    /// grid on every pixel; with the adaptive rule 1 (the centre) plus `n²`
+    /// times the estimated fraction of pixels an edge crosses.
+    pub grid: f64,
+    /// 1 where the adaptive rule looks at the pixel's corners, else 0.
+    pub corners: f64,
+    /// Aperture points each sample is lit through (0: the chief ray).
+    pub aperture: f64,
+}
+
+impl Samples {
+    /// One sample at the pixel's centre, through the pinhole.
+    pub const ONE: Samples = Samples {
+        grid: 1.0,
+        corners: 0.0,
+        aperture: 0.0,
+    };
+
+    /// The terms of `scene` rendered with `opts` (what `host-sim costfit`
+    /// records with each measurement).
+    pub fn of_options(scene: &Scene, opts: &Options) -> Samples {
+        Samples::of(
+            scene,
+            &Geometry::of(scene, opts.model),
+            opts.samples,
+            opts.adaptive,
+            opts.aperture,
+        )
+    }
+
+    fn of(scene: &Scene, g: &Geometry, n: u8, adaptive: bool, aperture: u16) -> Samples {
+        let n2 = f64::from(n) * f64::from(n);
+        let (grid, corners) = match (n, adaptive) {
+            (0 | 1, _) => (1.0, 0.0),
+            (_, false) => (n2, 0.0),
+            (_, true) => (1.0 + n2 * edge_fraction(scene, g), 1.0),
+        };
+        Samples {
+            grid,
+            corners,
+            aperture: f64::from(aperture),
+        }
+    }
+
+    /// As arrays, in [`SampleCost`]'s order: the grid's terms (1 on every
+    /// pixel, 1 with the adaptive rule, samples) and the aperture's (1,
+    /// points).
+    pub fn terms(&self) -> ([f64; 3], [f64; 2]) {
+        (
+            [1.0 - self.corners, self.corners, self.grid],
+            [1.0, self.aperture],
+        )
+    }
+}
+
+/// What a pixel's [`Samples`] cost, as a multiple of one sample's cost
+/// ([`CostModel::predict`] of the scene's features): a grid on every
+/// pixel `grid[0] + grid[2] · samples`, with the adaptive rule `grid[1] +
+/// grid[2] · samples` (the constants: the pixel's own work once, the
+/// corner looks, a loop that neither mirrors rays nor shades a plane in
+/// closed form), times the aperture's `aperture[0] + aperture[1] ·
+/// points`; 1 for one sample through the pinhole. Fitted per arithmetic by
+/// `host-sim costfit` to QEMU counts of calibration scenes rendered with
+/// sample grids and aperture points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SampleCost {
+    /// The grid's constant on every pixel, its constant with the adaptive
+    /// rule, and its cost per sample.
+    pub grid: [f64; 3],
+    /// The aperture's constant and per point.
+    pub aperture: [f64; 2],
+}
+
+impl SampleCost {
+    /// The factor for `s`.
+    pub fn factor(&self, s: &Samples) -> f64 {
+        let (g, a) = s.terms();
+        let grid = if s.grid == 1.0 && s.corners == 0.0 {
+            1.0
+        } else {
+            dot(&self.grid, &g)
+        };
+        let aperture = if s.aperture == 0.0 {
+            1.0
+        } else {
+            dot(&self.aperture, &a)
+        };
+        grid * aperture
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 impl CostModel {
@@ -1638,6 +1710,10 @@ pub const FAST_COST: CostModel = CostModel {
         88.8, 24.7, 5.4, 13.9, -6.0, -7.7, 146.9, 21.5, 1.7, 0.0, 262.6, 79.8, 6.8, 167.7, 76.4, -28.6,
         273.2, -191.4, -37.8,
     ],
+    samples: SampleCost {
+        grid: [1.912, 0.610, 1.001],
+        aperture: [0.734, 0.843],
+    },
 };
 
 /// The wide (I32F32) arithmetic's cost model (M3 instructions a pixel),
@@ -1647,6 +1723,10 @@ pub const WIDE_COST: CostModel = CostModel {
         781.6, 303.7, 41.3, -45.8, -91.0, 119.5, 1443.8, 152.6, 291.3, 344.9, 1850.9, 271.9, -119.0, 147.6,
         1000.7, -210.7, 863.7, 0.0, 0.0,
     ],
+    samples: SampleCost {
+        grid: [0.989, 0.794, 0.994],
+        aperture: [0.445, 0.875],
+    },
 };
 
 /// A world point in the camera frame, f64 metres.

@@ -320,10 +320,11 @@ fn predicted_bounds_hold_on_random_scenes() {
     );
 }
 
-/// The planner's cost constants are the least-squares fit of the committed
-/// QEMU counts (`docs/cost-calibration.json`, written by `host-sim
-/// costfit`), and those counts' features are what the planner computes
-/// today for the same scenes and variants: the model traces to
+/// The planner's cost constants (the features' coefficients and the sample
+/// factors) are the least-squares fit of the committed QEMU counts
+/// (`docs/cost-calibration.json`, written by `host-sim costfit`), and those
+/// counts' features and samples are what the planner computes today for
+/// the same scenes and variants: the model traces to
 /// measurements, and a change to the features or the constants without a
 /// new calibration fails here.
 #[test]
@@ -341,7 +342,25 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
             "{} {}: features changed since the calibration: {now:?} vs {:?}",
             p.scene, p.variant, p.features
         );
+        let now = host_sim::costfit::samples_now(p).expect("samples");
+        assert!(
+            now == p.samples,
+            "{} {}: samples changed since the calibration: {now:?} vs {:?}",
+            p.scene,
+            p.variant,
+            p.samples
+        );
     }
+    let sampled = |a: &str| {
+        cal.points
+            .iter()
+            .filter(|p| p.arithmetic == a && p.samples != [1.0, 0.0, 0.0])
+            .count()
+    };
+    assert!(
+        sampled("fast") >= 12 && sampled("wide") >= 12,
+        "too few sampled points"
+    );
     for (arithmetic, model) in [("fast", FAST_COST), ("wide", WIDE_COST)] {
         let fit = host_sim::costfit::fit(&cal.points, arithmetic).expect("fit");
         for (k, (a, b)) in fit.coef.iter().zip(model.coef).enumerate() {
@@ -349,6 +368,17 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
                 (a - b).abs() <= 0.05 + 1e-9,
                 "{arithmetic} {}: fitted {a:.3}, committed {b}",
                 host_sim::costfit::TERMS[k]
+            );
+        }
+        let names = host_sim::costfit::GRID_TERMS
+            .iter()
+            .chain(&host_sim::costfit::APERTURE_TERMS);
+        let fitted = fit.samples.grid.iter().chain(&fit.samples.aperture);
+        let committed = model.samples.grid.iter().chain(&model.samples.aperture);
+        for ((a, b), name) in fitted.zip(committed).zip(names) {
+            assert!(
+                (a - b).abs() <= 0.0005 + 1e-9,
+                "{arithmetic} {name}: fitted {a:.4}, committed {b}"
             );
         }
     }

@@ -6,7 +6,11 @@
 //! rendered on the Cortex-M3 (lm3s6965evb, `-icount`) with each arithmetic
 //! forced (`mix32-poly`; `i32f32-poly`, `i32f32-lut64-linear`), and the
 //! instructions per pixel are fitted by least squares, per arithmetic,
-//! linear in [`Features`]. The fitted coefficients are
+//! linear in [`Features`]. A few of them are rendered again with sample
+//! grids (`-s2`, `-s4`, `-s4-adaptive`, `-s8-adaptive`) and aperture
+//! points (`-ap16`, `-ap64`), and what those cost over one sample's
+//! prediction is fitted the same way, linear in [`Samples`]'s terms
+//! ([`hilcam::planner::SampleCost`]). The fitted coefficients are
 //! [`hilcam::planner::FAST_COST`] and [`hilcam::planner::WIDE_COST`];
 //! `costfit.json` holds the measurements (committed as
 //! `docs/cost-calibration.json`, from which a test refits the constants),
@@ -16,7 +20,7 @@
 use crate::hil_cmd::{hil_variants, shipped_scenes, Board};
 use crate::scene_file::load;
 use crate::variant::Variant;
-use hilcam::planner::{self, Budget, CostModel, Features, COST_TERMS};
+use hilcam::planner::{self, Budget, CostModel, Features, SampleCost, Samples, COST_TERMS};
 use hilcam::render::Arithmetic;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
@@ -33,9 +37,58 @@ pub struct Point {
     pub arithmetic: String,
     /// The features, in [`Features::to_array`]'s order.
     pub features: Vec<f64>,
+    /// What a pixel takes beyond one sample ([`Samples`]: grid samples,
+    /// corner looks, aperture points); one sample through the pinhole
+    /// where absent.
+    #[serde(default = "one_sample")]
+    pub samples: [f64; 3],
     /// Measured M3 instructions a pixel.
     pub measured: f64,
 }
+
+fn one_sample() -> [f64; 3] {
+    samples_array(&Samples::ONE)
+}
+
+fn samples_array(s: &Samples) -> [f64; 3] {
+    [s.grid, s.corners, s.aperture]
+}
+
+impl Point {
+    /// The point's [`Samples`].
+    pub fn samples(&self) -> Samples {
+        let [grid, corners, aperture] = self.samples;
+        Samples {
+            grid,
+            corners,
+            aperture,
+        }
+    }
+
+    /// One sample a pixel through the pinhole: a point of the features' fit.
+    fn is_one_sample(&self) -> bool {
+        self.samples == one_sample()
+    }
+}
+
+/// The calibration scenes rendered again with sample grids (every
+/// arithmetic): a plain floor, spheres, rectangles, distortion, no floor,
+/// and parallel rays with checkered rectangles.
+const SAMPLED_SCENES: [&str; 6] = [
+    "cal-base",
+    "cal-sphere4",
+    "cal-rect3",
+    "cal-distortion",
+    "cal-nofloor-mix",
+    "cal-big-rect-ortho",
+];
+/// The grids they are rendered with.
+const GRIDS: [&str; 4] = ["s2", "s4", "s4-adaptive", "s8-adaptive"];
+/// The calibration scenes rendered again through the aperture (perspective
+/// rays: defocus is the thin lens's).
+const APERTURE_SCENES: [&str; 3] = ["cal-base", "cal-sphere4", "cal-nofloor-mix"];
+/// The aperture points they are rendered with.
+const APERTURES: [&str; 2] = ["ap16", "ap64"];
 
 /// The names of [`Features::to_array`]'s terms.
 pub const TERMS: [&str; COST_TERMS] = [
@@ -460,24 +513,71 @@ fn variant_options(scene: &hilcam::scene::Scene, variant: &Variant) -> hilcam::r
     variant.options(planner::plan(scene, &Budget::default()).options)
 }
 
-/// Least squares per arithmetic: the coefficients of every term that some
-/// point exercises (the others stay 0), by the normal equations.
+/// Least squares per arithmetic: the coefficients of every feature term
+/// that some one-sample point exercises (the others stay 0), then the
+/// sample factors ([`SampleCost`]) from the other points, each against its
+/// one-sample prediction.
 pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
-    let rows: Vec<(&[f64], f64)> = points
-        .iter()
-        .filter(|p| p.arithmetic == arithmetic)
+    let ours = || points.iter().filter(|p| p.arithmetic == arithmetic);
+    let rows: Vec<(&[f64], f64)> = ours()
+        .filter(|p| p.is_one_sample())
         .map(|p| (p.features.as_slice(), p.measured))
         .collect();
     let used: Vec<usize> = (0..COST_TERMS)
         .filter(|&k| rows.iter().any(|(f, _)| f.get(k).is_some_and(|x| *x != 0.0)))
         .collect();
+    let solved = least_squares(&rows, &used, &TERMS).map_err(|e| format!("{arithmetic}: {e}"))?;
+    let mut coef = [0.0; COST_TERMS];
+    for (&i, c) in used.iter().zip(solved) {
+        coef[i] = c;
+    }
+    // The features' prediction alone (every sample factor 1).
+    let base = CostModel {
+        coef,
+        samples: SampleCost {
+            grid: [1.0, 1.0, 0.0],
+            aperture: [1.0, 0.0],
+        },
+    };
+    // A sampled point's measured cost over its one-sample prediction.
+    let ratio = |p: &Point| p.measured / base.predict_terms(&p.features);
+    let grid_rows: Vec<([f64; 3], f64)> = ours()
+        .filter(|p| !p.is_one_sample() && p.samples[2] == 0.0)
+        .map(|p| (p.samples().terms().0, ratio(p)))
+        .collect();
+    let grid_rows: Vec<(&[f64], f64)> = grid_rows.iter().map(|(t, r)| (t.as_slice(), *r)).collect();
+    let grid = least_squares(&grid_rows, &[0, 1, 2], &GRID_TERMS).map_err(|e| format!("{arithmetic} sample grid: {e}"))?;
+    let ap_rows: Vec<([f64; 2], f64)> = ours()
+        .filter(|p| p.samples[2] > 0.0 && p.samples[0] == 1.0 && p.samples[1] == 0.0)
+        .map(|p| (p.samples().terms().1, ratio(p)))
+        .collect();
+    let ap_rows: Vec<(&[f64], f64)> = ap_rows.iter().map(|(t, r)| (t.as_slice(), *r)).collect();
+    let aperture = least_squares(&ap_rows, &[0, 1], &APERTURE_TERMS).map_err(|e| format!("{arithmetic} aperture: {e}"))?;
+    Ok(CostModel {
+        coef,
+        samples: SampleCost {
+            grid: [grid[0], grid[1], grid[2]],
+            aperture: [aperture[0], aperture[1]],
+        },
+    })
+}
+
+/// The names of [`SampleCost::grid`]'s terms.
+pub const GRID_TERMS: [&str; 3] = ["grid on every pixel", "grid, adaptive", "grid, per sample"];
+/// The names of [`SampleCost::aperture`]'s terms.
+pub const APERTURE_TERMS: [&str; 2] = ["aperture constant", "aperture points"];
+
+/// The least-squares coefficients of the columns `used` of `rows` (terms,
+/// measured; `names` names the columns), by the normal equations, solved
+/// by Gaussian elimination with partial pivoting.
+fn least_squares(rows: &[(&[f64], f64)], used: &[usize], names: &[&str]) -> Result<Vec<f64>, String> {
     let n = used.len();
     if rows.len() < n {
-        return Err(format!("{arithmetic}: {} points for {n} terms", rows.len()));
+        return Err(format!("{} points for {n} terms", rows.len()));
     }
-    // [AᵀA | Aᵀb], solved by Gaussian elimination with partial pivoting.
+    // [AᵀA | Aᵀb]
     let mut m = vec![vec![0.0f64; n + 1]; n];
-    for (f, y) in &rows {
+    for (f, y) in rows {
         for (a, &i) in used.iter().enumerate() {
             for (b, &j) in used.iter().enumerate() {
                 m[a][b] += f[i] * f[j];
@@ -490,10 +590,8 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
             .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
             .ok_or("empty system")?;
         if m[p][c].abs() < 1e-9 {
-            return Err(format!(
-                "{arithmetic}: the term {} is not determined by the points",
-                TERMS[used[c]]
-            ));
+            let name = used.get(c).and_then(|&i| names.get(i)).unwrap_or(&"?");
+            return Err(format!("the term {name} is not determined by the points"));
         }
         m.swap(c, p);
         let pivot = m[c].clone();
@@ -506,11 +604,7 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
             }
         }
     }
-    let mut coef = [0.0; COST_TERMS];
-    for (a, &i) in used.iter().enumerate() {
-        coef[i] = m[a][n] / m[a][a];
-    }
-    Ok(CostModel { coef })
+    Ok((0..n).map(|a| m[a][n] / m[a][a]).collect())
 }
 
 /// `costfit.json`.
@@ -531,6 +625,20 @@ pub fn load_calibration(path: &Path) -> Result<Calibration, String> {
 /// The features the planner computes now for a calibration point (its
 /// scene from [`calibration_scenes`], rendered with its variant).
 pub fn features_now(p: &Point) -> Result<Vec<f64>, String> {
+    let (scene, opts) = scene_and_options(p)?;
+    Ok(Features::of_options(&scene, &opts).to_array().to_vec())
+}
+
+/// The [`Samples`] the planner computes now for a calibration point, as
+/// [`Point::samples`] records them.
+pub fn samples_now(p: &Point) -> Result<[f64; 3], String> {
+    let (scene, opts) = scene_and_options(p)?;
+    Ok(samples_array(&Samples::of_options(&scene, &opts)))
+}
+
+/// A calibration point's scene, and the options its variant renders it
+/// with.
+fn scene_and_options(p: &Point) -> Result<(hilcam::scene::Scene, hilcam::render::Options), String> {
     let text = calibration_scenes()
         .into_iter()
         .find(|(n, _)| *n == p.scene)
@@ -538,15 +646,18 @@ pub fn features_now(p: &Point) -> Result<Vec<f64>, String> {
         .ok_or_else(|| format!("{}: no such calibration scene", p.scene))?;
     let scene = crate::scene_file::parse(&text)?.core_scene()?;
     let opts = variant_options(&scene, &Variant::parse(&p.variant)?);
-    Ok(Features::of_options(&scene, &opts).to_array().to_vec())
+    Ok((scene, opts))
 }
 
 /// A model as the Rust constant `planner.rs` holds.
 pub fn rust_const(name: &str, m: &CostModel) -> String {
     let coef: Vec<String> = m.coef.iter().map(|c| format!("{c:.1}")).collect();
+    let three = |v: &[f64]| v.iter().map(|c| format!("{c:.3}")).collect::<Vec<_>>().join(", ");
     format!(
-        "pub const {name}: CostModel = CostModel {{\n    coef: [{}],\n}};",
-        coef.join(", ")
+        "pub const {name}: CostModel = CostModel {{\n    coef: [{}],\n    samples: SampleCost {{\n        grid: [{}],\n        aperture: [{}],\n    }},\n}};",
+        coef.join(", "),
+        three(&m.samples.grid),
+        three(&m.samples.aperture)
     )
 }
 
@@ -562,35 +673,29 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
         std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
         paths.push(p);
     }
-    let variants: Vec<Variant> = ["mix32-poly", "i32f32-poly", "i32f32-lut64-linear"]
-        .iter()
-        .map(|v| Variant::parse(v))
-        .collect::<Result<_, _>>()?;
+    let parse = |names: &[String]| names.iter().map(|v| Variant::parse(v)).collect::<Result<Vec<_>, _>>();
+    let with = |arith: &[&str], what: &[&str]| -> Vec<String> {
+        arith
+            .iter()
+            .flat_map(|a| what.iter().map(move |w| format!("{a}-{w}")))
+            .collect()
+    };
+    let pick = |names: &[&str]| -> Vec<std::path::PathBuf> {
+        paths
+            .iter()
+            .filter(|p| names.iter().any(|n| p.file_stem().is_some_and(|s| s.to_string_lossy() == *n)))
+            .cloned()
+            .collect()
+    };
     let mut points = Vec::new();
+    let one = parse(&["mix32-poly", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
     for (k, batch) in paths.chunks(6).enumerate() {
-        let r = hil_variants(board, None, batch, &variants, &work.join(format!("batch{k}")))?;
-        for f in r.frames {
-            let path = batch
-                .iter()
-                .find(|p| p.file_stem().is_some_and(|s| s.to_string_lossy() == f.scene))
-                .ok_or_else(|| format!("{}: not in the batch", f.scene))?;
-            let scene = load(path)?.core_scene()?;
-            let v = Variant::parse(&f.variant)?;
-            let opts = variant_options(&scene, &v);
-            // The table variant on a scene without distortion repeats the
-            // polynomial one.
-            if v.name().contains("lut") && scene.distortion.is_none() {
-                continue;
-            }
-            points.push(Point {
-                scene: f.scene.clone(),
-                variant: f.variant.clone(),
-                arithmetic: opts.arithmetic.name().into(),
-                features: Features::of_options(&scene, &opts).to_array().to_vec(),
-                measured: f.instructions_per_pixel.ok_or("no instruction count")?,
-            });
-        }
+        measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
     }
+    let grids = parse(&with(&["mix32", "i32f32"], &GRIDS))?;
+    measure(board, &pick(&SAMPLED_SCENES), &grids, &work.join("sampled"), &mut points)?;
+    let apertures = parse(&with(&["mix32", "i32f32"], &APERTURES))?;
+    measure(board, &pick(&APERTURE_SCENES), &apertures, &work.join("aperture"), &mut points)?;
     let cal = Calibration {
         board: board.machine().into(),
         points,
@@ -603,6 +708,41 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
     outputs.write("costfit.md", report.as_bytes())?;
     outputs.commit()?;
     Ok(report)
+}
+
+/// Renders `scenes` with `variants` on `board` (one firmware) and records
+/// a point for each frame.
+fn measure(
+    board: Board,
+    scenes: &[std::path::PathBuf],
+    variants: &[Variant],
+    dir: &Path,
+    points: &mut Vec<Point>,
+) -> Result<(), String> {
+    let r = hil_variants(board, None, scenes, variants, dir)?;
+    for f in r.frames {
+        let path = scenes
+            .iter()
+            .find(|p| p.file_stem().is_some_and(|s| s.to_string_lossy() == f.scene))
+            .ok_or_else(|| format!("{}: not in the batch", f.scene))?;
+        let scene = load(path)?.core_scene()?;
+        let v = Variant::parse(&f.variant)?;
+        let opts = variant_options(&scene, &v);
+        // The table variant on a scene without distortion repeats the
+        // polynomial one.
+        if v.name().contains("lut") && scene.distortion.is_none() {
+            continue;
+        }
+        points.push(Point {
+            scene: f.scene.clone(),
+            variant: f.variant.clone(),
+            arithmetic: opts.arithmetic.name().into(),
+            features: Features::of_options(&scene, &opts).to_array().to_vec(),
+            samples: samples_array(&Samples::of_options(&scene, &opts)),
+            measured: f.instructions_per_pixel.ok_or("no instruction count")?,
+        });
+    }
+    Ok(())
 }
 
 /// The fit and the check against the shipped scenes.
@@ -621,6 +761,20 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
     }
     let _ = writeln!(
         s,
+        "\nA pixel's samples, as a multiple of one sample's cost (`SampleCost`):\n\n| term | fast | wide |\n|---|---|---|"
+    );
+    for (k, t) in GRID_TERMS.iter().enumerate() {
+        let _ = writeln!(s, "| {t} | {:.3} | {:.3} |", fast.samples.grid[k], wide.samples.grid[k]);
+    }
+    for (k, t) in APERTURE_TERMS.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "| {t} | {:.3} | {:.3} |",
+            fast.samples.aperture[k], wide.samples.aperture[k]
+        );
+    }
+    let _ = writeln!(
+        s,
         "\n```rust\n{}\n{}\n```\n",
         rust_const("FAST_COST", &fast),
         rust_const("WIDE_COST", &wide)
@@ -629,12 +783,14 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
         s,
         "## Calibration scenes\n\n| scene | variant | measured | fitted | error |\n|---|---|---|---|---|"
     );
-    let mut worst: f64 = 0.0;
+    // The largest error of the one-sample points, and of the others.
+    let mut worst = [0.0f64; 2];
     for p in &cal.points {
         let m = if p.arithmetic == "fast" { &fast } else { &wide };
-        let pred = m.predict_terms(&p.features);
+        let pred = m.predict_terms(&p.features) * m.samples.factor(&p.samples());
         let e = (pred - p.measured) / p.measured;
-        worst = worst.max(e.abs());
+        let w = &mut worst[usize::from(!p.is_one_sample())];
+        *w = w.max(e.abs());
         let _ = writeln!(
             s,
             "| {} | {} | {:.0} | {:.0} | {:+.1} % |",
@@ -645,7 +801,12 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
             100.0 * e
         );
     }
-    let _ = writeln!(s, "\nLargest calibration error: {:.1} %.\n", 100.0 * worst);
+    let _ = writeln!(
+        s,
+        "\nLargest calibration error: {:.1} % (one sample), {:.1} % (sample grids and aperture points).\n",
+        100.0 * worst[0],
+        100.0 * worst[1]
+    );
     // The shipped scenes, default path: the planner's prediction (the
     // committed model) against QEMU.
     let shipped = shipped_scenes()?;
@@ -668,14 +829,14 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
         let scene = load(path)?.core_scene()?;
         let plan = planner::plan(&scene, &Budget::default());
         let chosen = plan.candidates.get(plan.chosen).ok_or("no candidate")?;
-        let fitted = match chosen.arithmetic {
+        let model = match chosen.arithmetic {
             Arithmetic::Fast => &fast,
             Arithmetic::Wide => &wide,
-        }
-        .predict(&Features::of_options(&scene, &plan.options))
-            // Samples a pixel (pixel-area grid, aperture points), as the
-            // planner scales it.
-            * plan.predicted_samples_per_pixel;
+        };
+        // A pixel's samples (pixel-area grid, aperture points) as the
+        // planner scales them, by this fit's factors.
+        let fitted =
+            model.predict(&Features::of_options(&scene, &plan.options)) * model.samples.factor(&plan.samples);
         let measured = f.instructions_per_pixel.ok_or("no instruction count")?;
         let _ = writeln!(
             s,

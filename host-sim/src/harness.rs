@@ -97,10 +97,13 @@ pub struct PlanReport {
     pub adaptive: bool,
     /// Predicted edge-placement error of the sample pattern, px.
     pub predicted_edge_err_px: f64,
-    /// Predicted samples a pixel (corner looks counted as a fraction of a
-    /// sample, times the aperture points), which the predicted cost
-    /// includes.
+    /// Predicted samples of a pixel's area (with the adaptive rule: the
+    /// centre, and the grid on the estimated share of edge pixels).
     pub predicted_samples_per_pixel: f64,
+    /// What the pixel's samples (grid, corner looks, aperture points) cost
+    /// as a multiple of one sample (the planner's fitted factor), which the
+    /// predicted cost includes.
+    pub predicted_sample_factor: f64,
     /// Aperture points each sample is lit through (0: a pinhole).
     pub aperture_points: u16,
     /// Largest blur-circle diameter of content in view, px.
@@ -633,7 +636,8 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         samples: stages.samples,
         adaptive: stages.adaptive,
         predicted_edge_err_px: plan.predicted_edge_err_px,
-        predicted_samples_per_pixel: plan.predicted_samples_per_pixel,
+        predicted_samples_per_pixel: plan.samples.grid,
+        predicted_sample_factor: plan.predicted_sample_factor,
         aperture_points: stages.aperture,
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,

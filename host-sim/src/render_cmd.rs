@@ -83,17 +83,23 @@ pub fn plan_text(p: &PlanReport) -> String {
     }
     if p.samples > 1 {
         s.push_str(&format!(
-            "  sampling: {n}x{n}{} — predicted edge error {:.4} px, {:.2} samples a pixel (in the costs above)\n",
+            "  sampling: {n}x{n}{} — predicted edge error {:.4} px, {:.2} samples a pixel\n",
             if p.adaptive { " adaptive" } else { " on every pixel" },
             p.predicted_edge_err_px,
             p.predicted_samples_per_pixel,
             n = p.samples
         ));
     }
+    if p.samples > 1 || p.aperture_points > 0 {
+        s.push_str(&format!(
+            "  a pixel's samples cost {:.2}x one sample's (the fitted factor, in the costs above)\n",
+            p.predicted_sample_factor
+        ));
+    }
     if p.aperture_points > 0 {
         s.push_str(&format!(
             "  defocus: {} aperture points — content outside the depth of field, largest blur {:.2} px, \
-             predicted placement error {:.3} px (in the costs above)\n",
+             predicted placement error {:.3} px\n",
             p.aperture_points, p.blur_px, p.predicted_defocus_err_px
         ));
     } else {
