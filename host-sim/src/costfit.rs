@@ -514,15 +514,18 @@ fn variant_options(scene: &hilcam::scene::Scene, variant: &Variant) -> hilcam::r
 }
 
 /// Least squares per arithmetic: the coefficients of every feature term
-/// that some one-sample point exercises (the others stay 0), then the
-/// sample factors ([`SampleCost`]) from the other points, each against its
+/// that some one-sample point exercises (the others stay 0), in relative
+/// error (each point weighted by 1/measured: the planner compares costs
+/// by their ratio, and the report gives relative errors), then the sample
+/// factors ([`SampleCost`]) from the other points, each against its
 /// one-sample prediction.
 pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
     let ours = || points.iter().filter(|p| p.arithmetic == arithmetic);
-    let rows: Vec<(&[f64], f64)> = ours()
+    let weighted: Vec<Vec<f64>> = ours()
         .filter(|p| p.is_one_sample())
-        .map(|p| (p.features.as_slice(), p.measured))
+        .map(|p| p.features.iter().map(|x| x / p.measured).collect())
         .collect();
+    let rows: Vec<(&[f64], f64)> = weighted.iter().map(|f| (f.as_slice(), 1.0)).collect();
     let used: Vec<usize> = (0..COST_TERMS)
         .filter(|&k| rows.iter().any(|(f, _)| f.get(k).is_some_and(|x| *x != 0.0)))
         .collect();
