@@ -28,7 +28,8 @@
 //!   checkerboard goes to the wide one).
 //! - **Cost** ([`CostModel`]): M3 instructions a pixel, linear in the
 //!   scene's features (primitives by kind, their sampled screen coverage,
-//!   lights and lobe per shaded pixel, distortion, colour, parallel rays),
+//!   lights per shaded pixel, the lobe per pixel that sees it, distortion,
+//!   colour, parallel rays),
 //!   with coefficients fitted to QEMU counts (`host-sim costfit` fits them
 //!   and reports predicted vs measured; `docs/cost-model.md`); a pixel's
 //!   samples (a grid over its area, points of the aperture) multiply it by
@@ -648,6 +649,9 @@ struct Geometry {
     /// shades in closed form (`mix32::Closed`) and no other primitive
     /// (sampled; 0 without such a plane).
     closed_area: f64,
+    /// Fraction of the sensor whose rays first meet a primitive with a
+    /// specular lobe (sampled).
+    lobe_area: f64,
 }
 
 /// How far a primitive's points lie from the camera, in the camera frame:
@@ -663,25 +667,32 @@ enum Reach {
 const COVERAGE_GRID: (u32, u32) = (8, 6);
 
 impl PrimGeom {
-    /// Whether the ray `o + t d`, `t > 0`, meets the primitive (a
-    /// rectangle as the disc through its corners: coverage, not shading).
-    fn hit(&self, o: [f64; 3], d: [f64; 3]) -> bool {
+    /// Where the ray `o + t d`, `t > 0`, first meets the primitive (a
+    /// rectangle as the disc through its corners: coverage, not shading):
+    /// its `t` (0 from inside a sphere), or `None`.
+    fn hit(&self, o: [f64; 3], d: [f64; 3]) -> Option<f64> {
         let oc = sub3(self.c, o);
         match self.shape {
             Shape::Sphere { .. } => {
-                let (dd, t) = (dot3(d, d), dot3(oc, d));
-                let inside = dot3(oc, oc) <= self.r * self.r;
-                inside || (t > 0.0 && dot3(oc, oc) - t * t / dd <= self.r * self.r)
+                let (dd, t, cc) = (dot3(d, d), dot3(oc, d), dot3(oc, oc));
+                let disc = t * t - dd * (cc - self.r * self.r);
+                if cc <= self.r * self.r {
+                    Some(0.0)
+                } else if t > 0.0 && disc >= 0.0 {
+                    Some((t - libm::sqrt(disc)) / dd)
+                } else {
+                    None
+                }
             }
             _ => {
                 let den = dot3(self.n, d);
                 if libm::fabs(den) < 1e-12 {
-                    return false;
+                    return None;
                 }
                 let t = dot3(self.n, oc) / den;
                 let plane = matches!(self.shape, Shape::Plane { .. });
                 let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
-                t > 0.0 && (plane || norm3(sub3(p, self.c)) <= self.r)
+                (t > 0.0 && (plane || norm3(sub3(p, self.c)) <= self.r)).then_some(t)
             }
         }
     }
@@ -915,7 +926,7 @@ impl Geometry {
         // Coverage: a grid of COVERAGE_GRID rays over the sensor (distortion
         // ignored), each tested against every primitive.
         let (gx, gy) = COVERAGE_GRID;
-        let (mut hits, mut bounded, mut closed_hits) = (0u32, 0u32, 0u32);
+        let (mut hits, mut bounded, mut closed_hits, mut lobe_hits) = (0u32, 0u32, 0u32, 0u32);
         for a in 0..gx {
             for b in 0..gy {
                 let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
@@ -925,15 +936,20 @@ impl Geometry {
                     Some(k) => ([x * k, y * k, 0.0], [0.0, 0.0, 1.0]),
                 };
                 let (mut any, mut others) = (false, false);
+                let mut nearest: Option<(f64, &PrimGeom)> = None;
                 for (i, p) in prims.iter().enumerate() {
-                    if p.hit(o, d) {
+                    if let Some(t) = p.hit(o, d) {
                         any = true;
                         bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
                         others |= closed != Some(i);
+                        if nearest.is_none_or(|(tn, _)| t < tn) {
+                            nearest = Some((t, p));
+                        }
                     }
                 }
                 hits += any as u32;
                 closed_hits += (any && !others) as u32;
+                lobe_hits += nearest.is_some_and(|(_, p)| p.ks > 0.0) as u32;
             }
         }
         Geometry {
@@ -955,6 +971,7 @@ impl Geometry {
             coverage: hits as f64 / (gx * gy) as f64,
             bounded_area: bounded as f64 / (gx * gy) as f64,
             closed_area: closed_hits as f64 / (gx * gy) as f64,
+            lobe_area: lobe_hits as f64 / (gx * gy) as f64,
         }
     }
 
@@ -1467,8 +1484,12 @@ pub struct Features {
     pub poly: f64,
     /// 1 if by a table.
     pub table: f64,
-    /// 1 if any material has a specular lobe.
+    /// 1 if any material has a specular lobe (the lobe's code in the
+    /// loop).
     pub specular: f64,
+    /// Fraction of the sensor whose rays first meet a primitive with a
+    /// lobe (sampled, as `coverage`): the pixels that evaluate it.
+    pub lobe_area: f64,
     /// Colour channels beyond the first (2 for RGB565).
     pub extra_channels: f64,
     /// 1 for parallel rays.
@@ -1528,6 +1549,7 @@ impl Features {
             None => {}
         }
         f.specular = if scene.has_specular() { 1.0 } else { 0.0 };
+        f.lobe_area = if scene.has_specular() { g.lobe_area } else { 0.0 };
         f.extra_channels = (scene.format.channels() - 1) as f64;
         f.parallel = if g.origin_scale.is_some() { 1.0 } else { 0.0 };
         f.coverage = g.coverage;
@@ -1555,7 +1577,7 @@ impl Features {
             self.dir_lights * c,
             self.poly,
             self.table,
-            self.specular * c,
+            self.specular,
             self.extra_channels,
             self.parallel,
             c,
@@ -1564,12 +1586,13 @@ impl Features {
             self.noise_channels,
             self.closed,
             self.closed * self.point_lights,
+            self.lobe_area,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 19;
+pub const COST_TERMS: usize = 20;
 
 /// M3 instructions a pixel as a linear function of [`Features`] (one
 /// sample a pixel), times what the pixel's samples cost ([`SampleCost`]).
@@ -1707,12 +1730,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        92.9, 39.2, 4.2, 6.0, -5.3, 0.2, 135.3, 6.8, 19.6, 0.0, 276.9, 70.3, 10.9, 136.4, 120.0, -45.6,
-        268.5, -170.8, -27.6,
+        91.6, 43.8, 4.5, 5.8, -4.7, 4.3, 138.4, 7.1, 24.5, 0.0, 6.5, 70.1, 12.0, 120.6, 132.3, -48.2, 267.9,
+        -159.9, -30.3, 323.5,
     ],
     samples: SampleCost {
-        grid: [2.127, 0.633, 1.021],
-        aperture: [0.773, 0.888],
+        grid: [2.200, 0.636, 1.025],
+        aperture: [0.781, 0.899],
     },
 };
 
@@ -1720,12 +1743,12 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        794.8, 341.9, 42.0, -46.0, -63.0, 104.3, 1470.7, 171.7, 251.5, 305.6, 1878.5, 248.3, -234.3, 70.5,
-        930.2, 49.7, 886.3, 0.0, 0.0,
+        823.0, 337.3, 40.6, -58.4, -72.4, 111.8, 1465.9, 154.9, 263.4, 317.7, 1873.8, 245.3, -244.4, 58.9,
+        938.5, 48.2, 884.8, 0.0, 0.0, -108.5,
     ],
     samples: SampleCost {
-        grid: [1.034, 0.790, 0.985],
-        aperture: [0.446, 0.877],
+        grid: [1.034, 0.789, 0.983],
+        aperture: [0.445, 0.875],
     },
 };
 

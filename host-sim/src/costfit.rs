@@ -111,6 +111,7 @@ pub const TERMS: [&str; COST_TERMS] = [
     "noise_channels",
     "closed",
     "closed_point_lights",
+    "lobe_area",
 ];
 
 /// What one calibration scene holds beyond the base (a floor plane, one
