@@ -655,7 +655,7 @@ fn umul_px(a: u32, b: u32) -> u64 {
     if ARMV6M {
         umul16_words(a, b)
     } else {
-        a as u64 * b as u64
+        umul(a, b)
     }
 }
 

@@ -1549,7 +1549,7 @@ impl Features {
             None => {}
         }
         f.specular = if scene.has_specular() { 1.0 } else { 0.0 };
-        f.lobe_area = if scene.has_specular() { g.lobe_area } else { 0.0 };
+        f.lobe_area = g.lobe_area;
         f.extra_channels = (scene.format.channels() - 1) as f64;
         f.parallel = if g.origin_scale.is_some() { 1.0 } else { 0.0 };
         f.coverage = g.coverage;
@@ -1606,7 +1606,7 @@ pub struct CostModel {
 
 /// What a pixel takes beyond one sample at its centre: the terms of
 /// [`SampleCost`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Samples {
     /// Samples of the pixel's area: 1 for one sample; `n²` for an `n×n`
     /// grid on every pixel; with the adaptive rule 1 (the centre) plus `n²`
@@ -1682,6 +1682,12 @@ pub struct SampleCost {
 }
 
 impl SampleCost {
+    /// A factor of 1 whatever the samples: the features' prediction alone.
+    pub const ONE: SampleCost = SampleCost {
+        grid: [1.0, 1.0, 0.0],
+        aperture: [1.0, 0.0],
+    };
+
     /// The factor for `s`.
     pub fn factor(&self, s: &Samples) -> f64 {
         let (g, a) = s.terms();
@@ -1699,6 +1705,7 @@ impl SampleCost {
     }
 }
 
+/// `Σ aᵢ bᵢ` over the shorter of the two (missing terms count as 0).
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -1721,7 +1728,7 @@ impl CostModel {
     /// Predicted M3 instructions a pixel from the terms themselves, in
     /// [`Features::to_array`]'s order (missing terms count as 0).
     pub fn predict_terms(&self, terms: &[f64]) -> f64 {
-        self.coef.iter().zip(terms).map(|(c, x)| c * x).sum()
+        dot(&self.coef, terms)
     }
 }
 

@@ -354,7 +354,7 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
     let sampled = |a: &str| {
         cal.points
             .iter()
-            .filter(|p| p.arithmetic == a && p.samples != [1.0, 0.0, 0.0])
+            .filter(|p| p.arithmetic == a && p.samples != hilcam::planner::Samples::ONE)
             .count()
     };
     assert!(

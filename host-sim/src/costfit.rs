@@ -37,37 +37,22 @@ pub struct Point {
     pub arithmetic: String,
     /// The features, in [`Features::to_array`]'s order.
     pub features: Vec<f64>,
-    /// What a pixel takes beyond one sample ([`Samples`]: grid samples,
-    /// corner looks, aperture points); one sample through the pinhole
-    /// where absent.
+    /// What a pixel takes beyond one sample (grid samples, corner looks,
+    /// aperture points); one sample through the pinhole where absent.
     #[serde(default = "one_sample")]
-    pub samples: [f64; 3],
+    pub samples: Samples,
     /// Measured M3 instructions a pixel.
     pub measured: f64,
 }
 
-fn one_sample() -> [f64; 3] {
-    samples_array(&Samples::ONE)
-}
-
-fn samples_array(s: &Samples) -> [f64; 3] {
-    [s.grid, s.corners, s.aperture]
+fn one_sample() -> Samples {
+    Samples::ONE
 }
 
 impl Point {
-    /// The point's [`Samples`].
-    pub fn samples(&self) -> Samples {
-        let [grid, corners, aperture] = self.samples;
-        Samples {
-            grid,
-            corners,
-            aperture,
-        }
-    }
-
     /// One sample a pixel through the pinhole: a point of the features' fit.
     fn is_one_sample(&self) -> bool {
-        self.samples == one_sample()
+        self.samples == Samples::ONE
     }
 }
 
@@ -522,11 +507,10 @@ fn variant_options(scene: &hilcam::scene::Scene, variant: &Variant) -> hilcam::r
 /// one-sample prediction.
 pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
     let ours = || points.iter().filter(|p| p.arithmetic == arithmetic);
-    let weighted: Vec<Vec<f64>> = ours()
+    let rows: Vec<(Vec<f64>, f64)> = ours()
         .filter(|p| p.is_one_sample())
-        .map(|p| p.features.iter().map(|x| x / p.measured).collect())
+        .map(|p| (p.features.iter().map(|x| x / p.measured).collect(), 1.0))
         .collect();
-    let rows: Vec<(&[f64], f64)> = weighted.iter().map(|f| (f.as_slice(), 1.0)).collect();
     let used: Vec<usize> = (0..COST_TERMS)
         .filter(|&k| rows.iter().any(|(f, _)| f.get(k).is_some_and(|x| *x != 0.0)))
         .collect();
@@ -535,27 +519,21 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
     for (&i, c) in used.iter().zip(solved) {
         coef[i] = c;
     }
-    // The features' prediction alone (every sample factor 1).
     let base = CostModel {
         coef,
-        samples: SampleCost {
-            grid: [1.0, 1.0, 0.0],
-            aperture: [1.0, 0.0],
-        },
+        samples: SampleCost::ONE,
     };
     // A sampled point's measured cost over its one-sample prediction.
     let ratio = |p: &Point| p.measured / base.predict_terms(&p.features);
     let grid_rows: Vec<([f64; 3], f64)> = ours()
-        .filter(|p| !p.is_one_sample() && p.samples[2] == 0.0)
-        .map(|p| (p.samples().terms().0, ratio(p)))
+        .filter(|p| !p.is_one_sample() && p.samples.aperture == 0.0)
+        .map(|p| (p.samples.terms().0, ratio(p)))
         .collect();
-    let grid_rows: Vec<(&[f64], f64)> = grid_rows.iter().map(|(t, r)| (t.as_slice(), *r)).collect();
     let grid = least_squares(&grid_rows, &[0, 1, 2], &GRID_TERMS).map_err(|e| format!("{arithmetic} sample grid: {e}"))?;
     let ap_rows: Vec<([f64; 2], f64)> = ours()
-        .filter(|p| p.samples[2] > 0.0 && p.samples[0] == 1.0 && p.samples[1] == 0.0)
-        .map(|p| (p.samples().terms().1, ratio(p)))
+        .filter(|p| p.samples.aperture > 0.0 && p.samples.grid == 1.0 && p.samples.corners == 0.0)
+        .map(|p| (p.samples.terms().1, ratio(p)))
         .collect();
-    let ap_rows: Vec<(&[f64], f64)> = ap_rows.iter().map(|(t, r)| (t.as_slice(), *r)).collect();
     let aperture = least_squares(&ap_rows, &[0, 1], &APERTURE_TERMS).map_err(|e| format!("{arithmetic} aperture: {e}"))?;
     Ok(CostModel {
         coef,
@@ -574,7 +552,7 @@ pub const APERTURE_TERMS: [&str; 2] = ["aperture constant", "aperture points"];
 /// The least-squares coefficients of the columns `used` of `rows` (terms,
 /// measured; `names` names the columns), by the normal equations, solved
 /// by Gaussian elimination with partial pivoting.
-fn least_squares(rows: &[(&[f64], f64)], used: &[usize], names: &[&str]) -> Result<Vec<f64>, String> {
+fn least_squares<R: AsRef<[f64]>>(rows: &[(R, f64)], used: &[usize], names: &[&str]) -> Result<Vec<f64>, String> {
     let n = used.len();
     if rows.len() < n {
         return Err(format!("{} points for {n} terms", rows.len()));
@@ -582,6 +560,7 @@ fn least_squares(rows: &[(&[f64], f64)], used: &[usize], names: &[&str]) -> Resu
     // [AᵀA | Aᵀb]
     let mut m = vec![vec![0.0f64; n + 1]; n];
     for (f, y) in rows {
+        let f = f.as_ref();
         for (a, &i) in used.iter().enumerate() {
             for (b, &j) in used.iter().enumerate() {
                 m[a][b] += f[i] * f[j];
@@ -635,9 +614,9 @@ pub fn features_now(p: &Point) -> Result<Vec<f64>, String> {
 
 /// The [`Samples`] the planner computes now for a calibration point, as
 /// [`Point::samples`] records them.
-pub fn samples_now(p: &Point) -> Result<[f64; 3], String> {
+pub fn samples_now(p: &Point) -> Result<Samples, String> {
     let (scene, opts) = scene_and_options(p)?;
-    Ok(samples_array(&Samples::of_options(&scene, &opts)))
+    Ok(Samples::of_options(&scene, &opts))
 }
 
 /// A calibration point's scene, and the options its variant renders it
@@ -742,7 +721,7 @@ fn measure(
             variant: f.variant.clone(),
             arithmetic: opts.arithmetic.name().into(),
             features: Features::of_options(&scene, &opts).to_array().to_vec(),
-            samples: samples_array(&Samples::of_options(&scene, &opts)),
+            samples: Samples::of_options(&scene, &opts),
             measured: f.instructions_per_pixel.ok_or("no instruction count")?,
         });
     }
@@ -791,7 +770,7 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
     let mut worst = [0.0f64; 2];
     for p in &cal.points {
         let m = if p.arithmetic == "fast" { &fast } else { &wide };
-        let pred = m.predict_terms(&p.features) * m.samples.factor(&p.samples());
+        let pred = m.predict_terms(&p.features) * m.samples.factor(&p.samples);
         let e = (pred - p.measured) / p.measured;
         let w = &mut worst[usize::from(!p.is_one_sample())];
         *w = w.max(e.abs());
