@@ -1,5 +1,9 @@
 # Shared by the scripts.
 
+# The scripts build from scratch on a fresh machine, where incremental
+# compilation's bookkeeping only costs time.
+export CARGO_INCREMENTAL=0
+
 # Installs what every entry point builds with: the thumb targets and the
 # components. rust-toolchain.toml alone does not add targets to an installed
 # stable toolchain on a fresh machine (cargo then fails with "can't find crate

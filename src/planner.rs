@@ -32,8 +32,9 @@
 //!   colour, parallel rays),
 //!   with coefficients fitted to QEMU counts (`host-sim costfit` fits them
 //!   and reports predicted vs measured; `docs/cost-model.md`); a pixel's
-//!   samples (a grid over its area, points of the aperture) multiply it by
-//!   a factor fitted to the same counts ([`SampleCost`]).
+//!   samples (a grid over its area, points of the aperture) cost a fixed
+//!   overhead plus that per sample, times a factor per aperture point,
+//!   fitted to the same counts ([`SampleCost`]).
 //! - **Choice.** The cheapest candidate that the arithmetic's formats hold
 //!   and whose predictions are within the budget; if none is, the most
 //!   accurate, with `meets_budget = false`.
@@ -289,7 +290,6 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     }
     let (samples, adaptive) = crate::sampling::of_scene(scene);
     let terms = Samples::of(scene, &g, samples, adaptive, df.points);
-    let factor = |a: Arithmetic| CostModel::of(a).samples.factor(&terms);
     // Edge length per pixel area times looks per pixel area (see
     // `Candidate::edge_differing`).
     let looks = match (samples, adaptive) {
@@ -341,8 +341,9 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             };
             // The closed form runs in the fast one-sample loop.
             let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
-            let cost = CostModel::of(arithmetic).predict(&Features::of(scene, &g, distortion, closed))
-                * factor(arithmetic);
+            let model = CostModel::of(arithmetic);
+            let one = model.predict(&Features::of(scene, &g, distortion, closed));
+            let cost = model.samples.cost(one, &terms);
             let _ = cands.push(Candidate {
                 arithmetic,
                 distortion,
@@ -406,7 +407,9 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         chosen,
         predicted_edge_err_px: crate::sampling::edge_error(samples),
         samples: terms,
-        predicted_sample_factor: factor(c.arithmetic),
+        predicted_sample_factor: CostModel::of(c.arithmetic)
+            .samples
+            .factor(c.m3_instructions_per_pixel, &terms),
         defocus: df,
     }
 }
@@ -1663,45 +1666,69 @@ impl Samples {
     }
 }
 
-/// What a pixel's [`Samples`] cost, as a multiple of one sample's cost
-/// ([`CostModel::predict`] of the scene's features): a grid on every
-/// pixel `grid[0] + grid[2] · samples`, with the adaptive rule `grid[1] +
-/// grid[2] · samples` (the constants: the pixel's own work once, the
-/// corner looks, a loop that neither mirrors rays nor shades a plane in
-/// closed form), times the aperture's `aperture[0] + aperture[1] ·
-/// points`; 1 for one sample through the pinhole. Fitted per arithmetic by
-/// `host-sim costfit` to QEMU counts of calibration scenes rendered with
-/// sample grids and aperture points.
+/// What a pixel's [`Samples`] cost, given one sample's cost `one`
+/// ([`CostModel::predict`] of the scene's features): a grid on every pixel
+/// `grid[0] + grid[2] · samples · one`, with the adaptive rule `grid[1] +
+/// grid[2] · samples · one` (the constants, in instructions: the sampled
+/// loop's own work a pixel and the corner looks, much the same whatever
+/// the scene; per sample, the scene's cost in a loop that neither mirrors
+/// rays nor shades a plane in closed form), times the aperture's
+/// `aperture[0] + aperture[1] · points`; `one` for one sample through the
+/// pinhole. Fitted per arithmetic by `host-sim costfit` to QEMU counts of
+/// calibration scenes rendered with sample grids and aperture points.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleCost {
-    /// The grid's constant on every pixel, its constant with the adaptive
-    /// rule, and its cost per sample.
+    /// The grid's constant on every pixel and with the adaptive rule (M3
+    /// instructions a pixel), and its cost per sample (times one sample's).
     pub grid: [f64; 3],
-    /// The aperture's constant and per point.
+    /// The aperture's constant and per point (times the grid's cost).
     pub aperture: [f64; 2],
 }
 
 impl SampleCost {
-    /// A factor of 1 whatever the samples: the features' prediction alone.
+    /// One sample's cost whatever the samples: the features' prediction
+    /// alone.
     pub const ONE: SampleCost = SampleCost {
-        grid: [1.0, 1.0, 0.0],
+        grid: [0.0, 0.0, 1.0],
         aperture: [1.0, 0.0],
     };
 
-    /// The factor for `s`.
-    pub fn factor(&self, s: &Samples) -> f64 {
-        let (g, a) = s.terms();
+    /// The cost of `s`, M3 instructions a pixel, for one sample's `one`.
+    pub fn cost(&self, one: f64, s: &Samples) -> f64 {
         let grid = if s.grid == 1.0 && s.corners == 0.0 {
-            1.0
+            one
         } else {
-            dot(&self.grid, &g)
+            let (g, _) = s.terms();
+            dot(&self.grid, &[g[0], g[1], g[2] * one])
         };
         let aperture = if s.aperture == 0.0 {
             1.0
         } else {
-            dot(&self.aperture, &a)
+            dot(&self.aperture, &s.terms().1)
         };
         grid * aperture
+    }
+
+    /// [`SampleCost::cost`] over one sample's cost, from the total `cost`
+    /// (its inverse: `cost` is linear in one sample's); 1 where that is
+    /// not positive.
+    pub fn factor(&self, cost: f64, s: &Samples) -> f64 {
+        let aperture = if s.aperture == 0.0 {
+            1.0
+        } else {
+            dot(&self.aperture, &s.terms().1)
+        };
+        let one = if s.grid == 1.0 && s.corners == 0.0 {
+            cost / aperture
+        } else {
+            let (g, _) = s.terms();
+            (cost / aperture - self.grid[0] * g[0] - self.grid[1] * g[1]) / (self.grid[2] * g[2])
+        };
+        if one > 0.0 && one.is_finite() {
+            cost / one
+        } else {
+            1.0
+        }
     }
 }
 
@@ -1741,7 +1768,7 @@ pub const FAST_COST: CostModel = CostModel {
         -159.9, -30.3, 323.5,
     ],
     samples: SampleCost {
-        grid: [2.200, 0.636, 1.025],
+        grid: [709.339, 263.884, 0.994],
         aperture: [0.781, 0.899],
     },
 };
@@ -1754,7 +1781,7 @@ pub const WIDE_COST: CostModel = CostModel {
         938.5, 48.2, 884.8, 0.0, 0.0, -108.5,
     ],
     samples: SampleCost {
-        grid: [1.034, 0.789, 0.983],
+        grid: [1202.015, 2074.464, 0.999],
         aperture: [0.445, 0.875],
     },
 };

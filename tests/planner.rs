@@ -514,3 +514,46 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
     }
     assert!(fast.get() >= 10, "fast on {} sampled scenes", fast.get());
 }
+
+/// `SampleCost::factor` recovers what `SampleCost::cost` made of one
+/// sample's cost (the plan reports it): for every committed model, grids
+/// on every pixel and adaptive, with and without the aperture.
+#[test]
+fn sample_factor_inverts_sample_cost() {
+    use hilcam::planner::{Samples, FAST_COST, WIDE_COST};
+    let cases = [
+        Samples::ONE,
+        Samples {
+            grid: 16.0,
+            corners: 0.0,
+            aperture: 0.0,
+        },
+        Samples {
+            grid: 2.09,
+            corners: 1.0,
+            aperture: 0.0,
+        },
+        Samples {
+            grid: 1.0,
+            corners: 0.0,
+            aperture: 64.0,
+        },
+        Samples {
+            grid: 3.5,
+            corners: 1.0,
+            aperture: 16.0,
+        },
+    ];
+    for model in [FAST_COST, WIDE_COST] {
+        for s in &cases {
+            for one in [50.0, 297.0, 3_400.0] {
+                let cost = model.samples.cost(one, s);
+                let factor = model.samples.factor(cost, s);
+                assert!(
+                    (factor * one - cost).abs() <= 1e-9 * cost,
+                    "{s:?}, one sample {one}: cost {cost}, factor {factor}"
+                );
+            }
+        }
+    }
+}

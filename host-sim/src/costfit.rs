@@ -502,9 +502,10 @@ fn variant_options(scene: &hilcam::scene::Scene, variant: &Variant) -> hilcam::r
 /// Least squares per arithmetic: the coefficients of every feature term
 /// that some one-sample point exercises (the others stay 0), in relative
 /// error (each point weighted by 1/measured: the planner compares costs
-/// by their ratio, and the report gives relative errors), then the sample
-/// factors ([`SampleCost`]) from the other points, each against its
-/// one-sample prediction.
+/// by their ratio, and the report gives relative errors), then what the
+/// samples cost ([`SampleCost`]) from the other points: the grid's
+/// constants and its samples times their one-sample prediction (relative
+/// error too), the aperture's factor against that prediction.
 pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
     let ours = || points.iter().filter(|p| p.arithmetic == arithmetic);
     let rows: Vec<(Vec<f64>, f64)> = ours()
@@ -525,9 +526,15 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
     };
     // A sampled point's measured cost over its one-sample prediction.
     let ratio = |p: &Point| p.measured / base.predict_terms(&p.features);
+    // The grid's terms (its constants, its samples times one sample's
+    // prediction), in relative error as the features.
     let grid_rows: Vec<([f64; 3], f64)> = ours()
         .filter(|p| !p.is_one_sample() && p.samples.aperture == 0.0)
-        .map(|p| (p.samples.terms().0, ratio(p)))
+        .map(|p| {
+            let [every, adaptive, n] = p.samples.terms().0;
+            let one = base.predict_terms(&p.features);
+            ([every, adaptive, n * one].map(|t| t / p.measured), 1.0)
+        })
         .collect();
     let grid = least_squares(&grid_rows, &[0, 1, 2], &GRID_TERMS).map_err(|e| format!("{arithmetic} sample grid: {e}"))?;
     let ap_rows: Vec<([f64; 2], f64)> = ours()
@@ -545,7 +552,11 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
 }
 
 /// The names of [`SampleCost::grid`]'s terms.
-pub const GRID_TERMS: [&str; 3] = ["grid on every pixel", "grid, adaptive", "grid, per sample"];
+pub const GRID_TERMS: [&str; 3] = [
+    "grid on every pixel (instructions)",
+    "grid, adaptive (instructions)",
+    "grid, per sample (x one sample)",
+];
 /// The names of [`SampleCost::aperture`]'s terms.
 pub const APERTURE_TERMS: [&str; 2] = ["aperture constant", "aperture points"];
 
@@ -744,7 +755,7 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
     }
     let _ = writeln!(
         s,
-        "\nA pixel's samples, as a multiple of one sample's cost (`SampleCost`):\n\n| term | fast | wide |\n|---|---|---|"
+        "\nA pixel's samples (`SampleCost`): the grid's constants in M3 instructions a pixel, its samples and the aperture as multiples of one sample's cost:\n\n| term | fast | wide |\n|---|---|---|"
     );
     for (k, t) in GRID_TERMS.iter().enumerate() {
         let _ = writeln!(s, "| {t} | {:.3} | {:.3} |", fast.samples.grid[k], wide.samples.grid[k]);
@@ -770,7 +781,7 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
     let mut worst = [0.0f64; 2];
     for p in &cal.points {
         let m = if p.arithmetic == "fast" { &fast } else { &wide };
-        let pred = m.predict_terms(&p.features) * m.samples.factor(&p.samples);
+        let pred = m.samples.cost(m.predict_terms(&p.features), &p.samples);
         let e = (pred - p.measured) / p.measured;
         let w = &mut worst[usize::from(!p.is_one_sample())];
         *w = w.max(e.abs());
@@ -818,8 +829,9 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
         };
         // A pixel's samples (pixel-area grid, aperture points) as the
         // planner scales them, by this fit's factors.
-        let fitted =
-            model.predict(&Features::of_options(&scene, &plan.options)) * model.samples.factor(&plan.samples);
+        let fitted = model
+            .samples
+            .cost(model.predict(&Features::of_options(&scene, &plan.options)), &plan.samples);
         let measured = f.instructions_per_pixel.ok_or("no instruction count")?;
         let _ = writeln!(
             s,

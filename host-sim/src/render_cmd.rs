@@ -92,7 +92,7 @@ pub fn plan_text(p: &PlanReport) -> String {
     }
     if p.samples > 1 || p.aperture_points > 0 {
         s.push_str(&format!(
-            "  a pixel's samples cost {:.2}x one sample's (the fitted factor, in the costs above)\n",
+            "  a pixel's samples cost {:.2}x one sample's (the fitted SampleCost, in the costs above)\n",
             p.predicted_sample_factor
         ));
     }
