@@ -551,6 +551,33 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
     })
 }
 
+/// How the grid's cost generalizes: for each calibration scene rendered
+/// with sample grids, [`fit`] without those points predicts them; the RMS
+/// and largest relative error over all of them.
+pub fn left_out_grid_error(points: &[Point], arithmetic: &str) -> Result<(f64, f64), String> {
+    let sampled = |p: &Point| p.arithmetic == arithmetic && !p.is_one_sample() && p.samples.aperture == 0.0;
+    let mut scenes: Vec<&str> = points.iter().filter(|p| sampled(p)).map(|p| p.scene.as_str()).collect();
+    scenes.sort_unstable();
+    scenes.dedup();
+    let (mut sum2, mut max, mut count) = (0.0f64, 0.0f64, 0usize);
+    for scene in scenes {
+        let rest: Vec<Point> = points
+            .iter()
+            .filter(|p| !(sampled(p) && p.scene == scene))
+            .cloned()
+            .collect();
+        let m = fit(&rest, arithmetic)?;
+        for p in points.iter().filter(|p| sampled(p) && p.scene == scene) {
+            let e = (m.samples.cost(m.predict_terms(&p.features), &p.samples) - p.measured) / p.measured;
+            (sum2, max, count) = (sum2 + e * e, max.max(e.abs()), count + 1);
+        }
+    }
+    if count == 0 {
+        return Err(format!("{arithmetic}: no sampled points"));
+    }
+    Ok(((sum2 / count as f64).sqrt(), max))
+}
+
 /// The names of [`SampleCost::grid`]'s terms.
 pub const GRID_TERMS: [&str; 3] = [
     "grid on every pixel (instructions)",
@@ -801,6 +828,16 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
         100.0 * worst[0],
         100.0 * worst[1]
     );
+    for arithmetic in ["fast", "wide"] {
+        let (rms, max) = left_out_grid_error(&cal.points, arithmetic)?;
+        let _ = writeln!(
+            s,
+            "Sample grids, {arithmetic}, each calibration scene's sampled points predicted by a fit without them: {:.1} % RMS, {:.1} % at most.",
+            100.0 * rms,
+            100.0 * max
+        );
+    }
+    let _ = writeln!(s);
     // The shipped scenes, default path: the planner's prediction (the
     // committed model) against QEMU.
     let shipped = shipped_scenes()?;
