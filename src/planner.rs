@@ -1686,8 +1686,9 @@ pub struct SampleCost {
 }
 
 impl SampleCost {
-    /// One sample's cost whatever the samples: the features' prediction
-    /// alone.
+    /// No overhead, each grid sample at one sample's cost, the aperture
+    /// free: the stand-in of a model of the features alone (`host-sim
+    /// costfit`'s first step, which predicts one sample only).
     pub const ONE: SampleCost = SampleCost {
         grid: [0.0, 0.0, 1.0],
         aperture: [1.0, 0.0],

@@ -865,7 +865,7 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
             Arithmetic::Wide => &wide,
         };
         // A pixel's samples (pixel-area grid, aperture points) as the
-        // planner scales them, by this fit's factors.
+        // planner costs them, by this fit's SampleCost.
         let fitted = model
             .samples
             .cost(model.predict(&Features::of_options(&scene, &plan.options)), &plan.samples);
