@@ -74,23 +74,104 @@ const CHUNK: usize = MAX_LINE_BYTES;
 type Enc = Encoder<board::Uart0, CHUNK>;
 
 /// Status text over semihosting (QEMU, probe-rs), unless the `status`
-/// feature is off; the exit code is always reported through semihosting.
-macro_rules! status {
-    ($($t:tt)*) => {
-        #[cfg(feature = "status")]
-        cortex_m_semihosting::hprintln!($($t)*);
-    };
+/// feature is off (the exit code is always reported through semihosting).
+/// A status line, built in a buffer and written as one string: `{}` of an
+/// integer or a name through `core::fmt` (its padding, its integer
+/// formatting) cost flash no status line needs. Each line is written by a
+/// function of its own, out of line: the buffer lives in its frame, not in
+/// the frame that renders (the painted stack's peak).
+#[cfg(feature = "status")]
+struct Line {
+    buf: [u8; 160],
+    len: usize,
 }
 
-/// A name in a status line, written as it is: `{}` of a `&str` goes through
-/// the formatter's padding, about 2 KB of flash no status line needs.
 #[cfg(feature = "status")]
-struct Text<'a>(&'a str);
+impl Line {
+    fn new() -> Line {
+        Line {
+            buf: [0; 160],
+            len: 0,
+        }
+    }
 
-#[cfg(feature = "status")]
-impl core::fmt::Display for Text<'_> {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(self.0)
+    /// `frame <id> <scene> <variant>: <n> instructions` (host-sim hil).
+    #[inline(never)]
+    fn frame(id: usize, scene: &str, variant: &str, instructions: u64) {
+        Line::new()
+            .text("frame ")
+            .num(id as u64)
+            .text(" ")
+            .text(scene)
+            .text(" ")
+            .text(variant)
+            .text(": ")
+            .num(instructions)
+            .text(" instructions")
+            .say();
+    }
+
+    /// `stack_peak_bytes <n>` (host-sim hil and drive).
+    #[inline(never)]
+    fn peak(bytes: usize) {
+        Line::new().text("stack_peak_bytes ").num(bytes as u64).say();
+    }
+
+    /// `firmware error: <what>`.
+    #[inline(never)]
+    fn error(what: &str) {
+        Line::new().text("firmware error: ").text(what).say();
+    }
+
+    /// `firmware panic at <file>:<line>`.
+    #[inline(never)]
+    fn panic(file: &str, line: u32) {
+        Line::new()
+            .text("firmware panic at ")
+            .text(file)
+            .text(":")
+            .num(u64::from(line))
+            .say();
+    }
+
+    /// Appends a byte (past the buffer's end, none).
+    fn byte(&mut self, b: u8) {
+        if let Some(x) = self.buf.get_mut(self.len) {
+            *x = b;
+            self.len += 1;
+        }
+    }
+
+    /// Appends `s`.
+    #[inline(never)]
+    fn text(mut self, s: &str) -> Line {
+        s.bytes().for_each(|b| self.byte(b));
+        self
+    }
+
+    /// Appends `v` in decimal.
+    #[inline(never)]
+    fn num(mut self, v: u64) -> Line {
+        let mut digits = [0u8; 20];
+        let (mut v, mut n) = (v, 0);
+        while let Some(d) = digits.get_mut(n) {
+            *d = b'0' + (v % 10) as u8;
+            (v, n) = (v / 10, n + 1);
+            if v == 0 {
+                break;
+            }
+        }
+        digits.iter().take(n).rev().for_each(|&d| self.byte(d));
+        self
+    }
+
+    /// Writes the line and a newline over semihosting.
+    #[inline(never)]
+    fn say(mut self) {
+        self.byte(b'\n');
+        if let Some(Ok(s)) = self.buf.get(..self.len).map(core::str::from_utf8) {
+            cortex_m_semihosting::hprint!(s);
+        }
     }
 }
 
@@ -238,18 +319,20 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8], keys: &mut [u64]) -> 
                 command: None,
             };
             let ins = scenes::render_variant(v, &opts, &mut run).unwrap_or_else(|e| fail(e));
-            status!(
-                "frame {} {} {}: {} instructions",
+            #[cfg(feature = "status")]
+            Line::frame(
                 id,
-                Text(scenes::NAMES.get(id).unwrap_or(&"?")),
-                Text(scenes::VARIANTS.get(v).unwrap_or(&"?")),
-                ins
+                scenes::NAMES.get(id).unwrap_or(&"?"),
+                scenes::VARIANTS.get(v).unwrap_or(&"?"),
+                ins,
             );
             let _ = ins;
         }
     }
-    status!("stack_peak_bytes {}", stack::peak());
-    status!("done");
+    #[cfg(feature = "status")]
+    Line::peak(stack::peak());
+    #[cfg(feature = "status")]
+    cortex_m_semihosting::hprintln!("done");
     debug::exit(debug::EXIT_SUCCESS);
     loop {
         cortex_m::asm::wfi();
@@ -314,7 +397,8 @@ mod camera {
                     fail("render");
                 }
                 // The deepest stack use so far (host-sim drive reports it).
-                status!("stack_peak_bytes {}", super::stack::peak());
+                #[cfg(feature = "status")]
+                super::Line::peak(super::stack::peak());
                 frame_id = frame_id.wrapping_add(1);
             }
         }
@@ -390,7 +474,8 @@ impl Runner for Run<'_> {
 }
 
 fn fail(what: &str) -> ! {
-    status!("firmware error: {}", Text(what));
+    #[cfg(feature = "status")]
+    Line::error(what);
     let _ = what;
     debug::exit(debug::EXIT_FAILURE);
     loop {
@@ -400,7 +485,12 @@ fn fail(what: &str) -> ! {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    status!("firmware panic: {}", info);
+    // Where, not the message: formatting it would link `core::fmt`.
+    #[cfg(feature = "status")]
+    match info.location() {
+        Some(l) => Line::panic(l.file(), l.line()),
+        None => Line::panic("?", 0),
+    }
     let _ = info;
     debug::exit(debug::EXIT_FAILURE);
     loop {
