@@ -32,9 +32,25 @@ def fit_rel(rows, measured):
     return coef
 
 
+def overheads(points):
+    """Per scene with a 2x2 and a 4x4 grid on every pixel (fast): the cost a
+    sample (their difference over 12 samples) and what is left a pixel
+    (the 2x2 point less 4 samples), beside its one-sample cost."""
+    by = {}
+    for p in points:
+        if p["arithmetic"] == "fast":
+            by.setdefault(p["scene"], {})[p["variant"]] = p["measured"]
+    for scene, v in sorted(by.items()):
+        s2, s4, one = v.get("mix32-s2"), v.get("mix32-s4"), v.get("mix32-poly")
+        if s2 and s4 and one:
+            per = (s4 - s2) / 12
+            print(f"fast {scene}: one sample {one:.0f}, a grid sample {per:.0f}, overhead {s2 - 4 * per:.0f} a pixel")
+
+
 def main():
     path = sys.argv[1] if len(sys.argv) > 1 else "docs/cost-calibration.json"
     points = json.load(open(path))["points"]
+    overheads(points)
     for arithmetic in ("fast", "wide"):
         ours = [p for p in points if p["arithmetic"] == arithmetic]
         ones = [p for p in ours if one_sample(p)]

@@ -1696,40 +1696,39 @@ impl SampleCost {
 
     /// The cost of `s`, M3 instructions a pixel, for one sample's `one`.
     pub fn cost(&self, one: f64, s: &Samples) -> f64 {
-        let grid = if s.grid == 1.0 && s.corners == 0.0 {
-            one
-        } else {
-            let (g, _) = s.terms();
-            dot(&self.grid, &[g[0], g[1], g[2] * one])
-        };
-        let aperture = if s.aperture == 0.0 {
-            1.0
-        } else {
-            dot(&self.aperture, &s.terms().1)
-        };
-        grid * aperture
+        let (fixed, per_one) = self.affine(s);
+        fixed + per_one * one
     }
 
     /// [`SampleCost::cost`] over one sample's cost, from the total `cost`
-    /// (its inverse: `cost` is linear in one sample's); 1 where that is
-    /// not positive.
+    /// (`cost` is affine in one sample's, so that is recovered from it);
+    /// 1 where it is not positive.
     pub fn factor(&self, cost: f64, s: &Samples) -> f64 {
-        let aperture = if s.aperture == 0.0 {
-            1.0
-        } else {
-            dot(&self.aperture, &s.terms().1)
-        };
-        let one = if s.grid == 1.0 && s.corners == 0.0 {
-            cost / aperture
-        } else {
-            let (g, _) = s.terms();
-            (cost / aperture - self.grid[0] * g[0] - self.grid[1] * g[1]) / (self.grid[2] * g[2])
-        };
+        let (fixed, per_one) = self.affine(s);
+        let one = (cost - fixed) / per_one;
         if one > 0.0 && one.is_finite() {
             cost / one
         } else {
             1.0
         }
+    }
+
+    /// [`SampleCost::cost`] as `fixed + per_one · one`: the grid's constant
+    /// and its samples (one sample alone: 0 and 1), both times the
+    /// aperture's factor (1 through the pinhole).
+    fn affine(&self, s: &Samples) -> (f64, f64) {
+        let (g, a) = s.terms();
+        let (fixed, per_one) = if s.grid == 1.0 && s.corners == 0.0 {
+            (0.0, 1.0)
+        } else {
+            (dot(&self.grid, &[g[0], g[1]]), self.grid[2] * g[2])
+        };
+        let aperture = if s.aperture == 0.0 {
+            1.0
+        } else {
+            dot(&self.aperture, &a)
+        };
+        (fixed * aperture, per_one * aperture)
     }
 }
 

@@ -75,6 +75,7 @@ type Enc = Encoder<board::Uart0, CHUNK>;
 
 /// Status text over semihosting (QEMU, probe-rs), unless the `status`
 /// feature is off (the exit code is always reported through semihosting).
+///
 /// A status line, built in a buffer and written as one string: `{}` of an
 /// integer or a name through `core::fmt` (its padding, its integer
 /// formatting) cost flash no status line needs. Each line is written by a

@@ -54,6 +54,11 @@ impl Point {
     fn is_one_sample(&self) -> bool {
         self.samples == Samples::ONE
     }
+
+    /// A sample grid through the pinhole: a point of the grid's fit.
+    fn is_grid(&self) -> bool {
+        !self.is_one_sample() && self.samples.aperture == 0.0
+    }
 }
 
 /// The calibration scenes rendered again with sample grids (every
@@ -524,16 +529,16 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
         coef,
         samples: SampleCost::ONE,
     };
-    // A sampled point's measured cost over its one-sample prediction.
-    let ratio = |p: &Point| p.measured / base.predict_terms(&p.features);
+    // A sampled point's one-sample prediction, and its measured cost over it.
+    let one = |p: &Point| base.predict_terms(&p.features);
+    let ratio = |p: &Point| p.measured / one(p);
     // The grid's terms (its constants, its samples times one sample's
     // prediction), in relative error as the features.
     let grid_rows: Vec<([f64; 3], f64)> = ours()
-        .filter(|p| !p.is_one_sample() && p.samples.aperture == 0.0)
+        .filter(|p| p.is_grid())
         .map(|p| {
             let [every, adaptive, n] = p.samples.terms().0;
-            let one = base.predict_terms(&p.features);
-            ([every, adaptive, n * one].map(|t| t / p.measured), 1.0)
+            ([every, adaptive, n * one(p)].map(|t| t / p.measured), 1.0)
         })
         .collect();
     let grid = least_squares(&grid_rows, &[0, 1, 2], &GRID_TERMS).map_err(|e| format!("{arithmetic} sample grid: {e}"))?;
@@ -555,7 +560,7 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
 /// with sample grids, [`fit`] without those points predicts them; the RMS
 /// and largest relative error over all of them.
 pub fn left_out_grid_error(points: &[Point], arithmetic: &str) -> Result<(f64, f64), String> {
-    let sampled = |p: &Point| p.arithmetic == arithmetic && !p.is_one_sample() && p.samples.aperture == 0.0;
+    let sampled = |p: &Point| p.arithmetic == arithmetic && p.is_grid();
     let mut scenes: Vec<&str> = points.iter().filter(|p| sampled(p)).map(|p| p.scene.as_str()).collect();
     scenes.sort_unstable();
     scenes.dedup();
