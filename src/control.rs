@@ -286,11 +286,33 @@ impl<const N: usize> Receiver<N> {
 }
 
 fn decode(msg: &mut [u8]) -> Result<Request<'_>, RxError> {
-    let n = cobs::decode_in_place(msg).map_err(|_| RxError::Cobs)?;
+    let n = unstuff(msg).ok_or(RxError::Cobs)?;
     let body = check_crc(msg.get(..n).ok_or(RxError::Cobs)?).ok_or(RxError::Crc)?;
     match postcard::from_bytes::<Request>(body) {
         Ok(r) if is_canonical(&r, body) => Ok(r),
         _ => Err(RxError::Malformed),
+    }
+}
+
+/// Decodes the COBS message `msg` (its bytes before the delimiter) in
+/// place by `cobs`' byte-at-a-time state machine, returning the decoded
+/// length, or `None` if it is not valid COBS. Each input byte gives at most
+/// one output byte, and the first none, so output never overtakes input.
+/// (`cobs::decode_in_place` indexes its buffer: it links a panic path into
+/// the camera.)
+fn unstuff(msg: &mut [u8]) -> Option<usize> {
+    let mut state = cobs::DecoderState::Idle;
+    let mut n = 0;
+    for i in 0..msg.len() {
+        let byte = *msg.get(i)?;
+        if let cobs::DecodeResult::DataContinue(b) = state.feed(byte).ok()? {
+            *msg.get_mut(n)? = b;
+            n += 1;
+        }
+    }
+    match state.feed(0).ok()? {
+        cobs::DecodeResult::DataComplete => Some(n),
+        _ => None,
     }
 }
 
@@ -357,10 +379,12 @@ impl Fault {
         };
         let _ = s.push_str(list);
         if let Some(i) = i {
-            // Up to three digits, no formatting machinery.
-            for d in [100, 10, 1] {
-                if i >= d || d == 1 {
-                    let _ = s.push(char::from(b'0' + (i / d) % 10));
+            // Up to three digits, no formatting machinery (and constant
+            // divisors: no division-by-zero path).
+            let digits = [(i / 100 % 10, i >= 100), (i / 10 % 10, i >= 10), (i % 10, true)];
+            for (d, shown) in digits {
+                if shown {
+                    let _ = s.push(char::from(b'0' + d));
                 }
             }
             let _ = s.push_str("].");
@@ -495,7 +519,8 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
             return Err(invalid("load.bytes"));
         }
         let slot = self.upload.get_mut(offset..end).ok_or(invalid("load.bytes"))?;
-        slot.copy_from_slice(bytes);
+        // (Not `copy_from_slice`: see `link`'s line copy.)
+        slot.iter_mut().zip(bytes).for_each(|(d, s)| *d = *s);
         if offset == 0 {
             // A new scene replaces the one loaded before, whatever follows.
             self.loaded = false;
@@ -717,6 +742,38 @@ impl Control {
             max_request: MAX_REQUEST as u32,
             max_scene: N as u32,
             max_table: T as u32,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unstuff;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// In place, the same bytes as `cobs::decode` into another buffer,
+        /// and the same refusals, on any run of non-zero bytes.
+        #[test]
+        fn unstuff_agrees_with_cobs_decode(msg in proptest::collection::vec(1u8..=255, 1..600)) {
+            let mut dest = [0u8; 600];
+            let theirs = cobs::decode(&msg, &mut dest).ok().map(|r| r.frame_size());
+            let mut ours = msg.clone();
+            let n = unstuff(&mut ours);
+            prop_assert_eq!(n, theirs);
+            if let Some(n) = n {
+                prop_assert_eq!(&ours[..n], &dest[..n]);
+            }
+        }
+
+        /// Encoded messages decode to themselves.
+        #[test]
+        fn unstuff_inverts_cobs_encode(body in proptest::collection::vec(any::<u8>(), 0..600)) {
+            let mut enc = [0u8; 610];
+            let k = cobs::encode(&body, &mut enc);
+            let mut msg = enc[..k].to_vec();
+            prop_assert_eq!(unstuff(&mut msg), Some(body.len()));
+            prop_assert_eq!(&msg[..body.len()], &body[..]);
         }
     }
 }

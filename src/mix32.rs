@@ -329,7 +329,7 @@ fn word<const C: usize>(dn: [u32; 3]) -> u16 {
 /// that one copy of the line loop serves Gray8 and Gray16 (a copy per byte
 /// width cost 14 KB of flash; this costs about 4 M3 instructions a pixel).
 #[inline(always)]
-fn put(words: &[u16], bytes_per_pixel: usize, out: &mut [u8]) {
+fn put<'a>(words: impl Iterator<Item = &'a u16>, bytes_per_pixel: usize, out: &mut [u8]) {
     if bytes_per_pixel == 1 {
         for (o, w) in out.iter_mut().zip(words) {
             *o = *w as u8;
@@ -348,20 +348,34 @@ fn put(words: &[u16], bytes_per_pixel: usize, out: &mut [u8]) {
 /// every build of the loop (flash; a call a chunk).
 #[cfg_attr(feature = "compact", inline(never))]
 #[cfg_attr(not(feature = "compact"), inline(always))]
-fn store(
-    words: &mut [u16],
-    fl: &mut [u8],
-    reversed: bool,
-    bytes_per_pixel: usize,
-    out: &mut [u8],
-    flags: &mut [u8],
-) {
+fn store(words: &[u16], fl: &[u8], reversed: bool, bytes_per_pixel: usize, out: &mut [u8], flags: &mut [u8]) {
+    // Reversed as they are read (`slice::reverse` in place cost the M3's
+    // standard scene 2 instructions a pixel against this, and the M0's
+    // opt-level z build keeps its swaps bounds-checked: a panic path).
     if reversed {
-        words.reverse();
-        fl.reverse();
+        put(words.iter().rev(), bytes_per_pixel, out);
+        flags.iter_mut().zip(fl.iter().rev()).for_each(|(d, f)| *d = *f);
+    } else {
+        put(words.iter(), bytes_per_pixel, out);
+        flags.iter_mut().zip(fl.iter()).for_each(|(d, f)| *d = *f);
     }
-    put(words, bytes_per_pixel, out);
-    flags.iter_mut().zip(fl.iter()).for_each(|(d, f)| *d = *f);
+}
+
+/// A line's pixels (`b` bytes each) and flags in chunks of [`CHUNK`]
+/// pixels. (Not `pixels.chunks_mut(CHUNK * b)`: where the compiler keeps
+/// its length out of line, it divides by the runtime chunk size there, a
+/// panic path.)
+fn chunks<'a>(
+    pixels: &'a mut [u8],
+    flags: &'a mut [u8],
+    b: usize,
+) -> impl Iterator<Item = (&'a mut [u8], &'a mut [u8])> {
+    let mut rest = pixels;
+    flags.chunks_mut(CHUNK).map_while(move |f| {
+        let (p, r) = core::mem::take(&mut rest).split_at_mut_checked(f.len() * b)?;
+        rest = r;
+        Some((p, f))
+    })
 }
 
 impl core::ops::Mul for Pf {
@@ -2682,7 +2696,7 @@ impl Mix32 {
         let (mut chief, mut rays) = (Rays::default(), Rays::default());
         let mut words = [0u16; CHUNK];
         let mut index = j as u32 * self.width as u32;
-        for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
+        for (pixels, flags) in chunks(pixels, flags, b) {
             let (Some(chief), Some(rays)) = (chief.first(flags.len()), rays.first(flags.len())) else {
                 return;
             };
@@ -2750,7 +2764,7 @@ impl Mix32 {
                 };
                 index = index.wrapping_add(1);
             }
-            put(&words, b, pixels);
+            put(words.iter(), b, pixels);
         }
     }
 
@@ -2862,7 +2876,7 @@ impl Mix32 {
         }
         let mut x = self.x0;
         let mut index = j as u32 * self.width as u32;
-        for (pixels, flags) in pixels.chunks_mut(CHUNK * b).zip(flags.chunks_mut(CHUNK)) {
+        for (pixels, flags) in chunks(pixels, flags, b) {
             let Some(rays) = rays.first(flags.len()) else {
                 return;
             };
@@ -2956,7 +2970,7 @@ impl Mix32 {
                 *out = word::<C>(dn);
                 *flag = f;
             }
-            put(&words, b, pixels);
+            put(words.iter(), b, pixels);
             x -= self.dx * rays.len() as i64;
             index = index.wrapping_add(rays.len() as u32);
         }

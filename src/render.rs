@@ -1552,12 +1552,12 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         };
         let mut acc = self.x0;
         let row = u32::from(j) * u32::from(self.width);
-        for (i, (out, flag)) in pixels
-            .chunks_exact_mut(bpp)
-            .zip(flags.iter_mut())
-            .take(self.width as usize)
-            .enumerate()
-        {
+        // (Not `chunks_exact_mut(bpp)`: where the compiler keeps its
+        // iterator out of line, it divides by `bpp` there, a panic path.)
+        for (i, flag) in flags.iter_mut().take(self.width as usize).enumerate() {
+            let Some(out) = pixels.get_mut(i * bpp..(i + 1) * bpp) else {
+                break;
+            };
             let xc = acc;
             acc -= self.dx;
             #[cfg(feature = "sensor")]

@@ -324,29 +324,43 @@ pub struct DriveReport {
     pub ram_bytes: Option<u64>,
     pub stack_peak_bytes: Option<u64>,
     pub ram_peak_bytes: Option<u64>,
+    /// The camera firmware's flash (`.text` + `.rodata` + `.data`), bytes,
+    /// and its `core::panicking` symbols: none means no panic path is
+    /// linked (QEMU only).
+    pub flash_bytes: Option<u64>,
+    pub panic_symbols: Option<Vec<String>>,
     /// Every frame.
     pub frames: Vec<DriveFrame>,
 }
 
-/// The camera firmware's RAM as it reports it: its statics (from the ELF)
-/// and the deepest stack use its status lines give after each frame
-/// (`stack_peak_bytes N` over semihosting, read from QEMU's stdout by a
-/// thread, which also keeps that pipe drained).
-pub struct RamProbe {
+/// The camera firmware as measured: from its ELF, its flash, statics and
+/// panic symbols; as it reports it, the deepest stack use its status lines
+/// give after each frame (`stack_peak_bytes N` over semihosting, read from
+/// QEMU's stdout by a thread, which also keeps that pipe drained).
+pub struct Probe {
     static_bytes: u64,
+    flash_bytes: u64,
+    panic_symbols: Vec<String>,
     seen: std::sync::Arc<(std::sync::atomic::AtomicUsize, std::sync::atomic::AtomicU64)>,
 }
 
-impl RamProbe {
+impl Probe {
+    /// What `elf` holds (before QEMU runs it).
+    pub fn read(elf: &Path) -> Result<Probe, String> {
+        let (flash_bytes, static_bytes) = crate::hil_cmd::elf_sizes(elf)?;
+        Ok(Probe {
+            static_bytes,
+            flash_bytes,
+            panic_symbols: crate::hil_cmd::elf_panic_symbols(elf)?,
+            seen: Default::default(),
+        })
+    }
+
     /// Reads `stdout` (QEMU's) on a thread.
-    pub fn spawn(stdout: impl Read + Send + 'static, static_bytes: u64) -> RamProbe {
+    pub fn spawn(self, stdout: impl Read + Send + 'static) -> Probe {
         use std::io::BufRead;
         use std::sync::atomic::Ordering;
-        let seen = std::sync::Arc::new((
-            std::sync::atomic::AtomicUsize::new(0),
-            std::sync::atomic::AtomicU64::new(0),
-        ));
-        let s = seen.clone();
+        let s = self.seen.clone();
         std::thread::spawn(move || {
             for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
                 if let Some(n) = line
@@ -358,7 +372,7 @@ impl RamProbe {
                 }
             }
         });
-        RamProbe { static_bytes, seen }
+        self
     }
 
     /// The deepest stack use once `frames` status lines have arrived (or
@@ -406,7 +420,7 @@ pub fn drive<W: Write>(
     r: &Resolved,
     poses: &[Pose],
     instr_ns: Option<f64>,
-    ram: Option<&RamProbe>,
+    ram: Option<&Probe>,
     out: &Path,
 ) -> Result<DriveReport, String> {
     let mut outputs = crate::output::Outputs::prepare(out)?;
@@ -554,6 +568,8 @@ pub fn drive<W: Write>(
         ram_bytes: ram.map(|p| p.static_bytes),
         stack_peak_bytes: stack_peak,
         ram_peak_bytes: ram.zip(stack_peak).map(|(p, s)| p.static_bytes + s),
+        flash_bytes: ram.map(|p| p.flash_bytes),
+        panic_symbols: ram.map(|p| p.panic_symbols.clone()),
         frames,
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
@@ -609,7 +625,7 @@ pub fn drive_target(
 ) -> Result<DriveReport, String> {
     let r = load(scene)?;
     let poses = poses(&r, poses_file, frames)?;
-    let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns, ram: Option<&RamProbe>| {
+    let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns, ram: Option<&Probe>| {
         let capture = capture.map(create_capture).transpose()?;
         let mut driver = Driver::new(writer, spawn_reader(reader, capture));
         drive(&mut driver, name, &r, &poses, instr_ns, ram, out)
@@ -624,6 +640,7 @@ pub fn drive_target(
             // scene driven goes over the link as data (the camera sized to
             // hold it too).
             let elf = build_firmware_as(*board, &[], &[], true, &[scene.to_path_buf()])?;
+            let probe = Probe::read(&elf)?;
             let dir = tempfile_dir()?;
             let sock = dir.join("uart.sock");
             let mut child = spawn_qemu(
@@ -631,8 +648,7 @@ pub fn drive_target(
                 &elf,
                 &format!("unix:{},server=on,wait=on", sock.display()),
             )?;
-            let (_, static_ram) = crate::hil_cmd::elf_sizes(&elf)?;
-            let ram = child.stdout.take().map(|o| RamProbe::spawn(o, static_ram));
+            let ram = child.stdout.take().map(|o| probe.spawn(o));
             let result = connect(&sock).and_then(|stream| {
                 let reader = stream.try_clone().map_err(|e| e.to_string())?;
                 run(Box::new(reader), Box::new(stream), board.machine(), Some(128.0), ram.as_ref())

@@ -693,6 +693,10 @@ fn main() -> ExitCode {
                 Some(ram) => format!("{s}; camera peak RAM {ram} B (painted stack + static)"),
                 None => s,
             };
+            let s = match (r.flash_bytes, &r.panic_symbols) {
+                (Some(flash), Some(p)) => format!("{s}, flash {flash} B, {} panic symbols", p.len()),
+                _ => s,
+            };
             if r.passed() {
                 Ok(s)
             } else {
