@@ -379,6 +379,8 @@ pub struct HilReport {
     /// The ELF's `core::panicking` symbols (its panic paths): none in the
     /// default firmware.
     pub panic_symbols: Vec<String>,
+    /// Where the flash goes: the largest symbols, `.text` by source file.
+    pub flash_use: crate::profile::FlashUse,
     /// Largest |firmware − reference| over all frames, LSB.
     pub max_abs_lsb: u32,
     /// Wall-clock seconds QEMU ran.
@@ -533,6 +535,7 @@ pub fn hil_variants(
         ram_bytes: ram,
         flash_bytes: flash,
         panic_symbols: elf_panic_symbols(&elf)?,
+        flash_use: crate::profile::flash_use(&elf, 20)?,
         max_abs_lsb: frames.iter().map(|f| f.max_abs_lsb).max().unwrap_or(0),
         qemu_seconds,
         frames,

@@ -817,6 +817,18 @@ fn main() -> ExitCode {
                 r.stack_peak_bytes.map_or("-".into(), |v| v.to_string()),
                 r.max_abs_lsb
             ));
+            let kb = |v: &[host_sim::profile::Share]| {
+                v.iter()
+                    .take(6)
+                    .map(|x| format!("{} {:.1} K", x.name, x.bytes as f64 / 1000.0))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            s.push_str(&format!(
+                "\n  largest symbols: {}\n  .text by source file: {}",
+                kb(&r.flash_use.largest_symbols),
+                kb(&r.flash_use.text_by_file)
+            ));
             if r.bit_exact {
                 Ok(s)
             } else {

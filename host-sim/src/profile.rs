@@ -518,6 +518,95 @@ impl Symbols {
     }
 }
 
+/// Bytes of flash one name holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Share {
+    pub name: String,
+    pub bytes: u64,
+}
+
+/// Where an ELF's flash goes: its largest symbols (code and data, names
+/// without hashes; a generic function built for several types appears
+/// once each) and `.text` by source file (the ELF's line tables and
+/// inlined frames: the innermost of the repository's files, so a library
+/// helper inlined into the renderer counts for the renderer's file; else
+/// the library's, the standard library as `library/<crate>`, the
+/// registry's as `<crate>-<version>`; code without line information as
+/// `(none)`), largest first.
+#[derive(Clone, Debug, Serialize)]
+pub struct FlashUse {
+    pub largest_symbols: Vec<Share>,
+    pub text_by_file: Vec<Share>,
+}
+
+/// [`FlashUse`] of `elf`, its `top` largest symbols.
+pub fn flash_use(elf: &Path, top: usize) -> Result<FlashUse, String> {
+    use object::{Object, ObjectSection, ObjectSymbol, SymbolKind};
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", elf.display());
+    let data = std::fs::read(elf).map_err(|e| err(&e))?;
+    let file = object::File::parse(&*data).map_err(|e| err(&e))?;
+    let mut largest: Vec<Share> = file
+        .symbols()
+        .filter(|s| s.size() > 0 && matches!(s.kind(), SymbolKind::Text | SymbolKind::Data))
+        .map(|s| Share {
+            name: name_of(s.name().unwrap_or("?")),
+            bytes: s.size(),
+        })
+        .collect();
+    largest.sort_by(|a, b| b.bytes.cmp(&a.bytes).then(a.name.cmp(&b.name)));
+    largest.truncate(top);
+    let text = file.section_by_name(".text").ok_or_else(|| err(&"no .text"))?;
+    let loader = addr2line::Loader::new(elf).map_err(|e| err(&e))?;
+    let root = std::fs::canonicalize(crate::hil_cmd::repo_root()).unwrap_or_else(|_| crate::hil_cmd::repo_root());
+    let mut by_file: HashMap<String, u64> = HashMap::new();
+    let mut covered = 0;
+    let (lo, hi) = (text.address(), text.address() + text.size());
+    for (addr, len, loc) in loader.find_location_range(lo, hi).map_err(|e| err(&e))? {
+        let len = len.min(hi.saturating_sub(addr));
+        covered += len;
+        // The innermost file of ours or the outermost of a library's.
+        let mut name = source_of(loc.file.unwrap_or("(none)"), &root);
+        if let Ok(mut frames) = loader.find_frames(addr) {
+            while let Ok(Some(f)) = frames.next() {
+                if let Some(file) = f.location.and_then(|l| l.file) {
+                    name = source_of(file, &root);
+                    if !is_library(file) {
+                        break;
+                    }
+                }
+            }
+        }
+        *by_file.entry(name).or_default() += len;
+    }
+    if let Some(rest) = text.size().checked_sub(covered).filter(|r| *r > 0) {
+        *by_file.entry("(none)".into()).or_default() += rest;
+    }
+    let mut text_by_file: Vec<Share> = by_file.into_iter().map(|(name, bytes)| Share { name, bytes }).collect();
+    text_by_file.sort_by(|a, b| b.bytes.cmp(&a.bytes).then(a.name.cmp(&b.name)));
+    Ok(FlashUse {
+        largest_symbols: largest,
+        text_by_file,
+    })
+}
+
+/// The standard library's or a registry crate's.
+fn is_library(file: &str) -> bool {
+    file.starts_with("/rustc/") || file.contains("/rustlib/") || file.contains("/registry/src/")
+}
+
+/// A source file as [`FlashUse`] names it.
+fn source_of(file: &str, root: &Path) -> String {
+    if let Some((_, rest)) = file.split_once("/library/").filter(|_| file.starts_with("/rustc/") || file.contains("/rustlib/")) {
+        return format!("library/{}", rest.split('/').next().unwrap_or("?"));
+    }
+    if let Some((_, rest)) = file.split_once("/registry/src/") {
+        // index.crates.io-HASH/CRATE-VERSION/...
+        return rest.split('/').nth(1).unwrap_or("?").to_string();
+    }
+    let path = Path::new(file);
+    path.strip_prefix(root).unwrap_or(path).display().to_string()
+}
+
 /// A symbol's path, demangled without its hash (`rustc_demangle`'s
 /// alternate form; a name that is not mangled stays as it is).
 fn name_of(raw: &str) -> String {
