@@ -24,6 +24,13 @@ macro_rules! cli_modules {
 }
 
 cli_modules!(
-    camera_cmd, costfit, demo, drive_cmd, export, frame_png, harness, hil_cmd, output, profile, reference,
-    render_cmd, stream_cmd, tradeoff, truth, variant,
+    camera_cmd, costfit, demo, drive_cmd, export, frame_png, hil_cmd, output, profile, render_cmd, stream_cmd,
+    tradeoff, truth,
 );
+
+#[cfg(feature = "model")]
+pub mod harness;
+#[cfg(feature = "model")]
+pub mod reference;
+#[cfg(feature = "model")]
+pub mod variant;
