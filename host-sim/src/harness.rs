@@ -303,7 +303,12 @@ pub fn x86_64_v3() -> bool {
 
 /// [`Frame::render_line`], in the core's loops built for this processor
 /// ([`x86_64_v3`]): the same bytes either way (tests/render.rs compares them).
-pub fn render_line<S: Scalar>(frame: &Frame<S>, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
+pub fn render_line<S: Scalar>(
+    frame: &Frame<S>,
+    j: u16,
+    pixels: &mut [u8],
+    flags: &mut [u8],
+) -> Result<(), RenderError> {
     #[cfg(target_arch = "x86_64")]
     if x86_64_v3() {
         // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
