@@ -1001,4 +1001,18 @@ mod tests {
         assert_eq!(name_of("a::hb::c"), "a::hb::c");
         assert_eq!(name_of("__clzsi2"), "__clzsi2");
     }
+
+    #[test]
+    fn flash_is_counted_by_crate_outside_the_repository() {
+        let root = Path::new("/work/main");
+        let core = "/rustc/59807616e1fa2540724bfbac14d7976d7e4a3860/library/core/src/num/mod.rs";
+        assert_eq!(source_of(core, root), "library/core");
+        let builtins = "/root/.rustup/toolchains/x/lib/rustlib/src/rust/library/compiler-builtins/src/mem.rs";
+        assert_eq!(source_of(builtins, root), "library/compiler-builtins");
+        let crc = "/root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/crc-3.2.1/src/crc32.rs";
+        assert_eq!(source_of(crc, root), "crc-3.2.1");
+        assert_eq!(source_of("/work/main/src/mix32.rs", root), "src/mix32.rs");
+        assert_eq!(source_of("/elsewhere/x.rs", root), "/elsewhere/x.rs");
+        assert!(is_library(core) && is_library(crc) && !is_library("/work/main/src/mix32.rs"));
+    }
 }
