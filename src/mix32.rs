@@ -349,9 +349,10 @@ fn put<'a>(words: impl Iterator<Item = &'a u16>, bytes_per_pixel: usize, out: &m
 #[cfg_attr(feature = "compact", inline(never))]
 #[cfg_attr(not(feature = "compact"), inline(always))]
 fn store(words: &[u16], fl: &[u8], reversed: bool, bytes_per_pixel: usize, out: &mut [u8], flags: &mut [u8]) {
-    // Reversed as they are read (`slice::reverse` in place cost the M3's
-    // standard scene 2 instructions a pixel against this, and the M0's
-    // opt-level z build keeps its swaps bounds-checked: a panic path).
+    // Reversed as they are read, not in place: the M0 camera's opt-level z
+    // build keeps `slice::reverse`'s swaps bounds-checked (a panic path),
+    // and on the M3's standard scene this measured 0.3 instructions a
+    // pixel under `slice::reverse`, 2.2 under a swap loop.
     if reversed {
         put(words.iter().rev(), bytes_per_pixel, out);
         flags.iter_mut().zip(fl.iter().rev()).for_each(|(d, f)| *d = *f);
