@@ -420,7 +420,7 @@ pub fn drive<W: Write>(
     r: &Resolved,
     poses: &[Pose],
     instr_ns: Option<f64>,
-    ram: Option<&Probe>,
+    probe: Option<&Probe>,
     out: &Path,
 ) -> Result<DriveReport, String> {
     let mut outputs = crate::output::Outputs::prepare(out)?;
@@ -541,7 +541,7 @@ pub fn drive<W: Write>(
         let n = v.len().max(1) as f64;
         [v.iter().sum::<f64>() / n, v.iter().cloned().fold(0.0, f64::max)]
     };
-    let stack_peak = ram.and_then(|p| p.stack_peak(frames.len()));
+    let stack_peak = probe.and_then(|p| p.stack_peak(frames.len()));
     let report = DriveReport {
         board: board.into(),
         scene: r.desc.name.clone(),
@@ -565,11 +565,11 @@ pub fn drive<W: Write>(
         round_trip_wall_ms: stat(frames.iter().map(|f| f.round_trip_wall_ms).collect()),
         seconds: t_all.elapsed().as_secs_f64(),
         link: driver.stats(),
-        ram_bytes: ram.map(|p| p.static_bytes),
+        ram_bytes: probe.map(|p| p.static_bytes),
         stack_peak_bytes: stack_peak,
-        ram_peak_bytes: ram.zip(stack_peak).map(|(p, s)| p.static_bytes + s),
-        flash_bytes: ram.map(|p| p.flash_bytes),
-        panic_symbols: ram.map(|p| p.panic_symbols.clone()),
+        ram_peak_bytes: probe.zip(stack_peak).map(|(p, s)| p.static_bytes + s),
+        flash_bytes: probe.map(|p| p.flash_bytes),
+        panic_symbols: probe.map(|p| p.panic_symbols.clone()),
         frames,
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
@@ -625,10 +625,10 @@ pub fn drive_target(
 ) -> Result<DriveReport, String> {
     let r = load(scene)?;
     let poses = poses(&r, poses_file, frames)?;
-    let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns, ram: Option<&Probe>| {
+    let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns, probe: Option<&Probe>| {
         let capture = capture.map(create_capture).transpose()?;
         let mut driver = Driver::new(writer, spawn_reader(reader, capture));
-        drive(&mut driver, name, &r, &poses, instr_ns, ram, out)
+        drive(&mut driver, name, &r, &poses, instr_ns, probe, out)
     };
     match target {
         Target::Device { path, baud } => {
@@ -648,10 +648,10 @@ pub fn drive_target(
                 &elf,
                 &format!("unix:{},server=on,wait=on", sock.display()),
             )?;
-            let ram = child.stdout.take().map(|o| probe.spawn(o));
+            let probe = child.stdout.take().map(|o| probe.spawn(o));
             let result = connect(&sock).and_then(|stream| {
                 let reader = stream.try_clone().map_err(|e| e.to_string())?;
-                run(Box::new(reader), Box::new(stream), board.machine(), Some(128.0), ram.as_ref())
+                run(Box::new(reader), Box::new(stream), board.machine(), Some(128.0), probe.as_ref())
             });
             let _ = child.kill();
             let _ = child.wait();

@@ -464,17 +464,34 @@ impl Symbols {
                 let Some((file, line)) = f.location.and_then(|l| Some((l.file?, l.line.filter(|k| *k > 0)?))) else {
                     continue;
                 };
-                if file.starts_with("/rustc/") || file.contains("/.cargo/registry/") || file.contains("/rustlib/") {
+                if is_library(file) {
                     continue;
                 }
-                let file = Path::new(file);
-                found = Some(format!("{}:{line}", file.strip_prefix(&self.root).unwrap_or(file).display()));
+                found = Some(format!("{}:{line}", source_of(file, &self.root)));
                 break;
             }
         }
         // Else the function: a library's or the runtime's (`crc`,
         // `compiler_builtins`, `memcpy`).
         found.unwrap_or_else(|| format!("? in {}", self.chain(pc).last().map_or("?", String::as_str)))
+    }
+
+    /// The source file of the code at `addr`, as [`FlashUse`] names it:
+    /// the innermost of the repository's files among its inlined frames,
+    /// else the outermost library's, else `fallback`'s (the line table's).
+    fn file_of(&self, addr: u64, fallback: Option<&str>) -> String {
+        let mut name = source_of(fallback.unwrap_or("(none)"), &self.root);
+        if let Ok(mut frames) = self.loader.find_frames(addr) {
+            while let Ok(Some(f)) = frames.next() {
+                if let Some(file) = f.location.and_then(|l| l.file) {
+                    name = source_of(file, &self.root);
+                    if !is_library(file) {
+                        break;
+                    }
+                }
+            }
+        }
+        name
     }
 
     /// A block's attribution.
@@ -556,27 +573,14 @@ pub fn flash_use(elf: &Path, top: usize) -> Result<FlashUse, String> {
     largest.sort_by(|a, b| b.bytes.cmp(&a.bytes).then(a.name.cmp(&b.name)));
     largest.truncate(top);
     let text = file.section_by_name(".text").ok_or_else(|| err(&"no .text"))?;
-    let loader = addr2line::Loader::new(elf).map_err(|e| err(&e))?;
-    let root = std::fs::canonicalize(crate::hil_cmd::repo_root()).unwrap_or_else(|_| crate::hil_cmd::repo_root());
+    let symbols = Symbols::new(elf)?;
     let mut by_file: HashMap<String, u64> = HashMap::new();
     let mut covered = 0;
     let (lo, hi) = (text.address(), text.address() + text.size());
-    for (addr, len, loc) in loader.find_location_range(lo, hi).map_err(|e| err(&e))? {
+    for (addr, len, loc) in symbols.loader.find_location_range(lo, hi).map_err(|e| err(&e))? {
         let len = len.min(hi.saturating_sub(addr));
         covered += len;
-        // The innermost file of ours or the outermost of a library's.
-        let mut name = source_of(loc.file.unwrap_or("(none)"), &root);
-        if let Ok(mut frames) = loader.find_frames(addr) {
-            while let Ok(Some(f)) = frames.next() {
-                if let Some(file) = f.location.and_then(|l| l.file) {
-                    name = source_of(file, &root);
-                    if !is_library(file) {
-                        break;
-                    }
-                }
-            }
-        }
-        *by_file.entry(name).or_default() += len;
+        *by_file.entry(symbols.file_of(addr, loc.file)).or_default() += len;
     }
     if let Some(rest) = text.size().checked_sub(covered).filter(|r| *r > 0) {
         *by_file.entry("(none)".into()).or_default() += rest;
