@@ -1024,13 +1024,14 @@ struct Aperture {
     /// Points (16, 64 or 256).
     m: u16,
     up: u32,
-    /// The radius `d/2`, S18 U, and `U/Z̃` times 2⁴⁰: point `u` (unit disc)
-    /// is `A = u d/2` on the lens (rounded to S18 U), and its ray through
+    /// The radius `d/2`, S24 U, and `U/Z̃` times 2⁴⁰: point `u` (unit disc)
+    /// is `A = u d/2` on the lens (rounded to S24 U; to S18 U where planes,
+    /// discs, rectangles and hit points are moved), and its ray through
     /// the chief ray's point at the focused depth has the chief slopes
     /// minus `A/Z̃` (of the rounded `A`: the ray still meets the chief ray
     /// there, so the rounding moves a hit only by its distance from the
     /// focused depth).
-    r18: i32,
+    r24: i32,
     inv_z40: i64,
 }
 
@@ -1078,7 +1079,7 @@ impl Aperture {
         Ok(Aperture {
             m,
             up: crate::defocus::shift(m) - 17,
-            r18: len_s(r, e, 18),
+            r24: len_s(r, e, 24),
             inv_z40: inv.min(i64::MAX as u128) as i64,
         })
     }
@@ -1358,10 +1359,11 @@ impl Rays {
 }
 
 impl MixShape {
-    /// The shape in the frame moved to `(a_x, a_y, 0)` (S18 U; defocus's
-    /// aperture points): exact for centres, `n·A` truncated to S24 U.
+    /// The shape in the frame moved to `(a_x, a_y, 0)` (`a` S18 U, `a24` the
+    /// same point in S24 U; defocus's aperture points): exact for centres
+    /// (a sphere's from `a24`), `n·A` truncated to S24 U.
     #[inline(always)]
-    fn moved(&self, a: [i32; 2]) -> MixShape {
+    fn moved(&self, a: [i32; 2], a24: [i32; 2]) -> MixShape {
         let na = |n: &[i32; 3]| ((wmul(n[0], a[0]) + wmul(n[1], a[1])) >> 24) as i32;
         let c18 = |c: &[i32; 3]| [c[0].saturating_sub(a[0]), c[1].saturating_sub(a[1]), c[2]];
         match *self {
@@ -1380,11 +1382,7 @@ impl MixShape {
                 fine,
                 inv_r,
             } => MixShape::Sphere {
-                c: [
-                    c[0].saturating_sub(a[0].saturating_mul(64)),
-                    c[1].saturating_sub(a[1].saturating_mul(64)),
-                    c[2],
-                ],
+                c: [c[0].saturating_sub(a24[0]), c[1].saturating_sub(a24[1]), c[2]],
                 cz50,
                 c18: c18(&k),
                 r2_24,
@@ -1430,8 +1428,13 @@ impl MixShape {
 
     /// One primitive's pass over a chunk: keeps its hits that are nearer
     /// than each ray's nearest so far (`index` names it in [`Ray::hit`]).
+    /// With `EXACT` (the aperture loop's rays, which nothing marks as an
+    /// edge), a perspective ray that the S44 discriminant puts within its
+    /// truncations (< 2³³) of a sphere's silhouette is decided exactly, in
+    /// 128 bits, on the ray's S26 slopes and the sphere's S24 centre and
+    /// radius.
     #[inline(always)]
-    fn nearest<const PERSP: bool>(&self, index: u8, rays: &mut [Ray]) {
+    fn nearest<const PERSP: bool, const EXACT: bool>(&self, index: u8, rays: &mut [Ray]) {
         match self {
             MixShape::Plane { n, dist, rz } => {
                 for r in rays.iter_mut() {
@@ -1446,6 +1449,7 @@ impl MixShape {
                 r2_24,
                 c18,
                 r2,
+                r24,
                 ..
             } => {
                 for r in rays.iter_mut() {
@@ -1464,6 +1468,23 @@ impl MixShape {
                             k(wmul(x, c[1]) - wmul(y, c[0])),
                         );
                         let disc = wmul(r.a, *r2_24) - (wsq(k0) + wsq(k1) + wsq(k2)) as i64;
+                        let disc = if EXACT && disc.unsigned_abs() < 1 << 33 {
+                            let a52 = (wsq(x) + wsq(y) + (1 << 52)) as i128;
+                            let rr = wsq(*r24) as i128;
+                            let e0 = wmul(y, c[2]) - c1;
+                            let e1 = c0 - wmul(x, c[2]);
+                            let e2 = wmul(x, c[1]) - wmul(y, c[0]);
+                            let kk = (e0 as i128) * (e0 as i128)
+                                + (e1 as i128) * (e1 as i128)
+                                + (e2 as i128) * (e2 as i128);
+                            if a52 * rr < kk {
+                                -1
+                            } else {
+                                disc.max(0)
+                            }
+                        } else {
+                            disc
+                        };
                         if disc < 0 {
                             continue;
                         }
@@ -2509,7 +2530,7 @@ impl Mix32 {
             let Some(rays) = rays.get_mut(lo..hi) else {
                 continue;
             };
-            p.shape.nearest::<PERSP>(i as u8, rays);
+            p.shape.nearest::<PERSP, false>(i as u8, rays);
         }
     }
 
@@ -2714,11 +2735,12 @@ impl Mix32 {
             // Sums of S15 DN below 2⁴⁷ each: at most 2⁵⁵.
             let mut sums = [[0u64; 3]; CHUNK];
             for u in crate::defocus::SPIRAL.iter().take(ap.m as usize) {
-                // A = u (2⁻¹⁵) times r (S18 U), rounded; A/Z̃ (S18 U · S40
-                // / U → S26), rounded.
-                let a = u.map(|v| sat32(((i64::from(v) << ap.up) * ap.r18 as i64 + (1 << 14)) >> 15));
-                let off = a.map(|a| {
-                    let v = (a as i128 * ap.inv_z40 as i128 + (1 << 31)) >> 32;
+                // A = u (2⁻¹⁵) times r (S24 U), rounded, and in S18 U; A/Z̃
+                // (S24 U · S40 / U → S26), rounded.
+                let a24 = u.map(|v| sat32(((i64::from(v) << ap.up) * ap.r24 as i64 + (1 << 14)) >> 15));
+                let a = a24.map(|v| sat32((v as i64 + 32) >> 6));
+                let off = a24.map(|a| {
+                    let v = (a as i128 * ap.inv_z40 as i128 + (1 << 37)) >> 38;
                     v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
                 });
                 for (r, c) in rays.iter_mut().zip(chief.iter()) {
@@ -2734,7 +2756,7 @@ impl Mix32 {
                             continue;
                         }
                     }
-                    p.shape.moved(a).nearest::<true>(i as u8, rays);
+                    p.shape.moved(a, a24).nearest::<true, true>(i as u8, rays);
                 }
                 for (r, s) in rays.iter().zip(sums.iter_mut()) {
                     if r.t == 0 {

@@ -95,8 +95,9 @@ pub enum Unfit {
     /// an aperture ray passing within the 32-bit formats' error of a
     /// silhouette or a cell boundary may see the other side, and unlike a
     /// pixel's chief ray nothing marks its pixel as an edge. On shallow-dof
-    /// (64 points) 14 pixels differ from the reference, one by 2 LSB: the
-    /// planner's error model does not bound those flips.
+    /// (64 points) 8 pixels differ from the reference, each by 1 LSB (14,
+    /// one by 2, before a sphere's silhouette was decided exactly there):
+    /// the planner's error model does not bound those flips.
     Defocus,
     /// A sampled scene with a checkered plane: toward its horizon the cells
     /// shrink below a pixel, where the estimate of differing edge pixels
