@@ -90,14 +90,12 @@ pub enum Unfit {
     /// The fast arithmetic is not built in (the core's `mix32` feature is
     /// off).
     NotBuilt,
-    /// The scene needs defocus. The fast arithmetic's aperture loop
-    /// (`mix32`, pixel centres) runs when asked for, but is never planned:
-    /// an aperture ray passing within the 32-bit formats' error of a
-    /// silhouette or a cell boundary may see the other side, and unlike a
-    /// pixel's chief ray nothing marks its pixel as an edge. On shallow-dof
-    /// (64 points) 8 pixels differ from the reference, each by 1 LSB (14,
-    /// one by 2, before a sphere's silhouette was decided exactly there):
-    /// the planner's error model does not bound those flips.
+    /// The scene needs defocus and a sample grid: the fast arithmetic's
+    /// aperture loop (`mix32::line_d`) takes pixel centres only. (Through
+    /// the aperture, a ray next to a sphere's silhouette is decided exactly
+    /// there, since nothing marks its pixel as an edge; before
+    /// c5d6afa on shallow-dof 14 pixels differed from the reference, one
+    /// by 2 LSB, and the loop was never planned.)
     Defocus,
     /// A sampled scene with a checkered plane: toward its horizon the cells
     /// shrink below a pixel, where the estimate of differing edge pixels
@@ -116,7 +114,7 @@ impl Unfit {
             Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
-            Unfit::Defocus => "defocus: aperture rays next to an edge may flip in the 32-bit formats",
+            Unfit::Defocus => "defocus with a sample grid: the fast aperture loop takes pixel centres only",
             Unfit::SampledCheckeredPlane => {
                 "sampling a checkered plane: its cells shrink below a pixel toward the horizon"
             }
@@ -313,7 +311,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         }
         // What the distortion evaluation does not change, once.
         let fits = match arithmetic {
-            Arithmetic::Fast if df.points > 0 => Err(Unfit::Defocus),
+            // (The fast aperture loop takes pixel centres only.)
+            Arithmetic::Fast if df.points > 0 && samples > 1 => Err(Unfit::Defocus),
             Arithmetic::Fast
                 if samples > 1
                     && scene

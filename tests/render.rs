@@ -432,13 +432,12 @@ fn a_wide_frame_whose_stage_is_left_out_is_refused() {
         const WIDE_SPECULAR: bool = false;
     }
     let lines = lines_with::<WideAperture>;
-    // shallow-dof: the wide arithmetic through the aperture, no sampling,
-    // no lobe.
+    // shallow-dof in the wide arithmetic (the plan's is the fast one):
+    // through the aperture, no sampling, no lobe.
     let s = scene("shallow-dof").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
-    assert_eq!(p.options.arithmetic, Arithmetic::Wide);
     assert!(p.options.aperture > 0 && p.options.samples <= 1);
-    let frame = Frame::new(&s, &p.options).expect("frame");
+    let frame = Frame::new(&s, &p.options.with_arithmetic(Arithmetic::Wide)).expect("frame");
     assert_eq!(frame.line_loop(), LineLoop::WidePerspective);
     assert!(frame.line_built::<WideAperture>());
     let every = host_sim::harness::collect(&frame).expect("renders");
