@@ -958,6 +958,10 @@ struct MixPrim {
     /// hit point's rounding. 0 where it is taken per pixel: a sphere, a
     /// directional light, a light within 2⁻¹⁰ U of the plane.
     nl: [i64; crate::scene::MAX_LIGHTS],
+    /// Flat (a constant normal) in a frame whose lights are all
+    /// directional: its terms are the same at every point of it
+    /// ([`Mix32::shade_flat`]).
+    flat: bool,
 }
 
 /// A ray's nearest hit, as shading takes it: material, point (S18 U), unit
@@ -969,6 +973,8 @@ struct Hit<'a> {
     n: [i32; 3],
     away: bool,
     nl: &'a [i64; crate::scene::MAX_LIGHTS],
+    /// [`MixPrim::flat`].
+    flat: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -1096,6 +1102,10 @@ struct KCache {
     ks: [[Pf; 3]; crate::scene::MAX_LIGHTS],
     /// The material's Phong exponent, if its lobe is rendered.
     lobe: Option<u16>,
+    /// The last flat hit's [`Ray::hit`] and material, and its sum
+    /// ([`Mix32::shade_flat`]).
+    flat: (u8, usize),
+    flat_sum: [u64; 3],
 }
 
 impl KCache {
@@ -1105,6 +1115,8 @@ impl KCache {
         k: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_LIGHTS],
         ks: [[Pf { m: 0, e: 0 }; 3]; crate::scene::MAX_LIGHTS],
         lobe: None,
+        flat: (0, usize::MAX),
+        flat_sum: [0; 3],
     };
 }
 
@@ -1929,6 +1941,7 @@ impl Mix32 {
                 checker,
                 bounds: p.bounds.map(|b| b.map(|q| sat32(q.to_bits() >> 6))),
                 nl: [0; crate::scene::MAX_LIGHTS],
+                flat: false,
             });
         }
         // I/r² with r in U: I / U² = I 2^(−2e).
@@ -2084,6 +2097,13 @@ impl Mix32 {
         };
         self.mirror = f.centred && self.samples == 1 && self.aperture.is_none();
         self.closed = self.closed_plane();
+        let directional = self
+            .lights
+            .iter()
+            .all(|l| matches!(l, MixLight::Directional { .. }));
+        for p in self.prims.iter_mut() {
+            p.flat = directional && !matches!(p.shape, MixShape::Sphere { .. });
+        }
         self.set_frame_id(0);
         Ok(())
     }
@@ -2670,7 +2690,7 @@ impl Mix32 {
     ) -> ([u64; 3], u32) {
         let c4 = self.c4::<KEPT>(r);
         let sum = match self.hit_from::<L, C, PERSP, false>(r, [0, 0], key) {
-            Some(h) => self.shade::<L, C, PERSP>(r, &h, k),
+            Some(h) => self.shade_flat::<L, C, PERSP>(r, &h, k),
             None => self.bg,
         };
         (sum, c4)
@@ -2763,7 +2783,7 @@ impl Mix32 {
                         continue;
                     }
                     let l = match self.hit_from::<L, C, true, true>(r, a, None) {
-                        Some(h) => self.shade::<L, C, true>(r, &h, &mut k),
+                        Some(h) => self.shade_flat::<L, C, true>(r, &h, &mut k),
                         None => self.bg,
                     };
                     for (s, l) in s.iter_mut().zip(l).take(C) {
@@ -3115,6 +3135,7 @@ impl Mix32 {
             n,
             away,
             nl: &p.nl,
+            flat: p.flat,
         })
     }
 
@@ -3135,6 +3156,32 @@ impl Mix32 {
         ]
     }
 
+    /// [`Mix32::shade`], kept for the next hit where it cannot change: on a
+    /// [`MixPrim::flat`] primitive (a constant normal, every light
+    /// directional), of a material without a rendered lobe, the sum depends
+    /// on the primitive, its side and the material alone — [`Ray::hit`]
+    /// and [`Hit::m`], the key it is kept under. The same sums.
+    #[inline(always)]
+    fn shade_flat<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        r: &Ray,
+        h: &Hit,
+        k: &mut KCache,
+    ) -> [u64; 3] {
+        let lobe = lobe_built::<L, C>() && self.lobe.get(h.m).is_none_or(Option::is_some);
+        // Not in a `compact` build (the driven camera's): there its copies
+        // of `shade` cost 21 KB of flash on the M3, and the M0's no longer
+        // fit 256 KiB.
+        if cfg!(feature = "compact") || !h.flat || lobe {
+            return self.shade::<L, C, PERSP>(r, h, k);
+        }
+        if k.flat != (r.hit, h.m) {
+            k.flat_sum = self.shade::<L, C, PERSP>(r, h, k);
+            k.flat = (r.hit, h.m);
+        }
+        k.flat_sum
+    }
+
     /// The ambient, Lambertian and (for a material with a lobe) specular
     /// terms of every light, before vignetting: S15 DN, capped at
     /// [`SUM_CAP`].
@@ -3151,6 +3198,7 @@ impl Mix32 {
             n,
             away,
             nl: nls,
+            ..
         } = *h;
         let channels = C;
         if k.material != m {
