@@ -2710,7 +2710,7 @@ impl Mix32 {
         key: Option<Key>,
     ) -> ([u64; 3], u32) {
         let c4 = self.c4::<KEPT>(r);
-        let sum = match self.hit_from::<L, C, PERSP, false>(r, [0, 0], key) {
+        let sum = match self.hit_from::<L, C, PERSP, false>(r, [[0; 2]; 2], key) {
             Some(h) => self.shade_flat::<L, C, PERSP>(r, &h, k),
             None => self.bg,
         };
@@ -2803,7 +2803,7 @@ impl Mix32 {
                     if r.t == 0 {
                         continue;
                     }
-                    let l = match self.hit_from::<L, C, true, true>(r, a, None) {
+                    let l = match self.hit_from::<L, C, true, true>(r, [a, a24], None) {
                         Some(h) => self.shade_flat::<L, C, true>(r, &h, &mut k),
                         None => self.bg,
                     };
@@ -3088,8 +3088,9 @@ impl Mix32 {
 
     /// The nearest hit of a ray after every primitive's pass; if `MOVED`,
     /// for a ray traced in the frame moved to
-    /// `(a_x, a_y, 0)` (S18 U; [`MixShape::moved`]): the hit point moved
-    /// back, the rest in the camera frame. (`MOVED` a constant: `hit` as
+    /// `(a_x, a_y, 0)` (`a` in S18 U, `a24` in S24 U, as
+    /// [`MixShape::moved`] takes them): the hit point moved back, the rest
+    /// in the camera frame. (`MOVED` a constant: `hit` as
     /// this with `a = 0` at run time cost the M4F's standard scene 7
     /// instructions a pixel.) With `key`, the ray's [`Key`] as
     /// [`Mix32::key`] found it: a checker's material from its cell's parity.
@@ -3097,7 +3098,7 @@ impl Mix32 {
     fn hit_from<L: Lines, const C: usize, const PERSP: bool, const MOVED: bool>(
         &self,
         r: &Ray,
-        a: [i32; 2],
+        [a, a24]: [[i32; 2]; 2],
         key: Option<Key>,
     ) -> Option<Hit<'_>> {
         if r.t == NO_HIT {
@@ -3121,13 +3122,10 @@ impl Mix32 {
                 fine: true,
                 ..
             } if lobe_built::<L, C>() => {
+                // The centre the pass took ([`MixShape::moved`]).
                 let mut c = *c;
                 if MOVED {
-                    c = [
-                        c[0].saturating_sub(a[0].saturating_mul(64)),
-                        c[1].saturating_sub(a[1].saturating_mul(64)),
-                        c[2],
-                    ];
+                    c = [c[0].saturating_sub(a24[0]), c[1].saturating_sub(a24[1]), c[2]];
                 }
                 fine_normal::<PERSP>(r, c, *r24, *inv_r, away)
             }
