@@ -655,6 +655,11 @@ struct Geometry {
     /// Fraction of the sensor whose rays first meet a primitive with a
     /// specular lobe (sampled).
     lobe_area: f64,
+    /// Sum over the flat primitives facing the camera (normal along the
+    /// optical axis: `mix32::flat_pass` takes one `t` a chunk for them)
+    /// of the fraction of the sensor whose rays hit each (sampled), but
+    /// the plane shaded in closed form (`closed_area`'s), whose own.
+    facing_area: [f64; 2],
 }
 
 /// How far a primitive's points lie from the camera, in the camera frame:
@@ -930,6 +935,13 @@ impl Geometry {
         // ignored), each tested against every primitive.
         let (gx, gy) = COVERAGE_GRID;
         let (mut hits, mut bounded, mut closed_hits, mut lobe_hits) = (0u32, 0u32, 0u32, 0u32);
+        let mut facing_hits = [0u32; 2];
+        // Facing: the fast arithmetic's S30 normal has n_x = n_y = 0.
+        let facing = |p: &PrimGeom| {
+            !matches!(p.shape, Shape::Sphere { .. })
+                && libm::fabs(p.n[0]) < libm::ldexp(1.0, -31)
+                && libm::fabs(p.n[1]) < libm::ldexp(1.0, -31)
+        };
         for a in 0..gx {
             for b in 0..gy {
                 let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
@@ -944,6 +956,9 @@ impl Geometry {
                     if let Some(t) = p.hit(o, d) {
                         any = true;
                         bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
+                        if let Some(f) = facing_hits.get_mut((closed == Some(i)) as usize) {
+                            *f += facing(p) as u32;
+                        }
                         others |= closed != Some(i);
                         if nearest.is_none_or(|(tn, _)| t < tn) {
                             nearest = Some((t, p));
@@ -975,6 +990,7 @@ impl Geometry {
             bounded_area: bounded as f64 / (gx * gy) as f64,
             closed_area: closed_hits as f64 / (gx * gy) as f64,
             lobe_area: lobe_hits as f64 / (gx * gy) as f64,
+            facing_area: facing_hits.map(|h| h as f64 / (gx * gy) as f64),
         }
     }
 
@@ -1512,6 +1528,11 @@ pub struct Features {
     /// one-sample loop: a plane's pixels that see nothing else; a sampled
     /// estimate), alone and times the point lights.
     pub closed: f64,
+    /// Sum over the flat primitives facing the camera of the fraction of
+    /// the sensor whose rays hit each (sampled): their rays take one plane
+    /// `t` a chunk (`mix32::flat_pass`), not a reciprocal each — but the
+    /// plane shaded in closed form where [`Features::closed`] counts.
+    pub facing_area: f64,
 }
 
 impl Features {
@@ -1563,6 +1584,8 @@ impl Features {
             0.0
         };
         f.closed = if closed { g.closed_area } else { 0.0 };
+        // The plane shaded in closed form takes no `t` where it is.
+        f.facing_area = g.facing_area[0] + if closed { 0.0 } else { g.facing_area[1] };
         f
     }
 
@@ -1590,12 +1613,13 @@ impl Features {
             self.closed,
             self.closed * self.point_lights,
             self.lobe_area,
+            self.facing_area,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 20;
+pub const COST_TERMS: usize = 21;
 
 /// M3 instructions a pixel as a linear function of [`Features`] (one
 /// sample a pixel), times what the pixel's samples cost ([`SampleCost`]).
@@ -1764,12 +1788,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        91.6, 42.0, 4.6, 5.2, -4.2, 1.3, 173.9, 5.8, 20.5, 0.0, 18.9, 67.6, 16.3, 91.2, 129.3, -46.1, 269.8,
-        -127.9, -66.5, 315.2,
+        98.0, 42.9, 3.4, 1.9, -7.2, 9.6, 200.5, 7.2, 19.7, 0.0, 30.3, 65.7, 8.3, 55.8, 145.1, -34.7, 269.0,
+        -97.8, -93.0, 300.9, -45.1,
     ],
     samples: SampleCost {
-        grid: [721.576, 268.272, 0.990],
-        aperture: [0.771, 0.909],
+        grid: [768.165, 278.162, 0.969],
+        aperture: [0.757, 0.921],
     },
 };
 
@@ -1777,12 +1801,12 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        821.2, 328.9, 40.6, -58.0, -74.4, 114.9, 1468.3, 154.6, 259.6, 313.6, 1895.3, 242.9, -248.2, 61.3,
-        941.6, 44.4, 889.6, 0.0, 0.0, -129.0,
+        796.8, 362.2, 42.6, -33.6, -63.1, 115.6, 1497.1, 190.2, 289.8, 344.5, 1661.8, 236.2, -262.0, 3.5,
+        967.5, 111.5, 913.5, 0.0, 0.0, 119.1, -12.8,
     ],
     samples: SampleCost {
-        grid: [1196.085, 2070.214, 1.000],
-        aperture: [0.443, 0.876],
+        grid: [1209.748, 2085.105, 0.995],
+        aperture: [0.442, 0.876],
     },
 };
 

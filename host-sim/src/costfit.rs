@@ -102,6 +102,7 @@ pub const TERMS: [&str; COST_TERMS] = [
     "closed",
     "closed_point_lights",
     "lobe_area",
+    "facing_area",
 ];
 
 /// What one calibration scene holds beyond the base (a floor plane, one
@@ -129,6 +130,9 @@ struct Spec {
     far: Option<(usize, usize)>,
     /// Sensor noise (EMVA 1288).
     noise: bool,
+    /// The camera level, looking along the world's z axis, and the
+    /// rectangles and discs facing it (normal along the optical axis).
+    facing: bool,
 }
 
 fn spec_list() -> Vec<(&'static str, Spec)> {
@@ -350,6 +354,45 @@ fn spec_list() -> Vec<(&'static str, Spec)> {
                 ..d()
             },
         ),
+        (
+            "facing-rect3",
+            Spec {
+                rects: 3,
+                facing: true,
+                ..d()
+            },
+        ),
+        (
+            "facing-disc3",
+            Spec {
+                discs: 3,
+                dir_lights: 1,
+                facing: true,
+                ..d()
+            },
+        ),
+        (
+            "facing-big-rect",
+            Spec {
+                no_floor: true,
+                big: Some("rect"),
+                checker_rects: true,
+                dir_lights: 1,
+                facing: true,
+                ..d()
+            },
+        ),
+        (
+            "facing-mix",
+            Spec {
+                no_floor: true,
+                big: Some("rect"),
+                discs: 1,
+                spheres: 2,
+                facing: true,
+                ..d()
+            },
+        ),
     ]
 }
 
@@ -380,7 +423,14 @@ fn scene_text(name: &str, s: &Spec) -> String {
     if s.ortho {
         t.push_str("model = \"orthographic\"\northographic_scale = 4.8e-4\n");
     }
-    t.push_str("pose = { eye = [0.0, 1.2, -3.0], target = [0.0, 0.4, 0.0], up = [0.0, 1.0, 0.0] }\n\n");
+    t.push_str(if s.facing {
+        "pose = { eye = [0.0, 0.6, -3.0], target = [0.0, 0.6, 0.0], up = [0.0, 1.0, 0.0] }\n\n"
+    } else {
+        "pose = { eye = [0.0, 1.2, -3.0], target = [0.0, 0.4, 0.0], up = [0.0, 1.0, 0.0] }\n\n"
+    });
+    // The flat primitives' normal: tilted towards the camera above them,
+    // or along the optical axis.
+    let tilt = |t: f64| if s.facing { 0.0 } else { t };
     t.push_str("[environment]\nambient = 0.2\nbackground = 1.0\n\n");
     if s.noise {
         // A dark offset within RGB565's 5-bit channels.
@@ -420,15 +470,25 @@ fn scene_text(name: &str, s: &Spec) -> String {
     }
     match s.big {
         Some("rect") => {
-            t.push_str("[[primitives]]\nkind = \"rectangle\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\nnormal = [0.0, 0.27, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [5.0, 4.0]\n");
+            let _ = write!(
+                t,
+                "[[primitives]]\nkind = \"rectangle\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\n\
+                 normal = [0.0, {:.2}, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [5.0, 4.0]\n",
+                tilt(0.27)
+            );
             if s.checker_rects {
                 t.push_str("checker = { cell = 0.2, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }\n");
             }
             t.push('\n');
         }
-        Some("disc") => t.push_str(
-            "[[primitives]]\nkind = \"disc\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\nnormal = [0.0, 0.27, -1.0]\nradius = 2.0\n\n",
-        ),
+        Some("disc") => {
+            let _ = write!(
+                t,
+                "[[primitives]]\nkind = \"disc\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\n\
+                 normal = [0.0, {:.2}, -1.0]\nradius = 2.0\n\n",
+                tilt(0.27)
+            );
+        }
         Some(_) => t.push_str(
             "[[primitives]]\nkind = \"sphere\"\nmaterial = \"matte\"\ncentre = [0.0, 0.4, 0.0]\nradius = 1.6\n\n",
         ),
@@ -453,14 +513,16 @@ fn scene_text(name: &str, s: &Spec) -> String {
         let x = -0.8 + 0.8 * k as f64;
         let _ = writeln!(
             t,
-            "[[primitives]]\nkind = \"disc\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.6, 0.6]\nnormal = [0.0, 0.2, -1.0]\nradius = 0.3\n"
+            "[[primitives]]\nkind = \"disc\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.6, 0.6]\nnormal = [0.0, {:.1}, -1.0]\nradius = 0.3\n",
+            tilt(0.2)
         );
     }
     for k in 0..s.rects {
         let x = -0.9 + 0.9 * k as f64;
         let _ = writeln!(
             t,
-            "[[primitives]]\nkind = \"rectangle\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.9, 0.9]\nnormal = [0.0, 0.1, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [0.6, 0.4]"
+            "[[primitives]]\nkind = \"rectangle\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.9, 0.9]\nnormal = [0.0, {:.1}, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [0.6, 0.4]",
+            tilt(0.1)
         );
         if s.checker_rects {
             t.push_str("checker = { cell = 0.1, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }\n");
