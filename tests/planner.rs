@@ -169,26 +169,16 @@ fn text(s: &Spec) -> String {
     t
 }
 
-/// The frame's smooth pixels within the plan's predicted LSB (+ rounding)
-/// and its geometry within the predicted error.
+/// The frame within its plan's predictions
+/// ([`host_sim::harness::Metrics::beyond_prediction`]).
 fn within_predicted(
     m: &host_sim::harness::Metrics,
-    p: &hilcam::planner::Plan,
     t: &str,
 ) -> Result<(), proptest::test_runner::TestCaseError> {
-    prop_assert!(
-        m.max_abs_lsb_smooth as f64 <= p.predicted_lsb.floor() + 1.0,
-        "smooth {} LSB above the predicted {}:\n{t}",
-        m.max_abs_lsb_smooth,
-        p.predicted_lsb
-    );
-    prop_assert!(
-        m.max_geom_err_px <= p.predicted_geom_err_px * 1.001 + 1e-9,
-        "geometry {} px above the predicted {}:\n{t}",
-        m.max_geom_err_px,
-        p.predicted_geom_err_px
-    );
-    Ok(())
+    match m.beyond_prediction() {
+        Some(e) => Err(proptest::test_runner::TestCaseError::fail(format!("{e}:\n{t}"))),
+        None => Ok(()),
+    }
 }
 
 /// A deterministic runner of `cases` cases (the same scenes every run).
@@ -277,18 +267,7 @@ fn predicted_bounds_hold_on_random_scenes() {
                 }
             }
         }
-        prop_assert!(
-            m.max_abs_lsb_smooth as f64 <= predicted.floor() + 1.0,
-            "smooth {} LSB above the predicted {predicted} (+ rounding), {}:\n{t}",
-            m.max_abs_lsb_smooth,
-            m.plan.why
-        );
-        prop_assert!(
-            m.max_geom_err_px <= p.predicted_geom_err_px * 1.001 + 1e-9,
-            "geometry {} px above the predicted {}:\n{t}",
-            m.max_geom_err_px,
-            p.predicted_geom_err_px
-        );
+        within_predicted(m, &format!("{}\n{t}", m.plan.why))?;
         if p.meets_budget {
             prop_assert!(
                 m.max_abs_lsb_smooth as f64 <= budget.max_lsb,
@@ -423,7 +402,7 @@ fn predicted_bounds_hold_with_parallel_rays_started_in_front() {
         if p.options.arithmetic == Arithmetic::Fast {
             fast.set(fast.get() + 1);
         }
-        within_predicted(&m, &p, &t)?;
+        within_predicted(&m, &t)?;
         Ok(())
     });
     eprintln!("far orthographic scenes planned fast: {} of 60", fast.get());
@@ -529,7 +508,7 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
             Arithmetic::Fast => fast.set(fast.get() + 1),
             Arithmetic::Wide => wide.set(wide.get() + 1),
         }
-        within_predicted(&m, &p, &t)?;
+        within_predicted(&m, &t)?;
         // Line after line with the corner keys carried (the firmware's
         // way): the bytes of lines rendered alone.
         let frame = Frame::new(&scene, &p.options).expect("frame");

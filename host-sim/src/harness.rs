@@ -178,6 +178,30 @@ pub struct Metrics {
     pub defocus_error: Option<DefocusError>,
 }
 
+impl Metrics {
+    /// Where the frame exceeds what its plan predicted — smooth pixels
+    /// beyond `⌊predicted LSB⌋ + 1` (the prediction is before rounding),
+    /// geometry beyond the predicted error (+0.1 % and 10⁻⁹ px for the
+    /// reference's own rounding) — one line naming each; `None` within.
+    pub fn beyond_prediction(&self) -> Option<String> {
+        let p = &self.plan;
+        let mut out = Vec::new();
+        if self.max_abs_lsb_smooth as f64 > p.predicted_lsb.floor() + 1.0 {
+            out.push(format!(
+                "smooth pixels {} LSB off, over the predicted {} (+ rounding)",
+                self.max_abs_lsb_smooth, p.predicted_lsb
+            ));
+        }
+        if self.max_geom_err_px > p.predicted_geom_err_px * 1.001 + 1e-9 {
+            out.push(format!(
+                "geometry {} px off, over the predicted {}",
+                self.max_geom_err_px, p.predicted_geom_err_px
+            ));
+        }
+        (!out.is_empty()).then(|| format!("{}: {}", self.scene, out.join("; ")))
+    }
+}
+
 /// The aperture pattern's error against a converged estimate.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct DefocusError {

@@ -147,5 +147,7 @@ pub fn summary(m: &Metrics) -> String {
             "\n{:<18} defocus error vs {} aperture points: rms={:.3} DN max={:.2} DN",
             "", e.converged_points, e.rms_dn, e.max_dn
         )
+    }) + &m.beyond_prediction().map_or(String::new(), |e| {
+        format!("\n{:<18} BEYOND THE PLAN'S PREDICTION: {e}", "")
     })
 }
