@@ -937,11 +937,14 @@ impl Geometry {
         let (mut hits, mut bounded, mut closed_hits, mut lobe_hits) = (0u32, 0u32, 0u32, 0u32);
         let mut facing_hits = [0u32; 2];
         // Facing: the fast arithmetic's S30 normal has n_x = n_y = 0.
-        let facing = |p: &PrimGeom| {
-            !matches!(p.shape, Shape::Sphere { .. })
+        // (Once a primitive, not per hit: soft-float compares on the
+        // driven camera, which plans every frame.)
+        let mut facing = [false; crate::scene::MAX_PRIMITIVES];
+        for (f, p) in facing.iter_mut().zip(&prims) {
+            *f = !matches!(p.shape, Shape::Sphere { .. })
                 && libm::fabs(p.n[0]) < libm::ldexp(1.0, -31)
-                && libm::fabs(p.n[1]) < libm::ldexp(1.0, -31)
-        };
+                && libm::fabs(p.n[1]) < libm::ldexp(1.0, -31);
+        }
         for a in 0..gx {
             for b in 0..gy {
                 let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
@@ -956,8 +959,10 @@ impl Geometry {
                     if let Some(t) = p.hit(o, d) {
                         any = true;
                         bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
-                        if let Some(f) = facing_hits.get_mut((closed == Some(i)) as usize) {
-                            *f += facing(p) as u32;
+                        if let (Some(f), Some(true)) =
+                            (facing_hits.get_mut((closed == Some(i)) as usize), facing.get(i))
+                        {
+                            *f += 1;
                         }
                         others |= closed != Some(i);
                         if nearest.is_none_or(|(tn, _)| t < tn) {

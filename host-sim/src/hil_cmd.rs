@@ -57,6 +57,23 @@ impl Board {
         }
     }
 
+    /// Extra `rustc` flags for the firmware on this board (the target's
+    /// `RUSTFLAGS`, added to `firmware/.cargo/config.toml`'s): for the M0's
+    /// driven camera, LLVM's inline threshold 40 instead of opt-level "z"'s
+    /// 5, so that postcard's varint encoding (`varint_u16`, `varint_u64`)
+    /// is inlined where its slice's bound is known — at "z" alone it stays
+    /// out of line and links a panic path (`slice_index_fail`). The
+    /// figures are in the README ("Robustness").
+    pub fn rustflags(self, camera: bool) -> Option<(&'static str, &'static str)> {
+        match self {
+            Board::Microbit if camera => Some((
+                "CARGO_TARGET_THUMBV6M_NONE_EABI_RUSTFLAGS",
+                "-C llvm-args=-inline-threshold=40",
+            )),
+            _ => None,
+        }
+    }
+
     /// QEMU machine name.
     pub fn machine(self) -> &'static str {
         match self {
@@ -171,6 +188,7 @@ pub fn build_firmware_as(
     let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(&dir)
         .env("CARGO_PROFILE_RELEASE_OPT_LEVEL", board.opt_level(camera))
+        .envs(board.rustflags(camera))
         .envs(caps.iter().map(|(k, v)| (k, v.to_string())))
         .env("HILCAM_SCENES", list.join("\n"))
         .env(
