@@ -46,9 +46,9 @@ impl Board {
     /// 16-bit products and library calls opt-level "s" leaves slower
     /// (standard scene 1 454 against 1 357 instructions a pixel, over 3×
     /// the M3's); the M0's driven camera, which plans on the device, at
-    /// "z": at "s" it fits the micro:bit's 256 KiB by 28 bytes since the
-    /// closed-form plane (262 116 B; 220 988 B at "z", its round trip 1.87
-    /// → 2.01 M instructions). `scripts/lib.sh` builds alike.
+    /// "z" ([`Board::rustflags`] too): at "s" it no longer fits the
+    /// micro:bit's 256 KiB (30 248 B over on 2026-11-27; it fitted by 28 B
+    /// when the closed-form plane came). `scripts/lib.sh` builds alike.
     pub fn opt_level(self, camera: bool) -> &'static str {
         match self {
             Board::Microbit if !camera => "3",
