@@ -73,6 +73,25 @@ fn shipped_scenes_meet_the_targets() {
     }
 }
 
+/// [`Metrics::beyond_prediction`] names what exceeds the plan's
+/// prediction: the standard scene is within it; raised one LSB past the
+/// predicted LSB's rounding, or 1 % past the predicted geometry, it is not.
+#[test]
+fn beyond_prediction_names_what_exceeds_the_plan() {
+    let m = metrics(&scene("standard"));
+    assert_eq!(m.beyond_prediction(), None);
+    let mut lsb = m.clone();
+    lsb.max_abs_lsb_smooth = m.plan.predicted_lsb.floor() as u32 + 2;
+    assert!(lsb
+        .beyond_prediction()
+        .is_some_and(|e| e.contains("smooth") && !e.contains("geometry")));
+    let mut geom = m.clone();
+    geom.max_geom_err_px = m.plan.predicted_geom_err_px * 1.01 + 1e-6;
+    assert!(geom
+        .beyond_prediction()
+        .is_some_and(|e| e.contains("geometry") && !e.contains("smooth")));
+}
+
 /// The standard scene is what later performance work quotes: 160×120 Gray8,
 /// a ground plane and two spheres, distortion on, one point light, ambient.
 #[test]
