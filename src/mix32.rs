@@ -1370,6 +1370,14 @@ impl Rays {
     }
 }
 
+/// A point `c` in the frame moved to `(a_x, a_y, 0)` (both in one format),
+/// saturating: what [`MixShape::moved`] does to centres, and what the
+/// aperture loop's shading takes of a sphere's ([`Mix32::hit_from`]).
+#[inline(always)]
+fn moved_point(c: [i32; 3], a: [i32; 2]) -> [i32; 3] {
+    [c[0].saturating_sub(a[0]), c[1].saturating_sub(a[1]), c[2]]
+}
+
 impl MixShape {
     /// The shape in the frame moved to `(a_x, a_y, 0)` (`a` S18 U, `a24` the
     /// same point in S24 U; defocus's aperture points): exact for centres
@@ -1377,7 +1385,7 @@ impl MixShape {
     #[inline(always)]
     fn moved(&self, a: [i32; 2], a24: [i32; 2]) -> MixShape {
         let na = |n: &[i32; 3]| ((wmul(n[0], a[0]) + wmul(n[1], a[1])) >> 24) as i32;
-        let c18 = |c: &[i32; 3]| [c[0].saturating_sub(a[0]), c[1].saturating_sub(a[1]), c[2]];
+        let c18 = |c: &[i32; 3]| moved_point(*c, a);
         match *self {
             MixShape::Plane { n, dist, rz } => MixShape::Plane {
                 n,
@@ -1394,7 +1402,7 @@ impl MixShape {
                 fine,
                 inv_r,
             } => MixShape::Sphere {
-                c: [c[0].saturating_sub(a24[0]), c[1].saturating_sub(a24[1]), c[2]],
+                c: moved_point(c, a24),
                 cz50,
                 c18: c18(&k),
                 r2_24,
@@ -3123,10 +3131,7 @@ impl Mix32 {
                 ..
             } if lobe_built::<L, C>() => {
                 // The centre the pass took ([`MixShape::moved`]).
-                let mut c = *c;
-                if MOVED {
-                    c = [c[0].saturating_sub(a24[0]), c[1].saturating_sub(a24[1]), c[2]];
-                }
+                let c = if MOVED { moved_point(*c, a24) } else { *c };
                 fine_normal::<PERSP>(r, c, *r24, *inv_r, away)
             }
             MixShape::Sphere { c18, inv_r, .. } => zip3(pt, *c18, |p, c| {

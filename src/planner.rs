@@ -657,9 +657,11 @@ struct Geometry {
     lobe_area: f64,
     /// Sum over the flat primitives facing the camera (normal along the
     /// optical axis: `mix32::flat_pass` takes one `t` a chunk for them)
-    /// of the fraction of the sensor whose rays hit each (sampled), but
-    /// the plane shaded in closed form (`closed_area`'s), whose own.
-    facing_area: [f64; 2],
+    /// of the fraction of the sensor whose rays hit each (sampled), the
+    /// plane shaded in closed form (`closed_area`'s) left out...
+    facing_area: f64,
+    /// ... and that plane's, if it faces the camera.
+    closed_facing_area: f64,
 }
 
 /// How far a primitive's points lie from the camera, in the camera frame:
@@ -935,15 +937,18 @@ impl Geometry {
         // ignored), each tested against every primitive.
         let (gx, gy) = COVERAGE_GRID;
         let (mut hits, mut bounded, mut closed_hits, mut lobe_hits) = (0u32, 0u32, 0u32, 0u32);
-        let mut facing_hits = [0u32; 2];
-        // Facing: the fast arithmetic's S30 normal has n_x = n_y = 0.
-        // (Once a primitive, not per hit: soft-float compares on the
-        // driven camera, which plans every frame.)
+        let (mut facing_hits, mut closed_facing_hits) = (0u32, 0u32);
+        // Facing: the fast arithmetic's S30 normal has n_x = n_y = 0 (to
+        // within these f64 components' rounding, which need not be the
+        // fixed-point frame's: half an S30 unit either way). Once a
+        // primitive, not per hit: soft-float compares on the driven
+        // camera, which plans every frame.
+        const S30_HALF_UNIT: f64 = 1.0 / (1u64 << 31) as f64;
         let mut facing = [false; crate::scene::MAX_PRIMITIVES];
         for (f, p) in facing.iter_mut().zip(&prims) {
             *f = !matches!(p.shape, Shape::Sphere { .. })
-                && libm::fabs(p.n[0]) < libm::ldexp(1.0, -31)
-                && libm::fabs(p.n[1]) < libm::ldexp(1.0, -31);
+                && libm::fabs(p.n[0]) < S30_HALF_UNIT
+                && libm::fabs(p.n[1]) < S30_HALF_UNIT;
         }
         for a in 0..gx {
             for b in 0..gy {
@@ -959,10 +964,12 @@ impl Geometry {
                     if let Some(t) = p.hit(o, d) {
                         any = true;
                         bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
-                        if let (Some(f), Some(true)) =
-                            (facing_hits.get_mut((closed == Some(i)) as usize), facing.get(i))
-                        {
-                            *f += 1;
+                        if facing.get(i) == Some(&true) {
+                            if closed == Some(i) {
+                                closed_facing_hits += 1;
+                            } else {
+                                facing_hits += 1;
+                            }
                         }
                         others |= closed != Some(i);
                         if nearest.is_none_or(|(tn, _)| t < tn) {
@@ -995,7 +1002,8 @@ impl Geometry {
             bounded_area: bounded as f64 / (gx * gy) as f64,
             closed_area: closed_hits as f64 / (gx * gy) as f64,
             lobe_area: lobe_hits as f64 / (gx * gy) as f64,
-            facing_area: facing_hits.map(|h| h as f64 / (gx * gy) as f64),
+            facing_area: facing_hits as f64 / (gx * gy) as f64,
+            closed_facing_area: closed_facing_hits as f64 / (gx * gy) as f64,
         }
     }
 
@@ -1590,7 +1598,7 @@ impl Features {
         };
         f.closed = if closed { g.closed_area } else { 0.0 };
         // The plane shaded in closed form takes no `t` where it is.
-        f.facing_area = g.facing_area[0] + if closed { 0.0 } else { g.facing_area[1] };
+        f.facing_area = g.facing_area + if closed { 0.0 } else { g.closed_facing_area };
         f
     }
 
