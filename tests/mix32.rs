@@ -390,7 +390,7 @@ fn outside_the_formats_is_a_typed_error() {
         &[],
     );
     for r in [strong, tiny] {
-        let e = mix(&r).err().expect("refused");
+        let e = mix(&r).expect_err("refused");
         assert!(e.contains("OutsideFormat"), "{e}");
         // The generic path renders it.
         assert!(host_sim::harness::render(&r, &Budget::default()).is_ok());

@@ -284,9 +284,17 @@ fn line_buffers_are_o_width_and_output_is_deterministic() {
 /// The host renders lines in parallel on every core; the bytes and flags
 /// are those of one core rendering line after line (carrying the sampled
 /// loop's corner keys from line to line, as the firmware does), on every
-/// shipped scene, with the default (planned) and the wide arithmetic.
+/// shipped scene, with the default (planned) and the wide arithmetic —
+/// also into buffers reused from frame to frame (`collect_into`), whatever
+/// they held.
 #[test]
 fn parallel_host_render_is_byte_identical_with_one_core() {
+    // Buffers a stream reuses, filled with a byte no frame is made of
+    // before each frame (the previous frame's size: larger or smaller).
+    let (mut reused, mut reused_one) = (
+        host_sim::harness::Collect::default(),
+        host_sim::harness::Collect::default(),
+    );
     for path in scenes() {
         let r = load(&path).expect("loads");
         let s = r.core_scene().expect("valid");
@@ -300,6 +308,21 @@ fn parallel_host_render_is_byte_identical_with_one_core() {
             let one = host_sim::harness::collect_serial(&frame).expect("serial");
             assert_eq!(par.pixels, one.pixels, "{}", path.display());
             assert_eq!(par.flags, one.flags, "{}", path.display());
+            for c in [&mut reused, &mut reused_one] {
+                c.pixels
+                    .iter_mut()
+                    .chain(c.flags.iter_mut())
+                    .for_each(|b| *b = 0xA5);
+            }
+            host_sim::harness::collect_into(&frame, &mut reused).expect("parallel, reused");
+            host_sim::harness::collect_serial_into(&frame, &mut reused_one).expect("serial, reused");
+            assert_eq!(reused, par, "{}: parallel into reused buffers", path.display());
+            assert_eq!(
+                reused_one,
+                par,
+                "{}: one core into reused buffers",
+                path.display()
+            );
         }
     }
 }

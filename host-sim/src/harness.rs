@@ -14,6 +14,7 @@ use hilcam::scene::PixelFormat;
 use serde::Serialize;
 
 /// A core frame collected line by line.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Collect {
     /// Bytes of every line, in order.
     pub pixels: Vec<u8>,
@@ -363,40 +364,52 @@ pub fn render_carried<S: Scalar, K: FrameSink>(
 /// core (rayon): each line is rendered straight into its place, so the
 /// bytes are those of [`collect_serial`] (tested).
 pub fn collect<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
+    let mut core = Collect::default();
+    collect_into(frame, &mut core)?;
+    Ok(core)
+}
+
+/// [`collect`] into `core`'s buffers, resized to the frame (a stream of
+/// frames reuses them: no allocation and no page faults a frame). Every
+/// byte is the frame's, whatever the buffers held (tested).
+pub fn collect_into<S: Scalar>(frame: &Frame<S>, core: &mut Collect) -> Result<(), String> {
     use rayon::prelude::*;
     let (w, h) = frame.size();
     let lb = frame.line_bytes();
-    let mut core = Collect {
-        pixels: vec![0u8; lb * h as usize],
-        flags: vec![0u8; w as usize * h as usize],
-    };
+    core.pixels.resize(lb * h as usize, 0);
+    core.flags.resize(w as usize * h as usize, 0);
     if lb == 0 || w == 0 {
-        return Ok(core);
+        return Ok(());
     }
     core.pixels
         .par_chunks_mut(lb)
         .zip(core.flags.par_chunks_mut(w as usize))
         .enumerate()
         .try_for_each(|(j, (p, f))| render_line(frame, j as u16, p, f))
-        .map_err(|e| format!("render failed: {e:?}"))?;
-    Ok(core)
+        .map_err(|e| format!("render failed: {e:?}"))
 }
 
 /// Renders a prepared frame into memory a line at a time through the
 /// core's [`FrameSink`] (one core), as the firmware does: the sampled
 /// loop's corner keys carried from line to line ([`Frame::render_carried`]).
 pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
+    let mut core = Collect::default();
+    collect_serial_into(frame, &mut core)?;
+    Ok(core)
+}
+
+/// [`collect_serial`] into `core`'s buffers (emptied first; a stream of
+/// frames reuses them).
+pub fn collect_serial_into<S: Scalar>(frame: &Frame<S>, core: &mut Collect) -> Result<(), String> {
     let (w, h) = frame.size();
     let mut line = vec![0u8; frame.line_bytes()];
     let mut flags = vec![0u8; w as usize];
-    let mut core = Collect {
-        pixels: Vec::with_capacity(frame.line_bytes() * h as usize),
-        flags: Vec::with_capacity(w as usize * h as usize),
-    };
+    core.pixels.clear();
+    core.flags.clear();
+    core.pixels.reserve(frame.line_bytes() * h as usize);
+    core.flags.reserve(w as usize * h as usize);
     let mut keys = vec![0u64; w as usize + 1];
-    render_carried(frame, &mut line, &mut flags, &mut keys, &mut core)
-        .map_err(|e| format!("render failed: {e:?}"))?;
-    Ok(core)
+    render_carried(frame, &mut line, &mut flags, &mut keys, core).map_err(|e| format!("render failed: {e:?}"))
 }
 
 /// The comparison of core and reference pixels, accumulated a line at a

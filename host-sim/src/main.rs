@@ -602,21 +602,24 @@ fn main() -> ExitCode {
             let r = host_sim::scene_file::load(&scene)?;
             let s = r.core_scene()?;
             let budget = hilcam::planner::Budget::default();
+            // A stream of frames: each planned, prepared and rendered into
+            // the same buffers (`collect_into`).
             let time = |parallel: bool| -> Result<(f64, String), String> {
                 let mut secs = Vec::new();
                 let mut arith = String::new();
+                let mut c = host_sim::harness::Collect::default();
                 for _ in 0..frames {
                     let t = std::time::Instant::now();
                     let p = hilcam::planner::plan(&s, &budget);
                     let f = hilcam::render::Frame::new(&s, &p.options)
                         .map_err(|e| format!("{}: cannot render: {e:?}", scene.display()))?;
-                    let c = if parallel {
-                        host_sim::harness::collect(&f)?
+                    if parallel {
+                        host_sim::harness::collect_into(&f, &mut c)?
                     } else {
-                        host_sim::harness::collect_serial(&f)?
+                        host_sim::harness::collect_serial_into(&f, &mut c)?
                     };
                     secs.push(t.elapsed().as_secs_f64());
-                    std::hint::black_box(c);
+                    std::hint::black_box(&c);
                     arith = f.stages().arithmetic.name().to_string();
                 }
                 secs.sort_by(f64::total_cmp);
