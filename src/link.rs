@@ -729,23 +729,47 @@ impl<W: embedded_io::Write, const CHUNK: usize> Encoder<W, CHUNK> {
     /// Adds the next line of the open frame; sends a chunk when the next line
     /// would not fit.
     pub fn push_line(&mut self, line: &[u8]) -> Result<(), LinkError<W::Error>> {
-        let Some(f) = self.frame else {
-            return Err(LinkError::Sequence);
-        };
-        if line.len() != f.line_bytes || self.line >= f.height {
+        if self.frame.is_some_and(|f| line.len() != f.line_bytes) {
             return Err(LinkError::Sequence);
         }
-        if self.fill + line.len() > CHUNK {
-            self.flush_chunk()?;
-        }
-        let dst = self
-            .chunk
-            .get_mut(self.fill..self.fill + line.len())
-            .ok_or(LinkError::LineTooLong)?;
+        let dst = self.next_line()?;
         // (A zip, not `copy_from_slice`, whose length check the M0 camera's
         // opt-level z build keeps out of line: a panic path. A memcpy on the
         // M3; a byte loop there, its round trip 0.14 % longer.)
         dst.iter_mut().zip(line).for_each(|(d, s)| *d = *s);
+        self.commit_line()
+    }
+
+    /// Where the next line of the open frame goes in the chunk (the chunk
+    /// sent first if the line would not fit): a renderer writes the line
+    /// there, then [`Encoder::commit_line`] adds it — no copy of it.
+    pub fn next_line(&mut self) -> Result<&mut [u8], LinkError<W::Error>> {
+        let Some(f) = self.frame else {
+            return Err(LinkError::Sequence);
+        };
+        if self.line >= f.height {
+            return Err(LinkError::Sequence);
+        }
+        if self.fill + f.line_bytes > CHUNK {
+            self.flush_chunk()?;
+        }
+        self.chunk
+            .get_mut(self.fill..self.fill + f.line_bytes)
+            .ok_or(LinkError::LineTooLong)
+    }
+
+    /// Adds the line written where [`Encoder::next_line`] said.
+    pub fn commit_line(&mut self) -> Result<(), LinkError<W::Error>> {
+        let Some(f) = self.frame else {
+            return Err(LinkError::Sequence);
+        };
+        if self.line >= f.height {
+            return Err(LinkError::Sequence);
+        }
+        let line = self
+            .chunk
+            .get(self.fill..self.fill + f.line_bytes)
+            .ok_or(LinkError::Sequence)?;
         self.crc.update(line);
         self.fill += line.len();
         self.line += 1;
@@ -823,6 +847,19 @@ impl<W: embedded_io::Write, const CHUNK: usize> FrameSink for Stream<'_, W, CHUN
     }
     fn line(&mut self, _y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
         self.enc.push_line(pixels)?;
+        self.enc.push_flags(flags)
+    }
+    /// In the encoder's chunk ([`Encoder::next_line`]): the firmware holds
+    /// no line buffer of its own.
+    fn place(&mut self, _y: u16, len: usize) -> Result<Option<&mut [u8]>, Self::Error> {
+        let line = self.enc.next_line()?;
+        if line.len() != len {
+            return Err(LinkError::Sequence);
+        }
+        Ok(Some(line))
+    }
+    fn placed(&mut self, _y: u16, flags: &[u8]) -> Result<(), Self::Error> {
+        self.enc.commit_line()?;
         self.enc.push_flags(flags)
     }
     fn end(&mut self, cost: Option<u64>) -> Result<(), Self::Error> {

@@ -4,8 +4,9 @@
 //! integration, the mean of an `n×n` grid over the pixel's square
 //! ([`crate::sampling`]) — then, where it asks for sensor noise, the EMVA
 //! 1288 stage ([`crate::noise`]); fixed point end to end, one scanline at a time
-//! into a caller-provided line buffer, handed to a [`FrameSink`]: RAM is
-//! O(width), whatever the height.
+//! into the place a [`FrameSink`] holds for it (a link encoder's chunk) or
+//! else a caller-provided line buffer handed to the sink: RAM is O(width),
+//! whatever the height.
 //!
 //! A [`Frame`] is prepared once per frame: the scene is moved into the camera
 //! frame, the distortion table built, constants folded, each bounded
@@ -65,6 +66,18 @@ pub trait FrameSink {
     /// Line `y`: `pixels` holds `width × bytes_per_pixel` bytes, `flags` one
     /// byte of `FLAG_*` bits a pixel.
     fn line(&mut self, y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error>;
+    /// Where line `y` (`len` bytes) is to be rendered if the sink holds
+    /// that place itself (a link encoder's chunk: the line is then not
+    /// copied, and [`FrameSink::placed`] follows instead of
+    /// [`FrameSink::line`]); `None` (the default): in the caller's buffer.
+    fn place(&mut self, _y: u16, _len: usize) -> Result<Option<&mut [u8]>, Self::Error> {
+        Ok(None)
+    }
+    /// Line `y` was rendered where [`FrameSink::place`] said; `flags` as
+    /// for [`FrameSink::line`].
+    fn placed(&mut self, _y: u16, _flags: &[u8]) -> Result<(), Self::Error> {
+        Ok(())
+    }
     /// The frame ends; `cost` is what rendering it cost when an adapter
     /// ([`Timed`]) measured it.
     fn end(&mut self, _cost: Option<u64>) -> Result<(), Self::Error> {
@@ -121,6 +134,18 @@ impl<K: FrameSink, C: FnMut() -> u64, T: Fn(u64) -> u64> FrameSink for Timed<K, 
     fn line(&mut self, y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
         self.lap();
         let r = self.inner.line(y, pixels, flags);
+        self.last = (self.clock)();
+        r
+    }
+    fn place(&mut self, y: u16, len: usize) -> Result<Option<&mut [u8]>, Self::Error> {
+        self.lap();
+        let r = self.inner.place(y, len);
+        self.last = (self.clock)();
+        r
+    }
+    fn placed(&mut self, y: u16, flags: &[u8]) -> Result<(), Self::Error> {
+        self.lap();
+        let r = self.inner.placed(y, flags);
         self.last = (self.clock)();
         r
     }
@@ -1115,7 +1140,8 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         Ok(())
     }
 
-    /// Renders every line through `sink`, reusing the caller's line buffers.
+    /// Renders every line through `sink`, each where the sink places it
+    /// ([`FrameSink::place`]) or in `pixels`; `flags` holds a line's flags.
     pub fn render<K: FrameSink>(
         &self,
         pixels: &mut [u8],
@@ -1157,7 +1183,10 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         })
     }
 
-    /// Every line through `sink`, each rendered by `line`.
+    /// Every line through `sink`, each rendered by `line` where the sink
+    /// places it ([`FrameSink::place`]) or else in `pixels` (then
+    /// [`RenderError::BufferTooSmall`] if it or `flags` is shorter than a
+    /// line).
     fn render_each<K: FrameSink>(
         &self,
         pixels: &mut [u8],
@@ -1170,13 +1199,27 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             height: self.height,
             format: self.format,
         };
+        let n = self.line_bytes();
+        let Some(flags) = flags.get_mut(..self.width as usize) else {
+            return Err(FrameError::Render(RenderError::BufferTooSmall));
+        };
         sink.begin(&info).map_err(FrameError::Sink)?;
         for j in 0..self.height {
-            line(j, pixels, flags).map_err(FrameError::Render)?;
-            let n = self.line_bytes();
-            let (p, f) = (pixels.get(..n), flags.get(..self.width as usize));
-            if let (Some(p), Some(f)) = (p, f) {
-                sink.line(j, p, f).map_err(FrameError::Sink)?;
+            match sink.place(j, n).map_err(FrameError::Sink)? {
+                Some(slot) => {
+                    let slot = slot
+                        .get_mut(..n)
+                        .ok_or(FrameError::Render(RenderError::BufferTooSmall))?;
+                    line(j, slot, flags).map_err(FrameError::Render)?;
+                    sink.placed(j, flags).map_err(FrameError::Sink)?;
+                }
+                None => {
+                    let p = pixels
+                        .get_mut(..n)
+                        .ok_or(FrameError::Render(RenderError::BufferTooSmall))?;
+                    line(j, p, flags).map_err(FrameError::Render)?;
+                    sink.line(j, p, flags).map_err(FrameError::Sink)?;
+                }
             }
         }
         sink.end(None).map_err(FrameError::Sink)

@@ -269,6 +269,17 @@ fn line_buffers_are_o_width_and_output_is_deterministic() {
         frame.render_line(0, &mut short, &mut flags),
         Err(RenderError::BufferTooSmall)
     );
+    // A whole frame into a sink that does not place lines: a short line or
+    // flag buffer is refused before the sink hears of the frame.
+    let mut none = Count(0, Vec::new());
+    for (p, f) in [(159, 160), (160, 159)] {
+        let r = frame.render(&mut vec![0u8; p], &mut vec![0u8; f], &mut none);
+        assert_eq!(
+            r,
+            Err(hilcam::render::FrameError::Render(RenderError::BufferTooSmall))
+        );
+    }
+    assert_eq!(none.0, 0);
     let mut line = vec![0u8; 160];
     let mut a = Count(0, Vec::new());
     frame.render(&mut line, &mut flags, &mut a).expect("renders");

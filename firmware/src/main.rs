@@ -48,11 +48,6 @@ use hilcam::render::PlannedLines as Built;
 #[cfg(not(feature = "camera"))]
 use scenes::Built;
 
-/// Longest line, bytes (two bytes a pixel at most).
-#[cfg(feature = "camera")]
-const MAX_LINE_BYTES: usize = 2 * MAX_WIDTH;
-#[cfg(not(feature = "camera"))]
-const MAX_LINE_BYTES: usize = scenes::MAX_LINE_BYTES;
 
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
@@ -69,7 +64,11 @@ use hilcam::scene::Scene;
 #[cfg(not(feature = "camera"))]
 const CHUNK: usize = hilcam::link::DEFAULT_CHUNK;
 #[cfg(feature = "camera")]
-const CHUNK: usize = MAX_LINE_BYTES;
+const CHUNK: usize = 2 * MAX_WIDTH;
+// Lines are rendered into the chunk (`Stream`'s `place`): the longest
+// held must fit it.
+#[cfg(not(feature = "camera"))]
+const _: () = assert!(scenes::MAX_LINE_BYTES <= CHUNK);
 
 type Enc = Encoder<board::Uart0, CHUNK>;
 
@@ -284,20 +283,20 @@ fn main() -> ! {
         Ok(e) => e,
         Err(_) => fail("encoder"),
     };
-    let mut line = [0u8; MAX_LINE_BYTES];
+    // (Lines are rendered into the encoder's chunk: `Stream`'s place.)
     let mut flags = [0u8; MAX_WIDTH];
     #[cfg(feature = "camera")]
-    camera::run(&mut enc, &mut line, &mut flags);
+    camera::run(&mut enc, &mut flags);
     #[cfg(not(feature = "camera"))]
     {
         let mut keys = [0u64; scenes::CORNER_KEYS];
-        sweep(&mut enc, &mut line, &mut flags, &mut keys);
+        sweep(&mut enc, &mut flags, &mut keys);
     }
 }
 
 /// Renders every embedded scene with every variant, once, and exits.
 #[cfg(not(feature = "camera"))]
-fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8], keys: &mut [u64]) -> ! {
+fn sweep(enc: &mut Enc, flags: &mut [u8], keys: &mut [u64]) -> ! {
     for (id, blob) in scenes::BLOBS.iter().enumerate() {
         // Used in place (a scene is 4.7 KB: no copy of it).
         let loaded = hilcam::scene_data::load(blob);
@@ -312,7 +311,6 @@ fn sweep(enc: &mut Enc, line: &mut [u8], flags: &mut [u8], keys: &mut [u64]) -> 
             let mut run = Run {
                 scene,
                 enc,
-                line,
                 flags,
                 keys,
                 frame_id: (id * scenes::VARIANTS.len() + v) as u32,
@@ -352,9 +350,10 @@ mod camera {
     const RX_BUDGET: usize = 4 * MAX_REQUEST;
 
     /// Runs the camera forever (starting on scene 0, triggered).
-    pub fn run(enc: &mut Enc, line: &mut [u8], flags: &mut [u8]) -> ! {
-        // Lines the line buffer and one encoder chunk hold (two bytes a
-        // pixel at most): a wider scene is refused when it is loaded.
+    pub fn run(enc: &mut Enc, flags: &mut [u8]) -> ! {
+        // Lines one encoder chunk holds (two bytes a pixel at most; lines
+        // are rendered into it): a wider scene is refused when it is
+        // loaded.
         let widest = MAX_WIDTH.min(CHUNK / 2) as u16;
         let mut library = Library::<MAX_SCENE_DATA, TABLE>::new(&super::scenes::BLOBS, widest);
         // The scene shown, used where it was built (a scene is 1.4 KB).
@@ -387,7 +386,6 @@ mod camera {
                 let mut run = Run {
                     scene,
                     enc,
-                    line,
                     flags,
                     keys: &mut [],
                     frame_id,
@@ -430,7 +428,6 @@ pub trait Runner {
 struct Run<'a> {
     scene: &'a Scene,
     enc: &'a mut Enc,
-    line: &'a mut [u8],
     flags: &'a mut [u8],
     /// The sampled loop's corner keys, carried from line to line (a driven
     /// camera holds none: its RAM is spoken for).
@@ -468,7 +465,7 @@ impl Runner for Run<'_> {
         // adapter around the link's sink.
         let mut sink = Timed::new(Stream { enc: self.enc, start }, ticks, instructions, prepare);
         frame
-            .render_carried::<Built, _>(self.line, self.flags, self.keys, &mut sink)
+            .render_carried::<Built, _>(&mut [], self.flags, self.keys, &mut sink)
             .map_err(|_| "render")?;
         Ok(sink.cost())
     }

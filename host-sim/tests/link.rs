@@ -310,7 +310,6 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
         exposure: 0,
         truth: Default::default(),
     };
-    let mut line = vec![0u8; frame.line_bytes()];
     let mut flags = vec![0u8; w as usize];
     // A clock that advances one tick a reading: the adapter reads it
     // before and after each sink call, so each call spans one tick (not
@@ -327,11 +326,14 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
             |ticks| ticks,
             5,
         );
-        frame.render(&mut line, &mut flags, &mut sink).expect("streams");
+        // No line buffer: the stream places each line in the encoder's
+        // chunk, where it is rendered.
+        frame.render(&mut [], &mut flags, &mut sink).expect("streams");
         sink.cost()
     };
-    // begin, h lines, end: h + 2 laps of 1 tick, plus the 5 given.
-    assert_eq!(cost, h as u64 + 2 + 5);
+    // begin, each line's place and placed, end: 2h + 2 laps of 1 tick,
+    // plus the 5 given.
+    assert_eq!(cost, 2 * h as u64 + 2 + 5);
     let (frames, _) = decode_all(&enc.into_inner().bytes);
     assert_eq!(frames.len(), 1);
     assert_eq!(frames[0].pixels, core.pixels);
@@ -343,7 +345,7 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
         ..start
     };
     let r = frame.render(
-        &mut line,
+        &mut [],
         &mut flags,
         &mut hilcam::link::Stream {
             enc: &mut enc,
