@@ -89,20 +89,24 @@ pub trait FrameSink {
 /// between the inner sink's calls (plus `already`, e.g. the frame's
 /// preparation), converted by `to_cost`, is passed to the inner sink's
 /// [`FrameSink::end`] as the frame's cost — so a slow link's back-pressure
-/// is not counted.
+/// is not counted. Between [`FrameSink::placed`] and the next call
+/// nothing is rendered: that gap is not timed, so a placed line costs two
+/// clock reads, as a copied one does.
 pub struct Timed<K, C, T> {
     /// The sink timed.
     pub inner: K,
     clock: C,
     to_cost: T,
     spent: u64,
-    last: u64,
+    /// The clock when the inner sink last returned, if the time since is
+    /// the renderer's.
+    last: Option<u64>,
 }
 
 impl<K: FrameSink, C: FnMut() -> u64, T: Fn(u64) -> u64> Timed<K, C, T> {
     /// Starts timing now; `already` clock ticks are counted in.
     pub fn new(inner: K, mut clock: C, to_cost: T, already: u64) -> Self {
-        let last = clock();
+        let last = Some(clock());
         Timed {
             inner,
             clock,
@@ -118,8 +122,10 @@ impl<K: FrameSink, C: FnMut() -> u64, T: Fn(u64) -> u64> Timed<K, C, T> {
     }
 
     fn lap(&mut self) {
-        let now = (self.clock)();
-        self.spent = self.spent.wrapping_add(now.wrapping_sub(self.last));
+        if let Some(last) = self.last {
+            let now = (self.clock)();
+            self.spent = self.spent.wrapping_add(now.wrapping_sub(last));
+        }
     }
 }
 
@@ -128,32 +134,32 @@ impl<K: FrameSink, C: FnMut() -> u64, T: Fn(u64) -> u64> FrameSink for Timed<K, 
     fn begin(&mut self, info: &FrameInfo) -> Result<(), Self::Error> {
         self.lap();
         let r = self.inner.begin(info);
-        self.last = (self.clock)();
+        self.last = Some((self.clock)());
         r
     }
     fn line(&mut self, y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
         self.lap();
         let r = self.inner.line(y, pixels, flags);
-        self.last = (self.clock)();
+        self.last = Some((self.clock)());
         r
     }
     fn place(&mut self, y: u16, len: usize) -> Result<Option<&mut [u8]>, Self::Error> {
         self.lap();
         let r = self.inner.place(y, len);
-        self.last = (self.clock)();
+        self.last = Some((self.clock)());
         r
     }
     fn placed(&mut self, y: u16, flags: &[u8]) -> Result<(), Self::Error> {
         self.lap();
-        let r = self.inner.placed(y, flags);
-        self.last = (self.clock)();
-        r
+        // Until the next place (or the end): not the renderer's time.
+        self.last = None;
+        self.inner.placed(y, flags)
     }
     fn end(&mut self, _cost: Option<u64>) -> Result<(), Self::Error> {
         self.lap();
         let cost = self.cost();
         let r = self.inner.end(Some(cost));
-        self.last = (self.clock)();
+        self.last = Some((self.clock)());
         r
     }
 }
@@ -1203,23 +1209,19 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         let Some(flags) = flags.get_mut(..self.width as usize) else {
             return Err(FrameError::Render(RenderError::BufferTooSmall));
         };
+        let short = || FrameError::Render(RenderError::BufferTooSmall);
         sink.begin(&info).map_err(FrameError::Sink)?;
         for j in 0..self.height {
-            match sink.place(j, n).map_err(FrameError::Sink)? {
-                Some(slot) => {
-                    let slot = slot
-                        .get_mut(..n)
-                        .ok_or(FrameError::Render(RenderError::BufferTooSmall))?;
-                    line(j, slot, flags).map_err(FrameError::Render)?;
-                    sink.placed(j, flags).map_err(FrameError::Sink)?;
-                }
-                None => {
-                    let p = pixels
-                        .get_mut(..n)
-                        .ok_or(FrameError::Render(RenderError::BufferTooSmall))?;
-                    line(j, p, flags).map_err(FrameError::Render)?;
-                    sink.line(j, p, flags).map_err(FrameError::Sink)?;
-                }
+            // One call of `line` (inlined once, not twice).
+            let slot = sink.place(j, n).map_err(FrameError::Sink)?;
+            let placed = slot.is_some();
+            let p = slot.unwrap_or(&mut *pixels).get_mut(..n).ok_or_else(short)?;
+            line(j, p, flags).map_err(FrameError::Render)?;
+            if placed {
+                sink.placed(j, flags).map_err(FrameError::Sink)?;
+            } else {
+                sink.line(j, pixels.get(..n).ok_or_else(short)?, flags)
+                    .map_err(FrameError::Sink)?;
             }
         }
         sink.end(None).map_err(FrameError::Sink)
