@@ -48,7 +48,6 @@ use hilcam::render::PlannedLines as Built;
 #[cfg(not(feature = "camera"))]
 use scenes::Built;
 
-
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception};
