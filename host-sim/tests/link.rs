@@ -358,6 +358,80 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
     assert!(enc.into_inner().bytes.is_empty());
 }
 
+/// Rendering each line into the encoder's chunk (`Stream` places it) puts
+/// on the wire the bytes that rendering into a line buffer and copying it
+/// in (`push_line`, a sink that does not place) does, on every shipped
+/// scene — chunks split alike, flags and CRC the same.
+#[test]
+fn placed_lines_send_the_bytes_copied_lines_do() {
+    use hilcam::render::{FrameInfo, FrameSink};
+    /// `Stream` without its place: each line copied in.
+    struct Copying<'a>(hilcam::link::Stream<'a, Recorder, 2048>);
+    impl FrameSink for Copying<'_> {
+        type Error = LinkError<std::convert::Infallible>;
+        fn begin(&mut self, info: &FrameInfo) -> Result<(), Self::Error> {
+            self.0.begin(info)
+        }
+        fn line(&mut self, y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), Self::Error> {
+            self.0.line(y, pixels, flags)
+        }
+        fn end(&mut self, cost: Option<u64>) -> Result<(), Self::Error> {
+            self.0.end(cost)
+        }
+    }
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes"));
+    let mut scenes: Vec<_> = std::fs::read_dir(dir)
+        .expect("scenes")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    scenes.sort();
+    assert!(scenes.len() >= 8, "{scenes:?}");
+    for path in scenes {
+        let r = host_sim::scene_file::load(&path).expect("scene");
+        let (scene, _, frame, _) =
+            host_sim::harness::core_render(&r, &hilcam::planner::Budget::default()).expect("renders");
+        let (w, h) = frame.size();
+        let start = FrameStart {
+            version: PROTOCOL_VERSION,
+            frame_id: 3,
+            width: w,
+            height: h,
+            format: WireFormat::from(scene.format),
+            scene_id: 0,
+            exposure: 0,
+            truth: Default::default(),
+        };
+        let mut flags = vec![0u8; w as usize];
+        let mut placed = Encoder::<Recorder, 2048>::new(Recorder::default()).expect("encoder");
+        frame
+            .render(
+                &mut [],
+                &mut flags,
+                &mut hilcam::link::Stream {
+                    enc: &mut placed,
+                    start,
+                },
+            )
+            .expect("placed");
+        let mut copied = Encoder::<Recorder, 2048>::new(Recorder::default()).expect("encoder");
+        let mut line = vec![0u8; frame.line_bytes()];
+        frame
+            .render(
+                &mut line,
+                &mut flags,
+                &mut Copying(hilcam::link::Stream {
+                    enc: &mut copied,
+                    start,
+                }),
+            )
+            .expect("copied");
+        let (placed, copied) = (placed.into_inner().bytes, copied.into_inner().bytes);
+        assert!(!placed.is_empty());
+        assert!(placed == copied, "{}: the wire bytes differ", path.display());
+    }
+}
+
 /// A message whose CRC is right but whose body is not the canonical
 /// encoding of what it decodes to — bytes after the last field, an
 /// over-long varint — is refused (`bad_message`), as docs/wire.md says;
