@@ -197,6 +197,17 @@ fn encoder_rejects_misuse() {
         Encoder::<Recorder, 0>::new(Recorder::default()),
         Err(LinkError::BufferTooSmall)
     ));
+    // A line rendered in place: no place or commit outside a frame, none
+    // past its last line.
+    let mut enc = Encoder::<Recorder, 64>::new(Recorder::default()).expect("ok");
+    assert!(matches!(enc.next_line(), Err(LinkError::Sequence)));
+    assert_eq!(enc.commit_line(), Err(LinkError::Sequence));
+    enc.begin_frame(header(4, 1, WireFormat::Gray8)).expect("ok");
+    enc.next_line().expect("a place").copy_from_slice(&[5, 6, 7, 8]);
+    enc.commit_line().expect("ok");
+    assert!(matches!(enc.next_line(), Err(LinkError::Sequence)));
+    assert_eq!(enc.commit_line(), Err(LinkError::Sequence));
+    enc.end_frame(None).expect("ok");
 }
 
 /// Link timing models.
