@@ -74,7 +74,8 @@ pub trait FrameSink {
         Ok(None)
     }
     /// Line `y` was rendered where [`FrameSink::place`] said; `flags` as
-    /// for [`FrameSink::line`].
+    /// for [`FrameSink::line`]. A sink that places lines implements this
+    /// (the default does nothing with them).
     fn placed(&mut self, _y: u16, _flags: &[u8]) -> Result<(), Self::Error> {
         Ok(())
     }
