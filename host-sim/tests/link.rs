@@ -311,16 +311,7 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
     let (scene, _, frame, core) =
         host_sim::harness::core_render(&r, &hilcam::planner::Budget::default()).expect("renders");
     let (w, h) = frame.size();
-    let start = FrameStart {
-        version: PROTOCOL_VERSION,
-        frame_id: 9,
-        width: w,
-        height: h,
-        format: WireFormat::from(scene.format),
-        scene_id: 0,
-        exposure: 0,
-        truth: Default::default(),
-    };
+    let start = FrameStart::of(9, 0, &scene, &frame.stages(), 0, None);
     let mut flags = vec![0u8; w as usize];
     // A clock that advances one tick a reading: the adapter reads it
     // before and after each sink call, so each call spans one tick (not
@@ -390,30 +381,14 @@ fn placed_lines_send_the_bytes_copied_lines_do() {
             self.0.end(cost)
         }
     }
-    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes"));
-    let mut scenes: Vec<_> = std::fs::read_dir(dir)
-        .expect("scenes")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    scenes.sort();
+    let scenes = host_sim::hil_cmd::shipped_scenes().expect("scenes");
     assert!(scenes.len() >= 8, "{scenes:?}");
     for path in scenes {
         let r = host_sim::scene_file::load(&path).expect("scene");
         let (scene, _, frame, _) =
             host_sim::harness::core_render(&r, &hilcam::planner::Budget::default()).expect("renders");
-        let (w, h) = frame.size();
-        let start = FrameStart {
-            version: PROTOCOL_VERSION,
-            frame_id: 3,
-            width: w,
-            height: h,
-            format: WireFormat::from(scene.format),
-            scene_id: 0,
-            exposure: 0,
-            truth: Default::default(),
-        };
-        let mut flags = vec![0u8; w as usize];
+        let start = FrameStart::of(3, 0, &scene, &frame.stages(), 0, None);
+        let mut flags = vec![0u8; frame.size().0 as usize];
         let mut placed = Encoder::<Recorder, 2048>::new(Recorder::default()).expect("encoder");
         frame
             .render(
