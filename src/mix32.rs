@@ -74,7 +74,7 @@
 
 use crate::num::{clz32, clz64, umul16, umul16_words, ARMV6M};
 use crate::render::from_acc;
-use crate::render::{LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
+use crate::render::{Carry, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::sampling::Corners;
 use crate::scalar::shr_sat;
 use crate::scene::{PixelFormat, Q};
@@ -1348,6 +1348,25 @@ impl Ray {
 /// The chunk buffer of rays.
 struct Rays([Ray; CHUNK]);
 
+/// A chunk's rays and pixel words (and flags), kept from line to line
+/// ([`Carry`]) by the one-sample loops ([`Mix32::line_f`]; the aperture
+/// loop's chief rays): zeroed once a frame, not once a line — 1.4 KB a
+/// line, 3.6 M3 instructions a pixel of the standard scene. Every entry a
+/// chunk reads it writes first.
+#[derive(Default)]
+pub struct ChunkBufs {
+    rays: Rays,
+    words: [u16; CHUNK],
+    fl: [u8; CHUNK],
+}
+
+impl core::fmt::Debug for ChunkBufs {
+    /// Scratch: nothing to show.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("ChunkBufs")
+    }
+}
+
 impl Default for Rays {
     /// All zero (every ray is filled before it is read): a zeroed buffer
     /// rather than [`Ray::OUTSIDE`] built and copied in, per line (4 M3
@@ -2257,8 +2276,8 @@ impl Mix32 {
     /// inlined here and into [`Mix32::line_v3`]: two copies of them, one
     /// built for x86-64-v3 processors.
     #[cfg_attr(target_arch = "x86_64", inline(never))]
-    pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
-        self.line_any::<L>(j, pixels, flags, corners)
+    pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
+        self.line_any::<L>(j, pixels, flags, carry)
     }
 
     /// [`Mix32::line`] built for x86-64-v3 processors (AVX2, BMI1, BMI2,
@@ -2270,24 +2289,28 @@ impl Mix32 {
     /// Call only on a processor with those features.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
-    pub fn line_v3<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
-        self.line_any::<L>(j, pixels, flags, corners)
+    pub fn line_v3<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
+        self.line_any::<L>(j, pixels, flags, carry)
     }
 
     /// [`Mix32::line`]'s dispatch to the frame's loop.
     #[inline(always)]
-    fn line_any<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], corners: &mut Corners) {
+    fn line_any<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
+        // (The sampled loop keeps its own chunk buffers.)
+        let (corners, buf) = (&mut carry.corners, &mut carry.chunk);
         match self.line_loop() {
             LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
-                self.line_f::<L, 1, true>(j, pixels, flags)
+                self.line_f::<L, 1, true>(j, pixels, flags, buf)
             }
             LineLoop::FastRgbPerspective if L::FAST_RGB_PERSPECTIVE => {
-                self.line_f::<L, 3, true>(j, pixels, flags)
+                self.line_f::<L, 3, true>(j, pixels, flags, buf)
             }
             LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => {
-                self.line_f::<L, 1, false>(j, pixels, flags)
+                self.line_f::<L, 1, false>(j, pixels, flags, buf)
             }
-            LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => self.line_f::<L, 3, false>(j, pixels, flags),
+            LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => {
+                self.line_f::<L, 3, false>(j, pixels, flags, buf)
+            }
             LineLoop::FastGrayPerspectiveSampled if L::FAST_GRAY_PERSPECTIVE_SAMPLED => {
                 self.sampled::<L, 1, true>(j, pixels, flags, corners)
             }
@@ -2300,8 +2323,8 @@ impl Mix32 {
             LineLoop::FastRgbParallelSampled if L::FAST_RGB_PARALLEL_SAMPLED => {
                 self.sampled::<L, 3, false>(j, pixels, flags, corners)
             }
-            LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<L, 1>(j, pixels, flags),
-            LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<L, 3>(j, pixels, flags),
+            LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<L, 1>(j, pixels, flags, buf),
+            LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<L, 3>(j, pixels, flags, buf),
             _ => {}
         }
     }
@@ -2361,6 +2384,7 @@ impl Mix32 {
         j: u16,
         pixels: &mut [u8],
         flags: &mut [u8],
+        buf: &mut ChunkBufs,
     ) {
         let w = self.width as usize;
         let b = self.format.bytes_per_pixel();
@@ -2374,9 +2398,7 @@ impl Mix32 {
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let noise = self.noise.as_ref();
-        let mut rays = Rays::default();
-        let mut words = [0u16; CHUNK];
-        let mut fl = [0u8; CHUNK];
+        let ChunkBufs { rays, words, fl } = buf;
         // The index of the line's first pixel in the frame (the noise's key).
         let line = j as u32 * self.width as u32;
         // Columns `w − half ..` take the rays of columns `.. half` mirrored.
@@ -2754,7 +2776,13 @@ impl Mix32 {
     /// mean of the `m` sums is exact (`m` a power of two), rounded once.
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     #[cfg_attr(target_arch = "x86_64", inline(always))]
-    fn line_d<L: Lines, const C: usize>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) {
+    fn line_d<L: Lines, const C: usize>(
+        &self,
+        j: u16,
+        pixels: &mut [u8],
+        flags: &mut [u8],
+        buf: &mut ChunkBufs,
+    ) {
         let Some(ap) = self.aperture else {
             return;
         };
@@ -2769,8 +2797,10 @@ impl Mix32 {
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let noise = self.noise.as_ref();
-        let (mut chief, mut rays) = (Rays::default(), Rays::default());
-        let mut words = [0u16; CHUNK];
+        let ChunkBufs {
+            rays: chief, words, ..
+        } = buf;
+        let mut rays = Rays::default();
         let mut index = j as u32 * self.width as u32;
         for (pixels, flags) in chunks(pixels, flags, b) {
             let (Some(chief), Some(rays)) = (chief.first(flags.len()), rays.first(flags.len())) else {
@@ -2927,6 +2957,8 @@ impl Mix32 {
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let noise = self.noise.as_ref();
+        // Its own (the carried ones cost calibration-board 8 M3
+        // instructions a pixel more: registers).
         let mut rays = Rays::default();
         let mut words = [0u16; CHUNK];
         // Per pixel of the chunk, the key its right corners share (adaptive

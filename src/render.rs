@@ -53,6 +53,29 @@ pub struct FrameInfo {
     pub format: PixelFormat,
 }
 
+/// What a frame's lines, rendered in order, pass from one to the next
+/// ([`Frame::render_line_in`]; [`Frame::render_carried`] holds one a
+/// frame): the sampled loop's corner keys and, with the fast arithmetic,
+/// its chunk buffers ([`crate::mix32::ChunkBufs`]).
+#[derive(Debug)]
+pub struct Carry<'a> {
+    pub(crate) corners: Corners<'a>,
+    #[cfg(feature = "mix32")]
+    pub(crate) chunk: crate::mix32::ChunkBufs,
+}
+
+impl<'a> Carry<'a> {
+    /// A carry for a new frame, with `keys` for the corner keys
+    /// ([`Corners::new`]).
+    pub fn new(keys: &'a mut [u64]) -> Carry<'a> {
+        Carry {
+            corners: Corners::new(keys),
+            #[cfg(feature = "mix32")]
+            chunk: Default::default(),
+        }
+    }
+}
+
 /// Receives a rendered frame: [`FrameSink::begin`], every line in order,
 /// [`FrameSink::end`]. The link's [`crate::link::Stream`], the host's
 /// collectors and the timing adapter [`Timed`] are sinks.
@@ -1099,23 +1122,23 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         pixels: &mut [u8],
         flags: &mut [u8],
     ) -> Result<(), RenderError> {
-        self.render_line_in::<L>(j, pixels, flags, &mut Corners::new(&mut []))
+        self.render_line_in::<L>(j, pixels, flags, &mut Carry::new(&mut []))
     }
 
-    /// [`Frame::render_line_with`] with the sampled loop's corner keys
-    /// carried in `corners` from the line before (the same frame's line
-    /// `j − 1`, rendered with them): the same bytes, with one row of
-    /// corners traced instead of two.
+    /// [`Frame::render_line_with`] with what the line before (the same
+    /// frame's line `j − 1`, rendered with `carry`) left in `carry`: the
+    /// same bytes, with one row of the sampled loop's corners traced
+    /// instead of two.
     pub fn render_line_in<L: Lines>(
         &self,
         j: u16,
         pixels: &mut [u8],
         flags: &mut [u8],
-        corners: &mut Corners,
+        carry: &mut Carry,
     ) -> Result<(), RenderError> {
-        // Only the fast arithmetic's sampled loop carries them.
+        // Only the fast arithmetic's loops use it.
         #[cfg(not(feature = "mix32"))]
-        let _ = corners;
+        let _ = carry;
         self.check_buffers(pixels, flags)?;
         if !self.line_built::<L>() {
             return Err(RenderError::NotBuilt);
@@ -1124,7 +1147,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         // not compiled in.
         match (&self.path, self.line_loop()) {
             #[cfg(feature = "mix32")]
-            (Path::Fast(m), _) => m.line::<L>(j, pixels, flags, corners),
+            (Path::Fast(m), _) => m.line::<L>(j, pixels, flags, carry),
             // Through the aperture, a sample's chief ray is a pinhole ray:
             // one loop for both (a third copy would cost flash).
             (Path::Wide(w), LineLoop::WidePerspective) if L::WIDE_PERSPECTIVE => {
@@ -1173,7 +1196,9 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     /// [`Frame::render_with`] carrying the sampled loop's corner keys from
     /// line to line in `keys` ([`Corners`]: `width + 1` words; shorter,
     /// unused): the same frame, one row of corners traced a line instead
-    /// of two.
+    /// of two. Out of line: its [`Carry`] (1.4 KB) is on the stack only
+    /// while the frame renders, not while its caller prepares the next.
+    #[inline(never)]
     pub fn render_carried<L: Lines, K: FrameSink>(
         &self,
         pixels: &mut [u8],
@@ -1181,12 +1206,12 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         keys: &mut [u64],
         sink: &mut K,
     ) -> Result<(), FrameError<K::Error>> {
-        let mut corners = Corners::new(keys);
+        let mut carry = Carry::new(keys);
         if !self.line_built::<L>() {
             return Err(FrameError::Render(RenderError::NotBuilt));
         }
         self.render_each(pixels, flags, sink, |j, p, f| {
-            self.render_line_in::<L>(j, p, f, &mut corners)
+            self.render_line_in::<L>(j, p, f, &mut carry)
         })
     }
 
@@ -1242,7 +1267,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
     pub fn render_line_v3(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
-        self.render_line_v3_in(j, pixels, flags, &mut Corners::new(&mut []))
+        self.render_line_v3_in(j, pixels, flags, &mut Carry::new(&mut []))
     }
 
     /// [`Frame::render_carried`] (every loop) with the loops of
@@ -1260,9 +1285,9 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         keys: &mut [u64],
         sink: &mut K,
     ) -> Result<(), FrameError<K::Error>> {
-        let mut corners = Corners::new(keys);
+        let mut carry = Carry::new(keys);
         self.render_each(pixels, flags, sink, |j, p, f| {
-            self.render_line_v3_in(j, p, f, &mut corners)
+            self.render_line_v3_in(j, p, f, &mut carry)
         })
     }
 
@@ -1275,15 +1300,15 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         j: u16,
         pixels: &mut [u8],
         flags: &mut [u8],
-        corners: &mut Corners,
+        carry: &mut Carry,
     ) -> Result<(), RenderError> {
         #[cfg(feature = "mix32")]
         if let Path::Fast(m) = &self.path {
             self.check_buffers(pixels, flags)?;
-            m.line_v3::<AllLines>(j, pixels, flags, corners);
+            m.line_v3::<AllLines>(j, pixels, flags, carry);
             return Ok(());
         }
-        self.render_line_in::<AllLines>(j, pixels, flags, corners)
+        self.render_line_in::<AllLines>(j, pixels, flags, carry)
     }
 }
 

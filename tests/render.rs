@@ -556,8 +556,8 @@ fn a_fast_frame_whose_lobe_is_left_out_is_refused() {
 /// buffer too short for the frame, come out as rendered alone.
 #[test]
 fn carried_corner_keys_serve_only_the_next_line() {
+    use hilcam::render::Carry;
     use hilcam::render::{AllLines, LineLoop};
-    use hilcam::sampling::Corners;
     let s = scene("calibration-board").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
     let frame = Frame::new(&s, &p.options).expect("frame");
@@ -575,12 +575,12 @@ fn carried_corner_keys_serve_only_the_next_line() {
         ((0..h).collect(), w as usize),
     ] {
         let mut keys = vec![0u64; len];
-        let mut corners = Corners::new(&mut keys);
+        let mut carry = Carry::new(&mut keys);
         let mut out = vec![0u8; lb * h as usize];
         for j in order {
             let line = &mut out[lb * j as usize..lb * (j as usize + 1)];
             frame
-                .render_line_in::<AllLines>(j, line, &mut flags, &mut corners)
+                .render_line_in::<AllLines>(j, line, &mut flags, &mut carry)
                 .expect("renders");
         }
         assert_eq!(out, alone.pixels);
