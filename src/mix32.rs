@@ -1139,19 +1139,22 @@ const _: () = assert!(CHUNK <= 32);
 /// `Ray::t` of a ray that has hit nothing yet.
 const NO_HIT: i32 = i32::MAX;
 
-/// A perspective ray's `oy` before [`closed_term`] keeps a part of `|q|²`
-/// there (whose high word is below 2³⁰).
-const NO_YZ: i32 = -1;
+/// A perspective ray's `oy` before [`closed_term`] keeps its mirror's
+/// `|q|²` there (whose high word is below 2³⁰).
+const NO_Q2: i32 = -1;
 
-/// Whether a ray of the one-sample loop keeps, for its mirror, the part of
-/// its `|q|²` to a point light on the closed plane that the two share
-/// ([`closed_term`]): on the M0, where it is three 64-bit products of
-/// 16-bit ones, and on the x86-64 host (1080p standard 39.2–40.2 →
-/// 40.7–41.0 frames/s on 2 threads, 20.5–20.6 → 21.1 on one: three
-/// interleaved runs of `host-sim throughput`). Not on the M3/M4F, where
-/// the products are one `SMULL` each: kept there, standard took 310 M3
-/// instructions a pixel against 297, low-light 541 against 531.
-const KEEP_YZ: bool = ARMV6M || cfg!(target_arch = "x86_64");
+/// Whether a ray of the one-sample loop keeps, for its mirror, the mirror's
+/// `|q|²` to a point light on the closed plane ([`closed_term`]; the two
+/// share `w`, `q_y`, `q_z` and the products of `q_x`): on the M0, where a
+/// product is four 16-bit ones, and on the x86-64 host. Not on the M3/M4F,
+/// where the products are one `SMULL` each: the part of `|q|²` the two
+/// share kept there, standard took 310 M3 instructions a pixel against
+/// 297, low-light 541 against 531. (Until f1fd1e5 the ray kept that part,
+/// `q_y² + q_z²`; the whole `|q|²` took the M0's standard scene 867.8 →
+/// 854.9 and low-light 1 441.4 → 1 425.4, and the host's 1080p standard
+/// 28.8–29.1 → 29.4–29.6 frames/s on one thread: three interleaved runs of
+/// `host-sim throughput`.)
+const KEEP_Q2: bool = ARMV6M || cfg!(target_arch = "x86_64");
 
 /// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
 /// [`NO_HIT`].
@@ -1199,8 +1202,8 @@ struct Ray {
     x: i32,
     y: i32,
     /// Parallel rays' origin, S18 U. A perspective ray has none: where
-    /// [`KEEP_YZ`], [`closed_term`] keeps there, as the low and high words,
-    /// the part of its `|q|²` that its mirror shares (`oy` is [`NO_YZ`]
+    /// [`KEEP_Q2`], [`closed_term`] keeps there, as the low and high words,
+    /// its mirror's `|q|²` (`oy` is [`NO_Q2`]
     /// until then).
     ox: i32,
     oy: i32,
@@ -1246,7 +1249,7 @@ impl Ray {
         let a = (1 << 20) + ((wsq(x) + wsq(y)) >> 32) as i32;
         let ra = NonZeroU32::new(a as u32).map_or((0, 0), recip);
         let (ox, oy) = if PERSP {
-            (0, if KEEP_YZ { NO_YZ } else { 0 })
+            (0, if KEEP_Q2 { NO_Q2 } else { 0 })
         } else {
             // S26 · S24 → S18; |o| ≤ 64 U, checked per frame.
             (((wmul(x, k)) >> 32) as i32, ((wmul(y, k)) >> 32) as i32)
@@ -2650,9 +2653,12 @@ impl Mix32 {
     ) -> u32 {
         let n = c.n;
         let mut left = 0;
-        // With n_x = 0 a ray and its mirror share w, q_y and q_z
-        // (`closed_term`, [`KEEP_YZ`]).
-        let keep = KEEP_YZ && n[0] == 0 && self.mirror;
+        // With n_x = 0 a ray and its mirror share w, q_y and q_z, and the
+        // two products of q_x (`closed_term`, [`KEEP_Q2`]): the chunk's
+        // rays keep their mirrors' |q|², the mirrored chunk's take it.
+        let keep = KEEP_Q2 && n[0] == 0 && self.mirror;
+        // (`step` is 1 for an unmirrored chunk, −1 for a mirrored one.)
+        let store = keep && step == 1;
         // A compile-time constant but in a `compact` build (one copy).
         let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
         for (q, ((r, word), flag)) in rays
@@ -2680,10 +2686,10 @@ impl Mix32 {
                 let mut sum = c.flat;
                 // One light (the common case) without the loop's overhead.
                 match c.lights.as_slice() {
-                    [l] => closed_term::<C>(c, l, r, w, keep, &mut sum),
+                    [l] => closed_term::<C>(c, l, r, w, (keep, store), &mut sum),
                     ls => ls
                         .iter()
-                        .for_each(|l| closed_term::<C>(c, l, r, w, false, &mut sum)),
+                        .for_each(|l| closed_term::<C>(c, l, r, w, (false, false), &mut sum)),
                 }
                 sum
             } else {
@@ -3393,35 +3399,39 @@ fn closed_w(n: [i32; 3], r: &Ray) -> i32 {
 /// Adds point light `l`'s term `kd I h (|w| / |q|)³` to `sum` for ray `r`
 /// on the [`Closed`] plane (`w = n·d`, S24). With `keep` (the frame's only
 /// light, a plane with `n_x = 0` whose rays are mirrored: `w`, `q_y` and
-/// `q_z` are even in `x̂`), `q_y² + q_z²` is kept in the ray for its mirror,
-/// or taken from it: on the Cortex-M0, where it is three 64-bit products.
+/// `q_z` are even in `x̂`, and `q_x`'s two products odd and even), `|q|²`
+/// is taken from the ray if its unmirrored self kept it there, and with
+/// `store` (an unmirrored ray) its mirror's is kept: on the Cortex-M0,
+/// where each product is four 16-bit ones, the mirror makes none.
 #[inline(always)]
 fn closed_term<const C: usize>(
     c: &Closed,
     l: &ClosedLight,
     r: &mut Ray,
     w: i32,
-    keep: bool,
+    (keep, store): (bool, bool),
     sum: &mut [u64; 3],
 ) {
     // q = w P_L − dist d, exact in S50 U (|q| = |w| r ≤ 363 U: |w| ≤ |d| <
     // 23, |P_L| and |dist| ≤ 8 U), then S22 U.
     let q22 = |v: i64| (v >> 28) as i32;
-    let qx = q22(wmul_px(w, l.p26[0]) + wmul_px(c.ndist, r.x));
-    // q_y² + q_z², S44 U² (< 2^62).
-    let yz = if keep && r.oy != NO_YZ {
+    // |q|², S44 U² (< 2^62).
+    let q2 = if keep && r.oy != NO_Q2 {
         ((r.oy as u32 as u64) << 32) | r.ox as u32 as u64
     } else {
+        let (wx, dx) = (wmul_px(w, l.p26[0]), wmul_px(c.ndist, r.x));
+        let qx = q22(wx + dx);
+        // The mirror's: x̂ negated, so q_x's second product (exact).
+        let mx = if store { q22(wx - dx) } else { 0 };
         let qy = q22(wmul_px(w, l.p26[1]) + wmul_px(c.ndist, r.y));
         let qz = q22(wmul_px(w, l.p26[2]) + c.ndist50);
         let yz = wsq(qy) + wsq(qz);
-        if keep {
-            (r.ox, r.oy) = (yz as u32 as i32, (yz >> 32) as i32);
+        if store {
+            let m = wsq(mx) + yz;
+            (r.ox, r.oy) = (m as u32 as i32, (m >> 32) as i32);
         }
-        yz
+        wsq(qx) + yz
     };
-    // |q|², S44 U² (< 2^62).
-    let q2 = wsq(qx) + yz;
     if q2 == 0 {
         return;
     }
