@@ -586,3 +586,38 @@ fn carried_corner_keys_serve_only_the_next_line() {
         assert_eq!(out, alone.pixels);
     }
 }
+
+/// A [`hilcam::render::Carry`] holds the fast loops' chunk buffers from
+/// line to line (zeroed once, not once a line): every entry a chunk reads
+/// it writes first, so one carry kept across every shipped scene's frame
+/// in turn (wider and narrower, other formats and loops), lines bottom to
+/// top, gives the bytes a fresh render does.
+#[test]
+fn one_carry_across_frames_and_lines_changes_no_byte() {
+    use hilcam::render::{AllLines, Carry};
+    let mut carry = Carry::new(&mut []);
+    for path in host_sim::hil_cmd::shipped_scenes().expect("scenes") {
+        let s = load(&path).expect("loads").core_scene().expect("valid");
+        let frame = Frame::new(&s, &plan(&s, &Budget::default()).options).expect("frame");
+        let alone = host_sim::harness::collect(&frame).expect("renders");
+        let (w, h) = frame.size();
+        let lb = frame.line_bytes();
+        let (mut out, mut flags) = (
+            vec![0xA5u8; lb * h as usize],
+            vec![0xA5u8; w as usize * h as usize],
+        );
+        for j in (0..h).rev() {
+            let (j0, j1) = (j as usize, j as usize + 1);
+            frame
+                .render_line_in::<AllLines>(
+                    j,
+                    &mut out[lb * j0..lb * j1],
+                    &mut flags[w as usize * j0..w as usize * j1],
+                    &mut carry,
+                )
+                .expect("renders");
+        }
+        assert_eq!(out, alone.pixels, "{}", path.display());
+        assert_eq!(flags, alone.flags, "{}", path.display());
+    }
+}
