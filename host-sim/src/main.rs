@@ -627,6 +627,21 @@ fn main() -> ExitCode {
             };
             let (w, h) = s.camera.intrinsics.size();
             let px = w as f64 * h as f64;
+            // The plan, named: a scene scaled up may plan a grid or the
+            // aperture (a blur circle is more pixels), a far slower loop.
+            let p0 = hilcam::planner::plan(&s, &budget);
+            let o = &p0.options;
+            let mut plan = p0
+                .candidates
+                .get(p0.chosen)
+                .map_or_else(|| "?".to_string(), |c| c.name().to_string());
+            if o.samples > 1 {
+                let rule = if o.adaptive { " adaptive" } else { "" };
+                plan.push_str(&format!(", {n}x{n} grid{rule}", n = o.samples));
+            }
+            if o.aperture > 0 {
+                plan.push_str(&format!(", {} aperture points", o.aperture));
+            }
             let (par, arith) = time(true)?;
             let loops = if host_sim::harness::x86_64_v3() {
                 "x86-64-v3"
@@ -635,8 +650,8 @@ fn main() -> ExitCode {
             };
             let (one, _) = time(false)?;
             Ok(format!(
-                "{} {w}x{h} ({arith} arithmetic, {loops} loops): {:.1} frames/s, {:.1} ns/pixel on {} threads; \
-                 {:.1} frames/s, {:.1} ns/pixel on one (median of {frames} frames; plan + prepare + render)",
+                "{} {w}x{h} (plan {plan}; {arith} arithmetic, {loops} loops): {:.1} frames/s, {:.1} ns/pixel on {} \
+                 threads; {:.1} frames/s, {:.1} ns/pixel on one (median of {frames} frames; plan + prepare + render)",
                 r.desc.name,
                 1.0 / par,
                 par / px * 1e9,
