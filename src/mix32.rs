@@ -1149,7 +1149,8 @@ const NO_Q2: i32 = -1;
 /// product is four 16-bit ones, and on the x86-64 host. Not on the M3/M4F,
 /// where the products are one `SMULL` each: the part of `|q|²` the two
 /// share kept there, standard took 310 M3 instructions a pixel against
-/// 297, low-light 541 against 531. (Until f1fd1e5 the ray kept that part,
+/// 297, low-light 541 against 531; the whole `|q|²` (at 96df502) 304.4
+/// against 293.0, 536.4 against 524.7. (Until f1fd1e5 the ray kept that part,
 /// `q_y² + q_z²`; the whole `|q|²` took the M0's standard scene 867.8 →
 /// 854.9 and low-light 1 441.4 → 1 425.4, and the host's 1080p standard
 /// 28.8–29.1 → 29.4–29.6 frames/s on one thread: three interleaved runs of
