@@ -744,12 +744,7 @@ impl<W: embedded_io::Write, const CHUNK: usize> Encoder<W, CHUNK> {
     /// sent first if the line would not fit): a renderer writes the line
     /// there, then [`Encoder::commit_line`] adds it — no copy of it.
     pub fn next_line(&mut self) -> Result<&mut [u8], LinkError<W::Error>> {
-        let Some(f) = self.frame else {
-            return Err(LinkError::Sequence);
-        };
-        if self.line >= f.height {
-            return Err(LinkError::Sequence);
-        }
+        let f = self.open_line()?;
         if self.fill + f.line_bytes > CHUNK {
             self.flush_chunk()?;
         }
@@ -758,14 +753,17 @@ impl<W: embedded_io::Write, const CHUNK: usize> Encoder<W, CHUNK> {
             .ok_or(LinkError::LineTooLong)
     }
 
+    /// The open frame, if it has a line still to come.
+    fn open_line(&self) -> Result<Open, LinkError<W::Error>> {
+        match self.frame {
+            Some(f) if self.line < f.height => Ok(f),
+            _ => Err(LinkError::Sequence),
+        }
+    }
+
     /// Adds the line written where [`Encoder::next_line`] said.
     pub fn commit_line(&mut self) -> Result<(), LinkError<W::Error>> {
-        let Some(f) = self.frame else {
-            return Err(LinkError::Sequence);
-        };
-        if self.line >= f.height {
-            return Err(LinkError::Sequence);
-        }
+        let f = self.open_line()?;
         let line = self
             .chunk
             .get(self.fill..self.fill + f.line_bytes)

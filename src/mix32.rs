@@ -1146,15 +1146,14 @@ const NO_Q2: i32 = -1;
 /// Whether a ray of the one-sample loop keeps, for its mirror, the mirror's
 /// `|q|²` to a point light on the closed plane ([`closed_term`]; the two
 /// share `w`, `q_y`, `q_z` and the products of `q_x`): on the M0, where a
-/// product is four 16-bit ones, and on the x86-64 host. Not on the M3/M4F,
-/// where the products are one `SMULL` each: the part of `|q|²` the two
-/// share kept there, standard took 310 M3 instructions a pixel against
-/// 297, low-light 541 against 531; the whole `|q|²` (at 96df502) 304.4
-/// against 293.0, 536.4 against 524.7. (Until f1fd1e5 the ray kept that part,
-/// `q_y² + q_z²`; the whole `|q|²` took the M0's standard scene 867.8 →
-/// 854.9 and low-light 1 441.4 → 1 425.4, and the host's 1080p standard
-/// 28.8–29.1 → 29.4–29.6 frames/s on one thread: three interleaved runs of
-/// `host-sim throughput`.)
+/// product is four 16-bit ones, and on the x86-64 host. Kept rather than
+/// `q_y² + q_z²` alone (as before 96df502): the M0's standard scene 867.8
+/// → 854.9 instructions a pixel, low-light 1 441.4 → 1 425.4; the host's
+/// 1080p standard 28.8–29.1 → 29.4–29.6 frames/s on one thread (three
+/// interleaved runs of `host-sim throughput`). Not on the M3/M4F, where
+/// the products are one `SMULL` each and the registers the keeping takes
+/// cost more: kept there, standard measured 304.4 against 293.0,
+/// low-light 536.4 against 524.7.
 const KEEP_Q2: bool = ARMV6M || cfg!(target_arch = "x86_64");
 
 /// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
@@ -1204,8 +1203,7 @@ struct Ray {
     y: i32,
     /// Parallel rays' origin, S18 U. A perspective ray has none: where
     /// [`KEEP_Q2`], [`closed_term`] keeps there, as the low and high words,
-    /// its mirror's `|q|²` (`oy` is [`NO_Q2`]
-    /// until then).
+    /// its mirror's `|q|²` (`oy` is [`NO_Q2`] until then).
     ox: i32,
     oy: i32,
     /// `a = d·d`, S20, and `1/a = r 2^(z − 62)` as `(r, z)`.
@@ -2807,6 +2805,8 @@ impl Mix32 {
         let ChunkBufs {
             rays: chief, words, ..
         } = buf;
+        // Its own rays (the carried ones instead of the chief rays:
+        // shallow-dof −307 M3 instructions a pixel but +208 on the M4F).
         let mut rays = Rays::default();
         let mut index = j as u32 * self.width as u32;
         for (pixels, flags) in chunks(pixels, flags, b) {

@@ -596,7 +596,9 @@ fn carried_corner_keys_serve_only_the_next_line() {
 fn one_carry_across_frames_and_lines_changes_no_byte() {
     use hilcam::render::{AllLines, Carry};
     let mut carry = Carry::new(&mut []);
-    for path in host_sim::hil_cmd::shipped_scenes().expect("scenes") {
+    let scenes = host_sim::hil_cmd::shipped_scenes().expect("scenes");
+    assert!(scenes.len() >= 8, "{scenes:?}");
+    for path in scenes {
         let s = load(&path).expect("loads").core_scene().expect("valid");
         let frame = Frame::new(&s, &plan(&s, &Budget::default()).options).expect("frame");
         let alone = host_sim::harness::collect(&frame).expect("renders");
