@@ -918,6 +918,68 @@ impl Frame<Q> {
     }
 }
 
+/// The fast arithmetic's entry points built for one x86-64 level (its
+/// name, features in words, `target_feature` list, then `Mix32`'s line of
+/// that level and the three functions' names): [`Frame::render_line`],
+/// [`Frame::render_carried`] and the line both call. The same bytes as the
+/// baseline build (integer arithmetic; host-sim's tests compare every
+/// shipped scene at every level the processor has); the wide arithmetic's
+/// loops are the baseline's. The caller checks the processor (host-sim's
+/// `harness::x86_level`).
+macro_rules! x86_entry_points {
+    ($level:literal, $words:literal, $features:literal, $mix:ident, $line:ident, $carried:ident, $line_in:ident) => {
+        #[doc = concat!(
+                    "[`Frame::render_line`] with the fast arithmetic's loops built for ",
+                    $level, " processors.\n\n# Safety\n\nCall only on a processor with ",
+                    $level, "'s features (", $words, ")."
+                )]
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        pub fn $line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
+            self.$line_in(j, pixels, flags, &mut Carry::new(&mut []))
+        }
+
+        #[doc = concat!(
+                    "[`Frame::render_carried`] (every loop) with the fast loops built for ",
+                    $level, ".\n\n# Safety\n\nCall only on a processor with ", $level, "'s features."
+                )]
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        pub fn $carried<K: FrameSink>(
+            &self,
+            pixels: &mut [u8],
+            flags: &mut [u8],
+            keys: &mut [u64],
+            sink: &mut K,
+        ) -> Result<(), FrameError<K::Error>> {
+            let mut carry = Carry::new(keys);
+            self.render_each(pixels, flags, sink, |j, p, f| {
+                self.$line_in(j, p, f, &mut carry)
+            })
+        }
+
+        /// [`Frame::render_line_in`] (every loop) with the fast loops of
+        /// this level.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $line_in(
+            &self,
+            j: u16,
+            pixels: &mut [u8],
+            flags: &mut [u8],
+            carry: &mut Carry,
+        ) -> Result<(), RenderError> {
+            #[cfg(feature = "mix32")]
+            if let Path::Fast(m) = &self.path {
+                self.check_buffers(pixels, flags)?;
+                m.$mix::<AllLines>(j, pixels, flags, carry);
+                return Ok(());
+            }
+            self.render_line_in::<AllLines>(j, pixels, flags, carry)
+        }
+    };
+}
+
 impl<S: Scalar, const T: usize> Frame<S, T> {
     /// Prepares `scene` for rendering with `opts`, per-pixel values in `S`.
     pub fn build(scene: &Scene, opts: &Options) -> Result<Frame<S, T>, RenderError> {
@@ -1253,63 +1315,24 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         sink.end(None).map_err(FrameError::Sink)
     }
 
-    /// [`Frame::render_line`] with the fast arithmetic's loops built for
-    /// x86-64-v3 processors ([`crate::mix32::Mix32::line_v3`]; the wide
-    /// arithmetic's are the baseline's). The same bytes (integer
-    /// arithmetic; host-sim's tests compare every shipped scene). The
-    /// caller checks that the processor has them (host-sim's
-    /// `harness::x86_64_v3`).
-    ///
-    /// # Safety
-    ///
-    /// Call only on a processor with x86-64-v3's features (AVX2, BMI1,
-    /// BMI2, FMA, LZCNT, MOVBE, POPCNT).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
-    pub fn render_line_v3(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
-        self.render_line_v3_in(j, pixels, flags, &mut Carry::new(&mut []))
-    }
-
-    /// [`Frame::render_carried`] (every loop) with the loops of
-    /// [`Frame::render_line_v3`].
-    ///
-    /// # Safety
-    ///
-    /// Call only on a processor with x86-64-v3's features.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
-    pub fn render_carried_v3<K: FrameSink>(
-        &self,
-        pixels: &mut [u8],
-        flags: &mut [u8],
-        keys: &mut [u64],
-        sink: &mut K,
-    ) -> Result<(), FrameError<K::Error>> {
-        let mut carry = Carry::new(keys);
-        self.render_each(pixels, flags, sink, |j, p, f| {
-            self.render_line_v3_in(j, p, f, &mut carry)
-        })
-    }
-
-    /// [`Frame::render_line_in`] (every loop) with the loops of
-    /// [`Frame::render_line_v3`].
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
-    fn render_line_v3_in(
-        &self,
-        j: u16,
-        pixels: &mut [u8],
-        flags: &mut [u8],
-        carry: &mut Carry,
-    ) -> Result<(), RenderError> {
-        #[cfg(feature = "mix32")]
-        if let Path::Fast(m) = &self.path {
-            self.check_buffers(pixels, flags)?;
-            m.line_v3::<AllLines>(j, pixels, flags, carry);
-            return Ok(());
-        }
-        self.render_line_in::<AllLines>(j, pixels, flags, carry)
-    }
+    x86_entry_points!(
+        "x86-64-v3",
+        "AVX2, BMI1, BMI2, FMA, LZCNT, MOVBE, POPCNT",
+        "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt",
+        line_v3,
+        render_line_v3,
+        render_carried_v3,
+        render_line_v3_in
+    );
+    x86_entry_points!(
+        "x86-64-v4",
+        "x86-64-v3's and AVX-512 F, CD, VL, BW, DQ",
+        "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt,avx512f,avx512cd,avx512vl,avx512bw,avx512dq",
+        line_v4,
+        render_line_v4,
+        render_carried_v4,
+        render_line_v4_in
+    );
 }
 
 /// What the fast path is prepared from, beyond the scene: the wide

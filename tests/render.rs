@@ -338,14 +338,17 @@ fn parallel_host_render_is_byte_identical_with_one_core() {
     }
 }
 
-/// On x86-64 the host renders with the core's loops built for x86-64-v3
-/// where the processor has it (`harness::x86_64_v3`); their bytes and
-/// flags are the baseline build's, on every shipped scene in every format,
-/// with the default (planned) and the wide arithmetic.
+/// On x86-64 the host renders with the core's loops built for the
+/// processor's level (`harness::x86_level`: x86-64-v3, v4); the bytes and
+/// flags of every level it runs are the baseline build's, on every shipped
+/// scene in every format, with the default (planned) and the wide
+/// arithmetic.
 #[test]
-fn the_x86_64_v3_build_renders_the_baseline_bytes() {
-    if !host_sim::harness::x86_64_v3() {
-        eprintln!("this processor lacks x86-64-v3: both sides are the baseline build");
+fn every_x86_64_level_renders_the_baseline_bytes() {
+    use host_sim::harness::{render_line_at, x86_level};
+    let levels = x86_level().up_to();
+    if levels.len() < 3 {
+        eprintln!("this processor runs {levels:?} only: the others are not compared");
     }
     let mut frames = 0;
     for path in scenes() {
@@ -378,6 +381,16 @@ fn the_x86_64_v3_build_renders_the_baseline_bytes() {
                 let host = host_sim::harness::collect(&frame).expect("host");
                 let one = host_sim::harness::collect_serial(&frame).expect("serial");
                 let what = format!("{} {format:?} {:?}", path.display(), opts.arithmetic);
+                for &level in &levels {
+                    let (mut at, mut at_flags) = (Vec::new(), Vec::new());
+                    for j in 0..h {
+                        render_line_at(level, &frame, j, &mut line, &mut flags).expect("renders");
+                        at.extend_from_slice(&line);
+                        at_flags.extend_from_slice(&flags);
+                    }
+                    assert_eq!(at, pixels, "{what} {level:?}");
+                    assert_eq!(at_flags, all_flags, "{what} {level:?}");
+                }
                 assert_eq!(host.pixels, pixels, "{what}");
                 assert_eq!(host.flags, all_flags, "{what}");
                 assert_eq!(one.pixels, pixels, "{what}");

@@ -302,49 +302,115 @@ pub fn core_render(
     Ok((scene, plan, frame, core))
 }
 
-/// Whether this processor runs the core's loops built for x86-64-v3
-/// ([`Frame::render_line_v3`]: AVX2, BMI1, BMI2, FMA, LZCNT, MOVBE,
-/// POPCNT; Haswell and Zen on). `HILCAM_BASELINE=1` says no: the baseline
-/// build of the same loops.
-pub fn x86_64_v3() -> bool {
+/// A build of the core's fast loops for an x86-64 level
+/// ([`Frame::render_line_v3`], [`Frame::render_line_v4`]): the same bytes at
+/// every level (tests/render.rs compares them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum X86Level {
+    /// The baseline build (any x86-64 processor, and every other host).
+    Baseline,
+    /// x86-64-v3: AVX2, BMI1, BMI2, FMA, LZCNT, MOVBE, POPCNT (Haswell, Zen).
+    V3,
+    /// x86-64-v4: v3 and AVX-512 F, CD, VL, BW, DQ (Skylake-X, Zen 4).
+    V4,
+}
+
+impl X86Level {
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            X86Level::Baseline => "baseline",
+            X86Level::V3 => "x86-64-v3",
+            X86Level::V4 => "x86-64-v4",
+        }
+    }
+
+    /// The levels up to this one, lowest first.
+    pub fn up_to(self) -> Vec<X86Level> {
+        [X86Level::Baseline, X86Level::V3, X86Level::V4]
+            .into_iter()
+            .filter(|l| *l <= self)
+            .collect()
+    }
+}
+
+/// The highest level whose build of the core's loops this processor runs.
+fn processor_level() -> X86Level {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::is_x86_feature_detected as has;
-        static HAS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-        *HAS.get_or_init(|| {
-            std::env::var_os("HILCAM_BASELINE").is_none_or(|v| v != "1")
-                && has!("avx2")
+        static LEVEL: std::sync::OnceLock<X86Level> = std::sync::OnceLock::new();
+        *LEVEL.get_or_init(|| {
+            let v3 = has!("avx2")
                 && has!("bmi1")
                 && has!("bmi2")
                 && has!("fma")
                 && has!("lzcnt")
                 && has!("movbe")
-                && has!("popcnt")
+                && has!("popcnt");
+            let v4 = has!("avx512f")
+                && has!("avx512cd")
+                && has!("avx512vl")
+                && has!("avx512bw")
+                && has!("avx512dq");
+            match (v3, v4) {
+                (true, true) => X86Level::V4,
+                (true, false) => X86Level::V3,
+                _ => X86Level::Baseline,
+            }
         })
     }
     #[cfg(not(target_arch = "x86_64"))]
-    false
+    X86Level::Baseline
+}
+
+/// The level the host renders with: the highest this processor runs,
+/// capped by `HILCAM_X86_LEVEL` (`1`: the baseline build, `3`: at most
+/// x86-64-v3; unset or `4`: no cap).
+pub fn x86_level() -> X86Level {
+    let cap = match std::env::var("HILCAM_X86_LEVEL").as_deref() {
+        Ok("1") => X86Level::Baseline,
+        Ok("3") => X86Level::V3,
+        _ => X86Level::V4,
+    };
+    processor_level().min(cap)
 }
 
 /// [`Frame::render_line`], in the core's loops built for this processor
-/// ([`x86_64_v3`]): the same bytes either way (tests/render.rs compares them).
+/// ([`x86_level`]): the same bytes at every level.
 pub fn render_line<S: Scalar>(
     frame: &Frame<S>,
     j: u16,
     pixels: &mut [u8],
     flags: &mut [u8],
 ) -> Result<(), RenderError> {
+    render_line_at(x86_level(), frame, j, pixels, flags)
+}
+
+/// [`render_line`] at `level`, or the highest below it that the processor
+/// runs.
+pub fn render_line_at<S: Scalar>(
+    level: X86Level,
+    frame: &Frame<S>,
+    j: u16,
+    pixels: &mut [u8],
+    flags: &mut [u8],
+) -> Result<(), RenderError> {
     #[cfg(target_arch = "x86_64")]
-    if x86_64_v3() {
-        // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
-        return unsafe { frame.render_line_v3(j, pixels, flags) };
+    match level.min(processor_level()) {
+        // SAFETY: the processor has the level's features (`processor_level`).
+        X86Level::V4 => return unsafe { frame.render_line_v4(j, pixels, flags) },
+        // SAFETY: as above.
+        X86Level::V3 => return unsafe { frame.render_line_v3(j, pixels, flags) },
+        X86Level::Baseline => {}
     }
+    let _ = level;
     frame.render_line(j, pixels, flags)
 }
 
 /// [`Frame::render_carried`] with every loop (every line through `sink`,
 /// the sampled loop's corner keys carried in `keys`; empty, none), in the
-/// core's loops built for this processor ([`x86_64_v3`]).
+/// core's loops built for this processor ([`x86_level`]).
 pub fn render_carried<S: Scalar, K: FrameSink>(
     frame: &Frame<S>,
     pixels: &mut [u8],
@@ -353,9 +419,13 @@ pub fn render_carried<S: Scalar, K: FrameSink>(
     sink: &mut K,
 ) -> Result<(), FrameError<K::Error>> {
     #[cfg(target_arch = "x86_64")]
-    if x86_64_v3() {
-        // SAFETY: the processor has x86-64-v3's features (`x86_64_v3` asked).
-        return unsafe { frame.render_carried_v3(pixels, flags, keys, sink) };
+    match x86_level() {
+        // SAFETY: the processor has the level's features (`x86_level` is
+        // at most `processor_level`).
+        X86Level::V4 => return unsafe { frame.render_carried_v4(pixels, flags, keys, sink) },
+        // SAFETY: as above.
+        X86Level::V3 => return unsafe { frame.render_carried_v3(pixels, flags, keys, sink) },
+        X86Level::Baseline => {}
     }
     frame.render_carried::<hilcam::render::AllLines, K>(pixels, flags, keys, sink)
 }

@@ -279,8 +279,8 @@ enum Cmd {
     /// Host throughput of the default render (plan, prepare and render
     /// every frame, lines in parallel on every core, as `render` does),
     /// and on one core: frames/s and ns/pixel (medians over the frames),
-    /// with the core's loops built for x86-64-v3 where the processor has
-    /// it (HILCAM_BASELINE=1: the baseline build).
+    /// with the core's loops built for the processor's x86-64 level
+    /// (HILCAM_X86_LEVEL=1 or 3 caps it: the baseline build, x86-64-v3).
     Throughput {
         /// Scene file.
         #[arg(long)]
@@ -643,11 +643,7 @@ fn main() -> ExitCode {
                 plan.push_str(&format!(", {} aperture points", o.aperture));
             }
             let (par, arith) = time(true)?;
-            let loops = if host_sim::harness::x86_64_v3() {
-                "x86-64-v3"
-            } else {
-                "baseline"
-            };
+            let loops = host_sim::harness::x86_level().name();
             let (one, _) = time(false)?;
             Ok(format!(
                 "{} {w}x{h} (plan {plan}; {arith} arithmetic, {loops} loops): {:.1} frames/s, {:.1} ns/pixel on {} \
