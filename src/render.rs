@@ -929,10 +929,10 @@ impl Frame<Q> {
 macro_rules! x86_entry_points {
     ($level:literal, $words:literal, $features:literal, $mix:ident, $line:ident, $carried:ident, $line_in:ident) => {
         #[doc = concat!(
-                    "[`Frame::render_line`] with the fast arithmetic's loops built for ",
-                    $level, " processors.\n\n# Safety\n\nCall only on a processor with ",
-                    $level, "'s features (", $words, ")."
-                )]
+                            "[`Frame::render_line`] with the fast arithmetic's loops built for ",
+                            $level, " processors.\n\n# Safety\n\nCall only on a processor with ",
+                            $level, "'s features (", $words, ")."
+                        )]
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
         pub fn $line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
@@ -940,9 +940,9 @@ macro_rules! x86_entry_points {
         }
 
         #[doc = concat!(
-                    "[`Frame::render_carried`] (every loop) with the fast loops built for ",
-                    $level, ".\n\n# Safety\n\nCall only on a processor with ", $level, "'s features."
-                )]
+                            "[`Frame::render_carried`] (every loop) with the fast loops built for ",
+                            $level, ".\n\n# Safety\n\nCall only on a processor with ", $level, "'s features."
+                        )]
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
         pub fn $carried<K: FrameSink>(
