@@ -3716,7 +3716,8 @@ fn fill_lanes(
 ) -> ([i32; 2], bool) {
     let (mut x, mut y, mut inside) = ([0i32; CHUNK], [yd; CHUNK], [true; CHUNK]);
     for (q, x) in x.iter_mut().enumerate() {
-        *x = ((*acc - q as i64 * dx) >> 32) as i32;
+        // (Wrapping: lanes past the row run on past its ends.)
+        *x = (acc.wrapping_sub((q as i64).wrapping_mul(dx)) >> 32) as i32;
     }
     *acc -= rays.len() as i64 * dx;
     if let Some([k1, k2]) = k {
