@@ -366,13 +366,24 @@ fn processor_level() -> X86Level {
 
 /// The level the host renders with: the highest this processor runs,
 /// capped by `HILCAM_X86_LEVEL` (`1`: the baseline build, `3`: at most
-/// x86-64-v3; unset or `4`: no cap).
+/// x86-64-v3; unset or `4`: no cap; another value is named on stderr once
+/// and caps nothing). Read once a process (a line asks).
 pub fn x86_level() -> X86Level {
-    let cap = match std::env::var("HILCAM_X86_LEVEL").as_deref() {
-        Ok("1") => X86Level::Baseline,
-        Ok("3") => X86Level::V3,
-        _ => X86Level::V4,
-    };
+    static CAP: std::sync::OnceLock<X86Level> = std::sync::OnceLock::new();
+    let cap = *CAP.get_or_init(|| match std::env::var("HILCAM_X86_LEVEL") {
+        Ok(v) if v == "1" => X86Level::Baseline,
+        Ok(v) if v == "3" => X86Level::V3,
+        Ok(v) if v == "4" => X86Level::V4,
+        Err(std::env::VarError::NotPresent) => X86Level::V4,
+        Ok(v) => {
+            eprintln!("HILCAM_X86_LEVEL={v:?}: expected 1, 3 or 4; the level is not capped");
+            X86Level::V4
+        }
+        Err(e) => {
+            eprintln!("HILCAM_X86_LEVEL: {e}; the level is not capped");
+            X86Level::V4
+        }
+    });
     processor_level().min(cap)
 }
 

@@ -38,6 +38,35 @@ fn unknown_subcommand_is_a_clear_error() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("unrecognized subcommand"));
 }
 
+/// `throughput` names the x86-64 level its loops are built for;
+/// `HILCAM_X86_LEVEL=1` runs the baseline build, and a value it does not
+/// know is named on stderr (the level then not capped).
+#[test]
+fn throughput_names_its_level_and_the_cap_it_does_not_know() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/standard.toml");
+    let run = |level: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .args(["throughput", "--scene", scene, "--frames", "1"])
+            .env("HILCAM_X86_LEVEL", level)
+            .output()
+            .expect("runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        (
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (text, err) = run("1");
+    assert!(text.contains("baseline loops"), "{text}");
+    assert!(!err.contains("HILCAM_X86_LEVEL"), "{err}");
+    let (text, err) = run("v3");
+    assert!(text.contains(" loops)"), "{text}");
+    assert!(
+        err.contains("HILCAM_X86_LEVEL=\"v3\": expected 1, 3 or 4"),
+        "{err}"
+    );
+}
+
 /// The speed/accuracy sweep runs on a tiny configuration (host only) and
 /// writes its three files with the keys the report promises.
 #[test]
