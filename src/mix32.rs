@@ -3492,18 +3492,19 @@ fn closed_term<const C: usize>(
 /// the x86-64 host: each step a loop over the chunk (32 lanes; those past
 /// the chunk's rays compute on zeros and are not read) that the compiler
 /// vectorizes, with the scalar loop's integer operations — the same bits
-/// ([`closed_term`], [`cube_over`], [`Pf::mul_to_sum`], [`vignette_dn`];
-/// the test `closed_lanes_are_closed_run`). `(bg, dn_max)`: the
-/// background's sum and the channel's full scale. (Written out branch-free:
-/// calling those functions, whose branches keep the compiler from
-/// vectorizing, the 1080p standard scene measured 59 frames/s against 89
-/// on x86-64-v4, `host-sim throughput`.) In the builds for
-/// x86-64-v3 and v4 ([`Mix32::line_v3`], [`Mix32::line_v4`]; v4's
-/// AVX-512 vectorizes the counts of leading zeros and the seed's lookup
-/// too; they have loops of their own, which AVX2 leaves scalar while it
-/// vectorizes the products around them: in one loop with them, v3's
-/// 1080p standard measured 64.0–66.9 frames/s against 71.5–72.6). The boards run the scalar loop (no vector unit; its registers
-/// hold a ray's terms), and so does the baseline x86-64 build.
+/// (the test `closed_lanes_are_closed_run`). `(bg, dn_max)`: the
+/// background's sum and the channel's full scale. [`Cube::times`] and
+/// [`vignette_dn`] are called as they are; [`closed_term`]'s products
+/// and [`cube_over`] are written out, branch-free and in steps: calling
+/// `cube_over` under the test of `w`, the 1080p standard scene measured
+/// 59 frames/s against 89 on x86-64-v4 (`host-sim throughput`). In the
+/// builds for x86-64-v3 and v4 ([`Mix32::line_v3`], [`Mix32::line_v4`];
+/// v4's AVX-512 vectorizes the counts of leading zeros and the seed's
+/// lookup too; they have loops of their own, which AVX2 leaves scalar
+/// while it vectorizes the products around them: in one loop with them,
+/// v3's 1080p standard measured 64.0–66.9 frames/s against 71.5–72.6).
+/// The boards run the scalar loop (no vector unit; its registers hold a
+/// ray's terms), and so does the baseline x86-64 build.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn closed_lanes(
@@ -3567,20 +3568,9 @@ fn closed_lanes(
     }
     // The pixel's sum, vignetted, rounded and capped (`Cube::times`,
     // `vignette_dn`).
-    let (km, ke) = (l.k[0].m, l.k[0].e);
     let mut dn = [0u16; CHUNK];
     for q in 0..CHUNK {
-        let p = ((km as u64 * cm[q] as u64) >> 32) as u32;
-        let s = ke + ce[q] + 15 + 32;
-        let term = if s <= 0 {
-            p.checked_shr(s.unsigned_abs()).unwrap_or(0) as u64
-        } else if s <= 15 {
-            (p as u64) << s
-        } else if p == 0 {
-            0
-        } else {
-            SUM_CAP
-        };
+        let term = Cube { m: cm[q], e: ce[q] }.times(l.k[0]);
         let wq = w[q];
         let sum = if wq != 0 && (wq ^ dist) >= 0 {
             if q2[q] == 0 {
@@ -3591,9 +3581,7 @@ fn closed_lanes(
         } else {
             bg
         };
-        let (hi, lo, k4) = ((sum >> 32) as u32, sum as u32, c4[q]);
-        let v = (hi as u64 * k4 as u64 + ((lo as u64 * k4 as u64 + (1 << 45)) >> 32)) >> 14;
-        dn[q] = v.min(dn_max) as u16;
+        dn[q] = vignette_dn(sum, c4[q]).min(dn_max) as u16;
     }
     let mut left = 0;
     for (q, ((r, word), flag)) in rays
@@ -3764,8 +3752,7 @@ fn fill_lanes(
         let vr = ((dq * (sq << 16)) >> 32) as u32;
         r[q] = (((1u32 << 31).wrapping_sub(vr) as u64 * sq) >> 14) as u32;
         if vignette {
-            let inv = r[q] >> 11u32.saturating_sub(z[q]);
-            c4[q] = ((inv as u64 * inv as u64) >> 31) as u32;
+            c4[q] = cos4((r[q], z[q]));
         }
     }
     let (mut y0, mut y1, mut outside) = (i32::MAX, i32::MIN, false);
