@@ -1004,6 +1004,8 @@ struct Closed {
     /// The plane's index among the primitives (its pass is not run:
     /// [`Mix32::passes`]).
     index: u8,
+    /// [`crate::render::Options::closed_mean`] ([`Mix32::closed_run`]).
+    mean: bool,
     /// Unit normal, S30; `dist`, S24 U; `−dist`, S24 U and S50 U.
     n: [i32; 3],
     dist: i32,
@@ -1716,6 +1718,8 @@ pub(crate) struct Input<'a> {
     pub aperture: u16,
     /// The principal point is the sensor's centre (`o_x = (W − 1)/2`).
     pub centred: bool,
+    /// [`crate::render::Options::closed_mean`].
+    pub closed_mean: bool,
 }
 
 impl Input<'_> {
@@ -2152,6 +2156,9 @@ impl Mix32 {
         };
         self.mirror = f.centred && self.samples == 1 && self.aperture.is_none();
         self.closed = self.closed_plane();
+        if let Some(c) = self.closed.as_mut() {
+            c.mean = f.closed_mean;
+        }
         let directional = self
             .lights
             .iter()
@@ -2191,6 +2198,7 @@ impl Mix32 {
         let nt = if away { n.map(i32::saturating_neg) } else { n };
         let mut c = Closed {
             index: u8::try_from(index).ok()?,
+            mean: false,
             n,
             dist,
             ndist: dist.saturating_neg(),
@@ -2708,10 +2716,10 @@ impl Mix32 {
         // frame with one point light on the plane's side: its even rays'
         // terms, and its odd rays' sums the mean of their neighbours' (the
         // last ray, if odd, its own). The same words as `closed_lanes`.
-        let len = rays.len().min(words.len()).min(fl.len());
-        let mut ws = [0i32; CHUNK];
-        let mut lit = len >= 3;
-        if let [_] = c.lights.as_slice() {
+        if let (true, [l]) = (c.mean, c.lights.as_slice()) {
+            let len = rays.len().min(words.len()).min(fl.len());
+            let mut ws = [0i32; CHUNK];
+            let mut lit = len >= 3;
             for (r, w) in rays.iter().zip(ws.iter_mut()) {
                 if r.t != NO_HIT {
                     lit = false;
@@ -2720,50 +2728,54 @@ impl Mix32 {
                 *w = closed_w(n, r);
                 lit &= *w != 0 && (*w ^ c.dist) >= 0;
             }
-        }
-        if let (true, [l]) = (lit, c.lights.as_slice()) {
-            // Two loops, the even rays' sums kept between them: one with
-            // the lag cost the M3's standard scene 14 instructions a pixel.
-            let mut even = [[0u64; C]; CHUNK / 2 + 1];
-            let mut q = 0;
-            while q < len {
-                let (Some(r), Some(&w), Some(word)) = (rays.get_mut(q), ws.get(q), words.get_mut(q)) else {
-                    break;
-                };
-                let mut sum = c.flat;
-                closed_term::<C>(c, l, r, w, (keep, store), &mut sum);
-                if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
-                    e.iter_mut().zip(sum).for_each(|(e, s)| *e = s);
-                }
-                // The pixel's noise key (computed where the noise draws).
-                let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                *word = if rgb {
-                    Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
-                } else {
-                    Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
-                };
-                q += if q + 2 == len { 1 } else { 2 };
-            }
-            let mut q = 1;
-            while q + 1 < len {
-                if let (Some(a), Some(b), Some(r), Some(word)) =
-                    (even.get(q >> 1), even.get((q >> 1) + 1), rays.get(q), words.get_mut(q))
-                {
-                    let mut sum = [0u64; 3];
-                    for ((s, a), b) in sum.iter_mut().zip(a).zip(b) {
-                        *s = mean(*a, *b);
+            if lit {
+                // Two loops, the even rays' sums kept between them: one with
+                // the lag cost the M3's standard scene 14 instructions a pixel.
+                let mut even = [[0u64; C]; CHUNK / 2 + 1];
+                let mut q = 0;
+                while q < len {
+                    let (Some(r), Some(&w), Some(word)) = (rays.get_mut(q), ws.get(q), words.get_mut(q))
+                    else {
+                        break;
+                    };
+                    let mut sum = c.flat;
+                    closed_term::<C>(c, l, r, w, (keep, store), &mut sum);
+                    if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
+                        e.iter_mut().zip(sum).for_each(|(e, s)| *e = s);
                     }
+                    // The pixel's noise key (computed where the noise draws).
                     let k = index.wrapping_add((q as u32).wrapping_mul(step));
                     *word = if rgb {
                         Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
                     } else {
                         Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
                     };
+                    q += if q + 2 == len { 1 } else { 2 };
                 }
-                q += 2;
+                let mut q = 1;
+                while q + 1 < len {
+                    if let (Some(a), Some(b), Some(r), Some(word)) = (
+                        even.get(q >> 1),
+                        even.get((q >> 1) + 1),
+                        rays.get(q),
+                        words.get_mut(q),
+                    ) {
+                        let mut sum = [0u64; 3];
+                        for ((s, a), b) in sum.iter_mut().zip(a).zip(b) {
+                            *s = mean(*a, *b);
+                        }
+                        let k = index.wrapping_add((q as u32).wrapping_mul(step));
+                        *word = if rgb {
+                            Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
+                        } else {
+                            Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
+                        };
+                    }
+                    q += 2;
+                }
+                fl.iter_mut().for_each(|f| *f = 0);
+                return 0;
             }
-            fl.iter_mut().for_each(|f| *f = 0);
-            return 0;
         }
         for (q, ((r, word), flag)) in rays
             .iter_mut()
@@ -3646,7 +3658,12 @@ fn closed_lanes(
     // A chunk whose rays all see the plane: its odd rays' sums are their
     // neighbours' mean, as `closed_run` takes them (`closed_lit`).
     let len = rays.len().min(CHUNK);
-    let lit = len >= 3 && rays.iter().zip(w).all(|(r, wq)| r.t == NO_HIT && wq != 0 && (wq ^ dist) >= 0);
+    let lit = c.mean
+        && len >= 3
+        && rays
+            .iter()
+            .zip(w)
+            .all(|(r, wq)| r.t == NO_HIT && wq != 0 && (wq ^ dist) >= 0);
     if lit {
         for q in (1..len - 1).step_by(2) {
             sums[q] = mean(sums[q - 1], sums[q + 1]);
@@ -3925,14 +3942,22 @@ mod tests {
     fn closed_lanes_are_closed_run() {
         let mut s = 0xc105_ed1a_9e50_0003;
         let mut r = |lo: i64, hi: i64| lo + (rng(&mut s) % (hi - lo + 1) as u64) as i64;
-        let (mut closed_pixels, mut lit) = (0, 0);
+        let (mut closed_pixels, mut lit, mut means) = (0, 0, 0);
         for case in 0..3000 {
+            // Every other case with the mean ([`Closed::mean`]), one
+            // in four a chunk whose rays all see the plane (a normal near
+            // the optical axis, the plane on its side, rays within 45°).
+            let (mean_on, seen) = (case % 4 < 2, case % 4 == 0);
             // A unit normal (S30) and the plane's distance (S24 U, at least
             // 2^-10 U, within 8 U), a light within 8 U (S26 U).
-            let v = [r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20)];
+            let mut v = [r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20)];
+            if seen {
+                v[2] = r(1 << 22, 1 << 23) * if r(0, 1) == 0 { 1 } else { -1 };
+            }
             let len = ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) as f64).sqrt().max(1.0);
             let n = v.map(|x| (x as f64 / len * (1u64 << 30) as f64) as i32);
             let dist = r(1 << 14, 1 << 27) as i32 * if r(0, 1) == 0 { 1 } else { -1 };
+            let dist = if seen { dist.abs() * n[2].signum() } else { dist };
             let p26 = [0; 3].map(|_| r(-(1 << 29), 1 << 29) as i32);
             let top = r(0, 62);
             let k = Pf::new(r(1, i64::MAX >> top) as u64, r(-90, 20) as i32);
@@ -3944,6 +3969,7 @@ mod tests {
             let _ = lights.push(l);
             let c = Closed {
                 index: 1,
+                mean: mean_on,
                 n,
                 dist,
                 ndist: -dist,
@@ -3954,18 +3980,44 @@ mod tests {
             let count = r(1, CHUNK as i64) as usize;
             let mut rays = Rays::default();
             let Some(rays) = rays.first(count) else { continue };
+            let span = if seen { 1 << 26 } else { 1 << 30 };
             for ray in rays.iter_mut() {
-                let (x, y) = (r(-1 << 30, 1 << 30) as i32, r(-1 << 30, 1 << 30) as i32);
+                let (x, y) = (r(-span, span) as i32, r(-span, span) as i32);
                 *ray = Ray::new::<true>(x, y, 0).with_c4(r(0, 1) == 0);
                 match r(0, 9) {
-                    0 => *ray = Ray::OUTSIDE,
-                    1 => ray.t = r(1, T_MAX as i64) as i32,
+                    0 if !seen => *ray = Ray::OUTSIDE,
+                    1 if !seen => ray.t = r(1, T_MAX as i64) as i32,
                     _ => {}
                 }
             }
             let before: [Ray; CHUNK] = core::array::from_fn(|q| rays.get(q).copied().unwrap_or(Ray::OUTSIDE));
             let (mut words, mut fl) = ([7u16; CHUNK], [9u8; CHUNK]);
             let left = closed_lanes(&c, &l, (bg, dn_max), rays, &mut words, &mut fl);
+            // Each ray's sum as `closed_term` gives it, then the odd rays'
+            // means where every ray sees the plane.
+            let sums: [[u64; 3]; CHUNK] = core::array::from_fn(|q| {
+                let mut scalar = before[q];
+                let w = closed_w(n, &scalar);
+                if w != 0 && (w ^ dist) >= 0 {
+                    let mut sum = c.flat;
+                    closed_term::<1>(&c, &l, &mut scalar, w, (false, false), &mut sum);
+                    sum
+                } else {
+                    [bg; 3]
+                }
+            });
+            let all = count >= 3
+                && before[..count].iter().all(|b| {
+                    let w = closed_w(n, b);
+                    b.t == NO_HIT && w != 0 && (w ^ dist) >= 0
+                });
+            let mut expected = sums;
+            if mean_on && all {
+                means += 1;
+                for q in (1..count - 1).step_by(2) {
+                    expected[q][0] = mean(sums[q - 1][0], sums[q + 1][0]);
+                }
+            }
             for (q, ray) in rays.iter().enumerate() {
                 let b = before[q];
                 if b.t == 0 {
@@ -3980,26 +4032,18 @@ mod tests {
                 } else {
                     closed_pixels += 1;
                     assert_eq!(left & (1 << q), 0);
-                    let mut scalar = b;
-                    let w = closed_w(n, &scalar);
-                    let sum = if w != 0 && (w ^ dist) >= 0 {
-                        let mut sum = c.flat;
-                        closed_term::<1>(&c, &l, &mut scalar, w, (false, false), &mut sum);
-                        lit += usize::from(sum != c.flat);
-                        sum
-                    } else {
-                        [bg; 3]
-                    };
-                    let word = Mix32::dn_word::<1>(sum, scalar.c4, [dn_max; 3], (None, 0));
+                    let sum = expected[q];
+                    lit += usize::from(sum != c.flat && sum != [bg; 3]);
+                    let word = Mix32::dn_word::<1>(sum, b.c4, [dn_max; 3], (None, 0));
                     assert_eq!((words[q], fl[q]), (word, 0), "case {case} ray {q}: {b:?}, {c:?}");
                 }
             }
         }
-        // (39 307 and 9 685.)
         assert!(
-            closed_pixels > 30_000 && lit > 5_000,
-            "{closed_pixels} pixels compared, {lit} lit"
+            closed_pixels > 30_000 && lit > 5_000 && means > 300,
+            "{closed_pixels} pixels compared, {lit} lit, {means} chunks with means"
         );
+        std::println!("{closed_pixels} pixels compared, {lit} lit, {means} chunks with means");
     }
 
     /// [`fill_lanes`] gives [`fill_rays`]' rays (every field), `ŷ` range and

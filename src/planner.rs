@@ -390,7 +390,20 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let wp_used =
         matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
     let meets = c.meets(budget) && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
+    // The closed plane's odd rays from their neighbours' mean, where its
+    // bound keeps the choice within budget.
+    let mut lsb = c.lsb;
+    let mean = match (c.arithmetic, samples <= 1 && df.points == 0, model) {
+        (Arithmetic::Fast, true, RenderModel::Perspective) => closed_mean_err(scene, &g)
+            .map(|e| c.lsb + e)
+            .filter(|l| l + 0.5 <= budget.max_lsb),
+        _ => None,
+    };
+    if let Some(l) = mean {
+        lsb = l;
+    }
     let mut options = Options::new(model, c.lut_entries.max(2));
+    options.closed_mean = mean.is_some();
     options.distortion_eval = c.distortion.unwrap_or(DistortionEval::Polynomial);
     options.arithmetic = c.arithmetic;
     options.samples = samples;
@@ -400,7 +413,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         options,
         predicted_geom_err_px: c.geom_err_px,
         weak_perspective_err_px: wp.map(|(e, _)| e),
-        predicted_lsb: c.lsb,
+        predicted_lsb: lsb,
         predicted_m3_instructions_per_pixel: c.m3_instructions_per_pixel,
         meets_budget: meets,
         candidates: cands,
@@ -613,6 +626,8 @@ fn unit_exp(extent: f64) -> i32 {
 struct Geometry {
     /// Largest focal length in pixels.
     f_px: f64,
+    /// The focal length along a row (`f_x`), pixels.
+    f_row: f64,
     /// Largest `u = r_d²` over the sensor (clipped to the fold).
     u_max: f64,
     /// Largest |distorted slope| at the corners (x, y).
@@ -662,6 +677,8 @@ struct Geometry {
     facing_area: f64,
     /// ... and that plane's, if it faces the camera.
     closed_facing_area: f64,
+    /// That plane's index among the primitives.
+    closed: Option<usize>,
 }
 
 /// How far a primitive's points lie from the camera, in the camera frame:
@@ -984,6 +1001,8 @@ impl Geometry {
         }
         Geometry {
             f_px: fx.max(fy),
+            f_row: fx,
+            closed,
             u_max,
             slope_d,
             g_max,
@@ -1475,6 +1494,74 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
     } else {
         libm::cos(angle)
     }
+}
+
+/// A bound, DN, on what the closed plane's mean (`mix32::mean`,
+/// [`Options::closed_mean`]) moves a pixel's sum: the plane's term under
+/// its one point light, `T = D (h/r)³` (`D` at the light's foot, `h` its
+/// height, `r = |p − P_L|`), taken at a ray between two as their mean.
+/// Along a row `φ(i) = T(p(i))`, and `|φ(i) − (φ(i−1) + φ(i+1))/2| ≤
+/// max|φ''|/2`, with `|φ''| ≤ T (12 |p'|²/r² + 3 |p''|/r)` (T's gradient
+/// `3T/r`, its Hessian's norm `12T/r²`). With the hit `p = t d` (`d = (x̂,
+/// ŷ, 1)`, `t ≤ R`, its distance `R ≥ dist` from the camera) and `t' = −t
+/// κ`, `κ = n·d'/n·d` (`|n·d| = dist/t`): `|p'| ≤ R (d₁ + R ν₁/dist)` and
+/// `|p''| ≤ R d₂ + 2R² ν₁ d₁/dist + R (2R² ν₁²/dist² + R ν₂/dist)`, where
+/// `d₁, d₂` bound `|d'|, |d''|` along a row and `ν₁, ν₂` bound `|n·d'|,
+/// |n·d''|` (from `|x̂'| ≤ (g + 4us)/f_x`, `|ŷ'| ≤ 2us/f_x`, `|x̂''| ≤ 20
+/// √u s/f_x²`, `|ŷ''| ≤ 12 √u s/f_x²`; `g`, `s`, `u` the distortion's
+/// largest, [`Geometry`]). The hit lies `√(R² − dist²)` from the camera's
+/// foot on the plane, the light's foot `F` from it, so `r ≥ √(h² + gap²)`
+/// with `gap` how far that circle stays from `F`. The largest over cells
+/// of `R` 5 % wide up to 10⁶ times the scene's distances (the bound falls
+/// as `1/R` beyond); doubled with noise (its `σ` follows the mean). `None`
+/// without the plane, or with more than one point light (no mean then).
+#[inline(never)]
+fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
+    let p = g.prims.get(g.closed?)?;
+    let mut points = scene
+        .lights
+        .iter()
+        .zip(&g.lights)
+        .filter_map(|(l, lp)| match (l, lp) {
+            (Light::Point { intensity, .. }, Some(pos)) => Some((*intensity, *pos)),
+            _ => None,
+        });
+    let (intensity, pos) = points.next()?;
+    if points.next().is_some() {
+        return None;
+    }
+    let i = intensity.iter().map(|v| v.to_num::<f64>()).fold(0.0, f64::max);
+    let dist = libm::fabs(dot3(p.c, p.n)).max(1e-300);
+    let h = prim_light_distance(p, pos).max(1e-300);
+    let l = norm3(pos);
+    let foot = libm::sqrt((l * l - (h - dist) * (h - dist)).max(0.0));
+    let d = g.gain * p.kd * i / (h * h);
+    let (u, s, f) = (g.u_max, g.s_max, g.f_row);
+    let (x1, y1) = ((g.g_max + 4.0 * u * s) / f, 2.0 * u * s / f);
+    let (x2, y2) = (
+        20.0 * libm::sqrt(u) * s / (f * f),
+        12.0 * libm::sqrt(u) * s / (f * f),
+    );
+    let (nx, ny) = (libm::fabs(p.n[0]), libm::fabs(p.n[1]));
+    let (d1, d2) = (libm::sqrt(x1 * x1 + y1 * y1), libm::sqrt(x2 * x2 + y2 * y2));
+    let (n1, n2) = (nx * x1 + ny * y1, nx * x2 + ny * y2);
+    let top = 1e6 * (dist + l + h);
+    let (mut ra, mut worst) = (dist, 0.0f64);
+    while ra < top {
+        let rb = ra * 1.05;
+        let ring = |r: f64| libm::sqrt((r * r - dist * dist).max(0.0));
+        let gap = (ring(ra) - foot).max(foot - ring(rb)).max(0.0);
+        let r = libm::sqrt(h * h + gap * gap);
+        let dp = rb * (d1 + rb * n1 / dist);
+        let ddp = rb * d2
+            + 2.0 * rb * rb * n1 * d1 / dist
+            + rb * (2.0 * rb * rb * n1 * n1 / (dist * dist) + rb * n2 / dist);
+        let t = d * libm::pow(h / r, 3.0);
+        worst = worst.max(0.5 * t * (12.0 * dp * dp / (r * r) + 3.0 * ddp / r));
+        ra = rb;
+    }
+    let noise = if scene.noise.is_some() { 2.0 } else { 1.0 };
+    Some(noise * worst + libm::ldexp(1.0, -15))
 }
 
 /// The distance from a point light to the nearest point of a primitive

@@ -421,6 +421,11 @@ pub struct Options {
     /// ([`crate::defocus`]; 16, 64 or 256, perspective rays only); 0: the
     /// chief ray alone (a pinhole).
     pub aperture: u16,
+    /// The fast one-sample loop's plane in closed form: in a chunk of rays
+    /// that all see it, under one point light, the odd rays' sums are
+    /// their neighbours' mean (the planner's error bound,
+    /// `planner::closed_mean_err`, within the budget).
+    pub closed_mean: bool,
 }
 
 /// The per-pixel arithmetic (the planner's choice).
@@ -458,6 +463,7 @@ impl Options {
             samples: 1,
             adaptive: false,
             aperture: 0,
+            closed_mean: false,
         }
     }
 
@@ -1054,6 +1060,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
             samples: fast.samples,
             adaptive: fast.adaptive,
             aperture: fast.aperture,
+            closed_mean: fast.closed_mean,
             centred: fast.centred,
         };
         self.path = Path::Fast(crate::mix32::Mix32::EMPTY);
@@ -1352,6 +1359,8 @@ struct FastInput {
     adaptive: bool,
     /// Defocus: the aperture pattern's points (0: none).
     aperture: u16,
+    /// [`Options::closed_mean`].
+    closed_mean: bool,
     /// The principal point is the sensor's centre, `o_x = (W − 1)/2`
     /// exactly: column `W − 1 − i` sees the mirror image of column `i`'s
     /// slopes.
@@ -1561,6 +1570,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 samples: self.stages.samples,
                 adaptive: self.stages.adaptive,
                 aperture: opts.aperture,
+                closed_mean: opts.closed_mean,
                 centred: i64::from(scene.camera.intrinsics.principal_point().0.to_bits()) * 2
                     == (i64::from(self.width) - 1) << crate::num::Px::FRAC_NBITS,
             }));

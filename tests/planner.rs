@@ -195,6 +195,8 @@ fn runner(cases: u32) -> TestRunner {
 fn predicted_bounds_hold_on_random_scenes() {
     let mut runner = runner(400);
     let (fast, wide, over, over_normal) = (Cell::new(0), Cell::new(0), Cell::new(0), Cell::new(0));
+    // Scenes whose closed plane takes the mean (its bound in the prediction).
+    let means = Cell::new(0);
     let budget = Budget::default();
     let result = runner.run(&spec(), |s| {
         let t = text(&s);
@@ -217,6 +219,7 @@ fn predicted_bounds_hold_on_random_scenes() {
         let m = &out.metrics;
         let predicted = p.predicted_lsb;
         let ratio = m.max_abs_lsb_smooth as f64 / (predicted + 1.0);
+        means.set(means.get() + usize::from(p.options.closed_mean));
         match p.options.arithmetic {
             Arithmetic::Fast => {
                 fast.set(fast.get() + 1);
@@ -278,7 +281,9 @@ fn predicted_bounds_hold_on_random_scenes() {
     });
     let (fast, wide, over, over_normal) = (fast.get(), wide.get(), over.get(), over_normal.get());
     eprintln!(
-        "fast {fast}, wide {wide}, over budget {over} ({over_normal} without a tiny sphere at the lens)"
+        "fast {fast}, wide {wide}, over budget {over} ({over_normal} without a tiny sphere at the lens), \
+         the closed plane's mean {}",
+        means.get()
     );
     FAST_LSB.report();
     WIDE_LSB.report();
@@ -287,8 +292,9 @@ fn predicted_bounds_hold_on_random_scenes() {
         panic!("{e}");
     }
     assert!(
-        fast > 50 && wide > 10,
-        "both arithmetics exercised: fast {fast}, wide {wide}"
+        fast > 50 && wide > 10 && means.get() > 10,
+        "both arithmetics exercised: fast {fast}, wide {wide}; the closed plane's mean {}",
+        means.get()
     );
     // Over budget: the planner says so (it cannot guarantee 1 LSB), which
     // the near-lens spheres need (measured up to 219 LSB on the wide path);
@@ -579,4 +585,60 @@ fn sample_factor_inverts_sample_cost() {
             }
         }
     }
+}
+
+/// The closed plane's mean ([`hilcam::render::Options::closed_mean`]) moves
+/// no pixel by more than the planner's bound on it (the part of
+/// `predicted_lsb` above the chosen candidate's own), rounded: each random
+/// scene planned with it rendered again without it, value by value (a
+/// 16-bit format's values resolve a few hundredths of an 8-bit one's).
+#[test]
+fn the_closed_planes_mean_stays_within_its_bound() {
+    let mut runner = runner(400);
+    let (seen, moved, worst) = (Cell::new(0), Cell::new(0), Cell::new(0.0f64));
+    let budget = Budget::default();
+    let result = runner.run(&spec(), |s| {
+        let t = text(&s);
+        let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let p = plan(&scene, &budget);
+        if !p.options.closed_mean {
+            return Ok(());
+        }
+        let own = p.candidates.get(p.chosen).map_or(0.0, |c| c.lsb);
+        let bound = p.predicted_lsb - own;
+        prop_assert!(bound > 0.0, "the mean's bound is not in the prediction:\n{t}");
+        let values = |mean: bool| {
+            let mut o = p.options;
+            o.closed_mean = mean;
+            let frame = Frame::new(&scene, &o).unwrap_or_else(|e| panic!("{e:?}:\n{t}"));
+            let out = host_sim::harness::collect(&frame).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+            host_sim::harness::decode_all(scene.format, &out.pixels)
+        };
+        let (with, without) = (values(true), values(false));
+        let diff = with
+            .iter()
+            .zip(&without)
+            .flat_map(|(a, b)| a.iter().zip(b).map(|(a, b)| a.abs_diff(*b)))
+            .max()
+            .unwrap_or(0);
+        seen.set(seen.get() + 1);
+        moved.set(moved.get() + usize::from(diff > 0));
+        worst.set(worst.get().max(diff as f64 / (bound.floor() + 1.0)));
+        prop_assert!(
+            diff as f64 <= bound.floor() + 1.0,
+            "the mean moved a value by {diff}, its bound {bound}:\n{t}"
+        );
+        Ok(())
+    });
+    eprintln!(
+        "closed plane's mean: {} scenes, {} with a value moved, largest move {:.3} of its bound",
+        seen.get(),
+        moved.get(),
+        worst.get()
+    );
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    assert!(seen.get() > 10, "too few scenes with the mean: {}", seen.get());
 }

@@ -107,6 +107,9 @@ pub struct PlanReport {
     pub predicted_sample_factor: f64,
     /// Aperture points each sample is lit through (0: a pinhole).
     pub aperture_points: u16,
+    /// The closed plane's odd rays take their neighbours' mean
+    /// (`Options::closed_mean`; its bound is in `predicted_lsb`).
+    pub closed_mean: bool,
     /// Largest blur-circle diameter of content in view, px.
     pub blur_px: f64,
     /// Content in view lies outside the depth of field.
@@ -762,6 +765,7 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         predicted_samples_per_pixel: plan.samples.grid,
         predicted_sample_factor: plan.predicted_sample_factor,
         aperture_points: stages.aperture,
+        closed_mean: plan.options.closed_mean,
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,
         predicted_defocus_err_px: if stages.aperture > 0 {
@@ -950,11 +954,16 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
     if c.meets(budget) {
         format!(
             "{} is the cheapest of {within} candidate(s) within the budget ({:.0} predicted M3 \
-             instructions/pixel; {:.2e} px, {:.3} LSB before rounding)",
+             instructions/pixel; {:.2e} px, {:.3} LSB before rounding{})",
             c.name(),
             c.m3_instructions_per_pixel,
             c.geom_err_px,
-            c.lsb
+            plan.predicted_lsb,
+            if plan.options.closed_mean {
+                ", with the closed plane's mean"
+            } else {
+                ""
+            }
         )
     } else {
         format!(
