@@ -3656,7 +3656,7 @@ fn closed_lanes(
         };
     }
     // A chunk whose rays all see the plane: its odd rays' sums are their
-    // neighbours' mean, as `closed_run` takes them (`closed_lit`).
+    // neighbours' mean, as `Mix32::closed_run` takes them.
     let len = rays.len().min(CHUNK);
     let lit = c.mean
         && len >= 3
