@@ -84,6 +84,15 @@ fn spec() -> impl Strategy<Value = Spec> {
         )
 }
 
+/// A spec's scene file, resolved, and its core scene (a bad one panics,
+/// naming the file).
+fn parsed(s: &Spec) -> (String, host_sim::scene_file::Resolved, hilcam::scene::Scene) {
+    let t = text(s);
+    let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+    let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
+    (t, r, scene)
+}
+
 fn text(s: &Spec) -> String {
     let format = [
         "format = \"gray8\"",
@@ -199,9 +208,7 @@ fn predicted_bounds_hold_on_random_scenes() {
     let means = Cell::new(0);
     let budget = Budget::default();
     let result = runner.run(&spec(), |s| {
-        let t = text(&s);
-        let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
-        let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let (t, r, scene) = parsed(&s);
         let p = plan(&scene, &budget);
         // Every candidate that the planner says fits the fast formats
         // prepares.
@@ -398,9 +405,7 @@ fn predicted_bounds_hold_with_parallel_rays_started_in_front() {
             s
         });
     let result = runner.run(&far, |s| {
-        let t = text(&s);
-        let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
-        let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let (t, r, scene) = parsed(&s);
         let p = plan(&scene, &budget);
         let m = render(&r, &budget)
             .unwrap_or_else(|e| panic!("{e}:\n{t}"))
@@ -598,9 +603,7 @@ fn the_closed_planes_mean_stays_within_its_bound() {
     let (seen, moved, worst) = (Cell::new(0), Cell::new(0), Cell::new(0.0f64));
     let budget = Budget::default();
     let result = runner.run(&spec(), |s| {
-        let t = text(&s);
-        let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
-        let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let (t, _, scene) = parsed(&s);
         let p = plan(&scene, &budget);
         if !p.options.closed_mean {
             return Ok(());
