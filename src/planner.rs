@@ -1513,8 +1513,8 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
 /// foot on the plane, the light's foot `F` from it, so `r ≥ √(h² + gap²)`
 /// with `gap` how far that circle stays from `F`. The largest over cells
 /// of `R` 25 % wide up to 10³ times the scene's distances (the bound
-/// falls as `1/R` beyond); doubled with noise (its `σ` follows the mean).
-/// `None` without the plane, or with more than one point light (no mean
+/// falls as `1/R` beyond); with noise, what the mean's move does to `σ z`
+/// too. `None` without the plane, or with more than one point light (no mean
 /// then). (The camera plans every frame: some 36 cells, one division each.)
 #[inline(never)]
 fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
@@ -1564,8 +1564,20 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
         worst = worst.max(0.5 * d * k * k * k * inv_r * (12.0 * dp * dp * inv_r + 3.0 * ddp));
         (ra, ring_a) = (rb, ring_b);
     }
-    let noise = if scene.noise.is_some() { 2.0 } else { 1.0 };
-    Some(noise * worst + libm::ldexp(1.0, -15))
+    let e = worst + libm::ldexp(1.0, -15);
+    // With noise the value is `μ + σ(μ) z + …`, `σ = √(K_sys μ + (K_sys
+    // σ_d)²)` and `|z| ≤ 6`: a move `e` of `μ` moves `σ z` by at most
+    // `6 √(K_sys e)` (the square root's modulus of continuity), and by at
+    // most `3 e/σ_d` (its slope, `σ ≥ K_sys σ_d`).
+    Some(match scene.noise {
+        Some(z) => {
+            let k = g.dn_max / z.saturation_e.to_num::<f64>().max(1.0);
+            let sd = z.dark_noise_e.to_num::<f64>();
+            let slope = if sd > 0.0 { 3.0 * e / sd } else { f64::INFINITY };
+            e + slope.min(6.0 * libm::sqrt(k * e))
+        }
+        None => e,
+    })
 }
 
 /// The distance from a point light to the nearest point of a primitive
