@@ -392,16 +392,13 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let meets = c.meets(budget) && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
     // The closed plane's odd rays from their neighbours' mean, where its
     // bound keeps the choice within budget.
-    let mut lsb = c.lsb;
     let mean = match (c.arithmetic, samples <= 1 && df.points == 0, model) {
         (Arithmetic::Fast, true, RenderModel::Perspective) => closed_mean_err(scene, &g)
             .map(|e| c.lsb + e)
             .filter(|l| l + 0.5 <= budget.max_lsb),
         _ => None,
     };
-    if let Some(l) = mean {
-        lsb = l;
-    }
+    let lsb = mean.unwrap_or(c.lsb);
     let mut options = Options::new(model, c.lut_entries.max(2));
     options.closed_mean = mean.is_some();
     options.distortion_eval = c.distortion.unwrap_or(DistortionEval::Polynomial);

@@ -974,7 +974,7 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
             100.0 * budget.max_edge_differing,
             c.name(),
             c.geom_err_px,
-            c.lsb
+            plan.predicted_lsb
         )
     }
 }
