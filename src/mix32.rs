@@ -225,8 +225,8 @@ fn noisy<const C: usize>(
 /// [`mul_nonneg`] and [`sigma_z16`], I32F32) of a draw `d` on the noise-free
 /// value `mu`, clamped to `[0, dn_max]`, without its saturating sums: both
 /// of its sums are exact where `μ` and `μ_y,dark + ½` lie below 2⁶¹ (the
-/// noise term is within ±2⁵¹), and where either does not, both clamp to
-/// `dn_max` (the value exceeds 2²⁹ − 2¹⁹ DN either way: `σ z` is their only
+/// noise term is within ±2⁵²), and where either does not, both clamp to
+/// `dn_max` (the value exceeds 2²⁹ − 2²⁰ DN either way: `σ z` is their only
 /// negative term). Equal to `apply_with`'s (`tests`).
 #[inline(always)]
 fn noisy_dn(d: crate::noise::Draw<Q>, mu: Q, dn_max: u16) -> u32 {
@@ -261,15 +261,15 @@ pub fn mul_nonneg(a: Q, b: Q) -> Q {
 }
 
 /// `σ z` (I32F32 DN) from `σ²` (I32F32 DN²; 0 below 0) and the draw `z`
-/// (a multiple of 2⁻¹⁶ within ±6): [`sigma_z16`], as
+/// (a multiple of 2⁻¹⁶ within ±9.1): [`sigma_z16`], as
 /// [`crate::noise::Stage::apply_with`] takes it (the test of [`noisy_dn`]).
 #[cfg(test)]
 fn sigma_z(var: Q, z: Q) -> Q {
     Q::from_bits(sigma_z16(var.to_bits().max(0) as u64, (z.to_bits() >> 16) as i32))
 }
 
-/// `σ z` (I32F32 DN bits, within ±2⁵¹) from `σ²` (I32F32 DN² bits) and
-/// `65 536 z` (within ±2¹⁹): `σ` from [`rsqrt_norm`] (2⁻¹⁹ relative)
+/// `σ z` (I32F32 DN bits, within ±2⁵²) from `σ²` (I32F32 DN² bits) and
+/// `65 536 z` (within ±2²⁰): `σ` from [`rsqrt_norm`] (2⁻¹⁹ relative)
 /// truncated to 2⁻¹⁶ DN — below 10⁻³ DN times `|z|` where `σ < 64 DN` —
 /// instead of a bitwise square root, then one exact 64-bit product.
 #[inline(always)]
@@ -280,7 +280,7 @@ fn sigma_z16(s2: u64, z: i32) -> i64 {
     // √(s2 2^-32) 2^16 = √(m/2^32) 2^(32 − e/2): (m/2^32)·y in Q2.62.
     let (m, y, e) = rsqrt_norm(s2);
     let s16 = (umul(m, y) >> (30 + e / 2)).min(u32::MAX as u64);
-    // S16 · S16 → S32; |z| < 2^19 in S16: within i64.
+    // S16 · S16 → S32; |z| < 2^20 in S16: within i64.
     s16 as i64 * z as i64
 }
 

@@ -41,6 +41,7 @@
 //!
 //! Planning runs once per scene, like construction, and uses f64.
 
+use crate::noise::{Z_ERR, Z_MAX};
 use crate::projection::{weak_perspective_bound, DepthBox};
 use crate::render::{Arithmetic, DistortionEval, Options, RenderModel};
 use crate::scene::{Light, Scene, Shape};
@@ -140,6 +141,12 @@ pub struct Candidate {
     pub lsb: f64,
     /// Predicted cost, M3 instructions a pixel.
     pub m3_instructions_per_pixel: f64,
+    /// Whether the closed plane's odd rays take their neighbours' mean
+    /// (`Options::closed_mean`; its bound is in `lsb`).
+    pub closed_mean: bool,
+    /// What the mean alone moves a value by at most, LSB (0 without it):
+    /// its bound on the sum and, with noise, on `σ z` ([`noisy_lsb`]).
+    pub mean_lsb: f64,
     /// Predicted fraction of all pixels that are edge pixels whose value
     /// differs from the reference's: a look (sample, corner, centre)
     /// within the geometric error of an edge can see the other side. The
@@ -332,6 +339,22 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         };
         let lsb =
             ErrorModel::of(arithmetic, &g).lsb(scene, &g, g.direct_geom_err(arithmetic, scene) + shifted);
+        // The closed form runs in the fast one-sample loop; its odd rays
+        // take their neighbours' mean (perspective rays) where its bound
+        // keeps the LSB within budget.
+        let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
+        let mean = match (closed, model) {
+            (true, RenderModel::Perspective) => closed_mean_err(scene, &g)
+                .map(|e| {
+                    (
+                        noisy_lsb(scene, &g, lsb + e),
+                        noisy_lsb(scene, &g, e) - noisy_lsb(scene, &g, 0.0),
+                    )
+                })
+                .filter(|(l, _)| l + 0.5 <= budget.max_lsb),
+            _ => None,
+        };
+        let (lsb, mean_lsb) = mean.unwrap_or_else(|| (noisy_lsb(scene, &g, lsb), 0.0));
         for (distortion, entries) in evals {
             let geom = match distortion {
                 Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
@@ -339,8 +362,6 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 }
                 _ => g.direct_geom_err(arithmetic, scene),
             };
-            // The closed form runs in the fast one-sample loop.
-            let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
             let model = CostModel::of(arithmetic);
             let one = model.predict(&Features::of(scene, &g, distortion, closed));
             let cost = model.samples.cost(one, &terms);
@@ -352,6 +373,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 geom_err_px: geom,
                 lsb,
                 m3_instructions_per_pixel: cost,
+                closed_mean: mean.is_some(),
+                mean_lsb,
                 edge_differing: (edge_looks * 2.0 * geom).min(1.0),
             });
         }
@@ -385,22 +408,15 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         geom_err_px: f64::INFINITY,
         lsb: f64::INFINITY,
         m3_instructions_per_pixel: f64::INFINITY,
+        closed_mean: false,
+        mean_lsb: 0.0,
         edge_differing: 1.0,
     });
     let wp_used =
         matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
     let meets = c.meets(budget) && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
-    // The closed plane's odd rays from their neighbours' mean, where its
-    // bound keeps the choice within budget.
-    let mean = match (c.arithmetic, samples <= 1 && df.points == 0, model) {
-        (Arithmetic::Fast, true, RenderModel::Perspective) => closed_mean_err(scene, &g)
-            .map(|e| c.lsb + e)
-            .filter(|l| l + 0.5 <= budget.max_lsb),
-        _ => None,
-    };
-    let lsb = mean.unwrap_or(c.lsb);
     let mut options = Options::new(model, c.lut_entries.max(2));
-    options.closed_mean = mean.is_some();
+    options.closed_mean = c.closed_mean;
     options.distortion_eval = c.distortion.unwrap_or(DistortionEval::Polynomial);
     options.arithmetic = c.arithmetic;
     options.samples = samples;
@@ -410,7 +426,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         options,
         predicted_geom_err_px: c.geom_err_px,
         weak_perspective_err_px: wp.map(|(e, _)| e),
-        predicted_lsb: lsb,
+        predicted_lsb: c.lsb,
         predicted_m3_instructions_per_pixel: c.m3_instructions_per_pixel,
         meets_budget: meets,
         candidates: cands,
@@ -1510,9 +1526,9 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
 /// foot on the plane, the light's foot `F` from it, so `r ≥ √(h² + gap²)`
 /// with `gap` how far that circle stays from `F`. The largest over cells
 /// of `R` 25 % wide up to 10³ times the scene's distances (the bound
-/// falls as `1/R` beyond); with noise, what the mean's move does to `σ z`
-/// too. `None` without the plane, or with more than one point light (no mean
-/// then). (The camera plans every frame: some 36 cells, one division each.)
+/// falls as `1/R` beyond); before the noise ([`noisy_lsb`] adds what it
+/// does). `None` without the plane, or with more than one point light (no
+/// mean then). (The camera plans every frame: some 36 cells, one division each.)
 #[inline(never)]
 fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let p = g.prims.get(g.closed?)?;
@@ -1561,20 +1577,33 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
         worst = worst.max(0.5 * d * k * k * k * inv_r * (12.0 * dp * dp * inv_r + 3.0 * ddp));
         (ra, ring_a) = (rb, ring_b);
     }
-    let e = worst + libm::ldexp(1.0, -15);
-    // With noise the value is `μ + σ(μ) z + …`, `σ = √(K_sys μ + (K_sys
-    // σ_d)²)` and `|z| ≤ 6`: a move `e` of `μ` moves `σ z` by at most
-    // `6 √(K_sys e)` (the square root's modulus of continuity), and by at
-    // most `3 e/σ_d` (its slope, `σ ≥ K_sys σ_d`).
-    Some(match scene.noise {
-        Some(z) => {
-            let k = g.dn_max / z.saturation_e.to_num::<f64>().max(1.0);
-            let sd = z.dark_noise_e.to_num::<f64>();
-            let slope = if sd > 0.0 { 3.0 * e / sd } else { f64::INFINITY };
-            e + slope.min(6.0 * libm::sqrt(k * e))
-        }
-        None => e,
-    })
+    Some(worst + libm::ldexp(1.0, -15))
+}
+
+/// The largest `|core − reference|` (LSB, before the final rounding) of a
+/// scene whose noise-free value `μ` is within `e` of the reference's, with
+/// its noise, if any: the value is `μ + σ(μ) z + …`, `σ = √(K_sys μ +
+/// (K_sys σ_d)²)`, `|z| ≤ Z_MAX`, so the move `e` of `μ` moves `σ z` by at
+/// most `Z_MAX √(K_sys e)` (the square root's modulus of continuity) and at
+/// most `Z_MAX e/(2 σ_d)` (its slope, `σ ≥ K_sys σ_d`); the core's `z` is
+/// within `Z_ERR` of the reference's (its table) and its `σ` within 2⁻¹⁹
+/// relative and 2⁻¹⁶ DN (`mix32::sigma_z16`; the wide arithmetic's square
+/// root is finer), `σ ≤ √(DN_max²/μ_e,sat + (DN_max σ_d/μ_e,sat)²)`.
+fn noisy_lsb(scene: &Scene, g: &Geometry, e: f64) -> f64 {
+    let Some(z) = scene.noise else {
+        return e;
+    };
+    let k = g.dn_max / z.saturation_e.to_num::<f64>().max(1.0);
+    let sd = z.dark_noise_e.to_num::<f64>();
+    let slope = if sd > 0.0 {
+        Z_MAX * e / (2.0 * sd)
+    } else {
+        f64::INFINITY
+    };
+    let sigma = libm::sqrt(k * g.dn_max + k * k * sd * sd);
+    e + slope.min(Z_MAX * libm::sqrt(k * e))
+        + sigma * Z_ERR
+        + Z_MAX * (sigma * libm::ldexp(1.0, -19) + libm::ldexp(1.0, -16))
 }
 
 /// The distance from a point light to the nearest point of a primitive

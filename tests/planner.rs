@@ -593,8 +593,8 @@ fn sample_factor_inverts_sample_cost() {
 }
 
 /// The closed plane's mean ([`hilcam::render::Options::closed_mean`]) moves
-/// no pixel by more than the planner's bound on it (the part of
-/// `predicted_lsb` above the chosen candidate's own), rounded: each random
+/// no pixel by more than the planner's bound on it (the chosen candidate's
+/// `mean_lsb`, within its `predicted_lsb`), rounded: each random
 /// scene planned with it rendered again without it, value by value (a
 /// 16-bit format's values resolve a few hundredths of an 8-bit one's).
 #[test]
@@ -608,9 +608,11 @@ fn the_closed_planes_mean_stays_within_its_bound() {
         if !p.options.closed_mean {
             return Ok(());
         }
-        let own = p.candidates.get(p.chosen).map_or(0.0, |c| c.lsb);
-        let bound = p.predicted_lsb - own;
-        prop_assert!(bound > 0.0, "the mean's bound is not in the prediction:\n{t}");
+        let bound = p.candidates.get(p.chosen).map_or(0.0, |c| c.mean_lsb);
+        prop_assert!(
+            bound > 0.0 && bound < p.predicted_lsb,
+            "the mean's bound is not in the prediction:\n{t}"
+        );
         let values = |mean: bool| {
             let mut o = p.options;
             o.closed_mean = mean;

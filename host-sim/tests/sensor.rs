@@ -297,3 +297,62 @@ fn noise_on_the_fast_arithmetic_matches_the_reference() {
         meets_fidelity_targets(m, k);
     }
 }
+
+/// The core's table of `|z|` cubics is the fit docs/sensor.md defines,
+/// computed again from the reference's inverse normal distribution.
+#[test]
+fn the_normal_table_is_the_documented_fit() {
+    let fit = host_sim::reference::noise::half_normal_table();
+    let core = hilcam::noise::HALF_NORMAL;
+    if fit.as_slice() != core.as_slice() {
+        let rows: Vec<String> = fit
+            .iter()
+            .map(|c| format!("    [{}, {}, {}, {}],", c[0], c[1], c[2], c[3]))
+            .collect();
+        panic!("HALF_NORMAL differs from the fit; it is:\n{}", rows.join("\n"));
+    }
+}
+
+/// The core's deviate against the reference's `±√2 erfc⁻¹(t)` (f64),
+/// within `hilcam::noise::Z_ERR`: on every half octave at 257 points of
+/// its fraction (both ends included), and on random hashes.
+#[test]
+fn the_normal_deviate_is_the_references_within_its_bound() {
+    use host_sim::reference::noise::{abs_deviate, uniform_of};
+    let check = |h: u64, worst: &mut (f64, u64)| {
+        let core = f64::from(hilcam::noise::normal_of_hash(h)) / 65_536.0;
+        let exact = abs_deviate(uniform_of(h)) * if h >> 63 == 1 { -1.0 } else { 1.0 };
+        let err = (core - exact).abs();
+        if err > worst.0 {
+            *worst = (err, h);
+        }
+    };
+    let mut worst = (0.0, 0);
+    for lz in 1..=63u32 {
+        // v with lz leading zeros: 2^(63 − lz) plus a fraction of it.
+        let top = 1u64 << (63 - lz);
+        for k in 0..=256u64 {
+            let below = top - 1;
+            let frac = if k == 256 {
+                below
+            } else {
+                ((u128::from(below) * u128::from(k)) >> 8) as u64
+            };
+            for sign in [0, 1u64 << 63] {
+                check(sign | top | frac | 1, &mut worst);
+            }
+        }
+    }
+    let mut x = 0x5eed_u64;
+    for _ in 0..1_000_000 {
+        x = hilcam::noise::mix(x.wrapping_add(0x9e37_79b9_7f4a_7c15));
+        check(x, &mut worst);
+    }
+    println!("largest |z| error: {:.3e} (hash {:#018x})", worst.0, worst.1);
+    assert!(
+        worst.0 <= hilcam::noise::Z_ERR,
+        "{:.3e} at {:#018x}",
+        worst.0,
+        worst.1
+    );
+}
