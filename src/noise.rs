@@ -51,13 +51,23 @@ pub fn normal_q16(key: u64, pixel: u32, channel: u8) -> i32 {
 pub fn normal_of_hash(h: u64) -> i32 {
     // t = v 2^-63 in octave e (t in [2^-(e+1), 2^-e)) for v's leading zeros
     // e + 1 (1 to 63: v is odd and below 2^63); the bits below its leading
-    // one are the mantissa's fraction, whose top bit is the half.
+    // one are the mantissa's fraction, whose top bit is the half. `n`: v's
+    // top 32 bits from its leading one — from the high word alone where
+    // the 17 bits below the leading one lie in it (v ≥ 2^49: all but 2^-14
+    // of the draws; a 64-bit count and shift cost the M3 ~5 instructions).
     let v = (h & (u64::MAX >> 1)) | 1;
-    let lz = crate::num::clz64(v);
-    let frac = v.checked_shl(lz + 1).unwrap_or(0);
-    let seg = (2 * lz.saturating_sub(1) + (frac >> 63) as u32) as usize;
-    // s in [0, 1) in units of 2^-16, and the cubic in it by Horner.
-    let s = (frac >> 47) as u16;
+    let hi = (v >> 32) as u32;
+    let (lz, n) = if hi >= 1 << 17 {
+        let lz = crate::num::clz32(hi);
+        (lz, hi << lz)
+    } else {
+        let lz = crate::num::clz64(v);
+        (lz, ((v << lz) >> 32) as u32)
+    };
+    let seg = (2 * lz.saturating_sub(1) + ((n >> 30) & 1)) as usize;
+    // s in [0, 1) in units of 2^-16 (the 16 bits below the half's), and
+    // the cubic in it by Horner.
+    let s = (n >> 14) as u16;
     let [c0, c1, c2, c3] = HALF_NORMAL.get(seg).copied().unwrap_or([0; 4]);
     let z27 = c0 + mul_frac(c1 + mul_frac(c2 + mul_frac(c3, s), s), s);
     // |z| < 9.1 in S27 → S16, rounded.
