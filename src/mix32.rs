@@ -1023,10 +1023,14 @@ struct Closed {
 impl Closed {
     /// Whether a ray with `w = n·d` (S24, [`closed_w`]) meets the plane
     /// ahead: where `w` has the sign of `dist` (`t = dist/w > 0`; `dist ≠
-    /// 0`: `w ^ dist` has the sign bit where the signs differ).
+    /// 0`), i.e. `w` times that sign is positive — one comparison (`w ≠ 0
+    /// && (w ^ dist) ≥ 0`, two, measured 278.3 against 274.3 M3
+    /// instructions a pixel on the standard scene).
     #[inline(always)]
     fn ahead(&self, w: i32) -> bool {
-        w != 0 && (w ^ self.dist) >= 0
+        // (w ^ s) − s is w or −w (|w| < 2^29: no overflow).
+        let s = self.dist >> 31;
+        (w ^ s).wrapping_sub(s) > 0
     }
 }
 
