@@ -838,9 +838,18 @@ fn shl64_words(v: u64, z: u32) -> u64 {
     }
 }
 
+/// `v` saturated to i32: the high word says whether it fits (it is the
+/// low word's sign extension), without two 64-bit comparisons.
 #[inline(always)]
 fn sat32(v: i64) -> i32 {
-    v.clamp(i32::MIN as i64, i32::MAX as i64) as i32
+    let (hi, lo) = ((v >> 32) as i32, v as i32);
+    if hi == lo >> 31 {
+        lo
+    } else if hi < 0 {
+        i32::MIN
+    } else {
+        i32::MAX
+    }
 }
 
 /// A length in U, S24 / S18, from metres (I32F32), saturating. Per frame:
