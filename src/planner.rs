@@ -363,7 +363,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 _ => g.direct_geom_err(arithmetic, scene),
             };
             let model = CostModel::of(arithmetic);
-            let one = model.predict(&Features::of(scene, &g, distortion, closed));
+            let one = model.predict(&Features::of(scene, &g, distortion, closed, mean.is_some()));
             let cost = model.samples.cost(one, &terms);
             let _ = cands.push(Candidate {
                 arithmetic,
@@ -1675,6 +1675,9 @@ pub struct Features {
     /// `t` a chunk (`mix32::flat_pass`), not a reciprocal each — but the
     /// plane shaded in closed form where [`Features::closed`] counts.
     pub facing_area: f64,
+    /// [`Features::closed`] where the closed plane's odd rays take their
+    /// neighbours' mean (`Options::closed_mean`), else 0.
+    pub closed_mean: f64,
 }
 
 impl Features {
@@ -1684,13 +1687,21 @@ impl Features {
         let distortion =
             (!scene.distortion.is_none() || opts.keep_all_stages).then_some(opts.distortion_eval);
         let closed = opts.arithmetic == Arithmetic::Fast && opts.samples <= 1 && opts.aperture == 0;
-        Features::of(scene, &Geometry::of(scene, opts.model), distortion, closed)
+        let g = Geometry::of(scene, opts.model);
+        Features::of(scene, &g, distortion, closed, closed && opts.closed_mean)
     }
 
-    /// The features of `scene` rendered with `distortion` and `g`'s rays.
+    /// The features of `scene` rendered with `distortion` and `g`'s rays,
+    /// the plane in `closed` form (with its `mean`).
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
-    fn of(scene: &Scene, g: &Geometry, distortion: Option<DistortionEval>, closed: bool) -> Features {
+    fn of(
+        scene: &Scene,
+        g: &Geometry,
+        distortion: Option<DistortionEval>,
+        closed: bool,
+        mean: bool,
+    ) -> Features {
         let mut f = Features::default();
         for p in &scene.primitives {
             match p.shape {
@@ -1726,6 +1737,7 @@ impl Features {
             0.0
         };
         f.closed = if closed { g.closed_area } else { 0.0 };
+        f.closed_mean = if mean { f.closed } else { 0.0 };
         // The plane shaded in closed form takes no `t` where it is.
         f.facing_area = g.facing_area + if closed { 0.0 } else { g.closed_facing_area };
         f
@@ -1756,12 +1768,13 @@ impl Features {
             self.closed * self.point_lights,
             self.lobe_area,
             self.facing_area,
+            self.closed_mean,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 21;
+pub const COST_TERMS: usize = 22;
 
 /// M3 instructions a pixel as a linear function of [`Features`] (one
 /// sample a pixel), times what the pixel's samples cost ([`SampleCost`]).
@@ -1930,12 +1943,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        98.0, 42.9, 3.4, 1.9, -7.2, 9.6, 200.5, 7.2, 19.7, 0.0, 30.3, 65.7, 8.3, 55.8, 145.1, -34.7, 269.0,
-        -97.8, -93.0, 300.9, -45.1,
+        92.1, 46.2, 3.7, 3.4, -5.4, 7.5, 193.5, 5.1, 23.8, 0.0, -1.0, 60.5, 5.8, 51.8, 143.7, -21.7, 223.0,
+        -98.9, -85.4, 341.1, -46.9, -28.4,
     ],
     samples: SampleCost {
-        grid: [768.165, 278.162, 0.969],
-        aperture: [0.757, 0.921],
+        grid: [773.765, 279.217, 0.991],
+        aperture: [0.781, 0.940],
     },
 };
 
@@ -1943,12 +1956,12 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        796.8, 362.2, 42.6, -33.6, -63.1, 115.6, 1497.1, 190.2, 289.8, 344.5, 1661.8, 236.2, -262.0, 3.5,
-        967.5, 111.5, 913.5, 0.0, 0.0, 119.1, -12.8,
+        799.3, 365.9, 42.3, -34.5, -64.1, 116.9, 1499.5, 189.5, 291.3, 345.9, 1666.3, 234.4, -262.5, -3.3,
+        970.6, 111.1, 882.8, 0.0, 0.0, 111.8, -10.6, 0.0,
     ],
     samples: SampleCost {
-        grid: [1209.748, 2085.105, 0.995],
-        aperture: [0.442, 0.876],
+        grid: [1210.005, 2084.863, 0.995],
+        aperture: [0.438, 0.876],
     },
 };
 

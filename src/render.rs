@@ -521,6 +521,10 @@ pub enum Override {
         /// Aperture pattern points.
         points: u16,
     },
+    /// The closed plane's every ray shaded with its own light terms, not
+    /// the odd ones from their neighbours' mean ([`Options::closed_mean`]
+    /// off).
+    NoMean,
 }
 
 impl Options {
@@ -558,6 +562,10 @@ impl Options {
             },
             Override::Aperture { points } => Options {
                 aperture: points,
+                ..self
+            },
+            Override::NoMean => Options {
+                closed_mean: false,
                 ..self
             },
         }

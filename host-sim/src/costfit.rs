@@ -103,6 +103,7 @@ pub const TERMS: [&str; COST_TERMS] = [
     "closed_point_lights",
     "lobe_area",
     "facing_area",
+    "closed_mean",
 ];
 
 /// What one calibration scene holds beyond the base (a floor plane, one
@@ -776,7 +777,9 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
             .collect()
     };
     let mut points = Vec::new();
-    let one = parse(&["mix32-poly", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
+    // (mix32-nomean: the closed plane without its mean, beside each scene
+    // planned with it, so that its term is told from the plane's.)
+    let one = parse(&["mix32-poly", "mix32-nomean", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
     for (k, batch) in paths.chunks(6).enumerate() {
         measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
     }
@@ -819,6 +822,10 @@ fn measure(
         // The table variant on a scene without distortion repeats the
         // polynomial one.
         if v.name().contains("lut") && scene.distortion.is_none() {
+            continue;
+        }
+        // And without the mean on a scene planned without it.
+        if v.name().ends_with("-nomean") && !variant_options(&scene, &Variant::parse("mix32-planned")?).closed_mean {
             continue;
         }
         points.push(Point {
