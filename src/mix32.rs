@@ -2178,10 +2178,7 @@ impl Mix32 {
             m => Some(Aperture::new(f, m, e)?),
         };
         self.mirror = f.centred && self.samples == 1 && self.aperture.is_none();
-        self.closed = self.closed_plane();
-        if let Some(c) = self.closed.as_mut() {
-            c.mean = f.closed_mean;
-        }
+        self.closed = self.closed_plane(f.closed_mean);
         let directional = self
             .lights
             .iter()
@@ -2200,7 +2197,7 @@ impl Mix32 {
     /// ([`MixPrim::nl`]) towards every point light. Out of line: once a
     /// frame.
     #[inline(never)]
-    fn closed_plane(&self) -> Option<Closed> {
+    fn closed_plane(&self, mean: bool) -> Option<Closed> {
         if self.parallel.is_some() {
             return None;
         }
@@ -2221,7 +2218,7 @@ impl Mix32 {
         let nt = if away { n.map(i32::saturating_neg) } else { n };
         let mut c = Closed {
             index: u8::try_from(index).ok()?,
-            mean: false,
+            mean,
             n,
             dist,
             ndist: dist.saturating_neg(),
@@ -2771,11 +2768,7 @@ impl Mix32 {
                     }
                     // The pixel's noise key (computed where the noise draws).
                     let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                    *word = if rgb {
-                        Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
-                    } else {
-                        Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
-                    };
+                    *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     q += if q + 2 == len { 1 } else { 2 };
                 }
                 let mut q = 1;
@@ -2791,11 +2784,7 @@ impl Mix32 {
                             *s = mean(*a, *b);
                         }
                         let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                        *word = if rgb {
-                            Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
-                        } else {
-                            Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
-                        };
+                        *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     }
                     q += 2;
                 }
@@ -2835,13 +2824,27 @@ impl Mix32 {
             } else {
                 self.bg
             };
-            *word = if rgb {
-                Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
-            } else {
-                Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
-            };
+            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
         }
         left
+    }
+
+    /// [`Mix32::closed_run`]'s [`word`] of a ray from its sum, noise key
+    /// `k`: its channels packed in RGB565 if `rgb`, else one.
+    #[inline(always)]
+    fn closed_word(
+        &self,
+        rgb: bool,
+        sum: [u64; 3],
+        r: &Ray,
+        dn_max: [u64; 3],
+        (noise, k): (Option<&crate::noise::Stage<Q>>, u32),
+    ) -> u16 {
+        if rgb {
+            Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
+        } else {
+            Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
+        }
     }
 
     /// Shades one pixel of a chunk whose nearest hits are known; returns

@@ -145,7 +145,7 @@ pub struct Candidate {
     /// (`Options::closed_mean`; its bound is in `lsb`).
     pub closed_mean: bool,
     /// What the mean alone moves a value by at most, LSB (0 without it):
-    /// its bound on the sum and, with noise, on `σ z` ([`noisy_lsb`]).
+    /// its bound on the sum and, with noise, on `σ z` ([`noise_moved`]).
     pub mean_lsb: f64,
     /// Predicted fraction of all pixels that are edge pixels whose value
     /// differs from the reference's: a look (sample, corner, centre)
@@ -345,16 +345,12 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
         let mean = match (closed, model) {
             (true, RenderModel::Perspective) => closed_mean_err(scene, &g)
-                .map(|e| {
-                    (
-                        noisy_lsb(scene, &g, lsb + e),
-                        noisy_lsb(scene, &g, e) - noisy_lsb(scene, &g, 0.0),
-                    )
-                })
-                .filter(|(l, _)| l + 0.5 <= budget.max_lsb),
+                .map(|e| (noise_moved(scene, &g, lsb + e), noise_moved(scene, &g, e)))
+                .filter(|(l, _)| l + noise_draw_lsb(scene, &g) + 0.5 <= budget.max_lsb),
             _ => None,
         };
-        let (lsb, mean_lsb) = mean.unwrap_or_else(|| (noisy_lsb(scene, &g, lsb), 0.0));
+        let (moved, mean_lsb) = mean.unwrap_or_else(|| (noise_moved(scene, &g, lsb), 0.0));
+        let lsb = moved + noise_draw_lsb(scene, &g);
         for (distortion, entries) in evals {
             let geom = match distortion {
                 Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
@@ -1526,7 +1522,7 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
 /// foot on the plane, the light's foot `F` from it, so `r ≥ √(h² + gap²)`
 /// with `gap` how far that circle stays from `F`. The largest over cells
 /// of `R` 25 % wide up to 10³ times the scene's distances (the bound
-/// falls as `1/R` beyond); before the noise ([`noisy_lsb`] adds what it
+/// falls as `1/R` beyond); before the noise ([`noise_moved`] adds what it
 /// does). `None` without the plane, or with more than one point light (no
 /// mean then). (The camera plans every frame: some 36 cells, one division each.)
 #[inline(never)]
@@ -1580,16 +1576,13 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     Some(worst + libm::ldexp(1.0, -15))
 }
 
-/// The largest `|core − reference|` (LSB, before the final rounding) of a
-/// scene whose noise-free value `μ` is within `e` of the reference's, with
-/// its noise, if any: the value is `μ + σ(μ) z + …`, `σ = √(K_sys μ +
-/// (K_sys σ_d)²)`, `|z| ≤ Z_MAX`, so the move `e` of `μ` moves `σ z` by at
-/// most `Z_MAX √(K_sys e)` (the square root's modulus of continuity) and at
-/// most `Z_MAX e/(2 σ_d)` (its slope, `σ ≥ K_sys σ_d`); the core's `z` is
-/// within `Z_ERR` of the reference's (its table) and its `σ` within 2⁻¹⁹
-/// relative and 2⁻¹⁶ DN (`mix32::sigma_z16`; the wide arithmetic's square
-/// root is finer), `σ ≤ √(DN_max²/μ_e,sat + (DN_max σ_d/μ_e,sat)²)`.
-fn noisy_lsb(scene: &Scene, g: &Geometry, e: f64) -> f64 {
+/// A bound (LSB) on what a move `e` of the noise-free value `μ` moves a
+/// recorded value by, its noise included (the move itself if the scene has
+/// none): the value is `μ + σ(μ) z + …`, `σ = √(K_sys μ + (K_sys σ_d)²)`,
+/// `|z| ≤ Z_MAX`, so `σ z` moves by at most `Z_MAX √(K_sys e)` (the square
+/// root's modulus of continuity) and at most `Z_MAX e/(2 σ_d)` (its
+/// slope, `σ ≥ K_sys σ_d`).
+fn noise_moved(scene: &Scene, g: &Geometry, e: f64) -> f64 {
     let Some(z) = scene.noise else {
         return e;
     };
@@ -1600,10 +1593,22 @@ fn noisy_lsb(scene: &Scene, g: &Geometry, e: f64) -> f64 {
     } else {
         f64::INFINITY
     };
-    let sigma = libm::sqrt(k * g.dn_max + k * k * sd * sd);
     e + slope.min(Z_MAX * libm::sqrt(k * e))
-        + sigma * Z_ERR
-        + Z_MAX * (sigma * libm::ldexp(1.0, -19) + libm::ldexp(1.0, -16))
+}
+
+/// What the core's noise draw adds to `|core − reference|` (LSB) at the
+/// same noise-free value, 0 without noise: its `z` is within `Z_ERR` of the
+/// reference's (its table) and its `σ` within 2⁻¹⁹ relative and 2⁻¹⁶ DN
+/// (`mix32::sigma_z16`; the wide arithmetic's square root is finer), `σ ≤
+/// √(DN_max²/μ_e,sat + (DN_max σ_d/μ_e,sat)²)`.
+fn noise_draw_lsb(scene: &Scene, g: &Geometry) -> f64 {
+    let Some(z) = scene.noise else {
+        return 0.0;
+    };
+    let k = g.dn_max / z.saturation_e.to_num::<f64>().max(1.0);
+    let sd = z.dark_noise_e.to_num::<f64>();
+    let sigma = libm::sqrt(k * g.dn_max + k * k * sd * sd);
+    sigma * Z_ERR + Z_MAX * (sigma * libm::ldexp(1.0, -19) + libm::ldexp(1.0, -16))
 }
 
 /// The distance from a point light to the nearest point of a primitive

@@ -14,7 +14,7 @@ mod common;
 
 use common::Max;
 use hilcam::planner::{plan, Budget};
-use hilcam::render::{Arithmetic, Frame};
+use hilcam::render::{Arithmetic, Frame, Override};
 use host_sim::harness::render;
 use host_sim::reference::lens::ThinLens;
 use host_sim::reference::render::{RefModel, RefScene};
@@ -613,14 +613,12 @@ fn the_closed_planes_mean_stays_within_its_bound() {
             bound > 0.0 && bound < p.predicted_lsb,
             "the mean's bound is not in the prediction:\n{t}"
         );
-        let values = |mean: bool| {
-            let mut o = p.options;
-            o.closed_mean = mean;
+        let values = |o: hilcam::render::Options| {
             let frame = Frame::new(&scene, &o).unwrap_or_else(|e| panic!("{e:?}:\n{t}"));
             let out = host_sim::harness::collect(&frame).unwrap_or_else(|e| panic!("{e}:\n{t}"));
             host_sim::harness::decode_all(scene.format, &out.pixels)
         };
-        let (with, without) = (values(true), values(false));
+        let (with, without) = (values(p.options), values(p.options.with(Override::NoMean)));
         let diff = with
             .iter()
             .zip(&without)
