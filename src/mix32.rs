@@ -42,6 +42,7 @@
 //! | unit vectors (normals, light directions, checker axes) | i32 S30 | ±2 |
 //! | prepared lengths (centres, plane distances) | i32 S24 (U) | ±128 U; content ≤ 8 U |
 //! | `t`, hit points, vectors to lights | i32 S18 (U) | ±8 192 U, saturating |
+//! | a hit's coordinate along a rectangle's or checker's axis, `t (d·a)` ([`Ray::along`]) | i64 S42 (U; S48 for parallel rays) | exact product of `t` and `d·a` (S24) |
 //! | sphere `b = d·c`, `d × c` / discriminant `a r² − |d × c|²` | i32 S22 / i64 S44 | ≤ 189 U / 3.6·10⁴ U² |
 //! | `r²` to a point light | u64 S36 (U²) | exact |
 //! | closed form: `w = n·d`; `q = w P_L − dist d`, then `|q|²` | i32 S24; i64 S50 (exact), i32 S22 U; u64 S44 U² | `|w| < 23`; `|q| ≤ 363 U` |
@@ -920,10 +921,13 @@ enum MixShape {
         n: [i32; 3],
         dist: i32,
         rz: (u32, u32),
-        c18: [i32; 3],
         u: [i32; 3],
         v: [i32; 3],
-        /// Half sizes, S48 U.
+        /// `c·u`, `c·v` of its centre (rounded down) and its half sizes, in
+        /// [`Ray::along`]'s format: S42 U for perspective rays, S48 U for
+        /// parallel ones.
+        cu: i64,
+        cv: i64,
         hu: i64,
         hv: i64,
     },
@@ -933,7 +937,8 @@ enum MixShape {
 struct MixChecker {
     u: [i32; 3],
     v: [i32; 3],
-    /// `origin·u`, `origin·v`, S48 U.
+    /// `origin·u`, `origin·v` (rounded down) in [`Ray::along`]'s format:
+    /// S42 U for perspective rays, S48 U for parallel ones.
     ou: i64,
     ov: i64,
     /// `1/cell` as a mantissa and the right shift of the product's high
@@ -944,17 +949,46 @@ struct MixChecker {
 }
 
 impl MixChecker {
-    /// The texture cell `(⌊u/c⌋, ⌊v/c⌋)` of a point (S18 U) on it.
+    /// The texture cell `(⌊u/c⌋, ⌊v/c⌋)` of a point (S18 U) on it (a
+    /// parallel ray's, or the aperture loop's, whose rays start off the
+    /// axis).
     #[inline(always)]
-    fn cells(&self, pt: [i32; 3]) -> (i32, i32) {
-        let cell = |axis: [i32; 3], o: i64| -> i32 {
-            let w = wmul(pt[0], axis[0]) + wmul(pt[1], axis[1]) + wmul(pt[2], axis[2]) - o;
-            // S48 → S18 (saturating), times 1/cell → floor: the product
-            // (below 2⁶³) shifted by at least 32, so from its high word
-            // (a 32-bit shift; the index is below 2²⁴).
-            ((smul_u(shr_sat::<30>(w), self.inv_cell.0) >> 32) as i32) >> self.inv_cell.1
+    fn cells<const PERSP: bool>(&self, pt: [i32; 3]) -> (i32, i32) {
+        let along = |a: [i32; 3]| {
+            let p = wmul(pt[0], a[0]) + wmul(pt[1], a[1]) + wmul(pt[2], a[2]);
+            if PERSP {
+                p >> 6
+            } else {
+                p
+            }
         };
-        (cell(self.u, self.ou), cell(self.v, self.ov))
+        (
+            self.cell::<PERSP>(along(self.u) - self.ou),
+            self.cell::<PERSP>(along(self.v) - self.ov),
+        )
+    }
+
+    /// [`MixChecker::cells`] of ray `r`'s hit ([`Ray::along`]: no point).
+    /// Out of line in a `compact` build (flash).
+    #[cfg_attr(feature = "compact", inline(never))]
+    #[cfg_attr(not(feature = "compact"), inline(always))]
+    fn cells_of<const PERSP: bool>(&self, r: &Ray) -> (i32, i32) {
+        let along = |a: [i32; 3]| r.along::<PERSP>(r.t, a);
+        (
+            self.cell::<PERSP>(along(self.u) - self.ou),
+            self.cell::<PERSP>(along(self.v) - self.ov),
+        )
+    }
+
+    /// The cell index of a coordinate `w` along an axis ([`Ray::along`]'s
+    /// format: S42 U, S48 U for parallel rays).
+    #[inline(always)]
+    fn cell<const PERSP: bool>(&self, w: i64) -> i32 {
+        // → S18 (saturating), times 1/cell → floor: the product (below
+        // 2⁶³) shifted by at least 32, so from its high word (a 32-bit
+        // shift; the index is below 2²⁴).
+        let w18 = if PERSP { shr_sat::<24>(w) } else { shr_sat::<30>(w) };
+        ((smul_u(w18, self.inv_cell.0) >> 32) as i32) >> self.inv_cell.1
     }
 }
 
@@ -1335,6 +1369,33 @@ impl Ray {
         }
     }
 
+    /// The point of its nearest hit (S18 U), moved by `(a_x, a_y, 0)`
+    /// (the aperture loop's rays start there) if `MOVED`.
+    #[inline(always)]
+    fn hit_point<const PERSP: bool, const MOVED: bool>(&self, a: [i32; 2]) -> [i32; 3] {
+        let pt = self.point::<PERSP>(self.t);
+        if MOVED {
+            [pt[0].saturating_add(a[0]), pt[1].saturating_add(a[1]), pt[2]]
+        } else {
+            pt
+        }
+    }
+
+    /// `p·a` of the point `p` at `t` (S18 U) along the ray, for a unit
+    /// axis `a` (S30): a perspective ray's `t (d·a)` in S42 U, `d·a`
+    /// truncated to S24 (`|d·a| ≤ |d| < 32`), without the point (two
+    /// products fewer than [`Ray::point`]'s, and finer: no coordinate
+    /// rounded to S18); a parallel ray's from its point, S48 U, exact.
+    #[inline(always)]
+    fn along<const PERSP: bool>(&self, t: i32, a: [i32; 3]) -> i64 {
+        if PERSP {
+            let da = ((wmul_px(self.x, a[0]) + wmul_px(self.y, a[1]) + ((a[2] as i64) << 26)) >> 32) as i32;
+            wmul_px(t, da)
+        } else {
+            wmul(self.ox, a[0]) + wmul(self.oy, a[1]) + wmul(t, a[2])
+        }
+    }
+
     /// Keeps a hit at `t` if it is nearer than the nearest so far.
     #[inline(always)]
     fn keep(&mut self, t: i32, prim: u8, away: bool) {
@@ -1479,21 +1540,27 @@ impl MixShape {
                 n,
                 dist,
                 rz,
-                c18: c,
                 u,
                 v,
+                cu,
+                cv,
                 hu,
                 hv,
-            } => MixShape::Rect {
-                n,
-                dist: dist.saturating_sub(na(&n)),
-                rz,
-                c18: c18(&c),
-                u,
-                v,
-                hu,
-                hv,
-            },
+            } => {
+                // (c − A)·a, S42 U.
+                let ca = |c: i64, a3: &[i32; 3]| c - ((wmul(a3[0], a[0]) + wmul(a3[1], a[1])) >> 6);
+                MixShape::Rect {
+                    n,
+                    dist: dist.saturating_sub(na(&n)),
+                    rz,
+                    u,
+                    v,
+                    cu: ca(cu, &u),
+                    cv: ca(cv, &v),
+                    hu,
+                    hv,
+                }
+            }
         }
     }
 
@@ -1605,9 +1672,10 @@ impl MixShape {
                 n,
                 dist,
                 rz,
-                c18,
                 u,
                 v,
+                cu,
+                cv,
                 hu,
                 hv,
             } => {
@@ -1615,9 +1683,10 @@ impl MixShape {
                     if t >= r.t {
                         return;
                     }
-                    let rel = zip3(r.point::<PERSP>(t), *c18, i32::saturating_sub);
-                    let dot = |a: [i32; 3]| wmul(rel[0], a[0]) + wmul(rel[1], a[1]) + wmul(rel[2], a[2]);
-                    if dot(*u).abs() <= *hu && dot(*v).abs() <= *hv {
+                    // (p − c)·u and (p − c)·v within the half sizes.
+                    if (r.along::<PERSP>(t, *u) - cu).abs() <= *hu
+                        && (r.along::<PERSP>(t, *v) - cv).abs() <= *hv
+                    {
                         r.keep(t, index, away);
                     }
                 });
@@ -1943,6 +2012,8 @@ impl Mix32 {
         let l18 = |q: Q| len_s(q, e, 18);
         let u3 = |v: V3| v.map(unit_s30);
         let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
+        // S48 → [`Ray::along`]'s format: S42 for perspective rays.
+        let along = if f.origin_scale.is_some() { 0 } else { 6 };
 
         let prims = &mut self.prims;
         prims.clear();
@@ -1992,11 +2063,12 @@ impl Mix32 {
                     n: u3(n),
                     dist: l24(dist),
                     rz: recip_z(u3(n)),
-                    c18: c.map(l18),
                     u: u3(u),
                     v: u3(v),
-                    hu: (l18(hu) as i64) << 30,
-                    hv: (l18(hv) as i64) << 30,
+                    cu: dot48(c.map(l18), u3(u)) >> along,
+                    cv: dot48(c.map(l18), u3(v)) >> along,
+                    hu: (l18(hu) as i64) << (30 - along),
+                    hv: (l18(hv) as i64) << (30 - along),
                 },
             };
             let checker = match &p.checker {
@@ -2007,8 +2079,8 @@ impl Mix32 {
                     Some(MixChecker {
                         u,
                         v,
-                        ou: dot48(o, u),
-                        ov: dot48(o, v),
+                        ou: dot48(o, u) >> along,
+                        ov: dot48(o, v) >> along,
                         inv_cell: recip_len(cell, e)
                             .and_then(|(m, sh)| Some((m, (sh + 30).checked_sub(32).filter(|k| *k < 32)?)))
                             .ok_or(bad)?,
@@ -3052,7 +3124,7 @@ impl Mix32 {
         }
         let prim = r.hit & !AWAY;
         let cell = match self.prims.get(prim as usize).and_then(|p| p.checker.as_ref()) {
-            Some(k) => k.cells(r.point::<PERSP>(r.t)),
+            Some(k) => k.cells_of::<PERSP>(r),
             None => (0, 0),
         };
         Key::new(cell.0, cell.1, prim)
@@ -3302,10 +3374,14 @@ impl Mix32 {
         }
         let p = self.prims.get((r.hit & !AWAY) as usize)?;
         let away = r.hit & AWAY != 0;
-        let mut pt = r.point::<PERSP>(r.t);
-        if MOVED {
-            pt = [pt[0].saturating_add(a[0]), pt[1].saturating_add(a[1]), pt[2]];
-        }
+        // The point, where a sphere's normal or a point light's term takes
+        // it: a flat primitive ([`MixPrim::flat`]: directional lights
+        // alone) needs none.
+        let pt = if PERSP && p.flat {
+            [0; 3]
+        } else {
+            r.hit_point::<PERSP, MOVED>(a)
+        };
         let n = match &p.shape {
             MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
             // Under a specular lobe, whose exponent multiplies the normal's
@@ -3332,7 +3408,13 @@ impl Mix32 {
             let odd = match key {
                 Some(key) => key.odd(),
                 None => {
-                    let (cu, cv) = k.cells(pt);
+                    // (The aperture loop's rays start off the axis.)
+                    let (cu, cv) = match (PERSP, MOVED) {
+                        (true, false) => k.cells_of::<PERSP>(r),
+                        (true, true) => k.cells::<PERSP>(r.hit_point::<PERSP, MOVED>(a)),
+                        // (A parallel ray's point is its origin and `t`.)
+                        (false, _) => k.cells::<PERSP>(pt),
+                    };
                     // The parity of cu + cv.
                     (cu ^ cv) & 1 != 0
                 }
