@@ -976,12 +976,12 @@ impl MixChecker {
     /// parallel ray's, or the aperture loop's, whose rays start off the
     /// axis).
     #[inline(always)]
-    fn cells<const PERSP: bool>(&self, pt: [i32; 3]) -> (i32, i32) {
+    fn cells<const PERSP: bool>(&self, pt: [i32; 3], bounded: bool) -> (i32, i32) {
         let shift = if PERSP { ALONG_S42 } else { 0 };
         let along = |a: [i32; 3]| (wmul(pt[0], a[0]) + wmul(pt[1], a[1]) + wmul(pt[2], a[2])) >> shift;
         (
-            self.cell::<PERSP>(along(self.u) - self.ou),
-            self.cell::<PERSP>(along(self.v) - self.ov),
+            self.cell::<PERSP>(along(self.u) - self.ou, bounded),
+            self.cell::<PERSP>(along(self.v) - self.ov, bounded),
         )
     }
 
@@ -991,22 +991,30 @@ impl MixChecker {
     /// the M0's calibration-board 3 010.2 → 3 020.6.)
     #[cfg_attr(feature = "compact", inline(never))]
     #[cfg_attr(not(feature = "compact"), inline(always))]
-    fn cells_of<const PERSP: bool>(&self, r: &Ray) -> (i32, i32) {
+    fn cells_of<const PERSP: bool>(&self, r: &Ray, bounded: bool) -> (i32, i32) {
         let along = |a: [i32; 3]| r.along::<PERSP>(r.t, a);
         (
-            self.cell::<PERSP>(along(self.u) - self.ou),
-            self.cell::<PERSP>(along(self.v) - self.ov),
+            self.cell::<PERSP>(along(self.u) - self.ou, bounded),
+            self.cell::<PERSP>(along(self.v) - self.ov, bounded),
         )
     }
 
     /// The cell index of a coordinate `w` along an axis ([`Ray::along`]'s
-    /// format: S42 U, S48 U for parallel rays).
+    /// format: S42 U, S48 U for parallel rays). `bounded`: `w` is a point
+    /// of a primitive other than a plane, so within twice the content's
+    /// 8 U of the camera, and so is the origin — `|w|` below 2⁹ U of
+    /// the S18 i32's 2¹³ U — and needs no saturation.
     #[inline(always)]
-    fn cell<const PERSP: bool>(&self, w: i64) -> i32 {
+    fn cell<const PERSP: bool>(&self, w: i64, bounded: bool) -> i32 {
         // → S18 (saturating), times 1/cell → floor: the product (below
         // 2⁶³) shifted by at least 32, so from its high word (a 32-bit
         // shift; the index is below 2²⁴).
-        let w18 = if PERSP { shr_sat::<24>(w) } else { shr_sat::<30>(w) };
+        let w18 = match (bounded, PERSP) {
+            (true, true) => (w >> 24) as i32,
+            (true, false) => (w >> 30) as i32,
+            (false, true) => shr_sat::<24>(w),
+            (false, false) => shr_sat::<30>(w),
+        };
         ((smul_u(w18, self.inv_cell.0) >> 32) as i32) >> self.inv_cell.1
     }
 }
@@ -3290,9 +3298,13 @@ impl Mix32 {
             return Key::NOTHING;
         }
         let prim = r.hit & !AWAY;
-        let cell = match self.prims.get(prim as usize).and_then(|p| p.checker.as_ref()) {
-            Some(k) => k.cells_of::<PERSP>(r),
-            None => (0, 0),
+        let cell = match self.prims.get(prim as usize) {
+            Some(MixPrim {
+                checker: Some(k),
+                shape,
+                ..
+            }) => k.cells_of::<PERSP>(r, !matches!(shape, MixShape::Plane { .. })),
+            _ => (0, 0),
         };
         Key::new(cell.0, cell.1, prim)
     }
@@ -3576,11 +3588,14 @@ impl Mix32 {
                 Some(key) => key.odd(),
                 None => {
                     // (The aperture loop's rays start off the axis.)
+                    // A hit on a bounded primitive lies within the
+                    // content's extent ([`MixChecker::cell`]).
+                    let bounded = !matches!(p.shape, MixShape::Plane { .. });
                     let (cu, cv) = match (PERSP, MOVED) {
-                        (true, false) => k.cells_of::<PERSP>(r),
-                        (true, true) => k.cells::<PERSP>(r.hit_point::<PERSP, MOVED>(a)),
+                        (true, false) => k.cells_of::<PERSP>(r, bounded),
+                        (true, true) => k.cells::<PERSP>(r.hit_point::<PERSP, MOVED>(a), bounded),
                         // (A parallel ray's point is its origin and `t`.)
-                        (false, _) => k.cells::<PERSP>(pt),
+                        (false, _) => k.cells::<PERSP>(pt, bounded),
                     };
                     // The parity of cu + cv.
                     (cu ^ cv) & 1 != 0
