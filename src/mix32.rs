@@ -4332,6 +4332,94 @@ mod tests {
         std::println!("{frames} rectangles with a region, {covered} boxes covered, {rays_checked} rays");
     }
 
+    /// [`MixChecker::cell`]'s `bounded`: a ray's hit on a rectangle within
+    /// the content's 8 U, along any unit axis less any origin within 8 U
+    /// ([`Ray::along`]), lies far inside the S18 range — the shift without
+    /// saturation gives [`shr_sat`]'s value. Random rectangles, tilted to
+    /// grazing, and rays at their points and just beyond their edges (the
+    /// full test decides the hit).
+    #[test]
+    fn a_bounded_hit_along_any_axis_needs_no_saturation() {
+        let mut s = 0x0b0d_ed00_cafe_f00d;
+        let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
+        let (mut hits, mut widest) = (0u32, 0i64);
+        for _ in 0..3000 {
+            let (th, ph, ro) = (f(0.0, 3.1), f(-3.2, 3.2), f(-3.2, 3.2));
+            let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+            let t0 = if n[0].abs() < 0.9 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 1.0, 0.0]
+            };
+            let cross = |a: [f64; 3], b: [f64; 3]| {
+                [
+                    a[1] * b[2] - a[2] * b[1],
+                    a[2] * b[0] - a[0] * b[2],
+                    a[0] * b[1] - a[1] * b[0],
+                ]
+            };
+            let unit = |a: [f64; 3]| {
+                let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                a.map(|x| x / l)
+            };
+            let e1 = unit(cross(n, t0));
+            let e2 = cross(n, e1);
+            let u = [0, 1, 2].map(|i| e1[i] * ro.cos() + e2[i] * ro.sin());
+            let v = cross(n, u);
+            let c = [f(-4.0, 4.0), f(-4.0, 4.0), f(0.1, 5.0)];
+            let (hu, hv) = (f(-6.0, 1.5).exp2(), f(-6.0, 1.5).exp2());
+            // Within the content's 8 U: every corner.
+            let corner = |a: f64, b: f64| [0, 1, 2].map(|i| c[i] + a * hu * u[i] + b * hv * v[i]);
+            let len = |p: [f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            if [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+                .iter()
+                .any(|&(a, b)| len(corner(a, b)) > 8.0)
+            {
+                continue;
+            }
+            let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
+            let (n30, u30, v30) = (s30(n), s30(u), s30(v));
+            let c18 = c.map(|x| (x * (1u64 << 18) as f64).round() as i32);
+            let dist = ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) * (1u64 << 24) as f64).round() as i32;
+            let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
+            let shape = MixShape::Rect {
+                n: n30,
+                dist,
+                rz: recip_z(n30),
+                u: u30,
+                v: v30,
+                cu: dot48(c18, u30) >> ALONG_S42,
+                cv: dot48(c18, v30) >> ALONG_S42,
+                hu: ((hu * (1u64 << 18) as f64) as i64) << 24,
+                hv: ((hv * (1u64 << 18) as f64) as i64) << 24,
+            };
+            for _ in 0..30 {
+                // A point of the rectangle or just beyond an edge.
+                let p = corner(f(-1.1, 1.1), f(-1.1, 1.1));
+                if p[2] <= 0.0 || (p[0] / p[2]).abs() > 15.0 || (p[1] / p[2]).abs() > 15.0 {
+                    continue;
+                }
+                let s26 = |x: f64| (x * (1u64 << 26) as f64) as i32;
+                let mut ray = [Ray::new::<true>(s26(p[0] / p[2]), s26(p[1] / p[2]), 0)];
+                shape.nearest::<true, false>(3, &mut ray, (None, [0; 4]));
+                if ray[0].hit & !AWAY != 3 || ray[0].t == NO_HIT {
+                    continue;
+                }
+                hits += 1;
+                // A checker's axis and origin (S18, within 8 U).
+                let a = unit([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]);
+                let o = unit([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]).map(|x| x * f(0.0, 8.0));
+                let (a30, o18) = (s30(a), o.map(|x| (x * (1u64 << 18) as f64).round() as i32));
+                let w = ray[0].along::<true>(ray[0].t, a30) - (dot48(o18, a30) >> ALONG_S42);
+                assert_eq!(shr_sat::<24>(w), (w >> 24) as i32, "w {w}: c {c:?} n {n:?} p {p:?}");
+                widest = widest.max((w >> 24).abs());
+            }
+        }
+        // Below 2^9 U of the S18 i32's 2^13 U (S18: 2^27).
+        assert!(hits > 20_000 && widest < 1 << 27, "{hits} hits, widest {widest}");
+        std::println!("{hits} hits, widest |w| {:.2} U", widest as f64 / (1u64 << 18) as f64);
+    }
+
     /// [`closed_lanes`] gives [`Mix32::closed_run`]'s scalar words and
     /// flags (the closed plane's ray by ray: [`closed_w`], [`closed_term`],
     /// [`Mix32::dn_word`]) and leaves it the same rays, on random planes,
