@@ -4411,13 +4411,20 @@ mod tests {
                 let o = unit([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]).map(|x| x * f(0.0, 8.0));
                 let (a30, o18) = (s30(a), o.map(|x| (x * (1u64 << 18) as f64).round() as i32));
                 let w = ray[0].along::<true>(ray[0].t, a30) - (dot48(o18, a30) >> ALONG_S42);
-                assert_eq!(shr_sat::<24>(w), (w >> 24) as i32, "w {w}: c {c:?} n {n:?} p {p:?}");
+                assert_eq!(
+                    shr_sat::<24>(w),
+                    (w >> 24) as i32,
+                    "w {w}: c {c:?} n {n:?} p {p:?}"
+                );
                 widest = widest.max((w >> 24).abs());
             }
         }
         // Below 2^9 U of the S18 i32's 2^13 U (S18: 2^27).
         assert!(hits > 20_000 && widest < 1 << 27, "{hits} hits, widest {widest}");
-        std::println!("{hits} hits, widest |w| {:.2} U", widest as f64 / (1u64 << 18) as f64);
+        std::println!(
+            "{hits} hits, widest |w| {:.2} U",
+            widest as f64 / (1u64 << 18) as f64
+        );
     }
 
     /// [`closed_lanes`] gives [`Mix32::closed_run`]'s scalar words and
