@@ -1619,84 +1619,7 @@ impl MixShape {
             MixShape::Plane { n, dist, rz } => {
                 flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| r.keep(t, index, away));
             }
-            MixShape::Sphere {
-                c,
-                cz50,
-                r2_24,
-                c18,
-                r2,
-                r24,
-                ..
-            } => {
-                for r in rays.iter_mut() {
-                    let (b, sq) = if PERSP {
-                        // b = d·c S22; disc = b² − a cc = a r² − |d × c|²
-                        // (Lagrange's identity: no cancellation of b²
-                        // against a |c|² next to the silhouette), S44 from
-                        // the cross product's components in S22.
-                        let (x, y) = (r.x, r.y);
-                        let b = ((wmul(x, c[0]) + wmul(y, c[1]) + *cz50) >> 28) as i32;
-                        let k = |v: i64| (v >> 28) as i32;
-                        let (c0, c1) = ((c[0] as i64) << 26, (c[1] as i64) << 26);
-                        let (k0, k1, k2) = (
-                            k(wmul(y, c[2]) - c1),
-                            k(c0 - wmul(x, c[2])),
-                            k(wmul(x, c[1]) - wmul(y, c[0])),
-                        );
-                        let disc = wmul(r.a, *r2_24) - (wsq(k0) + wsq(k1) + wsq(k2)) as i64;
-                        let disc = if EXACT && disc.unsigned_abs() < 1 << 33 {
-                            let a52 = (wsq(x) + wsq(y) + (1 << 52)) as i128;
-                            let rr = wsq(*r24) as i128;
-                            let e0 = wmul(y, c[2]) - c1;
-                            let e1 = c0 - wmul(x, c[2]);
-                            let e2 = wmul(x, c[1]) - wmul(y, c[0]);
-                            let kk = (e0 as i128) * (e0 as i128)
-                                + (e1 as i128) * (e1 as i128)
-                                + (e2 as i128) * (e2 as i128);
-                            if a52 * rr < kk {
-                                -1
-                            } else {
-                                disc.max(0)
-                            }
-                        } else {
-                            disc
-                        };
-                        if disc < 0 {
-                            continue;
-                        }
-                        (b, sqrt_s44_to_s22(disc as u64))
-                    } else {
-                        // b = c_z − o_z = c_z (S18); disc = r² − |(c − o)_xy|²,
-                        // S36 (|c − o| ≤ 72 U).
-                        let (dx, dy) = (c18[0] as i64 - r.ox as i64, c18[1] as i64 - r.oy as i64);
-                        let disc = *r2 as i64 - dx * dx - dy * dy;
-                        if disc < 0 {
-                            continue;
-                        }
-                        (c18[2], sqrt_s44_to_s22((disc as u64) << 8) >> 4)
-                    };
-                    // t = (b ∓ √disc) / a: perspective S22 2^16 / a (S20) →
-                    // S18; parallel a = 1, S18 already.
-                    let over_a = |v: i32| {
-                        if PERSP {
-                            mul_shr_var(v, r.ra.0, 46 - r.ra.1)
-                        } else {
-                            v
-                        }
-                    };
-                    let mut t = over_a(b.saturating_sub(sq));
-                    // The far root: the ray starts inside, the outward
-                    // normal faces away.
-                    let inside = t <= 0;
-                    if inside {
-                        t = over_a(b.saturating_add(sq));
-                        if t <= 0 {
-                            continue;
-                        }
-                    }
-                    r.keep(t.min(T_MAX), index, inside);
-                }
-            }
+            MixShape::Sphere { .. } => self.sphere_pass::<PERSP, EXACT>(index, rays),
             MixShape::Disc { n, dist, rz, c18, r2 } => {
                 flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| {
                     if t >= r.t {
@@ -1745,6 +1668,98 @@ impl MixShape {
                     }
                 });
             }
+        }
+    }
+
+    /// [`MixShape::nearest`] of a sphere. Out of line: the loops' other
+    /// passes keep their registers (inlined, a change to it moved
+    /// checkerboard-barrel, which has no sphere, by up to 5.5 M3
+    /// instructions a pixel).
+    #[inline(never)]
+    fn sphere_pass<const PERSP: bool, const EXACT: bool>(&self, index: u8, rays: &mut [Ray]) {
+        let MixShape::Sphere {
+            c,
+            cz50,
+            r2_24,
+            c18,
+            r2,
+            r24,
+            ..
+        } = self
+        else {
+            return;
+        };
+        for r in rays.iter_mut() {
+            let (b, sq) = if PERSP {
+                // b = d·c S22; disc = b² − a cc = a r² − |d × c|²
+                // (Lagrange's identity: no cancellation of b²
+                // against a |c|² next to the silhouette), S44 from
+                // the cross product's components in S22.
+                let (x, y) = (r.x, r.y);
+                let b = ((wmul(x, c[0]) + wmul(y, c[1]) + *cz50) >> 28) as i32;
+                let k = |v: i64| (v >> 28) as i32;
+                let (c0, c1) = ((c[0] as i64) << 26, (c[1] as i64) << 26);
+                let (k0, k1, k2) = (
+                    k(wmul(y, c[2]) - c1),
+                    k(c0 - wmul(x, c[2])),
+                    k(wmul(x, c[1]) - wmul(y, c[0])),
+                );
+                let disc = wmul(r.a, *r2_24) - (wsq(k0) + wsq(k1) + wsq(k2)) as i64;
+                let disc = if EXACT && disc.unsigned_abs() < 1 << 33 {
+                    let a52 = (wsq(x) + wsq(y) + (1 << 52)) as i128;
+                    let rr = wsq(*r24) as i128;
+                    let e0 = wmul(y, c[2]) - c1;
+                    let e1 = c0 - wmul(x, c[2]);
+                    let e2 = wmul(x, c[1]) - wmul(y, c[0]);
+                    let kk = (e0 as i128) * (e0 as i128)
+                        + (e1 as i128) * (e1 as i128)
+                        + (e2 as i128) * (e2 as i128);
+                    if a52 * rr < kk {
+                        -1
+                    } else {
+                        disc.max(0)
+                    }
+                } else {
+                    disc
+                };
+                if disc < 0 {
+                    continue;
+                }
+                (b, sqrt_s44_to_s22(disc as u64))
+            } else {
+                // b = c_z − o_z = c_z (S18); disc = r² − |(c − o)_xy|²,
+                // S36 (|c − o| ≤ 72 U).
+                let (dx, dy) = (c18[0] as i64 - r.ox as i64, c18[1] as i64 - r.oy as i64);
+                let disc = *r2 as i64 - dx * dx - dy * dy;
+                if disc < 0 {
+                    continue;
+                }
+                (c18[2], sqrt_s44_to_s22((disc as u64) << 8) >> 4)
+            };
+            // t = (b ∓ √disc) / a: perspective S22 2^16 / a (S20) →
+            // S18; parallel a = 1, S18 already. (`1/a`'s `z` is at
+            // most 11, `a` ≥ 2²⁰: the shift is 35 or more, so
+            // [`mul_shr_var`]'s right shift alone, and `|t|` below
+            // `|v|/16`, within T_MAX.)
+            let over_a = |v: i32| {
+                if PERSP {
+                    let q = (smul_u(v, r.ra.0) >> 31) as i32;
+                    q >> (15u32.saturating_sub(r.ra.1)).min(31)
+                } else {
+                    v
+                }
+            };
+            let mut t = over_a(b.saturating_sub(sq));
+            // The far root: the ray starts inside, the outward
+            // normal faces away.
+            let inside = t <= 0;
+            if inside {
+                t = over_a(b.saturating_add(sq));
+                if t <= 0 {
+                    continue;
+                }
+            }
+            r.keep(if PERSP { t } else { t.min(T_MAX) }, index, inside);
         }
     }
 }
