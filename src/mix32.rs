@@ -606,9 +606,12 @@ fn fine_normal<const PERSP: bool>(
             a.saturating_add(sd).saturating_neg()
         }
     });
-    // S24 → S30 by 1/r: six more bits of shift than from S18.
+    // S24 → S30 by 1/r: six more bits of shift than from S18. |p − c| is
+    // r (or |c⊥|, within the hit test's error of r, where s² < 0): each
+    // component fits i32 in S30, the low word of the shift
+    // (`tests::a_sphere_hits_normal_fits_without_saturation`).
     let sh = (inv_r.1 + 6).min(63);
-    rel.map(|v| sat32(sar64(smul_u(v, inv_r.0), sh)))
+    rel.map(|v| sar64_low(smul_u(v, inv_r.0), sh))
 }
 
 /// `√x` for `x < 2⁵⁶` (S48 → S24), within 2⁻²⁸ relative and one unit:
@@ -1392,9 +1395,11 @@ impl Ray {
     /// outside.
     #[inline(always)]
     fn mirror<const PERSP: bool>(&mut self) {
-        self.x = self.x.saturating_neg();
+        // |x̂| < 16 (S26: below 2³⁰) and |o_x| ≤ 64 U (S18): no negation
+        // overflows.
+        self.x = self.x.wrapping_neg();
         if !PERSP {
-            self.ox = self.ox.saturating_neg();
+            self.ox = self.ox.wrapping_neg();
         }
         if self.t != 0 {
             self.t = NO_HIT;
@@ -4373,7 +4378,9 @@ mod tests {
     /// of random spheres (radius 2⁻¹⁰ to 4 U, within the content's 8 U),
     /// by rays at random points of their surface and grazing their
     /// silhouettes, `(p − c)/r` in S30 fits i32 — [`sar64_low`] gives the
-    /// saturated value — and lies below 1.5 in magnitude.
+    /// saturated value — and lies below 1.5 in magnitude; and
+    /// [`fine_normal`]'s (taken through `sar64_low` too) is a unit vector
+    /// within 10 %.
     #[test]
     fn a_sphere_hits_normal_fits_without_saturation() {
         let mut s = 0x5fe3_e0a1_d00d_0001;
@@ -4436,6 +4443,14 @@ mod tests {
                         continue;
                     }
                     hits += 1;
+                    // The lobe's normal from the ray and the sphere: unit
+                    // within its errors (a wrapped component would not be).
+                    let n = fine_normal::<true>(&ray[0], c24, r24, inv_r, ray[0].hit & AWAY != 0);
+                    let n2: f64 = n.iter().map(|&x| (x as f64 / (1u64 << 30) as f64).powi(2)).sum();
+                    assert!(
+                        (0.9..1.1).contains(&n2),
+                        "case {case}: fine normal {n:?}, r {r} c {c:?}"
+                    );
                     let pt = ray[0].hit_point::<true, false>([0, 0]);
                     for (p, c) in pt.into_iter().zip(c18) {
                         let v = smul_u(p.saturating_sub(c), inv_r.0);
