@@ -436,32 +436,13 @@ pub fn recip(d: NonZeroU32) -> (u32, u32) {
     (r, z)
 }
 
-/// `(v · r) · 2^-sh` for `r` ≤ 2³¹, saturated to i32: the product over
-/// 2³¹ fits 32 bits, then a 32-bit shift.
-#[inline(always)]
-fn mul_shr_var(v: i32, r: u32, sh: u32) -> i32 {
-    // |v r| ≤ 2^62: the quotient by 2^31 always fits.
-    let q = (smul_u(v, r) >> 31) as i32;
-    if sh >= 31 {
-        q >> (sh - 31).min(31)
-    } else {
-        // Left by 31 − sh, saturating.
-        let l = 31 - sh;
-        if clz32(q.unsigned_abs()) > l {
-            q << l
-        } else if q < 0 {
-            i32::MIN
-        } else {
-            i32::MAX
-        }
-    }
-}
-
-/// [`mul_shr_var`] for a plane's `t` ([`Ray::plane_t`]): saturated to
-/// `±T_MAX` instead, so that negating it is exact and leaves it within
-/// `T_MAX`, for `|v| ≤ T_MAX` (a plane's `dist`, S24, lies within 8 U of
-/// the camera and the aperture: below 2²⁸). The same values as
-/// `mul_shr_var` clamped to `±T_MAX`.
+/// `(v · r) · 2^-sh` for `r` ≤ 2³¹ and `|v| ≤ T_MAX`, a plane's `t`
+/// ([`Ray::plane_t`]): the product over 2³¹ (below `|v|`) shifted right,
+/// or left with saturation to `±T_MAX`, so that negating it is exact and
+/// leaves it within `T_MAX` (a plane's `dist`, S24, lies within 8 U of the
+/// camera and the aperture, below 2²⁸; a parallel ray's numerator `dist −
+/// n·o` within 72 U, below 2³⁰·⁵). The same values as saturating to the
+/// i32 limits and then clamping to `±T_MAX` (`tests`).
 #[inline(always)]
 fn mul_shr_t(v: i32, r: u32, sh: u32) -> i32 {
     // |v r| < 2^59: the quotient by 2^31, below |v|, fits.
@@ -1473,9 +1454,9 @@ impl Ray {
             // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
             let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
             // Negated where n·d < 0 (`s` = −1): exact, and within T_MAX
-            // ([`mul_shr_t`]); the same `t` as negating `mul_shr_var`'s
-            // with saturation, then taking the least of it and T_MAX (a
-            // third of the instructions).
+            // ([`mul_shr_t`]); the same `t` as negating it with saturation
+            // then taking the least of it and T_MAX (a third of the
+            // instructions).
             let s = den >> 31;
             let t = (mul_shr_t(dist, r, 44 - z) ^ s).wrapping_sub(s);
             (t > 0).then_some((t, den > 0))
@@ -1486,9 +1467,10 @@ impl Ray {
                 return None;
             }
             let no = ((wmul(n[0], self.ox) + wmul(n[1], self.oy)) >> 24) as i32;
-            let t = mul_shr_var(dist.saturating_sub(no), rz.0, 38 - rz.1);
-            let t = if n[2] < 0 { t.saturating_neg() } else { t };
-            (t > 0).then_some((t.min(T_MAX), n[2] > 0))
+            // Negated where n_z < 0, as above.
+            let s = -((n[2] < 0) as i32);
+            let t = (mul_shr_t(dist.saturating_sub(no), rz.0, 38 - rz.1) ^ s).wrapping_sub(s);
+            (t > 0).then_some((t, n[2] > 0))
         }
     }
 }
@@ -1762,7 +1744,7 @@ impl MixShape {
             // t = (b ∓ √disc) / a: perspective S22 2^16 / a (S20) →
             // S18; parallel a = 1, S18 already. (`1/a`'s `z` is at
             // most 11, `a` ≥ 2²⁰: the shift is 35 or more, so
-            // [`mul_shr_var`]'s right shift alone, and `|t|` below
+            // [`mul_shr_t`]'s right shift alone, and `|t|` below
             // `|v|/16`, within T_MAX.)
             let over_a = |v: i32| {
                 if PERSP {
@@ -1799,7 +1781,7 @@ impl MixShape {
 /// errs by at most `E` for a point within the rectangle: `t̃`'s relative
 /// error (the reciprocal's 2⁻²¹, `n·d` truncated to S24: `2⁻²⁴ T/|dist|`),
 /// its truncations (2⁻¹⁸ U, times `2^l` where a small `n·d` makes
-/// [`mul_shr_var`] shift left), `d·a` truncated to S24, with `t ≤ T =
+/// [`mul_shr_t`] shift left), `d·a` truncated to S24, with `t ≤ T =
 /// |c·u| + |c·v| + |dist| + h_u + h_v` and `|d| < 64`; so `h − E` takes
 /// the place of `h` (`E` doubled, `T` and `1/|dist|` taken as powers of
 /// two above them), and `h − E ± c_a` is rounded down to S24 (a stricter
@@ -1846,7 +1828,7 @@ impl Inner {
         let bt = 64 - crate::num::clz64(t42);
         let bd = 32 - crate::num::clz32(dist.unsigned_abs());
         // The least |n·d| (S24) at a point within, |dist| / T, is at least
-        // 2^(bd + 41 − bt): `mul_shr_var` shifts `t` left by at most l.
+        // 2^(bd + 41 − bt): `mul_shr_t` shifts `t` left by at most l.
         let lz = 31u32.checked_sub((bd + 41).checked_sub(bt)?)?;
         // (l ≤ 18: the shift below stays within 64 bits.)
         let l = lz.saturating_sub(13);
@@ -4273,46 +4255,10 @@ mod tests {
         for _ in 0..4000 {
             // An orthonormal frame (n, u, v) from random angles; the
             // centre 0.1 to 7 U ahead, half sizes 2^-6 to 4 U.
-            let (th, ph, ro) = (f(0.0, 3.1), f(-3.2, 3.2), f(-3.2, 3.2));
-            let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
-            let t0 = if n[0].abs() < 0.9 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 1.0, 0.0]
-            };
-            let cross = |a: [f64; 3], b: [f64; 3]| {
-                [
-                    a[1] * b[2] - a[2] * b[1],
-                    a[2] * b[0] - a[0] * b[2],
-                    a[0] * b[1] - a[1] * b[0],
-                ]
-            };
-            let unit = |a: [f64; 3]| {
-                let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-                a.map(|x| x / l)
-            };
-            let e1 = unit(cross(n, t0));
-            let e2 = cross(n, e1);
-            let u = [0, 1, 2].map(|i| e1[i] * ro.cos() + e2[i] * ro.sin());
-            let v = cross(n, u);
+            let [n, u, v] = random_frame(&mut f);
             let c = [f(-3.0, 3.0), f(-3.0, 3.0), f(0.1, 7.0)];
             let (hu, hv) = (f(-6.0, 2.0).exp2(), f(-6.0, 2.0).exp2());
-            let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
-            let (n30, u30, v30) = (s30(n), s30(u), s30(v));
-            let c18 = c.map(|x| (x * (1u64 << 18) as f64).round() as i32);
-            let dist = ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) * (1u64 << 24) as f64).round() as i32;
-            let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
-            let shape = MixShape::Rect {
-                n: n30,
-                dist,
-                rz: recip_z(n30),
-                u: u30,
-                v: v30,
-                cu: dot48(c18, u30) >> 6,
-                cv: dot48(c18, v30) >> 6,
-                hu: ((hu * (1u64 << 18) as f64) as i64) << 24,
-                hv: ((hv * (1u64 << 18) as f64) as i64) << 24,
-            };
+            let (shape, n30, dist) = rect_shape([n, u, v], c, [hu, hv]);
             let prim = MixPrim {
                 shape,
                 material: 0,
@@ -4386,10 +4332,7 @@ mod tests {
         let mut s = 0x5fe3_e0a1_d00d_0001;
         let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
         let (mut hits, mut widest) = (0u32, 0f64);
-        let unit = |a: [f64; 3]| {
-            let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-            a.map(|x| x / l)
-        };
+        let unit = unit3;
         for case in 0..3000 {
             let r = f(-10.0, 2.0).exp2();
             let c = [f(-4.0, 4.0), f(-4.0, 4.0), f(0.0, 6.0)];
@@ -4465,6 +4408,59 @@ mod tests {
         std::println!("{hits} hits, widest normal component {widest:.6}");
     }
 
+    /// `a` scaled to unit length.
+    fn unit3(a: [f64; 3]) -> [f64; 3] {
+        let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        a.map(|x| x / l)
+    }
+
+    fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+
+    /// An orthonormal frame `[n, u, v]` from three random angles (`n`
+    /// anywhere, so tilted up to grazing).
+    fn random_frame(f: &mut impl FnMut(f64, f64) -> f64) -> [[f64; 3]; 3] {
+        let (th, ph, ro) = (f(0.0, 3.1), f(-3.2, 3.2), f(-3.2, 3.2));
+        let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+        let t0 = if n[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let e1 = unit3(cross3(n, t0));
+        let e2 = cross3(n, e1);
+        let u = [0, 1, 2].map(|i| e1[i] * ro.cos() + e2[i] * ro.sin());
+        [n, u, cross3(n, u)]
+    }
+
+    /// The rectangle of centre `c`, axes `u`, `v` and half sizes `h` (U) as
+    /// [`Mix32::fill`] stores it for perspective rays (the unit 1 U), with
+    /// its normal (S30) and `dist` (S24).
+    fn rect_shape([n, u, v]: [[f64; 3]; 3], c: [f64; 3], [hu, hv]: [f64; 2]) -> (MixShape, [i32; 3], i32) {
+        let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
+        let (n30, u30, v30) = (s30(n), s30(u), s30(v));
+        let c18 = c.map(|x| (x * (1u64 << 18) as f64).round() as i32);
+        let dist = ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) * (1u64 << 24) as f64).round() as i32;
+        let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
+        let shape = MixShape::Rect {
+            n: n30,
+            dist,
+            rz: recip_z(n30),
+            u: u30,
+            v: v30,
+            cu: dot48(c18, u30) >> ALONG_S42,
+            cv: dot48(c18, v30) >> ALONG_S42,
+            hu: ((hu * (1u64 << 18) as f64) as i64) << 24,
+            hv: ((hv * (1u64 << 18) as f64) as i64) << 24,
+        };
+        (shape, n30, dist)
+    }
+
     /// [`MixChecker::cell`]'s `bounded`: a ray's hit on a rectangle within
     /// the content's 8 U, along any unit axis less any origin within 8 U
     /// ([`Ray::along`]), lies far inside the S18 range — the shift without
@@ -4477,28 +4473,7 @@ mod tests {
         let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
         let (mut hits, mut widest) = (0u32, 0i64);
         for _ in 0..3000 {
-            let (th, ph, ro) = (f(0.0, 3.1), f(-3.2, 3.2), f(-3.2, 3.2));
-            let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
-            let t0 = if n[0].abs() < 0.9 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 1.0, 0.0]
-            };
-            let cross = |a: [f64; 3], b: [f64; 3]| {
-                [
-                    a[1] * b[2] - a[2] * b[1],
-                    a[2] * b[0] - a[0] * b[2],
-                    a[0] * b[1] - a[1] * b[0],
-                ]
-            };
-            let unit = |a: [f64; 3]| {
-                let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-                a.map(|x| x / l)
-            };
-            let e1 = unit(cross(n, t0));
-            let e2 = cross(n, e1);
-            let u = [0, 1, 2].map(|i| e1[i] * ro.cos() + e2[i] * ro.sin());
-            let v = cross(n, u);
+            let [n, u, v] = random_frame(&mut f);
             let c = [f(-4.0, 4.0), f(-4.0, 4.0), f(0.1, 5.0)];
             let (hu, hv) = (f(-6.0, 1.5).exp2(), f(-6.0, 1.5).exp2());
             // Within the content's 8 U: every corner.
@@ -4510,22 +4485,9 @@ mod tests {
             {
                 continue;
             }
+            let (shape, ..) = rect_shape([n, u, v], c, [hu, hv]);
             let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
-            let (n30, u30, v30) = (s30(n), s30(u), s30(v));
-            let c18 = c.map(|x| (x * (1u64 << 18) as f64).round() as i32);
-            let dist = ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) * (1u64 << 24) as f64).round() as i32;
             let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
-            let shape = MixShape::Rect {
-                n: n30,
-                dist,
-                rz: recip_z(n30),
-                u: u30,
-                v: v30,
-                cu: dot48(c18, u30) >> ALONG_S42,
-                cv: dot48(c18, v30) >> ALONG_S42,
-                hu: ((hu * (1u64 << 18) as f64) as i64) << 24,
-                hv: ((hv * (1u64 << 18) as f64) as i64) << 24,
-            };
             for _ in 0..30 {
                 // A point of the rectangle or just beyond an edge.
                 let p = corner(f(-1.1, 1.1), f(-1.1, 1.1));
@@ -4540,8 +4502,8 @@ mod tests {
                 }
                 hits += 1;
                 // A checker's axis and origin (S18, within 8 U).
-                let a = unit([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]);
-                let o = unit([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]).map(|x| x * f(0.0, 8.0));
+                let a = unit3([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]);
+                let o = unit3([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]).map(|x| x * f(0.0, 8.0));
                 let (a30, o18) = (s30(a), o.map(|x| (x * (1u64 << 18) as f64).round() as i32));
                 let w = ray[0].along::<true>(ray[0].t, a30) - (dot48(o18, a30) >> ALONG_S42);
                 assert_eq!(
@@ -4831,19 +4793,40 @@ mod tests {
         assert!(worst < 2f64.powi(-21), "relative error {worst:e}");
     }
 
-    /// `plane_t`'s `t`: [`mul_shr_t`] negated where `n·d < 0` is what
-    /// negating [`mul_shr_var`]'s with saturation and capping at `T_MAX`
-    /// gave, on every path (shifts right and left, saturated or not).
+    /// The product `plane_t` took before [`mul_shr_t`]: saturated to the
+    /// i32 limits.
+    fn mul_shr_var(v: i32, r: u32, sh: u32) -> i32 {
+        let q = (smul_u(v, r) >> 31) as i32;
+        if sh >= 31 {
+            q >> (sh - 31).min(31)
+        } else {
+            let l = 31 - sh;
+            if q.unsigned_abs().leading_zeros() > l {
+                q << l
+            } else if q < 0 {
+                i32::MIN
+            } else {
+                i32::MAX
+            }
+        }
+    }
+
+    /// `plane_t`'s `t`: [`mul_shr_t`] negated where `n·d < 0` (or `n_z`, for
+    /// parallel rays) is what negating the product saturated to the i32
+    /// limits, then capping at `T_MAX`, gave, on every path (shifts right
+    /// and left, saturated or not), for numerators up to 2³⁰·⁵.
     #[test]
     fn plane_t_negation_is_the_saturating_one() {
         let mut s = 0x2468_ACE0_1357_9BDF;
         let mut saturated = 0;
         for i in 0..400_000u32 {
-            // |dist| ≤ 2^28 (S24, within 8 U plus the aperture), r in
-            // (2^30, 2^31], the shift 44 − z for z in 0..=31.
-            let v = (rng(&mut s) >> (35 + rng(&mut s) % 29)) as i32 * if i % 2 == 0 { 1 } else { -1 };
+            // |v| below 1.5 2^30 (a parallel ray's numerator; |dist| ≤
+            // 2^28), r in (2^30, 2^31], the shift 44 − z or 38 − z for z
+            // in 0..=31.
+            let v = ((rng(&mut s) >> (33 + rng(&mut s) % 31)) % (3 << 29)) as i32
+                * if i % 2 == 0 { 1 } else { -1 };
             let r = (1u32 << 30) + 1 + (rng(&mut s) % (1 << 30)) as u32;
-            let sh = 13 + (rng(&mut s) % 32) as u32;
+            let sh = 7 + (rng(&mut s) % 38) as u32;
             for den_neg in [false, true] {
                 let old = mul_shr_var(v, r, sh);
                 let old = if den_neg { old.saturating_neg() } else { old };
