@@ -445,20 +445,26 @@ pub fn recip(d: NonZeroU32) -> (u32, u32) {
 /// i32 limits and then clamping to `±T_MAX` (`tests`).
 #[inline(always)]
 fn mul_shr_t(v: i32, r: u32, sh: u32) -> i32 {
+    if sh >= 31 {
+        return mul_shr_right(v, r, sh);
+    }
     // |v r| < 2^59: the quotient by 2^31, below |v|, fits.
     let q = (smul_u(v, r) >> 31) as i32;
-    if sh >= 31 {
-        q >> (sh - 31).min(31)
+    // Left by 31 − sh ≥ 1: below 2^31 − 1 in magnitude, or saturated.
+    let l = 31 - sh;
+    if clz32(q.unsigned_abs()) > l {
+        q << l
     } else {
-        // Left by 31 − sh ≥ 1: below 2^31 − 1 in magnitude, or saturated.
-        let l = 31 - sh;
-        if clz32(q.unsigned_abs()) > l {
-            q << l
-        } else {
-            let s = q >> 31;
-            (T_MAX ^ s).wrapping_sub(s)
-        }
+        let s = q >> 31;
+        (T_MAX ^ s).wrapping_sub(s)
     }
+}
+
+/// `(v · r) · 2^-sh` for `r` ≤ 2³¹ and `sh ≥ 31`: the product over 2³¹
+/// (below `|v|` in magnitude), then a 32-bit right shift.
+#[inline(always)]
+fn mul_shr_right(v: i32, r: u32, sh: u32) -> i32 {
+    ((smul_u(v, r) >> 31) as i32) >> sh.saturating_sub(31).min(31)
 }
 
 /// Seeds for [`rsqrt_norm`]: `1/√((i + ½)/1024)` in Q2.14 for `i` in
@@ -745,22 +751,11 @@ fn sar64(v: i64, s: u32) -> i64 {
     }
 }
 
-/// The low word of `v >> s` (`s < 64`), for a shifted value known to fit
-/// i32: on the M0 from the words (no library call), elsewhere the low word
-/// of the 64-bit shift.
+/// The low word of [`sar64`]`(v, s)` (`s < 64`), for a shifted value
+/// known to fit i32: no saturation ([`sat32`]).
 #[inline(always)]
 fn sar64_low(v: i64, s: u32) -> i32 {
-    if ARMV6M {
-        let (hi, lo) = ((v >> 32) as i32, v as u32);
-        if s >= 32 {
-            hi >> ((s - 32) & 31)
-        } else {
-            // hi << (32 − s) in two shifts, each below 32.
-            ((lo >> s) | (((hi as u32) << 1) << (31 - s))) as i32
-        }
-    } else {
-        (v >> s.min(63)) as i32
-    }
+    sar64(v, s) as i32
 }
 
 /// For `v ≠ 0`: the top word of `v << z` and `z`, the count of `v`'s
@@ -1468,7 +1463,7 @@ impl Ray {
             }
             let no = ((wmul(n[0], self.ox) + wmul(n[1], self.oy)) >> 24) as i32;
             // Negated where n_z < 0, as above.
-            let s = -((n[2] < 0) as i32);
+            let s = n[2] >> 31;
             let t = (mul_shr_t(dist.saturating_sub(no), rz.0, 38 - rz.1) ^ s).wrapping_sub(s);
             (t > 0).then_some((t, n[2] > 0))
         }
@@ -1533,6 +1528,13 @@ fn moved_point(c: [i32; 3], a: [i32; 2]) -> [i32; 3] {
 }
 
 impl MixShape {
+    /// Every primitive but a plane: its hits lie within the content's
+    /// extent ([`MixChecker::cell`]).
+    #[inline(always)]
+    fn bounded(&self) -> bool {
+        !matches!(self, MixShape::Plane { .. })
+    }
+
     /// The shape in the frame moved to `(a_x, a_y, 0)` (`a` S18 U, `a24` the
     /// same point in S24 U; defocus's aperture points): exact for centres
     /// (a sphere's from `a24`), `n·A` truncated to S24 U.
@@ -1744,12 +1746,10 @@ impl MixShape {
             // t = (b ∓ √disc) / a: perspective S22 2^16 / a (S20) →
             // S18; parallel a = 1, S18 already. (`1/a`'s `z` is at
             // most 11, `a` ≥ 2²⁰: the shift is 35 or more, so
-            // [`mul_shr_t`]'s right shift alone, and `|t|` below
-            // `|v|/16`, within T_MAX.)
+            // [`mul_shr_right`], and `|t|` below `|v|/16`, within T_MAX.)
             let over_a = |v: i32| {
                 if PERSP {
-                    let q = (smul_u(v, r.ra.0) >> 31) as i32;
-                    q >> (15u32.saturating_sub(r.ra.1)).min(31)
+                    mul_shr_right(v, r.ra.0, 46 - r.ra.1)
                 } else {
                     v
                 }
@@ -3323,7 +3323,7 @@ impl Mix32 {
                 checker: Some(k),
                 shape,
                 ..
-            }) => k.cells_of::<PERSP>(r, !matches!(shape, MixShape::Plane { .. })),
+            }) => k.cells_of::<PERSP>(r, shape.bounded()),
             _ => (0, 0),
         };
         Key::new(cell.0, cell.1, prim)
@@ -3612,9 +3612,7 @@ impl Mix32 {
                 Some(key) => key.odd(),
                 None => {
                     // (The aperture loop's rays start off the axis.)
-                    // A hit on a bounded primitive lies within the
-                    // content's extent ([`MixChecker::cell`]).
-                    let bounded = !matches!(p.shape, MixShape::Plane { .. });
+                    let bounded = p.shape.bounded();
                     let (cu, cv) = match (PERSP, MOVED) {
                         (true, false) => k.cells_of::<PERSP>(r, bounded),
                         (true, true) => k.cells::<PERSP>(r.hit_point::<PERSP, MOVED>(a), bounded),
