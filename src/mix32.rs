@@ -75,7 +75,7 @@
 
 use crate::num::{clz32, clz64, umul16, umul16_words, ARMV6M};
 use crate::render::from_acc;
-use crate::render::{Carry, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
+use crate::render::{Carry, ClosedMean, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::sampling::Corners;
 use crate::scalar::shr_sat;
 use crate::scene::{PixelFormat, Q};
@@ -1078,7 +1078,7 @@ struct Closed {
     /// [`Mix32::passes`]).
     index: u8,
     /// [`crate::render::Options::closed_mean`] ([`Mix32::closed_run`]).
-    mean: bool,
+    mean: ClosedMean,
     /// Unit normal, S30; `dist`, S24 U; `−dist`, S24 U and S50 U.
     n: [i32; 3],
     dist: i32,
@@ -1994,7 +1994,7 @@ pub(crate) struct Input<'a> {
     /// The principal point is the sensor's centre (`o_x = (W − 1)/2`).
     pub centred: bool,
     /// [`crate::render::Options::closed_mean`].
-    pub closed_mean: bool,
+    pub closed_mean: ClosedMean,
 }
 
 impl Input<'_> {
@@ -2461,7 +2461,7 @@ impl Mix32 {
     /// ([`MixPrim::nl`]) towards every point light. Out of line: once a
     /// frame.
     #[inline(never)]
-    fn closed_plane(&self, mean: bool) -> Option<Closed> {
+    fn closed_plane(&self, mean: ClosedMean) -> Option<Closed> {
         if self.parallel.is_some() {
             return None;
         }
@@ -2999,9 +2999,11 @@ impl Mix32 {
         let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
         // A chunk whose rays all see the plane (`w` of each kept), in a
         // frame with one point light on the plane's side: its even rays'
-        // terms, and its odd rays' sums the mean of their neighbours' (the
-        // last ray, if odd, its own). The same words as `closed_lanes`.
-        if let (true, [l]) = (c.mean, c.lights.as_slice()) {
+        // terms (with `Quads`, those of every fourth and of the last even
+        // ray, and the other even rays' sums the mean of theirs 2 apart),
+        // and its odd rays' sums the mean of their neighbours' (the last
+        // ray, if odd, its own). The same words as `closed_lanes`.
+        if let (true, [l]) = (c.mean.on(), c.lights.as_slice()) {
             let len = rays.len().min(words.len()).min(fl.len());
             let mut ws = [0i32; CHUNK];
             let mut lit = len >= 3;
@@ -3020,6 +3022,8 @@ impl Mix32 {
                 // One slot spare: with 16, spheres-specular measured 549.1
                 // against 545.7 M3 instructions a pixel (the frame's layout).
                 let mut even = [[0u64; C]; CHUNK / 2 + 1];
+                // The last even ray, and the shaded rays' step below it.
+                let (e, span) = (len.saturating_sub(1) & !1, c.mean.span() as usize);
                 let mut q = 0;
                 while q < len {
                     let (Some(r), Some(&w), Some(word)) = (rays.get_mut(q), ws.get(q), words.get_mut(q))
@@ -3034,7 +3038,25 @@ impl Mix32 {
                     // The pixel's noise key (computed where the noise draws).
                     let k = index.wrapping_add((q as u32).wrapping_mul(step));
                     *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                    q += if q + 2 == len { 1 } else { 2 };
+                    q = if q < e { (q + span).min(e) } else { q + 1 };
+                }
+                // With `Quads`: the even rays between, from the shaded ones.
+                let mut q = 2;
+                while span == 4 && q < e {
+                    if let (Some([a, m, b]), Some(r), Some(word)) = (
+                        even.get_mut((q >> 1) - 1..(q >> 1) + 2),
+                        rays.get(q),
+                        words.get_mut(q),
+                    ) {
+                        let mut sum = [0u64; 3];
+                        for ((s, a), (m, b)) in sum.iter_mut().zip(a.iter()).zip(m.iter_mut().zip(b.iter())) {
+                            *s = mean(*a, *b);
+                            *m = *s;
+                        }
+                        let k = index.wrapping_add((q as u32).wrapping_mul(step));
+                        *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                    }
+                    q += 4;
                 }
                 let mut q = 1;
                 while q + 1 < len {
@@ -3971,8 +3993,13 @@ fn closed_lanes(
     // A chunk whose rays all see the plane: its odd rays' sums are their
     // neighbours' mean, as `Mix32::closed_run` takes them.
     let len = rays.len().min(CHUNK);
-    let lit = c.mean && len >= 3 && rays.iter().zip(w).all(|(r, wq)| r.t == NO_HIT && c.ahead(wq));
+    let lit = c.mean.on() && len >= 3 && rays.iter().zip(w).all(|(r, wq)| r.t == NO_HIT && c.ahead(wq));
     if lit {
+        if c.mean == ClosedMean::Quads {
+            for q in (2..(len - 1) & !1).step_by(4) {
+                sums[q] = mean(sums[q - 2], sums[q + 2]);
+            }
+        }
         for q in (1..len - 1).step_by(2) {
             sums[q] = mean(sums[q - 1], sums[q + 1]);
         }
@@ -4532,10 +4559,16 @@ mod tests {
         let mut r = |lo: i64, hi: i64| lo + (rng(&mut s) % (hi - lo + 1) as u64) as i64;
         let (mut closed_pixels, mut lit, mut means) = (0, 0, 0);
         for case in 0..3000 {
-            // Every other case with the mean ([`Closed::mean`]), one
-            // in four a chunk whose rays all see the plane (a normal near
-            // the optical axis, the plane on its side, rays within 45°).
-            let (mean_on, seen) = (case % 4 < 2, case % 4 == 0);
+            // A quarter of the cases with the pairs' mean, a quarter with the
+            // quads' ([`Closed::mean`]), one in four a chunk whose rays all
+            // see the plane (a normal near the optical axis, the plane on
+            // its side, rays within 45°).
+            let mean_on = match (case % 4 < 2, case % 8 >= 4) {
+                (false, _) => ClosedMean::Off,
+                (true, false) => ClosedMean::Pairs,
+                (true, true) => ClosedMean::Quads,
+            };
+            let seen = case % 4 == 0;
             // A unit normal (S30) and the plane's distance (S24 U, at least
             // 2^-10 U, within 8 U), a light within 8 U (S26 U).
             let mut v = [r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20)];
@@ -4600,10 +4633,15 @@ mod tests {
                     b.t == NO_HIT && c.ahead(w)
                 });
             let mut expected = sums;
-            if mean_on && all {
+            if mean_on.on() && all {
                 means += 1;
+                if mean_on == ClosedMean::Quads {
+                    for q in (2..(count - 1) & !1).step_by(4) {
+                        expected[q][0] = mean(expected[q - 2][0], expected[q + 2][0]);
+                    }
+                }
                 for q in (1..count - 1).step_by(2) {
-                    expected[q][0] = mean(sums[q - 1][0], sums[q + 1][0]);
+                    expected[q][0] = mean(expected[q - 1][0], expected[q + 1][0]);
                 }
             }
             for (q, ray) in rays.iter().enumerate() {

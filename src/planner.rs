@@ -43,7 +43,7 @@
 
 use crate::noise::{Z_ERR, Z_MAX};
 use crate::projection::{weak_perspective_bound, DepthBox};
-use crate::render::{Arithmetic, DistortionEval, Options, RenderModel};
+use crate::render::{Arithmetic, ClosedMean, DistortionEval, Options, RenderModel};
 use crate::scene::{Light, Scene, Shape};
 use crate::{CameraPoint, Len, Model};
 
@@ -141,9 +141,9 @@ pub struct Candidate {
     pub lsb: f64,
     /// Predicted cost, M3 instructions a pixel.
     pub m3_instructions_per_pixel: f64,
-    /// Whether the closed plane's odd rays take their neighbours' mean
-    /// (`Options::closed_mean`; its bound is in `lsb`).
-    pub closed_mean: bool,
+    /// How the closed plane's rays between those shaded take interpolated
+    /// sums (`Options::closed_mean`; its bound is in `lsb`).
+    pub closed_mean: ClosedMean,
     /// What the mean alone moves a value by at most, LSB (0 without it):
     /// its bound on the sum and, with noise, on `σ z` ([`noise_moved`]).
     pub mean_lsb: f64,
@@ -339,17 +339,22 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         };
         let lsb =
             ErrorModel::of(arithmetic, &g).lsb(scene, &g, g.direct_geom_err(arithmetic, scene) + shifted);
-        // The closed form runs in the fast one-sample loop; its odd rays
-        // take their neighbours' mean (perspective rays) where its bound
-        // keeps the LSB within budget.
+        // The closed form runs in the fast one-sample loop; the rays
+        // between those it shades take interpolated sums (perspective
+        // rays): over 4 rays where that bound keeps the LSB within budget,
+        // else over 2 where that one does.
         let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
-        let mean = match (closed, model) {
-            (true, RenderModel::Perspective) => closed_mean_err(scene, &g)
-                .map(|e| (noise_moved(scene, &g, lsb + e), noise_moved(scene, &g, e)))
-                .filter(|(l, _)| l + noise_draw_lsb(scene, &g) + 0.5 <= budget.max_lsb),
+        let pair_err = match (closed, model) {
+            (true, RenderModel::Perspective) => closed_mean_err(scene, &g),
             _ => None,
         };
-        let (moved, mean_lsb) = mean.unwrap_or_else(|| (noise_moved(scene, &g, lsb), 0.0));
+        let mean = [ClosedMean::Quads, ClosedMean::Pairs].into_iter().find_map(|m| {
+            let e = pair_err? * closed_mean_factor(m);
+            let moved = (noise_moved(scene, &g, lsb + e), noise_moved(scene, &g, e));
+            (moved.0 + noise_draw_lsb(scene, &g) + 0.5 <= budget.max_lsb).then_some((m, moved))
+        });
+        let (closed_mean, (moved, mean_lsb)) =
+            mean.unwrap_or_else(|| (ClosedMean::Off, (noise_moved(scene, &g, lsb), 0.0)));
         let lsb = moved + noise_draw_lsb(scene, &g);
         for (distortion, entries) in evals {
             let geom = match distortion {
@@ -359,7 +364,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 _ => g.direct_geom_err(arithmetic, scene),
             };
             let model = CostModel::of(arithmetic);
-            let one = model.predict(&Features::of(scene, &g, distortion, closed, mean.is_some()));
+            let one = model.predict(&Features::of(scene, &g, distortion, closed, closed_mean));
             let cost = model.samples.cost(one, &terms);
             let _ = cands.push(Candidate {
                 arithmetic,
@@ -369,7 +374,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 geom_err_px: geom,
                 lsb,
                 m3_instructions_per_pixel: cost,
-                closed_mean: mean.is_some(),
+                closed_mean,
                 mean_lsb,
                 edge_differing: (edge_looks * 2.0 * geom).min(1.0),
             });
@@ -404,7 +409,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         geom_err_px: f64::INFINITY,
         lsb: f64::INFINITY,
         m3_instructions_per_pixel: f64::INFINITY,
-        closed_mean: false,
+        closed_mean: ClosedMean::Off,
         mean_lsb: 0.0,
         edge_differing: 1.0,
     });
@@ -1505,6 +1510,31 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
     }
 }
 
+/// The bound of [`closed_mean_err`] (the pairs') times what the
+/// interpolation `m` multiplies it by: over `s` rays its largest
+/// curvature term is `s²/8 · max|φ''|`, 4 times the pairs' over 4 rays;
+/// 0 without it.
+pub fn closed_mean_factor(m: ClosedMean) -> f64 {
+    let s = f64::from(m.span());
+    if m.on() {
+        s * s / 4.0
+    } else {
+        0.0
+    }
+}
+
+/// The share of the closed plane's light terms that the interpolation `m`
+/// leaves out in a chunk of 32 rays, in units of the pairs' (15 of 32:
+/// rays 1, 3, …, 29): `Quads` leaves out 22 (rays 0, 4, …, 28, 30, 31
+/// shaded).
+pub fn closed_mean_skipped(m: ClosedMean) -> f64 {
+    match m {
+        ClosedMean::Off => 0.0,
+        ClosedMean::Pairs => 1.0,
+        ClosedMean::Quads => 22.0 / 15.0,
+    }
+}
+
 /// A bound, DN, on what the closed plane's mean (`mix32::mean`,
 /// [`Options::closed_mean`]) moves a pixel's sum: the plane's term under
 /// its one point light, `T = D (h/r)³` (`D` at the light's foot, `h` its
@@ -1521,10 +1551,14 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
 /// largest, [`Geometry`]). The hit lies `√(R² − dist²)` from the camera's
 /// foot on the plane, the light's foot `F` from it, so `r ≥ √(h² + gap²)`
 /// with `gap` how far that circle stays from `F`. The largest over cells
-/// of `R` 25 % wide up to 10³ times the scene's distances (the bound
-/// falls as `1/R` beyond); before the noise ([`noise_moved`] adds what it
+/// of `R` 10 % wide up to 10³ times the scene's distances (the bound
+/// falls as `1/R` beyond), 10 % wide up to 4 times the distance at which
+/// the hit passes the light's foot and 25 % beyond (cells of 25 %
+/// throughout gave the standard scene 0.134 LSB, these 0.101); before the noise ([`noise_moved`] adds what it
 /// does). `None` without the plane, or with more than one point light (no
-/// mean then). (The camera plans every frame: some 36 cells, one division each.)
+/// mean then). (The camera plans every frame: some 50 cells, one division
+/// each.) [`closed_mean_factor`] scales it to an interpolation over more
+/// rays.
 #[inline(never)]
 fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let p = g.prims.get(g.closed?)?;
@@ -1555,13 +1589,16 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let (nx, ny) = (libm::fabs(p.n[0]), libm::fabs(p.n[1]));
     let (d1, d2) = (libm::sqrt(x1 * x1 + y1 * y1), libm::sqrt(x2 * x2 + y2 * y2));
     let (n1, n2) = (nx * x1 + ny * y1, nx * x2 + ny * y2);
-    // Cells of R 25 % wide (each bounded at its worst ends) up to 10³
-    // times the scene's distances, where the bound falls as 1/R.
+    // Cells of R (each bounded at its worst ends) up to 10³ times the
+    // scene's distances, where the bound falls as 1/R: 10 % wide up to 4
+    // times the distance at which the hit passes the light's foot (the
+    // bound's largest lie there), 25 % beyond.
     let top = 1e3 * (dist + l + h);
+    let fine = 4.0 * libm::sqrt(foot * foot + dist * dist);
     let inv_dist = 1.0 / dist;
     let (mut ra, mut ring_a, mut worst) = (dist, 0.0, 0.0f64);
     while ra < top {
-        let rb = ra * 1.25;
+        let rb = ra * if ra < fine { 1.1 } else { 1.25 };
         // How far the hit lies from the camera's foot on the plane.
         let ring_b = libm::sqrt((rb * rb - dist * dist).max(0.0));
         let gap = (ring_a - foot).max(foot - ring_b).max(0.0);
@@ -1680,8 +1717,10 @@ pub struct Features {
     /// `t` a chunk (`mix32::flat_pass`), not a reciprocal each — but the
     /// plane shaded in closed form where [`Features::closed`] counts.
     pub facing_area: f64,
-    /// [`Features::closed`] where the closed plane's odd rays take their
-    /// neighbours' mean (`Options::closed_mean`), else 0.
+    /// [`Features::closed`] times the share of its light terms the
+    /// interpolation (`Options::closed_mean`) leaves out, in units of the
+    /// pairs' share ([`closed_mean_skipped`]): 0 without it, 1 with
+    /// `Pairs`, 22/15 with `Quads`.
     pub closed_mean: f64,
 }
 
@@ -1693,7 +1732,8 @@ impl Features {
             (!scene.distortion.is_none() || opts.keep_all_stages).then_some(opts.distortion_eval);
         let closed = opts.arithmetic == Arithmetic::Fast && opts.samples <= 1 && opts.aperture == 0;
         let g = Geometry::of(scene, opts.model);
-        Features::of(scene, &g, distortion, closed, closed && opts.closed_mean)
+        let mean = if closed { opts.closed_mean } else { ClosedMean::Off };
+        Features::of(scene, &g, distortion, closed, mean)
     }
 
     /// The features of `scene` rendered with `distortion` and `g`'s rays,
@@ -1705,7 +1745,7 @@ impl Features {
         g: &Geometry,
         distortion: Option<DistortionEval>,
         closed: bool,
-        mean: bool,
+        mean: ClosedMean,
     ) -> Features {
         let mut f = Features::default();
         for p in &scene.primitives {
@@ -1742,7 +1782,7 @@ impl Features {
             0.0
         };
         f.closed = if closed { g.closed_area } else { 0.0 };
-        f.closed_mean = if mean { f.closed } else { 0.0 };
+        f.closed_mean = f.closed * closed_mean_skipped(mean);
         // The plane shaded in closed form takes no `t` where it is.
         f.facing_area = g.facing_area + if closed { 0.0 } else { g.closed_facing_area };
         f
@@ -1948,12 +1988,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        92.1, 46.2, 3.7, 3.4, -5.4, 7.5, 193.5, 5.1, 23.8, 0.0, -1.0, 60.5, 5.8, 51.8, 143.7, -21.7, 223.0,
-        -98.9, -85.4, 341.1, -46.9, -28.4,
+        93.5, 36.0, 4.7, 7.0, -2.8, 9.9, 181.5, 4.7, 21.7, 0.0, -11.0, 58.9, 0.8, 82.0, 70.1, 20.0, 222.4,
+        -120.2, -73.9, 342.5, -48.9, -30.8,
     ],
     samples: SampleCost {
-        grid: [773.765, 279.217, 0.991],
-        aperture: [0.781, 0.940],
+        grid: [789.976, 266.042, 0.968],
+        aperture: [0.775, 0.908],
     },
 };
 

@@ -422,10 +422,44 @@ pub struct Options {
     /// chief ray alone (a pinhole).
     pub aperture: u16,
     /// The fast one-sample loop's plane in closed form: in a chunk of rays
-    /// that all see it, under one point light, the odd rays' sums are
-    /// their neighbours' mean (the planner's error bound,
-    /// `planner::closed_mean_err`, within the budget).
-    pub closed_mean: bool,
+    /// that all see it, under one point light, the rays between those
+    /// shaded take interpolated sums ([`ClosedMean`]; the planner's error
+    /// bound, `planner::closed_mean_err`, within the budget).
+    pub closed_mean: ClosedMean,
+}
+
+/// How the closed plane's sums are interpolated along a row
+/// ([`Options::closed_mean`]), in a chunk of rays that all see the plane
+/// under one point light. Each step is a mean of two sums, rounded down.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ClosedMean {
+    /// Every ray shaded with its own light term.
+    #[default]
+    Off,
+    /// The even rays shaded, the odd ones their neighbours' mean: a
+    /// linear interpolation over 2 rays.
+    Pairs,
+    /// Every fourth ray shaded (and the last two), the rays `≡ 2 (mod 4)`
+    /// the mean of theirs 2 apart, then the odd ones their neighbours':
+    /// a linear interpolation over 4 rays, whose error bound is 4 times
+    /// the pairs' (the curvature term `s(4 − s)/2` against `1/2`).
+    Quads,
+}
+
+impl ClosedMean {
+    /// Rays from one shaded ray to the next (1: every ray shaded).
+    pub const fn span(self) -> u32 {
+        match self {
+            ClosedMean::Off => 1,
+            ClosedMean::Pairs => 2,
+            ClosedMean::Quads => 4,
+        }
+    }
+
+    /// Whether any ray takes an interpolated sum.
+    pub const fn on(self) -> bool {
+        !matches!(self, ClosedMean::Off)
+    }
 }
 
 /// The per-pixel arithmetic (the planner's choice).
@@ -463,7 +497,7 @@ impl Options {
             samples: 1,
             adaptive: false,
             aperture: 0,
-            closed_mean: false,
+            closed_mean: ClosedMean::Off,
         }
     }
 
@@ -565,7 +599,7 @@ impl Options {
                 ..self
             },
             Override::NoMean => Options {
-                closed_mean: false,
+                closed_mean: ClosedMean::Off,
                 ..self
             },
         }
@@ -1368,7 +1402,7 @@ struct FastInput {
     /// Defocus: the aperture pattern's points (0: none).
     aperture: u16,
     /// [`Options::closed_mean`].
-    closed_mean: bool,
+    closed_mean: ClosedMean,
     /// The principal point is the sensor's centre, `o_x = (W − 1)/2`
     /// exactly: column `W − 1 − i` sees the mirror image of column `i`'s
     /// slopes.

@@ -14,7 +14,7 @@ mod common;
 
 use common::Max;
 use hilcam::planner::{plan, Budget};
-use hilcam::render::{Arithmetic, Frame, Override};
+use hilcam::render::{Arithmetic, ClosedMean, Frame, Override};
 use host_sim::harness::render;
 use host_sim::reference::lens::ThinLens;
 use host_sim::reference::render::{RefModel, RefScene};
@@ -226,7 +226,7 @@ fn predicted_bounds_hold_on_random_scenes() {
         let m = &out.metrics;
         let predicted = p.predicted_lsb;
         let ratio = m.max_abs_lsb_smooth as f64 / (predicted + 1.0);
-        means.set(means.get() + usize::from(p.options.closed_mean));
+        means.set(means.get() + usize::from(p.options.closed_mean.on()));
         match p.options.arithmetic {
             Arithmetic::Fast => {
                 fast.set(fast.get() + 1);
@@ -601,13 +601,15 @@ fn sample_factor_inverts_sample_cost() {
 fn the_closed_planes_mean_stays_within_its_bound() {
     let mut runner = runner(400);
     let (seen, moved, worst) = (Cell::new(0), Cell::new(0), Cell::new(0.0f64));
+    let quads = Cell::new(0);
     let budget = Budget::default();
     let result = runner.run(&spec(), |s| {
         let (t, _, scene) = parsed(&s);
         let p = plan(&scene, &budget);
-        if !p.options.closed_mean {
+        if !p.options.closed_mean.on() {
             return Ok(());
         }
+        quads.set(quads.get() + usize::from(p.options.closed_mean == ClosedMean::Quads));
         let bound = p.candidates.get(p.chosen).map_or(0.0, |c| c.mean_lsb);
         prop_assert!(
             bound > 0.0 && bound < p.predicted_lsb,
@@ -635,8 +637,9 @@ fn the_closed_planes_mean_stays_within_its_bound() {
         Ok(())
     });
     eprintln!(
-        "closed plane's mean: {} scenes, {} with a value moved, largest move {:.3} of its bound",
+        "closed plane's mean: {} scenes ({} over 4 rays), {} with a value moved, largest move {:.3} of its bound",
         seen.get(),
+        quads.get(),
         moved.get(),
         worst.get()
     );
@@ -644,4 +647,9 @@ fn the_closed_planes_mean_stays_within_its_bound() {
         panic!("{e}");
     }
     assert!(seen.get() > 10, "too few scenes with the mean: {}", seen.get());
+    assert!(
+        quads.get() > 5,
+        "too few scenes with the mean over 4 rays: {}",
+        quads.get()
+    );
 }

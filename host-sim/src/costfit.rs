@@ -825,7 +825,7 @@ fn measure(
             continue;
         }
         // And without the mean on a scene planned without it.
-        if v.name().ends_with("-nomean") && !variant_options(&scene, &Variant::PLANNED).closed_mean {
+        if v.name().ends_with("-nomean") && !variant_options(&scene, &Variant::PLANNED).closed_mean.on() {
             continue;
         }
         points.push(Point {

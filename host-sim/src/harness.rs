@@ -8,7 +8,7 @@ use crate::reference::render::{RefFrame, RefRow, RefScene};
 use crate::reference::sampling::Pattern;
 use crate::scene_file::Resolved;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{Frame, FrameError, FrameSink, Options, RenderError, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{ClosedMean, Frame, FrameError, FrameSink, Options, RenderError, FLAG_OUTSIDE_FIELD};
 use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
@@ -107,9 +107,10 @@ pub struct PlanReport {
     pub predicted_sample_factor: f64,
     /// Aperture points each sample is lit through (0: a pinhole).
     pub aperture_points: u16,
-    /// The closed plane's odd rays take their neighbours' mean
-    /// (`Options::closed_mean`; its bound is in `predicted_lsb`).
-    pub closed_mean: bool,
+    /// Rays from one the closed plane shades to the next: 2 or 4 where
+    /// those between take interpolated sums (`Options::closed_mean`; its
+    /// bound is in `predicted_lsb`), 1 without.
+    pub closed_mean: u32,
     /// Largest blur-circle diameter of content in view, px.
     pub blur_px: f64,
     /// Content in view lies outside the depth of field.
@@ -765,7 +766,7 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         predicted_samples_per_pixel: plan.samples.grid,
         predicted_sample_factor: plan.predicted_sample_factor,
         aperture_points: stages.aperture,
-        closed_mean: plan.options.closed_mean,
+        closed_mean: plan.options.closed_mean.span(),
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,
         predicted_defocus_err_px: if stages.aperture > 0 {
@@ -959,10 +960,10 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
             c.m3_instructions_per_pixel,
             c.geom_err_px,
             plan.predicted_lsb,
-            if plan.options.closed_mean {
-                ", with the closed plane's mean"
-            } else {
-                ""
+            match plan.options.closed_mean {
+                ClosedMean::Off => "",
+                ClosedMean::Pairs => ", with the closed plane's mean over 2 rays",
+                ClosedMean::Quads => ", with the closed plane's mean over 4 rays",
             }
         )
     } else {
