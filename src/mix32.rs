@@ -255,9 +255,17 @@ pub fn mul_nonneg(a: Q, b: Q) -> Q {
     let (xh, xl, yh, yl) = ((x >> 32) as u32, x as u32, (y >> 32) as u32, y as u32);
     // a b 2^32 / 2^64 = xh yh 2^32 + xh yl + xl yh + ⌊xl yl / 2^32⌋ (the
     // fraction below dropped: rounded down).
+    let low = (umul(xl, yl) >> 32) as u128;
+    if (xh | yh) >> 16 == 0 {
+        // Both below 2^16 (the noise's K_sys and μ_y, DN): hh < 2^32 and
+        // the rest below 2^50, in 64 bits (saturated: the sum is then
+        // above i64::MAX either way).
+        let rest = umul(xh, yl) + umul(xl, yh) + low as u64;
+        let sum = (u64::from(xh * yh) << 32).saturating_add(rest);
+        return Q::from_bits(sum.min(i64::MAX as u64) as i64);
+    }
     let hh = umul(xh, yh);
-    let sum =
-        (umul(xh, yl) as u128) + (umul(xl, yh) as u128) + (umul(xl, yl) >> 32) as u128 + ((hh as u128) << 32);
+    let sum = (umul(xh, yl) as u128) + (umul(xl, yh) as u128) + low + ((hh as u128) << 32);
     Q::from_bits(sum.min(i64::MAX as u128) as i64)
 }
 
@@ -279,8 +287,12 @@ fn sigma_z16(s2: u64, z: i32) -> i64 {
         return 0;
     }
     // √(s2 2^-32) 2^16 = √(m/2^32) 2^(32 − e/2): (m/2^32)·y in Q2.62.
+    // m y < 2^62 (the Newton step from below: y ≤ 2^62/√(m 2^32), to
+    // within its truncations; `tests`), so (m y) >> 30 fits a word, and the
+    // shift by e/2 ≤ 31 is a word's: no 64-bit shift by a variable amount
+    // (16 M3 instructions a pixel on low-light).
     let (m, y, e) = rsqrt_norm(s2);
-    let s16 = (umul(m, y) >> (30 + e / 2)).min(u32::MAX as u64);
+    let s16 = ((umul(m, y) >> 30) as u32) >> (e / 2);
     // S16 · S16 → S32; |z| < 2^20 in S16: within i64.
     s16 as i64 * z as i64
 }
@@ -4733,10 +4745,49 @@ mod tests {
                 rng(&mut s) >> (rng(&mut s) % 64),
                 rng(&mut s) >> (rng(&mut s) % 64),
             );
-            for (a, b) in [(a, b), (a, u64::MAX), (a, 0), (a, 1 << 32)] {
+            // (And both below 2^16 DN: `mul_nonneg`'s 64-bit path.)
+            // (The cases halve them: 2^49 − 1 is 2^16 − 2^-32 DN.)
+            let small = (
+                a.checked_shr((rng(&mut s) % 64 + 16) as u32).unwrap_or(0),
+                b.checked_shr((rng(&mut s) % 64 + 16) as u32).unwrap_or(0),
+            );
+            let top = u64::MAX >> 15;
+            for (a, b) in [
+                (a, b),
+                (a, u64::MAX),
+                (a, 0),
+                (a, 1 << 32),
+                small,
+                (small.0, top),
+                (top, top),
+            ] {
                 let (a, b) = (Q::from_bits((a >> 1) as i64), Q::from_bits((b >> 1) as i64));
                 assert_eq!(mul_nonneg(a, b), a.mul(b), "{a:?} * {b:?}");
             }
+        }
+    }
+
+    /// [`sigma_z16`]'s `σ` taken from the top word of `m y` is the 64-bit
+    /// shift's (with its saturation) it replaced: `m y < 2⁶²` on every `m`
+    /// near `2³²` (where the Newton step's truncations could carry it
+    /// over: the top 2²⁰ exhaustively) and on random `σ²` everywhere.
+    #[test]
+    fn sigma_from_the_top_word_is_the_wide_shifts() {
+        let wide = |s2: u64, z: i32| {
+            let (m, y, e) = rsqrt_norm(s2);
+            let s16 = (umul(m, y) >> (30 + e / 2)).min(u32::MAX as u64);
+            s16 as i64 * z as i64
+        };
+        for m in (1u64 << 32) - (1 << 20)..1 << 32 {
+            let y = rsqrt_top(m as u32);
+            assert!(umul(m as u32, y) < 1 << 62, "m {m}: y {y}");
+            assert_eq!(sigma_z16(m << 32, 65_536), wide(m << 32, 65_536), "m {m}");
+        }
+        let mut s = 0x5167_a000_0000_0003;
+        for _ in 0..400_000 {
+            let s2 = rng(&mut s) >> (rng(&mut s) % 64);
+            let z = (rng(&mut s) % 1_200_000) as i32 - 600_000;
+            assert_eq!(sigma_z16(s2, z), wide(s2, z), "s2 {s2} z {z}");
         }
     }
 
