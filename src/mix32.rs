@@ -1244,6 +1244,10 @@ const NO_HIT: i32 = i32::MAX;
 /// `|q|²` there (whose high word is below 2³⁰).
 const NO_Q2: i32 = -1;
 
+/// How many rays' `w` [`Mix32::closed_run`] keeps between its loops: a
+/// chunk's on the M0, none elsewhere (taken again).
+const KEEP_W: usize = if ARMV6M { CHUNK } else { 0 };
+
 /// Whether a ray of the one-sample loop keeps, for its mirror, the mirror's
 /// `|q|²` to a point light on the closed plane ([`closed_term`]; the two
 /// share `w`, `q_y`, `q_z` and the products of `q_x`): on the M0, where a
@@ -3017,15 +3021,23 @@ impl Mix32 {
         // ray, if odd, its own). The same words as `closed_lanes`.
         if let (true, [l]) = (c.mean.on(), c.lights.as_slice()) {
             let len = rays.len().min(words.len()).min(fl.len());
-            let mut ws = [0i32; CHUNK];
+            // Each ray's `w` kept for the loop below on the M0 (whose
+            // products are dear); taken again for the rays it shades
+            // elsewhere (with `Quads` a third of them): zeroing and filling
+            // the array cost the M3's standard scene 3 instructions a pixel,
+            // taking `w` again the M0's 4.
+            let mut ws = [0i32; KEEP_W];
             let mut lit = len >= 3;
-            for (r, w) in rays.iter().zip(ws.iter_mut()) {
+            for (q, r) in rays.iter().enumerate() {
                 if r.t != NO_HIT {
                     lit = false;
                     break;
                 }
-                *w = closed_w(n, r);
-                lit &= c.ahead(*w);
+                let w = closed_w(n, r);
+                if let Some(k) = ws.get_mut(q) {
+                    *k = w;
+                }
+                lit &= c.ahead(w);
             }
             if lit {
                 // Two loops, the even rays' sums kept between them: one with
@@ -3038,10 +3050,10 @@ impl Mix32 {
                 let (e, span) = (len.saturating_sub(1) & !1, c.mean.span() as usize);
                 let mut q = 0;
                 while q < len {
-                    let (Some(r), Some(&w), Some(word)) = (rays.get_mut(q), ws.get(q), words.get_mut(q))
-                    else {
+                    let (Some(r), Some(word)) = (rays.get_mut(q), words.get_mut(q)) else {
                         break;
                     };
+                    let w = ws.get(q).copied().unwrap_or_else(|| closed_w(n, r));
                     let mut sum = c.flat;
                     closed_term::<C>(c, l, r, w, (keep, store), &mut sum);
                     if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
@@ -4774,6 +4786,9 @@ mod tests {
     #[test]
     fn sigma_from_the_top_word_is_the_wide_shifts() {
         let wide = |s2: u64, z: i32| {
+            if s2 == 0 {
+                return 0;
+            }
             let (m, y, e) = rsqrt_norm(s2);
             let s16 = (umul(m, y) >> (30 + e / 2)).min(u32::MAX as u64);
             s16 as i64 * z as i64
