@@ -1244,10 +1244,6 @@ const NO_HIT: i32 = i32::MAX;
 /// `|q|²` there (whose high word is below 2³⁰).
 const NO_Q2: i32 = -1;
 
-/// How many rays' `w` [`Mix32::closed_run`] keeps between its loops: a
-/// chunk's on the M0, none elsewhere (taken again).
-const KEEP_W: usize = if ARMV6M { CHUNK } else { 0 };
-
 /// Whether a ray of the one-sample loop keeps, for its mirror, the mirror's
 /// `|q|²` to a point light on the closed plane ([`closed_term`]; the two
 /// share `w`, `q_y`, `q_z` and the products of `q_x`): on the M0, where a
@@ -2801,12 +2797,24 @@ impl Mix32 {
             let mut left = match closed {
                 // A `compact` build sums three channels for either format:
                 // one copy of the run (flash).
-                Some(c) if cfg!(feature = "compact") => {
-                    self.closed_run::<LANES, 3>(c, C == 3, rays, words, fl, dn_max, (noise, index, step))
-                }
-                Some(c) => {
-                    self.closed_run::<LANES, C>(c, C == 3, rays, words, fl, dn_max, (noise, index, step))
-                }
+                Some(c) if cfg!(feature = "compact") => self.closed_run::<LANES, 3>(
+                    c,
+                    C == 3,
+                    (rays, ys),
+                    words,
+                    fl,
+                    dn_max,
+                    (noise, index, step),
+                ),
+                Some(c) => self.closed_run::<LANES, C>(
+                    c,
+                    C == 3,
+                    (rays, ys),
+                    words,
+                    fl,
+                    dn_max,
+                    (noise, index, step),
+                ),
                 // (1 to 32 rays: a shift of 0 to 31. None gives a mask
                 // whose rays `get` does not find.)
                 None => u32::MAX.wrapping_shr(CHUNK.saturating_sub(rays.len()) as u32),
@@ -2987,7 +2995,7 @@ impl Mix32 {
         &self,
         c: &Closed,
         rgb: bool,
-        rays: &mut [Ray],
+        (rays, ys): (&mut [Ray], [i32; 2]),
         words: &mut [u16],
         fl: &mut [u8],
         dn_max: [u64; 3],
@@ -3021,23 +3029,18 @@ impl Mix32 {
         // ray, if odd, its own). The same words as `closed_lanes`.
         if let (true, [l]) = (c.mean.on(), c.lights.as_slice()) {
             let len = rays.len().min(words.len()).min(fl.len());
-            // Each ray's `w` kept for the loop below on the M0 (whose
-            // products are dear); taken again for the rays it shades
-            // elsewhere (with `Quads` a third of them): zeroing and filling
-            // the array cost the M3's standard scene 3 instructions a pixel,
-            // taking `w` again the M0's 4.
-            let mut ws = [0i32; KEEP_W];
-            let mut lit = len >= 3;
-            for (q, r) in rays.iter().enumerate() {
-                if r.t != NO_HIT {
-                    lit = false;
-                    break;
-                }
-                let w = closed_w(n, r);
-                if let Some(k) = ws.get_mut(q) {
-                    *k = w;
-                }
-                lit &= c.ahead(w);
+            // Every ray unhit, and every ray's `w` ahead: so are those of
+            // the box of slopes around them (x̂ from the chunk's end rays,
+            // monotone along a row within the field, as `passes` takes it;
+            // ŷ from `ys`) where its corners' are (`w` is the floor of a
+            // linear form), else each ray's is tested. `w` is taken again
+            // below for the rays shaded (with `Quads` a third of them).
+            let mut lit = len >= 3 && rays.iter().all(|r| r.t == NO_HIT);
+            if lit {
+                let (xa, xb) = (rays.first().map_or(0, |r| r.x), rays.last().map_or(0, |r| r.x));
+                let ahead = |x: i32, y: i32| c.ahead(closed_w(n, &Ray { x, y, ..Ray::OUTSIDE }));
+                lit = (ahead(xa, ys[0]) && ahead(xa, ys[1]) && ahead(xb, ys[0]) && ahead(xb, ys[1]))
+                    || rays.iter().all(|r| c.ahead(closed_w(n, r)));
             }
             if lit {
                 // Two loops, the even rays' sums kept between them: one with
@@ -3053,7 +3056,7 @@ impl Mix32 {
                     let (Some(r), Some(word)) = (rays.get_mut(q), words.get_mut(q)) else {
                         break;
                     };
-                    let w = ws.get(q).copied().unwrap_or_else(|| closed_w(n, r));
+                    let w = closed_w(n, r);
                     let mut sum = c.flat;
                     closed_term::<C>(c, l, r, w, (keep, store), &mut sum);
                     if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
@@ -4626,8 +4629,15 @@ mod tests {
             let mut rays = Rays::default();
             let Some(rays) = rays.first(count) else { continue };
             let span = if seen { 1 << 26 } else { 1 << 30 };
-            for ray in rays.iter_mut() {
-                let (x, y) = (r(-span, span) as i32, r(-span, span) as i32);
+            // x̂ monotone along the chunk, as along a row (a mirrored
+            // chunk's falls): `closed_run`'s box of slopes takes its ends.
+            let mut xs: [i32; CHUNK] = core::array::from_fn(|_| r(-span, span) as i32);
+            xs.sort_unstable();
+            if (case / 4) % 2 == 0 {
+                xs.reverse();
+            }
+            for (ray, &x) in rays.iter_mut().zip(&xs[CHUNK - count..]) {
+                let y = r(-span, span) as i32;
                 *ray = Ray::new::<true>(x, y, 0).with_c4(r(0, 1) == 0);
                 match r(0, 9) {
                     0 if !seen => *ray = Ray::OUTSIDE,
@@ -4638,6 +4648,37 @@ mod tests {
             let before: [Ray; CHUNK] = core::array::from_fn(|q| rays.get(q).copied().unwrap_or(Ray::OUTSIDE));
             let (mut words, mut fl) = ([7u16; CHUNK], [9u8; CHUNK]);
             let left = closed_lanes(&c, &l, (bg, dn_max), rays, &mut words, &mut fl);
+            // The boards' scalar run, given the chunk's ŷ range as
+            // `fill_rays` gives it (its box test of a chunk that sees the
+            // plane, then its interpolation): the same words, flags and rays.
+            let mut run = before;
+            let run = &mut run[..count];
+            let ys = run
+                .iter()
+                .fold([i32::MAX, i32::MIN], |[a, b], r| [a.min(r.y), b.max(r.y)]);
+            let mut m = Mix32::EMPTY;
+            m.bg = [bg; 3];
+            let (mut run_words, mut run_fl) = ([7u16; CHUNK], [9u8; CHUNK]);
+            let run_left = m.closed_run::<false, 1>(
+                &c,
+                false,
+                (&mut *run, ys),
+                &mut run_words[..count],
+                &mut run_fl[..count],
+                [dn_max; 3],
+                (None, 0, 1),
+            );
+            assert_eq!(run_left, left, "case {case}");
+            for (q, (a, b)) in run.iter().zip(rays.iter()).enumerate() {
+                assert_eq!((a.t, a.hit), (b.t, b.hit), "case {case} ray {q}");
+                if left & (1 << q) == 0 {
+                    assert_eq!(
+                        (run_words[q], run_fl[q]),
+                        (words[q], fl[q]),
+                        "case {case} ray {q}"
+                    );
+                }
+            }
             // Each ray's sum as `closed_term` gives it, then the odd rays'
             // means where every ray sees the plane.
             let sums: [[u64; 3]; CHUNK] = core::array::from_fn(|q| {
