@@ -3021,8 +3021,8 @@ impl Mix32 {
         let store = keep && step == 1;
         // A compile-time constant but in a `compact` build (one copy).
         let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
-        // A chunk whose rays all see the plane (`w` of each kept), in a
-        // frame with one point light on the plane's side: its even rays'
+        // A chunk whose rays all see the plane, in a frame with one point
+        // light on the plane's side: its even rays'
         // terms (with `Quads`, those of every fourth and of the last even
         // ray, and the other even rays' sums the mean of theirs 2 apart),
         // and its odd rays' sums the mean of their neighbours' (the last
