@@ -255,17 +255,17 @@ pub fn mul_nonneg(a: Q, b: Q) -> Q {
     let (xh, xl, yh, yl) = ((x >> 32) as u32, x as u32, (y >> 32) as u32, y as u32);
     // a b 2^32 / 2^64 = xh yh 2^32 + xh yl + xl yh + ⌊xl yl / 2^32⌋ (the
     // fraction below dropped: rounded down).
-    let low = (umul(xl, yl) >> 32) as u128;
+    let low = umul(xl, yl) >> 32;
     if (xh | yh) >> 16 == 0 {
         // Both below 2^16 (the noise's K_sys and μ_y, DN): hh < 2^32 and
         // the rest below 2^50, in 64 bits (saturated: the sum is then
         // above i64::MAX either way).
-        let rest = umul(xh, yl) + umul(xl, yh) + low as u64;
+        let rest = umul(xh, yl) + umul(xl, yh) + low;
         let sum = (u64::from(xh * yh) << 32).saturating_add(rest);
         return Q::from_bits(sum.min(i64::MAX as u64) as i64);
     }
     let hh = umul(xh, yh);
-    let sum = (umul(xh, yl) as u128) + (umul(xl, yh) as u128) + low + ((hh as u128) << 32);
+    let sum = (umul(xh, yl) as u128) + (umul(xl, yh) as u128) + low as u128 + ((hh as u128) << 32);
     Q::from_bits(sum.min(i64::MAX as u128) as i64)
 }
 
@@ -3038,6 +3038,7 @@ impl Mix32 {
             let mut lit = len >= 3 && rays.iter().all(|r| r.t == NO_HIT);
             if lit {
                 let (xa, xb) = (rays.first().map_or(0, |r| r.x), rays.last().map_or(0, |r| r.x));
+                // (`w` of a ray at a corner's slopes.)
                 let ahead = |x: i32, y: i32| c.ahead(closed_w(n, &Ray { x, y, ..Ray::OUTSIDE }));
                 lit = (ahead(xa, ys[0]) && ahead(xa, ys[1]) && ahead(xb, ys[0]) && ahead(xb, ys[1]))
                     || rays.iter().all(|r| c.ahead(closed_w(n, r)));
@@ -3049,8 +3050,9 @@ impl Mix32 {
                 // One slot spare: with 16, spheres-specular measured 549.1
                 // against 545.7 M3 instructions a pixel (the frame's layout).
                 let mut even = [[0u64; C]; CHUNK / 2 + 1];
-                // The last even ray, and the shaded rays' step below it.
-                let (e, span) = (len.saturating_sub(1) & !1, c.mean.span() as usize);
+                // The last even ray (the even rays below it between the
+                // shaded ones take means).
+                let e = len.saturating_sub(1) & !1;
                 let mut q = 0;
                 while q < len {
                     let (Some(r), Some(word)) = (rays.get_mut(q), words.get_mut(q)) else {
@@ -3065,11 +3067,11 @@ impl Mix32 {
                     // The pixel's noise key (computed where the noise draws).
                     let k = index.wrapping_add((q as u32).wrapping_mul(step));
                     *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                    q = if q < e { (q + span).min(e) } else { q + 1 };
+                    q = c.mean.next_shaded(q, len);
                 }
                 // With `Quads`: the even rays between, from the shaded ones.
                 let mut q = 2;
-                while span == 4 && q < e {
+                while c.mean == ClosedMean::Quads && q < e {
                     if let (Some([a, m, b]), Some(r), Some(word)) = (
                         even.get_mut((q >> 1) - 1..(q >> 1) + 2),
                         rays.get(q),

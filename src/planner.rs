@@ -1524,15 +1524,12 @@ pub fn closed_mean_factor(m: ClosedMean) -> f64 {
 }
 
 /// The share of the closed plane's light terms that the interpolation `m`
-/// leaves out in a chunk of 32 rays, in units of the pairs' (15 of 32:
-/// rays 1, 3, …, 29): `Quads` leaves out 22 (rays 0, 4, …, 28, 30, 31
-/// shaded).
+/// leaves out in a chunk of 32 rays ([`ClosedMean::shaded`]), in units of
+/// the pairs' (15 of 32 left out): `Quads` leaves out 22, so 22/15.
 pub fn closed_mean_skipped(m: ClosedMean) -> f64 {
-    match m {
-        ClosedMean::Off => 0.0,
-        ClosedMean::Pairs => 1.0,
-        ClosedMean::Quads => 22.0 / 15.0,
-    }
+    const RAYS: usize = 32;
+    let left_out = |m: ClosedMean| (RAYS - m.shaded(RAYS)) as f64;
+    left_out(m) / left_out(ClosedMean::Pairs)
 }
 
 /// A bound, DN, on what the closed plane's mean (`mix32::mean`,
@@ -1551,11 +1548,11 @@ pub fn closed_mean_skipped(m: ClosedMean) -> f64 {
 /// largest, [`Geometry`]). The hit lies `√(R² − dist²)` from the camera's
 /// foot on the plane, the light's foot `F` from it, so `r ≥ √(h² + gap²)`
 /// with `gap` how far that circle stays from `F`. The largest over cells
-/// of `R` 10 % wide up to 10³ times the scene's distances (the bound
-/// falls as `1/R` beyond), 10 % wide up to 4 times the distance at which
-/// the hit passes the light's foot and 25 % beyond (cells of 25 %
-/// throughout gave the standard scene 0.134 LSB, these 0.101); before the noise ([`noise_moved`] adds what it
-/// does). `None` without the plane, or with more than one point light (no
+/// of `R` up to 10³ times the scene's distances (the bound falls as `1/R`
+/// beyond): 10 % wide up to 4 times the distance at which the hit passes
+/// the light's foot, 25 % beyond (cells of 25 % throughout gave the
+/// standard scene 0.134 LSB, these 0.101); before the noise
+/// ([`noise_moved`] adds what it does). `None` without the plane, or with more than one point light (no
 /// mean then). (The camera plans every frame: some 50 cells, one division
 /// each.) [`closed_mean_factor`] scales it to an interpolation over more
 /// rays.

@@ -442,7 +442,7 @@ pub enum ClosedMean {
     /// Every fourth ray shaded (and the last two), the rays `≡ 2 (mod 4)`
     /// the mean of theirs 2 apart, then the odd ones their neighbours':
     /// a linear interpolation over 4 rays, whose error bound is 4 times
-    /// the pairs' (the curvature term `s(4 − s)/2` against `1/2`).
+    /// the pairs' (`planner::closed_mean_factor`).
     Quads,
 }
 
@@ -459,6 +459,33 @@ impl ClosedMean {
     /// Whether any ray takes an interpolated sum.
     pub const fn on(self) -> bool {
         !matches!(self, ClosedMean::Off)
+    }
+
+    /// The ray shaded after ray `q` of a run of `len` rays that all see the
+    /// plane: every [`ClosedMean::span`]-th up to the last even ray, then
+    /// the last ray (the rays between take interpolated sums).
+    pub const fn next_shaded(self, q: usize, len: usize) -> usize {
+        let last_even = len.saturating_sub(1) & !1;
+        if q < last_even {
+            let next = q + self.span() as usize;
+            if next < last_even {
+                next
+            } else {
+                last_even
+            }
+        } else {
+            q + 1
+        }
+    }
+
+    /// How many rays of a run of `len` are shaded ([`ClosedMean::next_shaded`]).
+    pub const fn shaded(self, len: usize) -> usize {
+        let (mut q, mut n) = (0, 0);
+        while q < len {
+            n += 1;
+            q = self.next_shaded(q, len);
+        }
+        n
     }
 }
 
