@@ -291,7 +291,8 @@ fn sigma_z16(s2: u64, z: i32) -> i64 {
     // within its truncations; `tests`), so (m y) >> 30 fits a word, and the
     // shift by e/2 ≤ 31 is a word's: no 64-bit shift by a variable amount
     // (16 M3 instructions a pixel on low-light).
-    let (m, y, e) = rsqrt_norm(s2);
+    let (m, e) = norm_top_even(s2);
+    let y = rsqrt_top(m);
     let s16 = ((umul(m, y) >> 30) as u32) >> (e / 2);
     // S16 · S16 → S32; |z| < 2^20 in S16: within i64.
     s16 as i64 * z as i64
@@ -785,6 +786,25 @@ fn norm_top(v: u64) -> (u32, u32) {
     } else {
         // lo ≠ 0: z < 32.
         let z = clz32(lo) & 31;
+        (lo << z, z + 32)
+    }
+}
+
+/// For `v ≠ 0`: [`rsqrt_norm`]'s `(m, z)` (`z` the even count at most
+/// `v`'s leading zeros, `m` the top word of `v << z`) in 32-bit words, for
+/// the noise's `σ` alone ([`sigma_z16`]: the 64-bit count and shift cost
+/// low-light 5 M3 instructions a pixel more; in `rsqrt_norm` itself,
+/// shared with the shading, this form cost wide-vignetting 8 more,
+/// [`norm_top`]).
+#[inline(always)]
+fn norm_top_even(v: u64) -> (u32, u32) {
+    let (hi, lo) = ((v >> 32) as u32, v as u32);
+    if hi != 0 {
+        let z = clz32(hi) & !1;
+        ((hi << z) | ((lo >> 1) >> (31 - z)), z)
+    } else {
+        // lo ≠ 0: z < 32.
+        let z = clz32(lo) & 30;
         (lo << z, z + 32)
     }
 }
@@ -4846,6 +4866,18 @@ mod tests {
             let s2 = rng(&mut s) >> (rng(&mut s) % 64);
             let z = (rng(&mut s) % 1_200_000) as i32 - 600_000;
             assert_eq!(sigma_z16(s2, z), wide(s2, z), "s2 {s2} z {z}");
+        }
+        // Its normalization in words is `rsqrt_norm`'s, at every count.
+        for k in 0..64 {
+            for s2 in [
+                1u64 << k,
+                (1u64 << k) | 1,
+                (2u64 << k).wrapping_sub(1),
+                rng(&mut s) >> (63 - k),
+            ] {
+                let (m, _, e) = rsqrt_norm(s2.max(1));
+                assert_eq!(norm_top_even(s2.max(1)), (m, e), "s2 {s2}");
+            }
         }
     }
 
