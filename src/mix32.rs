@@ -507,7 +507,15 @@ fn rsqrt_norm(x: u64) -> (u32, u32, u32) {
 /// [`rsqrt_norm`]'s `y` for its `m` (in `[2³⁰, 2³²)`).
 #[inline(always)]
 fn rsqrt_top(m32: u32) -> u32 {
-    let idx = ((m32 >> 22) as usize).saturating_sub(256);
+    // (m32 < 2^30, never given, reads past the table, the fallback, or
+    // entry 0 on the M0: its saturating form measured 3 instructions a
+    // pixel fewer there on the standard scene, 1.4 more on the M3.)
+    let top = (m32 >> 22) as usize;
+    let idx = if ARMV6M {
+        top.saturating_sub(256)
+    } else {
+        top.wrapping_sub(256)
+    };
     // y = seed 2^16: y² and the last product are by the 16-bit seed.
     let seed = SEED.get(idx).copied().unwrap_or(1 << 14);
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
