@@ -521,7 +521,14 @@ fn rsqrt_top(m32: u32) -> u32 {
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
     let y2 = (seed as u32 * seed as u32) << 1;
     let my2 = (umul_px(m32, y2) >> 31) as u32;
-    (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32
+    // (m y² < 3·2^30 for every m and its seed: `tests`. The M0 keeps the
+    // saturating form, as the index's.)
+    let f = if ARMV6M {
+        (3u32 << 30).saturating_sub(my2)
+    } else {
+        (3u32 << 30).wrapping_sub(my2)
+    };
+    (umul_h(f, seed) >> 15) as u32
 }
 
 /// [`rsqrt_norm`] refined by a second Newton step in 64-bit arithmetic:
@@ -4854,6 +4861,23 @@ mod tests {
     /// shift's (with its saturation) it replaced: `m y < 2⁶²` on every `m`
     /// near `2³²` (where the Newton step's truncations could carry it
     /// over: the top 2²⁰ exhaustively) and on random `σ²` everywhere.
+    #[test]
+    fn rsqrt_tops_newton_factor_never_wraps() {
+        // m y² rises with m under one seed: the top of each seed's range
+        // of m bounds it (3·2^30 − m y² is taken without saturation).
+        for idx in 0..768u32 {
+            let top = ((idx + 257) << 22).wrapping_sub(1).max(1 << 30);
+            let seed = SEED[idx as usize];
+            let my2 = (umul_px(top, (seed as u32 * seed as u32) << 1) >> 31) as u32;
+            assert!(my2 < 3 << 30, "entry {idx}: m y² {my2}");
+            // The saturating form it replaced gives the same y.
+            assert_eq!(
+                rsqrt_top(top),
+                (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32
+            );
+        }
+    }
+
     #[test]
     fn sigma_from_the_top_word_is_the_wide_shifts() {
         let wide = |s2: u64, z: i32| {
