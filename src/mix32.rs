@@ -3070,7 +3070,7 @@ impl Mix32 {
             // ŷ from `ys`) where its corners' are (`w` is the floor of a
             // linear form), else each ray's is tested. `w` is taken again
             // below for the rays shaded (with `Quads` a third of them).
-            let mut lit = len >= 3 && rays.iter().all(|r| r.t == NO_HIT);
+            let mut lit = len >= 3 && unhit(rays);
             if lit {
                 let (xa, xb) = (rays.first().map_or(0, |r| r.x), rays.last().map_or(0, |r| r.x));
                 // (`w` of a ray at a corner's slopes.)
@@ -4137,6 +4137,22 @@ impl Cube {
     fn times(self, k: Pf) -> u64 {
         k.mul_to_sum(Pf { m: self.m, e: self.e }, 15)
     }
+}
+
+/// Whether every ray's `t` is [`NO_HIT`]: four rays a step, one branch
+/// for the four (`all`, a branch a ray, took the M3 8 instructions a ray;
+/// the M0's opt-level 3 unrolled it already).
+#[inline(always)]
+fn unhit(rays: &[Ray]) -> bool {
+    let mut pairs = rays.chunks_exact(4);
+    for p in pairs.by_ref() {
+        if let [a, b, c, d] = p {
+            if (a.t ^ NO_HIT) | (b.t ^ NO_HIT) | (c.t ^ NO_HIT) | (d.t ^ NO_HIT) != 0 {
+                return false;
+            }
+        }
+    }
+    pairs.remainder().iter().all(|r| r.t == NO_HIT)
 }
 
 /// `a·b` of two S30 unit vectors, S30.
