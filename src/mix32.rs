@@ -1750,7 +1750,12 @@ impl MixShape {
                 // against a |c|² next to the silhouette), S44 from
                 // the cross product's components in S22.
                 let (x, y) = (r.x, r.y);
-                let b = ((wmul(x, c[0]) + wmul(y, c[1]) + *cz50) >> 28) as i32;
+                let b = || ((wmul(x, c[0]) + wmul(y, c[1]) + *cz50) >> 28) as i32;
+                // (The M0 takes `b` after the test, only for the rays that
+                // hit: 3 instructions a pixel fewer on its standard scene; on
+                // the M3 before it, as its registers would have it: 0.8
+                // fewer.)
+                let b_first = if ARMV6M { 0 } else { b() };
                 let k = |v: i64| (v >> 28) as i32;
                 let (c0, c1) = ((c[0] as i64) << 26, (c[1] as i64) << 26);
                 let (k0, k1, k2) = (
@@ -1779,7 +1784,7 @@ impl MixShape {
                 if disc < 0 {
                     continue;
                 }
-                (b, sqrt_s44_to_s22(disc as u64))
+                (if ARMV6M { b() } else { b_first }, sqrt_s44_to_s22(disc as u64))
             } else {
                 // b = c_z − o_z = c_z (S18); disc = r² − |(c − o)_xy|²,
                 // S36 (|c − o| ≤ 72 U).
