@@ -3117,11 +3117,17 @@ impl Mix32 {
                         rays.get(q),
                         words.get_mut(q),
                     ) {
+                        // (Channel by channel, written out: a loop over
+                        // them zeroed `sum` through a library call.)
                         let mut sum = [0u64; 3];
-                        for ((s, a), (m, b)) in sum.iter_mut().zip(a.iter()).zip(m.iter_mut().zip(b.iter())) {
-                            *s = mean(*a, *b);
-                            *m = *s;
-                        }
+                        each::<C>(|ch| {
+                            if let (Some(s), Some(a), Some(m), Some(b)) =
+                                (sum.get_mut(ch), a.get(ch), m.get_mut(ch), b.get(ch))
+                            {
+                                *s = mean(*a, *b);
+                                *m = *s;
+                            }
+                        });
                         let k = index.wrapping_add((q as u32).wrapping_mul(step));
                         *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     }
@@ -3136,9 +3142,11 @@ impl Mix32 {
                         words.get_mut(q),
                     ) {
                         let mut sum = [0u64; 3];
-                        for ((s, a), b) in sum.iter_mut().zip(a).zip(b) {
-                            *s = mean(*a, *b);
-                        }
+                        each::<C>(|ch| {
+                            if let (Some(s), Some(a), Some(b)) = (sum.get_mut(ch), a.get(ch), b.get(ch)) {
+                                *s = mean(*a, *b);
+                            }
+                        });
                         let k = index.wrapping_add((q as u32).wrapping_mul(step));
                         *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     }
