@@ -640,8 +640,9 @@ fn sqrt_fine(x: u64) -> i32 {
     // m = x 2^z in [2^62, 2^64); √(m/2^64) 2^30 = m y / 2^64 (y in Q2.30);
     // √x = √(m/2^64) 2^(32 − z/2): a right shift by z/2 − 2 (z ≥ 8).
     let m = shl64(x, z);
-    let s30 = ((m as u128 * y as u128) >> 64) as u64;
-    (s30 >> (z / 2).saturating_sub(2)).min(i32::MAX as u64) as i32
+    // s30 < 2^31 (m < 2^64, y ≤ 2^31): a word, shifted by at most 29.
+    let s30 = ((m as u128 * y as u128) >> 64).min(u32::MAX as u128) as u32;
+    (s30 >> (z / 2).saturating_sub(2)).min(i32::MAX as u32) as i32
 }
 
 /// `√(x · 2⁻⁴⁴)` in S22 for `x < 2⁶²`, within 2⁻¹⁹ relative and one unit.
@@ -652,8 +653,10 @@ fn sqrt_s44_to_s22(x: u64) -> i32 {
     }
     let (m, y, z) = rsqrt_norm(x);
     // √(m/2^32) = (m/2^32) · y in Q0.32; √x_real = that · 2^((20 − z)/2).
-    let s = (umul(m, y) >> 30).min(u32::MAX as u64);
-    (s >> (z / 2)).min(i32::MAX as u64) as i32
+    // (A word's shift: z/2 ≤ 31, and no 64-bit shift by a variable amount,
+    // a library call on the M0.)
+    let s = (umul(m, y) >> 30).min(u32::MAX as u64) as u32;
+    (s >> (z / 2)).min(i32::MAX as u32) as i32
 }
 
 /// `[f(a₀, b₀), f(a₁, b₁), f(a₂, b₂)]`.
