@@ -300,8 +300,9 @@ fn sigma_z16(s2: u64, z: i32) -> i64 {
     let (m, e) = norm_top_even(s2);
     let y = rsqrt_top(m);
     let s16 = ((umul(m, y) >> 30) as u32) >> (e / 2);
-    // S16 · S16 → S32; |z| < 2^20 in S16: within i64.
-    s16 as i64 * z as i64
+    // S16 · S16 → S32; |z| < 2^20 in S16: within i64. (`smul_u`: on the
+    // M0 the i64 product was a library call.)
+    smul_u(z, s16)
 }
 
 /// Whether `L`'s fast loops for `C` channels render the specular lobe
@@ -3947,7 +3948,7 @@ impl Mix32 {
                     // with lv in S18.
                     let ldir = view.map(|_| {
                         let (y, z) = rsqrt_fine(r2);
-                        lv.map(|c| (smul_u(c, y) >> (32 - z / 2)) as i32)
+                        lv.map(|c| sar64_low(smul_u(c, y), 32 - z / 2))
                     });
                     (cos_over_r3(nl as u64, y, z), ldir)
                 }
@@ -3965,9 +3966,10 @@ impl Mix32 {
             });
             if let (Some(s), Some(v), Some(ld)) = (lobe, view, ldir) {
                 // r̂·v̂ = 2 (n̂·l̂)(n̂·v̂) − l̂·v̂, S30.
-                let nl = dot30(nt, ld) as i64;
-                let nv = dot30(nt, v) as i64;
-                let rv = sat32(((2 * nl * nv) >> 30) - dot30(ld, v) as i64);
+                let (nl, nv) = (dot30(nt, ld), dot30(nt, v));
+                // (2 nl nv) >> 30 as (nl nv) >> 29: a 32 × 32-bit product
+                // (as i64s, a library call on the M0).
+                let rv = sat32((wmul_px(nl, nv) >> 29) - dot30(ld, v) as i64);
                 let f = lobe_pf(rv, s);
                 each::<C>(|c| {
                     if let (Some(s), Some(k)) = (sum.get_mut(c), ksl.get(c)) {
