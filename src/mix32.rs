@@ -4226,7 +4226,11 @@ struct Cube {
 /// `1/√` 2⁻¹⁹ (three times), the truncations below 2⁻²⁸ together.
 #[inline(always)]
 fn cube_over(a: u32, q2: u64) -> Cube {
-    let (_, y, z) = rsqrt_norm(q2);
+X
+    // instructions a pixel fewer. In `rsqrt_norm` for every caller,
+    // spheres-specular measured 3.6 more.)
+    let (m, z) = norm_top_even(q2);
+    let y = rsqrt_top(m);
     // a y ≈ m 2^(32 − lz): s = m 2^(z/2 − lz − 32).
     let (m, lz) = norm_top(umul(a, y));
     let m2 = (umul(m, m) >> 32) as u32;
