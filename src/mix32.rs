@@ -559,9 +559,9 @@ fn rsqrt_fine(x: u64) -> (u32, u32) {
     (r as u32, z)
 }
 
-/// `⌊y · f / 2⁶¹⌋` for `f < 2⁶²` from two 32 × 32-bit products: `(y f_hi
-/// + ⌊y f_lo / 2³²⌋) / 2²⁹`, nested floors of integers ([`rsqrt_fine`] on
-/// the M0).
+/// `⌊y · f / 2⁶¹⌋` for `f < 2⁶²` from two 32 × 32-bit products:
+/// `(y f_hi + ⌊y f_lo / 2³²⌋) / 2²⁹`, nested floors of integers
+/// ([`rsqrt_fine`] on the M0).
 #[inline(always)]
 fn mul_shr61_words(y: u32, f: u64) -> u64 {
     let (fh, fl) = ((f >> 32) as u32, f as u32);
