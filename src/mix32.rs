@@ -576,31 +576,12 @@ fn shl_words(p: u32, s: u32) -> u64 {
     (((p >> (32 - s)) as u64) << 32) | (p << s) as u64
 }
 
-/// `⌊m · y / 2⁶⁴⌋` for a u64 `m` and u32 `y` (below 2³²), exactly: on the
-/// M0 from two 32 × 32-bit products (its 128-bit product is library
-/// calls: spheres-specular 1 672.8 → 1 477.1 instructions a pixel, with
-/// [`mul_hi_64`]), `(m_hi y + ⌊m_lo y / 2³²⌋) / 2³²`, nested floors of
-/// integers; elsewhere the 128-bit product (the M3's spheres-specular
-/// measured 1.1 a pixel more in words).
-#[inline(always)]
-fn mul_hi_32(m: u64, y: u32) -> u64 {
-    if ARMV6M {
-        mul_hi_32_words(m, y)
-    } else {
-        ((m as u128 * y as u128) >> 64) as u64
-    }
-}
-
-/// [`mul_hi_32`]'s M0 form (compiled everywhere: the tests check it).
-#[inline(always)]
-fn mul_hi_32_words(m: u64, y: u32) -> u64 {
-    let (mh, ml) = ((m >> 32) as u32, m as u32);
-    // m_hi y ≤ (2^32 − 1)²: the sum stays below 2^64.
-    (umul(mh, y) + (umul(ml, y) >> 32)) >> 32
-}
-
 /// `⌊a · b / 2⁶⁴⌋` for u64 `a`, `b`, exactly: on the M0 from four
-/// 32 × 32-bit products, as [`mul_hi_32`].
+/// 32 × 32-bit products (two where `b` is a u32's: the others fold away),
+/// as its 128-bit product is library calls (with it, spheres-specular
+/// 1 672.8 → 1 477.1 instructions a pixel); elsewhere the 128-bit
+/// product (the M3's spheres-specular measured 1.1 a pixel more in
+/// words).
 #[inline(always)]
 fn mul_hi_64(a: u64, b: u64) -> u64 {
     if ARMV6M {
@@ -715,7 +696,7 @@ fn sqrt_fine(x: u64) -> i32 {
     // √x = √(m/2^64) 2^(32 − z/2): a right shift by z/2 − 2 (z ≥ 8).
     let m = shl64(x, z);
     // s30 < 2^31 (m < 2^64, y ≤ 2^31): a word, shifted by at most 29.
-    let s30 = mul_hi_32(m, y).min(u32::MAX as u64) as u32;
+    let s30 = mul_hi_64(m, y as u64).min(u32::MAX as u64) as u32;
     (s30 >> (z / 2).saturating_sub(2)).min(i32::MAX as u32) as i32
 }
 
@@ -5010,11 +4991,6 @@ mod tests {
                 "{a} {b}"
             );
             let y = b as u32;
-            assert_eq!(
-                mul_hi_32_words(a, y),
-                ((a as u128 * y as u128) >> 64) as u64,
-                "{a} {y}"
-            );
             let f = a >> 2;
             assert_eq!(
                 mul_shr61_words(y, f),
