@@ -865,9 +865,10 @@ fn norm_top(v: u64) -> (u32, u32) {
 
 /// For `v ≠ 0`: [`rsqrt_norm`]'s `(m, z)` (`z` the even count at most
 /// `v`'s leading zeros, `m` the top word of `v << z`) in 32-bit words, for
-/// the noise's `σ` alone ([`sigma_z16`]: the 64-bit count and shift cost
-/// low-light 5 M3 instructions a pixel more; in `rsqrt_norm` itself,
-/// shared with the shading, this form cost wide-vignetting 8 more,
+/// the noise's `σ` ([`sigma_z16`]: the 64-bit count and shift cost
+/// low-light 5 M3 instructions a pixel more) and the closed plane's `1/|q|`
+/// ([`cube_over`]). In `rsqrt_norm` itself, for every caller, it cost
+/// spheres-specular 3.6 more (and wide-vignetting 8 at an earlier commit,
 /// [`norm_top`]).
 #[inline(always)]
 fn norm_top_even(v: u64) -> (u32, u32) {
@@ -4239,15 +4240,15 @@ impl Cube {
 /// the M0's opt-level 3 unrolled it already).
 #[inline(always)]
 fn unhit(rays: &[Ray]) -> bool {
-    let mut pairs = rays.chunks_exact(4);
-    for p in pairs.by_ref() {
-        if let [a, b, c, d] = p {
+    let mut fours = rays.chunks_exact(4);
+    for f in fours.by_ref() {
+        if let [a, b, c, d] = f {
             if (a.t ^ NO_HIT) | (b.t ^ NO_HIT) | (c.t ^ NO_HIT) | (d.t ^ NO_HIT) != 0 {
                 return false;
             }
         }
     }
-    pairs.remainder().iter().all(|r| r.t == NO_HIT)
+    fours.remainder().iter().all(|r| r.t == NO_HIT)
 }
 
 /// `a·b` of two S30 unit vectors, S30.
@@ -4968,10 +4969,9 @@ mod tests {
         }
     }
 
-    /// [`sigma_z16`]'s `σ` taken from the top word of `m y` is the 64-bit
-    /// shift's (with its saturation) it replaced: `m y < 2⁶²` on every `m`
-    /// near `2³²` (where the Newton step's truncations could carry it
-    /// over: the top 2²⁰ exhaustively) and on random `σ²` everywhere.
+    /// The M0's products and shifts in 32-bit words ([`mul_hi_64_words`],
+    /// [`mul_shr61_words`], [`shl_words`]) are the 128-bit and 64-bit
+    /// forms the other targets compute.
     #[test]
     fn high_words_are_the_128_bit_products() {
         let mut s = 0x4a11_0000_0000_0009;
@@ -5007,6 +5007,8 @@ mod tests {
         }
     }
 
+    /// [`rsqrt_top`]'s Newton factor `3·2³⁰ − m y²`, taken without
+    /// saturation on the M3 and M4F, never wraps.
     #[test]
     fn rsqrt_tops_newton_factor_never_wraps() {
         // m y² rises with m under one seed: the top of each seed's range
@@ -5024,6 +5026,10 @@ mod tests {
         }
     }
 
+    /// [`sigma_z16`]'s `σ` taken from the top word of `m y` is the 64-bit
+    /// shift's (with its saturation) it replaced: `m y < 2⁶²` on every `m`
+    /// near `2³²` (where the Newton step's truncations could carry it
+    /// over: the top 2²⁰ exhaustively) and on random `σ²` everywhere.
     #[test]
     fn sigma_from_the_top_word_is_the_wide_shifts() {
         let wide = |s2: u64, z: i32| {
