@@ -182,6 +182,9 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
     // (hi 2^32 + lo) c4 + 2^45 over 2^46 = (hi c4 + ⌊(lo c4 + 2^45) / 2^32⌋) / 2^14
     // (nested floors of integers); hi c4 < 2^46.
     let (hi, lo) = ((sum >> 32) as u32, sum as u32);
+    if ARMV6M && hi == 0 {
+        return round_c4_words(lo, c4) as u64;
+    }
     // hi < 2^16 below the cap: a 16-bit product on the M0, and none where
     // the sum is below 2^17 DN (hi = 0: a pixel that is not saturated).
     let hc = match u16::try_from(hi) {
@@ -190,6 +193,23 @@ fn vignette_dn(sum: u64, c4: u32) -> u64 {
         _ => umul_px(hi, c4),
     };
     (hc + ((umul_px(lo, c4) + (1 << 45)) >> 32)) >> 14
+}
+
+/// [`vignette_dn`] of a sum below 2³² (`lo`) on the M0: `⌊(lo c4 + 2⁴⁵)
+/// / 2⁴⁶⌋ = (⌊lo c4 / 2³²⌋ + 2¹³) >> 14` from three 16 × 16-bit products
+/// — the high word less the low word's carries, 0 to 2 — and from all
+/// four where those carries could reach bit 14 (2 values in 2¹⁴).
+#[inline(always)]
+fn round_c4_words(lo: u32, c4: u32) -> u32 {
+    let (ah, al) = (lo >> 16, lo & 0xFFFF);
+    let (bh, bl) = (c4 >> 16, c4 & 0xFFFF);
+    // c4 ≤ 2^31: ah bh < 2^31, and the sum stays below 2^32.
+    let t = ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16) + (1 << 13);
+    if t & 0x3FFF < 0x3FFE {
+        t >> 14
+    } else {
+        ((umul16_words(lo, c4) + (1 << 45)) >> 46) as u32
+    }
 }
 
 /// The noise-free value `sum · cos⁴α` (DN, before rounding) as I32F32,
@@ -4965,6 +4985,37 @@ mod tests {
             ] {
                 let (a, b) = (Q::from_bits((a >> 1) as i64), Q::from_bits((b >> 1) as i64));
                 assert_eq!(mul_nonneg(a, b), a.mul(b), "{a:?} * {b:?}");
+            }
+        }
+    }
+
+    /// The M0's rounding of a sum below 2³² times `cos⁴α` from three
+    /// products where the fourth's carries cannot matter: every `c4` near
+    /// 2³¹ and the carries' edge exhaustively, random pairs elsewhere.
+    #[test]
+    fn vignette_in_three_products_is_vignette_dn() {
+        let exact = |lo: u32, c4: u32| ((lo as u64 * c4 as u64 + (1 << 45)) >> 46) as u32;
+        let mut s = 0xc4c4_0000_0000_0011;
+        for i in 0..2_000_000u32 {
+            let c4 = if i % 4 == 0 {
+                (1u32 << 31) - (rng(&mut s) as u32 % 4096)
+            } else {
+                (rng(&mut s) as u32) >> 1 | (i & 1) << 31 >> 1
+            }
+            .min(1 << 31);
+            let lo = (rng(&mut s) as u32) >> (rng(&mut s) % 32);
+            assert_eq!(round_c4_words(lo, c4), exact(lo, c4), "lo {lo} c4 {c4}");
+        }
+        // Where t's low bits lie at the edge: lo chosen so that lo c4 / 2^32
+        // ends near 0x3FFF − 2^13 in its low 14 bits.
+        for c4 in [1u32 << 31, (1 << 31) - 1, 0x4000_0001, 0x7654_3210, 12_345_679] {
+            for k in 0..20_000u64 {
+                let target = ((k << 14) | 0x1FFE) << 32;
+                let lo = (target / c4 as u64).min(u32::MAX as u64) as u32;
+                for d in 0..4 {
+                    let lo = lo.saturating_add(d);
+                    assert_eq!(round_c4_words(lo, c4), exact(lo, c4), "lo {lo} c4 {c4}");
+                }
             }
         }
     }
