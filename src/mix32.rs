@@ -148,14 +148,9 @@ impl Pf {
             // 32-bit shifts: the common case.
             p.checked_shr(s.unsigned_abs()).unwrap_or(0) as u64
         } else if s <= 15 {
-            // ≤ 2^47 = SUM_CAP. On the M0 in words (s ≥ 1): its 64-bit
-            // shift by a variable amount is a library call. (In words on
-            // the M3 too, its standard scene measured 3.8 a pixel more.)
-            if ARMV6M {
-                shl_words(p, s.unsigned_abs())
-            } else {
-                (p as u64) << s
-            }
+            // ≤ 2^47 = SUM_CAP. (`shl64`: in words on the M0, whose
+            // 64-bit shift by a variable amount is a library call.)
+            shl64(p as u64, s.unsigned_abs())
         } else if p == 0 {
             // A zero factor (an albedo of 0, a lobe that vanished) with a
             // large exponent.
@@ -589,13 +584,6 @@ fn mul_shr61_words(y: u32, f: u64) -> u64 {
     (umul(y, fh) + (umul(y, fl) >> 32)) >> 29
 }
 
-/// `p · 2^s` for `1 ≤ s ≤ 31` from two 32-bit shifts ([`Pf::mul_to_sum`]
-/// on the M0, whose 64-bit shift by a variable amount is a library call).
-#[inline(always)]
-fn shl_words(p: u32, s: u32) -> u64 {
-    (((p >> (32 - s)) as u64) << 32) | (p << s) as u64
-}
-
 /// `⌊a · b / 2⁶⁴⌋` for u64 `a`, `b`, exactly: on the M0 from four
 /// 32 × 32-bit products (two where `b` is a u32's: the others fold away),
 /// as its 128-bit product is library calls (with it, spheres-specular
@@ -872,15 +860,7 @@ fn sar64_low(v: i64, s: u32) -> i32 {
 /// runs no [`rsqrt_norm`]: the shading's registers.)
 #[inline(always)]
 fn norm_top(v: u64) -> (u32, u32) {
-    let (hi, lo) = ((v >> 32) as u32, v as u32);
-    if hi != 0 {
-        let z = clz32(hi);
-        ((hi << z) | ((lo >> 1) >> (31 - z)), z)
-    } else {
-        // lo ≠ 0: z < 32.
-        let z = clz32(lo) & 31;
-        (lo << z, z + 32)
-    }
+    norm_top_by::<false>(v)
 }
 
 /// For `v ≠ 0`: [`rsqrt_norm`]'s `(m, z)` (`z` the even count at most
@@ -892,13 +872,21 @@ fn norm_top(v: u64) -> (u32, u32) {
 /// [`norm_top`]).
 #[inline(always)]
 fn norm_top_even(v: u64) -> (u32, u32) {
+    norm_top_by::<true>(v)
+}
+
+/// [`norm_top`] (`EVEN` false) and [`norm_top_even`] (`EVEN` true): the
+/// count rounded down to even where `EVEN`.
+#[inline(always)]
+fn norm_top_by<const EVEN: bool>(v: u64) -> (u32, u32) {
+    let mask = if EVEN { !1 } else { !0 };
     let (hi, lo) = ((v >> 32) as u32, v as u32);
     if hi != 0 {
-        let z = clz32(hi) & !1;
+        let z = clz32(hi) & mask;
         ((hi << z) | ((lo >> 1) >> (31 - z)), z)
     } else {
         // lo ≠ 0: z < 32.
-        let z = clz32(lo) & 30;
+        let z = clz32(lo) & 31 & mask;
         (lo << z, z + 32)
     }
 }
@@ -1514,7 +1502,21 @@ impl Ray {
     #[cfg_attr(feature = "compact", inline(never))]
     #[cfg_attr(not(feature = "compact"), inline(always))]
     fn mirror_all<const PERSP: bool>(rays: &mut [Ray]) {
-        each_ray(rays, Ray::mirror::<PERSP>);
+        if ARMV6M {
+            // By index: over the slice's iterator the M0's unrolled loop
+            // (opt-level 3) divided the slice's length in bytes by a ray's
+            // 40 to count them, a library call a chunk (M0 standard 687.3
+            // → 685.5 instructions a pixel, shallow-target 700.5 → 687.9;
+            // `flat_pass` by index measured worse: calibration-board
+            // 2 985 → 3 058, so it keeps its loop).
+            for q in 0..rays.len() {
+                if let Some(r) = rays.get_mut(q) {
+                    r.mirror::<PERSP>();
+                }
+            }
+        } else {
+            rays.iter_mut().for_each(Ray::mirror::<PERSP>);
+        }
     }
 
     /// The point at `t` (S18 U) along the ray, S18 U.
@@ -2035,25 +2037,6 @@ fn flat_pass<const PERSP: bool>(
                 hit(r, t, away);
             }
         }
-    }
-}
-
-/// `f` on each ray. On the M0 by index: over the slice's iterator its
-/// unrolled loop (opt-level 3) divided the slice's length in bytes by a
-/// ray's 40 to count them, a library call each time. For
-/// [`Ray::mirror_all`] (M0 standard 687.3 → 685.5 instructions a pixel,
-/// shallow-target 700.5 → 687.9); in `flat_pass` the unrolled loop is
-/// worth its division (by index: calibration-board 2 985 → 3 058).
-#[inline(always)]
-fn each_ray(rays: &mut [Ray], mut f: impl FnMut(&mut Ray)) {
-    if ARMV6M {
-        for q in 0..rays.len() {
-            if let Some(r) = rays.get_mut(q) {
-                f(r);
-            }
-        }
-    } else {
-        rays.iter_mut().for_each(f);
     }
 }
 
@@ -5020,9 +5003,9 @@ mod tests {
         }
     }
 
-    /// The M0's products and shifts in 32-bit words ([`mul_hi_64_words`],
-    /// [`mul_shr61_words`], [`shl_words`]) are the 128-bit and 64-bit
-    /// forms the other targets compute.
+    /// The M0's products in 32-bit words ([`mul_hi_64_words`],
+    /// [`mul_shr61_words`]) are the 128-bit forms the other targets
+    /// compute.
     #[test]
     fn high_words_are_the_128_bit_products() {
         let mut s = 0x4a11_0000_0000_0009;
@@ -5048,13 +5031,6 @@ mod tests {
                 ((y as u128 * f as u128) >> 61) as u64,
                 "{y} {f}"
             );
-        }
-        // The M0's sum shifted in words: every exponent `mul_to_sum`
-        // shifts left by.
-        for sh in 1..=15u32 {
-            for p in [1u32, 0x8000_0001, u32::MAX, rng(&mut s) as u32] {
-                assert_eq!(shl_words(p, sh), (p as u64) << sh, "{p} {sh}");
-            }
         }
     }
 
