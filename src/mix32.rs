@@ -1148,6 +1148,88 @@ struct MixPrim {
     /// directional: its terms are the same at every point of it
     /// ([`Mix32::shade_flat`]).
     flat: bool,
+    /// Through the aperture: for a flat rectangle without a lobe, how far
+    /// its aperture rays can meet its plane from its chief ray's hit, per
+    /// unit of the hit's depth from the focused one (Q8.24; 0 for any other
+    /// primitive), and the depths (S18 U, a perspective ray's `t`) its hits
+    /// lie within (a plane's: all): [`aperture_terms`], for
+    /// [`Mix32::uniform`].
+    spread: u32,
+    depth: [i32; 2],
+}
+
+/// Whether the aperture loop takes a pixel's sum from its chief ray where
+/// its aperture rays' sums are known to be one ([`Mix32::uniform`]): not
+/// in a `compact` build (the driven camera's, whose M0 build it would take
+/// 8 KB past the micro:bit's flash). The rule is exact: the same bytes
+/// either way.
+const UNIFORM: bool = !cfg!(feature = "compact");
+
+/// [`MixPrim::spread`] and [`MixPrim::depth`] of primitive `p` through an
+/// aperture of radius `r` focused at `Z̃` (metres), for a frame of unit `U
+/// = 2^e`. The aperture ray from `A` (`|A| ≤ r`, `A_z = 0`) through the
+/// focused point `F = Z̃ (s, 1)` of a chief ray that meets the plane `n·X =
+/// h` at `X₀` (depth `z₀`) meets it at `X_A`, `X_A − X₀ = (1 − z₀/Z̃) (A −
+/// (n·A) F/(n·F)) / (1 − n·A/(n·F))`: so `|X_A − X₀| ≤ |z₀ − Z̃| (r/Z̃) (1 +
+/// ν/cos θ)/(1 − ν r/|n·F|)`, `ν = |n_xy|`, `θ` the chief ray's angle to
+/// `n`, over the chief slopes within the rectangle's bounds (no sign change
+/// of `n·(s, 1)` there, and `ν r` below half of `|n·F|` and of `|h|`: every
+/// aperture ray meets the plane ahead, on the chief ray's side). `r` is
+/// taken 2⁻⁸ larger (`A`'s rounding, this f64's), and the depths over the
+/// bounding sphere widened by 2⁻¹⁰ of them and 2⁻¹² U (a ray's `t` is
+/// within 2⁻²⁰ of it). Once a frame.
+#[inline(never)]
+fn aperture_terms(p: &crate::render::CamPrimQ, (r, z): (Q, Q), e: i32) -> (u32, [i32; 2]) {
+    use crate::render::CamShapeQ as S;
+    let f = |q: Q| q.to_num::<f64>();
+    let (c, reach) = match &p.shape {
+        S::Plane { .. } => return (0, [i32::MIN, i32::MAX]),
+        S::Sphere { c, r2, .. } | S::Disc { c, r2, .. } => (c, libm::sqrt(f(*r2))),
+        S::Rect { c, hu, hv, .. } => (c, libm::sqrt(f(*hu) * f(*hu) + f(*hv) * f(*hv))),
+    };
+    let (z0, z1) = (f(c[2]) - reach, f(c[2]) + reach);
+    // Metres → S18 U, outwards.
+    let s18 = |m: f64, out: f64| {
+        let v = libm::ldexp(m * (1.0 + out * libm::ldexp(1.0, -10)), 18 - e) + out * libm::ldexp(1.0, 6);
+        let v = if out < 0.0 { libm::floor(v) } else { libm::ceil(v) };
+        if v.is_nan() {
+            i32::MIN
+        } else {
+            v.clamp(i32::MIN as f64, i32::MAX as f64) as i32
+        }
+    };
+    let depth = [s18(z0, -1.0), s18(z1, 1.0)];
+    let (S::Rect { n, dist, .. }, Some(b)) = (&p.shape, p.bounds) else {
+        return (0, depth);
+    };
+    let n = n.map(f);
+    let len = libm::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    let (r, z, h) = (f(r) * (1.0 + libm::ldexp(1.0, -8)), f(z), f(*dist) / len);
+    if !(len > 0.5 && z > 0.0 && z0 > 0.0) {
+        return (0, depth);
+    }
+    let n = n.map(|v| v / len);
+    let nu = libm::sqrt(n[0] * n[0] + n[1] * n[1]);
+    // n·(s, 1) is linear in the slopes: its extremes over the bounds are at
+    // their corners, as is |(s, 1)|'s largest.
+    let [x0, x1, y0, y1] = b.map(f);
+    let (mut lo, mut hi, mut smax) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
+    for (x, y) in [(x0, y0), (x0, y1), (x1, y0), (x1, y1)] {
+        let g = n[0] * x + n[1] * y + n[2];
+        (lo, hi) = (lo.min(g), hi.max(g));
+        smax = smax.max(libm::sqrt(x * x + y * y + 1.0));
+    }
+    let gmin = if lo > 0.0 { lo } else { -hi };
+    let nf = z * gmin;
+    if !(gmin > 0.0 && smax.is_finite() && 2.0 * nu * r < nf && 2.0 * nu * r < libm::fabs(h)) {
+        return (0, depth);
+    }
+    let k = libm::ldexp(r / z * (1.0 + nu * smax / gmin) / (1.0 - nu * r / nf), 24);
+    if k < libm::ldexp(1.0, 32) {
+        (libm::ceil(k) as u32, depth)
+    } else {
+        (0, depth)
+    }
 }
 
 /// The right shift from a perspective ray's S48 U coordinate along an axis
@@ -1247,6 +1329,8 @@ struct Aperture {
     /// focused depth).
     r24: i32,
     inv_z40: i64,
+    /// `Z̃`, S18 U.
+    z18: i32,
 }
 
 impl Aperture {
@@ -1295,6 +1379,7 @@ impl Aperture {
             up: crate::defocus::shift(m) - 17,
             r24: len_s(r, e, 24),
             inv_z40: inv.min(i64::MAX as u128) as i64,
+            z18: len_s(Q::from_bits(z.get() as i64), e, 18),
         })
     }
 }
@@ -2092,6 +2177,10 @@ pub struct Mix32 {
     /// the principal point is centred and the frame's loop is
     /// [`Mix32::line_f`].
     mirror: bool,
+    /// Defocus: a pixel whose aperture rays' sums are known to be one
+    /// takes it from its chief ray ([`Mix32::uniform`]), unless every ray
+    /// is to be traced ([`Mix32::trace_every_aperture_ray`]).
+    uniform_on: bool,
 }
 
 /// What [`Mix32::new`] takes from the frame the generic path prepared (all
@@ -2297,6 +2386,7 @@ impl Mix32 {
         closed: None,
         inner: None,
         mirror: false,
+        uniform_on: true,
     };
 
     /// Converts a prepared frame in place (the path's state is kilobytes:
@@ -2416,7 +2506,12 @@ impl Mix32 {
                 bounds: p.bounds.map(|b| b.map(|q| sat32(q.to_bits() >> 6))),
                 nl: [0; crate::scene::MAX_LIGHTS],
                 flat: false,
+                spread: 0,
+                depth: [i32::MIN, i32::MAX],
             });
+            if let (true, Some(q)) = (UNIFORM && f.aperture > 0, prims.last_mut()) {
+                (q.spread, q.depth) = aperture_terms(&p, (ap_r, ap_z), e);
+            }
         }
         // I/r² with r in U: I / U² = I 2^(−2e).
         let lights = &mut self.lights;
@@ -2582,6 +2677,10 @@ impl Mix32 {
             .all(|l| matches!(l, MixLight::Directional { .. }));
         for p in self.prims.iter_mut() {
             p.flat = directional && !matches!(p.shape, MixShape::Sphere { .. });
+            let lobed = has_lobe(p.material) || p.checker.as_ref().is_some_and(|k| has_lobe(k.material));
+            if !p.flat || lobed {
+                p.spread = 0;
+            }
         }
         self.set_frame_id(0);
         Ok(())
@@ -2652,6 +2751,13 @@ impl Mix32 {
             }
         }
         Some(c)
+    }
+
+    /// Traces every pixel's aperture rays, also those whose sums are known
+    /// to be one ([`Mix32::uniform`]): the check that the rule changes no
+    /// sum, and the cost it saves.
+    pub fn trace_every_aperture_ray(&mut self) {
+        self.uniform_on = false;
     }
 
     /// The index of the plane shaded in closed form, if any.
@@ -3398,23 +3504,54 @@ impl Mix32 {
         // shallow-dof −307 M3 instructions a pixel but +208 on the M4F).
         let mut rays = Rays::default();
         let mut index = j as u32 * self.width as u32;
+        let tz = ap.m.trailing_zeros();
         for (pixels, flags) in chunks(pixels, flags, b) {
-            let (Some(chief), Some(rays)) = (chief.first(flags.len()), rays.first(flags.len())) else {
+            let Some(chief) = chief.first(flags.len()) else {
                 return;
             };
+            // Sums of S15 DN below 2⁴⁷ each: at most 2⁵⁵.
+            let mut sums = [[0u64; 3]; CHUNK];
+            // The pixels whose aperture rays are traced (the others' `m`
+            // sums are one sum, [`Mix32::uniform`], or outside the field),
+            // and their chief slopes' box.
+            let mut todo = [0u8; CHUNK];
+            let mut count = 0;
             let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
-            for r in chief.iter_mut() {
+            for ((q, r), s) in chief.iter_mut().enumerate().zip(sums.iter_mut()) {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
                 *r = match self.undistort(xd, yd, yd2) {
                     Some((x, y)) => Ray::new::<true>(x, y, 0).with_c4(KEEP_C4_SAMPLED && self.vignetting),
-                    None => Ray::OUTSIDE,
+                    None => {
+                        *r = Ray::OUTSIDE;
+                        continue;
+                    }
                 };
+                let one = match (UNIFORM && self.uniform_on)
+                    .then(|| self.uniform(&ap, r))
+                    .flatten()
+                {
+                    Some(None) => Some(self.bg),
+                    Some(Some(r)) => (self.hit_from::<L, C, true, false>(&r, [[0; 2]; 2], None))
+                        .map(|h| self.shade_flat::<L, C, true>(&r, &h, &mut k)),
+                    None => None,
+                };
+                if let Some(one) = one {
+                    *s = one.map(|v| v << tz);
+                    continue;
+                }
+                if let Some(t) = todo.get_mut(count) {
+                    (*t, count) = (q as u8, count + 1);
+                }
                 (x0, x1, y0, y1) = (x0.min(r.x), x1.max(r.x), y0.min(r.y), y1.max(r.y));
             }
-            // Sums of S15 DN below 2⁴⁷ each: at most 2⁵⁵.
-            let mut sums = [[0u64; 3]; CHUNK];
-            for u in crate::defocus::SPIRAL.iter().take(ap.m as usize) {
+            let Some(rays) = rays.first(count) else {
+                return;
+            };
+            for u in crate::defocus::SPIRAL
+                .iter()
+                .take(if count > 0 { ap.m as usize } else { 0 })
+            {
                 // A = u (2⁻¹⁵) times r (S24 U), rounded, and in S18 U; A/Z̃
                 // (S24 U · S40 / U → S26), rounded.
                 let a24 = u.map(|v| sat32(((i64::from(v) << ap.up) * ap.r24 as i64 + (1 << 14)) >> 15));
@@ -3423,12 +3560,10 @@ impl Mix32 {
                     let v = (a as i128 * ap.inv_z40 as i128 + (1 << 37)) >> 38;
                     v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
                 });
-                for (r, c) in rays.iter_mut().zip(chief.iter()) {
-                    *r = if c.t == 0 {
-                        Ray::OUTSIDE
-                    } else {
-                        Ray::new::<true>(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]), 0)
-                    };
+                for (r, q) in rays.iter_mut().zip(todo) {
+                    if let Some(c) = chief.get(q as usize) {
+                        *r = Ray::new::<true>(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]), 0);
+                    }
                 }
                 for (i, p) in self.prims.iter().enumerate() {
                     if let Some(b) = p.bounds {
@@ -3440,10 +3575,10 @@ impl Mix32 {
                         .moved(a, a24)
                         .nearest::<true, true>(i as u8, rays, (None, [0; 4]));
                 }
-                for (r, s) in rays.iter().zip(sums.iter_mut()) {
-                    if r.t == 0 {
+                for (r, q) in rays.iter().zip(todo) {
+                    let Some(s) = sums.get_mut(q as usize) else {
                         continue;
-                    }
+                    };
                     let l = match self.hit_from::<L, C, true, true>(r, [a, a24], None) {
                         Some(h) => self.shade_flat::<L, C, true>(r, &h, &mut k),
                         None => self.bg,
@@ -3464,13 +3599,118 @@ impl Mix32 {
                     0
                 } else {
                     *flag = 0;
-                    let sum = s.map(|v| v >> ap.m.trailing_zeros());
+                    let sum = s.map(|v| v >> tz);
                     Self::dn_word::<C>(sum, self.c4::<KEEP_C4_SAMPLED>(c), dn_max, (noise, index))
                 };
                 index = index.wrapping_add(1);
             }
             put(words.iter(), b, pixels);
         }
+    }
+
+    /// The sum of each of a pixel's aperture rays (its chief ray `c`'s),
+    /// when they are known to be one. Of the primitives whose bounds hold
+    /// its chief slope, the nearest ([`MixPrim::depth`]) lies nearer than
+    /// all the others, and is a flat rectangle without a lobe
+    /// ([`MixPrim::spread`]) whose plane its chief ray meets farther than
+    /// its aperture rays' hits can lie from that ([`aperture_terms`])
+    /// within its edges and one texture cell's: its sum depends on its side
+    /// and material alone ([`Mix32::shade_flat`]). Where the hit lies that
+    /// far outside an edge, no aperture ray meets it, and the next nearest
+    /// is taken; where none is left, the background. The same sums as the
+    /// rays traced, which then need not be.
+    /// `None` where the pixel's aperture rays are traced; else the ray
+    /// `c` with the rectangle's hit, or `None` for the background.
+    #[inline(never)]
+    fn uniform(&self, ap: &Aperture, c: &Ray) -> Option<Option<Ray>> {
+        // The primitives no aperture ray of the pixel meets, a bit each.
+        let mut missed = 0u32;
+        let holds = |j: usize, p: &MixPrim, missed: u32| {
+            missed >> j & 1 == 0
+                && p.bounds
+                    .is_none_or(|b| c.x >= b[0] && c.x <= b[1] && c.y >= b[2] && c.y <= b[3])
+        };
+        loop {
+            let mut near: Option<(usize, &MixPrim)> = None;
+            for (j, p) in self.prims.iter().enumerate() {
+                if holds(j, p, missed) && near.is_none_or(|(_, n)| p.depth[0] < n.depth[0]) {
+                    near = Some((j, p));
+                }
+            }
+            let Some((i, p)) = near else {
+                return Some(None);
+            };
+            let behind =
+                |(j, q): (usize, &MixPrim)| j == i || !holds(j, q, missed) || q.depth[0] > p.depth[1];
+            // (A focused depth beyond S18's range: no bound from it.)
+            if p.spread == 0 || ap.z18 == i32::MAX || !self.prims.iter().enumerate().all(behind) {
+                return None;
+            }
+            let MixShape::Rect {
+                n,
+                dist,
+                rz,
+                u,
+                v,
+                cu,
+                cv,
+                hu,
+                hv,
+            } = p.shape
+            else {
+                return None;
+            };
+            let (t, away) = c.plane_t::<true>(n, dist, rz)?;
+            // S18 U · Q8.24 → S42 U, and 2⁻¹¹ U: twice a ray's `along`
+            // error (below 2⁻¹⁶ U: `t` and `d·a` within 2⁻²⁰ of them,
+            // bounded content within 8 U).
+            let m = umul(t.abs_diff(ap.z18), p.spread).min(1 << 62) as i64 + (1 << 31);
+            let (du, dv) = (
+                (c.along::<true>(t, u) - cu).abs(),
+                (c.along::<true>(t, v) - cv).abs(),
+            );
+            if du.saturating_sub(m) > hu || dv.saturating_sub(m) > hv {
+                missed |= 1 << i;
+                continue;
+            }
+            if du.saturating_add(m) > hu || dv.saturating_add(m) > hv {
+                return None;
+            }
+            if let Some(kc) = &p.checker {
+                let one = |a: [i32; 3], o: i64| {
+                    let w = c.along::<true>(t, a) - o;
+                    kc.cell::<true>(w - m, true) == kc.cell::<true>(w + m, true)
+                };
+                if !(one(kc.u, kc.ou) && one(kc.v, kc.ov)) {
+                    return None;
+                }
+            }
+            return Some(Some(Ray {
+                t,
+                hit: i as u8 | if away { AWAY } else { 0 },
+                ..*c
+            }));
+        }
+    }
+
+    /// The pixels of the frame whose aperture rays [`Mix32::line_d`]
+    /// traces (the others' are one sum: [`Mix32::uniform`]), of those in
+    /// the field; `None` without defocus.
+    pub fn aperture_traced(&self, height: u16) -> Option<(u32, u32)> {
+        let ap = self.aperture.as_ref()?;
+        let (mut traced, mut field) = (0, 0);
+        for j in 0..height {
+            let (yd, mut acc) = (self.yd(j), self.x0);
+            for _ in 0..self.width {
+                let xd = (acc >> 32) as i32;
+                acc -= self.dx;
+                if let Some((x, y)) = self.undistort(xd, yd, wmul(yd, yd)) {
+                    field += 1;
+                    traced += u32::from(self.uniform(ap, &Ray::new::<true>(x, y, 0)).is_none());
+                }
+            }
+        }
+        Some((traced, field))
     }
 
     /// [`Mix32::radiance`] out of line: one copy of the shading serves the
@@ -4470,6 +4710,8 @@ mod tests {
                 bounds: None,
                 nl: [0; crate::scene::MAX_LIGHTS],
                 flat: false,
+                spread: 0,
+                depth: [i32::MIN, i32::MAX],
             };
             let Some(q) = Inner::of(&[prim]) else { continue };
             frames += 1;

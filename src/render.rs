@@ -1166,6 +1166,28 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         }
     }
 
+    /// Defocus in the fast arithmetic: every pixel's aperture rays traced,
+    /// also those of a pixel whose sums are known to be one (`mix32`'s
+    /// `uniform`): the check that the rule changes no byte, and the cost it
+    /// saves. Nothing otherwise.
+    pub fn trace_every_aperture_ray(&mut self) {
+        #[cfg(feature = "mix32")]
+        if let Path::Fast(m) = &mut self.path {
+            m.trace_every_aperture_ray();
+        }
+    }
+
+    /// Defocus in the fast arithmetic: the pixels in the lens field whose
+    /// aperture rays are traced, and the pixels in the field (the others
+    /// take their chief ray's sum); `None` otherwise.
+    pub fn aperture_traced(&self) -> Option<(u32, u32)> {
+        match &self.path {
+            Path::Wide(_) => None,
+            #[cfg(feature = "mix32")]
+            Path::Fast(m) => m.aperture_traced(self.height),
+        }
+    }
+
     /// The stages this frame runs.
     pub fn stages(&self) -> Stages {
         self.stages

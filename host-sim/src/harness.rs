@@ -107,6 +107,11 @@ pub struct PlanReport {
     pub predicted_sample_factor: f64,
     /// Aperture points each sample is lit through (0: a pinhole).
     pub aperture_points: u16,
+    /// Through the aperture, the share of the pixels in the field whose
+    /// aperture rays the fast loop does not trace (their sums are one: the
+    /// chief ray's; `Frame::aperture_traced`). `None` without defocus or
+    /// in the wide arithmetic. The cost model does not count it.
+    pub aperture_spared: Option<f64>,
     /// Rays from one the closed plane shades to the next: 2 or 4 where
     /// those between take interpolated sums (`Options::closed_mean`; its
     /// bound is in `predicted_lsb`), 1 without.
@@ -766,6 +771,9 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         predicted_samples_per_pixel: plan.samples.grid,
         predicted_sample_factor: plan.predicted_sample_factor,
         aperture_points: stages.aperture,
+        aperture_spared: frame
+            .aperture_traced()
+            .map(|(n, all)| 1.0 - f64::from(n) / f64::from(all.max(1))),
         closed_mean: plan.options.closed_mean.span(),
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,

@@ -102,6 +102,13 @@ pub fn plan_text(p: &PlanReport) -> String {
              predicted placement error {:.3} px\n",
             p.aperture_points, p.blur_px, p.predicted_defocus_err_px
         ));
+        if let Some(spared) = p.aperture_spared {
+            s.push_str(&format!(
+                "  pixels whose aperture rays are not traced (one sum, the chief ray's): {:.1} % \
+                 (not in the predicted cost)\n",
+                100.0 * spared
+            ));
+        }
     } else {
         s.push_str(&format!(
             "  defocus: none — {}, largest blur {:.3} px left out\n",

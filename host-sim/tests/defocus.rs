@@ -472,3 +472,75 @@ fn fast_defocus_plans_hold_their_bounds_on_random_scenes() {
         fast.get()
     );
 }
+
+/// Through the aperture, a pixel whose aperture rays' sums are known to be
+/// one (the background, or a flat rectangle hit well within its edges and
+/// one texture cell, nothing nearer) takes its chief ray's: on random
+/// defocused scenes (tilted rectangles, checkers, discs, spheres, a point
+/// light or none; gray8, 12-bit, RGB565), the frame is byte for byte the
+/// one with every aperture ray traced, and the rule spares a fair share of
+/// the pixels.
+#[test]
+fn uniform_aperture_pixels_are_the_traced_ones() {
+    use hilcam::render::Arithmetic;
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, TestRng, TestRunner};
+    use std::cell::Cell;
+    let prim = (
+        0usize..3,
+        (-1.0f64..1.0, -1.0f64..1.0, 0.4f64..1.8),
+        0.02f64..0.3,
+        any::<bool>(),
+    )
+        .prop_map(|(k, (x, y, z), s, ch)| (k, [x, y, z], s, ch));
+    let spec = (
+        (0usize..3, prop::sample::select(vec![1.4, 2.0, 2.8]), -0.5f64..0.5),
+        prop::collection::vec(prim, 1..5),
+        prop::option::of((-1.0f64..1.0, -1.0f64..1.0, -1.0f64..0.5).prop_map(|(x, y, z)| [x, y, z])),
+    );
+    let mut config = Config::with_cases(128);
+    config.failure_persistence = None;
+    let mut runner = TestRunner::new_with_rng(
+        config,
+        TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
+    );
+    let (rendered, traced, field) = (Cell::new(0), Cell::new(0u64), Cell::new(0u64));
+    let result = runner.run(&spec, |(cam, prims, point)| {
+        let t = random_defocused(cam, &prims, point);
+        let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let Ok((_, _, f)) = prepare::<I32F32>(&r, &Budget::default(), |o| hilcam::render::Options {
+            arithmetic: Arithmetic::Fast,
+            samples: 1,
+            adaptive: false,
+            aperture: 64,
+            ..o
+        }) else {
+            return Ok(());
+        };
+        let Some((n, all)) = f.aperture_traced() else {
+            return Ok(());
+        };
+        let mut every = f.clone();
+        every.trace_every_aperture_ray();
+        let (a, b) = (collect(&f).expect("renders"), collect(&every).expect("renders"));
+        prop_assert!(
+            a.pixels == b.pixels && a.flags == b.flags,
+            "{n} of {all} traced:\n{t}"
+        );
+        rendered.set(rendered.get() + 1);
+        traced.set(traced.get() + u64::from(n));
+        field.set(field.get() + u64::from(all));
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    let spared = 1.0 - traced.get() as f64 / field.get().max(1) as f64;
+    eprintln!(
+        "{} scenes through the fast aperture loop, {:.1} % of their pixels in the field spared",
+        rendered.get(),
+        100.0 * spared
+    );
+    assert!(rendered.get() >= 96, "scenes rendered: {}", rendered.get());
+    assert!(spared >= 0.1, "pixels spared: {spared}");
+}
