@@ -1554,6 +1554,24 @@ impl Ray {
         }
     }
 
+    /// [`Ray::new`] of a perspective ray without its `1/a` (0), which only
+    /// a sphere's pass and [`Ray::c4`] take: the aperture loop's rays in a
+    /// chunk that no sphere's bounds meet.
+    #[inline(always)]
+    fn flat(x: i32, y: i32) -> Ray {
+        Ray {
+            x,
+            y,
+            ox: 0,
+            oy: if KEEP_Q2 { NO_Q2 } else { 0 },
+            a: (1 << 20) + ((wsq(x) + wsq(y)) >> 32) as i32,
+            ra: (0, 0),
+            t: NO_HIT,
+            hit: 0,
+            c4: 1 << 31,
+        }
+    }
+
     /// The ray with its [`Ray::c4`] from its `1/a` ([`cos4`]) if
     /// `vignette` (a loop that keeps it, in a frame that vignettes).
     #[inline(always)]
@@ -3548,6 +3566,13 @@ impl Mix32 {
             let Some(rays) = rays.first(count) else {
                 return;
             };
+            // A sphere's pass takes the rays' `1/a`: without one in the
+            // chunk's box, the rays go without.
+            let sphere = self.prims.iter().any(|p| {
+                matches!(p.shape, MixShape::Sphere { .. })
+                    && p.bounds
+                        .is_none_or(|b| !(x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3]))
+            });
             for u in crate::defocus::SPIRAL
                 .iter()
                 .take(if count > 0 { ap.m as usize } else { 0 })
@@ -3562,7 +3587,12 @@ impl Mix32 {
                 });
                 for (r, q) in rays.iter_mut().zip(todo) {
                     if let Some(c) = chief.get(q as usize) {
-                        *r = Ray::new::<true>(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]), 0);
+                        let (x, y) = (c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
+                        *r = if sphere {
+                            Ray::new::<true>(x, y, 0)
+                        } else {
+                            Ray::flat(x, y)
+                        };
                     }
                 }
                 for (i, p) in self.prims.iter().enumerate() {
