@@ -3649,6 +3649,7 @@ impl Mix32 {
     /// far outside an edge, no aperture ray meets it, and the next nearest
     /// is taken; where none is left, the background. The same sums as the
     /// rays traced, which then need not be.
+    ///
     /// `None` where the pixel's aperture rays are traced; else the ray
     /// `c` with the rectangle's hit, or `None` for the background.
     #[inline(never)]
@@ -3725,9 +3726,11 @@ impl Mix32 {
 
     /// The pixels of the frame whose aperture rays [`Mix32::line_d`]
     /// traces (the others' are one sum: [`Mix32::uniform`]), of those in
-    /// the field; `None` without defocus.
+    /// the field; `None` without defocus. (Every one where the rule is
+    /// off: a `compact` build, [`Mix32::trace_every_aperture_ray`].)
     pub fn aperture_traced(&self, height: u16) -> Option<(u32, u32)> {
         let ap = self.aperture.as_ref()?;
+        let on = UNIFORM && self.uniform_on;
         let (mut traced, mut field) = (0, 0);
         for j in 0..height {
             let (yd, mut acc) = (self.yd(j), self.x0);
@@ -3736,7 +3739,7 @@ impl Mix32 {
                 acc -= self.dx;
                 if let Some((x, y)) = self.undistort(xd, yd, wmul(yd, yd)) {
                     field += 1;
-                    traced += u32::from(self.uniform(ap, &Ray::new::<true>(x, y, 0)).is_none());
+                    traced += u32::from(!on || self.uniform(ap, &Ray::new::<true>(x, y, 0)).is_none());
                 }
             }
         }
