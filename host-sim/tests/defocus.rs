@@ -395,6 +395,40 @@ fn random_defocused(
     t
 }
 
+/// [`random_defocused`]'s arguments.
+type DefocusedCase = (
+    (usize, f64, f64),
+    Vec<(usize, [f64; 3], f64, bool)>,
+    Option<[f64; 3]>,
+);
+
+/// [`random_defocused`]'s arguments: the format, f-number and tilt, 1 to
+/// `max − 1` primitives (kind, place, size, checker), a point light or
+/// none.
+fn random_defocused_spec(max: usize) -> impl proptest::strategy::Strategy<Value = DefocusedCase> {
+    use proptest::prelude::*;
+    let prim = (
+        0usize..3,
+        (-1.0f64..1.0, -1.0f64..1.0, 0.4f64..1.8),
+        0.02f64..0.3,
+        any::<bool>(),
+    )
+        .prop_map(|(k, (x, y, z), s, ch)| (k, [x, y, z], s, ch));
+    (
+        (0usize..3, prop::sample::select(vec![1.4, 2.0, 2.8]), -0.5f64..0.5),
+        prop::collection::vec(prim, 1..max),
+        prop::option::of((-1.0f64..1.0, -1.0f64..1.0, -1.0f64..0.5).prop_map(|(x, y, z)| [x, y, z])),
+    )
+}
+
+/// A runner of `cases` from a fixed seed, writing no failure file.
+fn deterministic_runner(cases: u32) -> proptest::test_runner::TestRunner {
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+    let mut config = Config::with_cases(cases);
+    config.failure_persistence = None;
+    TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha))
+}
+
 /// The planner's bounds hold where it renders defocus with the fast
 /// aperture loop: on random defocused scenes (gray8, 12-bit, RGB565), the
 /// smooth pixels within the predicted LSB (+ rounding) and the geometry
@@ -405,26 +439,9 @@ fn random_defocused(
 fn fast_defocus_plans_hold_their_bounds_on_random_scenes() {
     use hilcam::render::Arithmetic;
     use proptest::prelude::*;
-    use proptest::test_runner::{Config, TestRng, TestRunner};
     use std::cell::Cell;
-    let prim = (
-        0usize..3,
-        (-1.0f64..1.0, -1.0f64..1.0, 0.4f64..1.8),
-        0.02f64..0.3,
-        any::<bool>(),
-    )
-        .prop_map(|(k, (x, y, z), s, ch)| (k, [x, y, z], s, ch));
-    let spec = (
-        (0usize..3, prop::sample::select(vec![1.4, 2.0, 2.8]), -0.5f64..0.5),
-        prop::collection::vec(prim, 1..4),
-        prop::option::of((-1.0f64..1.0, -1.0f64..1.0, -1.0f64..0.5).prop_map(|(x, y, z)| [x, y, z])),
-    );
-    let mut config = Config::with_cases(64);
-    config.failure_persistence = None;
-    let mut runner = TestRunner::new_with_rng(
-        config,
-        TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
-    );
+    let spec = random_defocused_spec(4);
+    let mut runner = deterministic_runner(64);
     let budget = Budget::default();
     let (fast, differing) = (Cell::new(0), Cell::new(0usize));
     let result = runner.run(&spec, |(cam, prims, point)| {
@@ -484,26 +501,9 @@ fn fast_defocus_plans_hold_their_bounds_on_random_scenes() {
 fn uniform_aperture_pixels_are_the_traced_ones() {
     use hilcam::render::Arithmetic;
     use proptest::prelude::*;
-    use proptest::test_runner::{Config, TestRng, TestRunner};
     use std::cell::Cell;
-    let prim = (
-        0usize..3,
-        (-1.0f64..1.0, -1.0f64..1.0, 0.4f64..1.8),
-        0.02f64..0.3,
-        any::<bool>(),
-    )
-        .prop_map(|(k, (x, y, z), s, ch)| (k, [x, y, z], s, ch));
-    let spec = (
-        (0usize..3, prop::sample::select(vec![1.4, 2.0, 2.8]), -0.5f64..0.5),
-        prop::collection::vec(prim, 1..5),
-        prop::option::of((-1.0f64..1.0, -1.0f64..1.0, -1.0f64..0.5).prop_map(|(x, y, z)| [x, y, z])),
-    );
-    let mut config = Config::with_cases(128);
-    config.failure_persistence = None;
-    let mut runner = TestRunner::new_with_rng(
-        config,
-        TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
-    );
+    let spec = random_defocused_spec(5);
+    let mut runner = deterministic_runner(128);
     let (rendered, traced, field) = (Cell::new(0), Cell::new(0u64), Cell::new(0u64));
     let result = runner.run(&spec, |(cam, prims, point)| {
         let t = random_defocused(cam, &prims, point);
