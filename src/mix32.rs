@@ -1165,6 +1165,20 @@ struct MixPrim {
 /// either way.
 const UNIFORM: bool = !cfg!(feature = "compact");
 
+/// What the aperture loop does with a pixel ([`Mix32::uniform`]).
+#[derive(Clone, Copy)]
+enum Through {
+    /// Traces its aperture rays through every primitive.
+    Traced,
+    /// Its rays' sums are all the background's.
+    Background,
+    /// Its rays' sums are all this ray's (its chief ray with its hit).
+    One(Ray),
+    /// Every ray meets this rectangle and nothing nearer, in more than one
+    /// texture cell: each is tested against it alone, without its edges.
+    Only(u8),
+}
+
 /// [`MixPrim::spread`] and [`MixPrim::depth`] of primitive `p` through an
 /// aperture of radius `r` focused at `Z̃` (metres), for a frame of unit `U
 /// = 2^e`. The aperture ray from `A` (`|A| ≤ r`, `A_z = 0`) through the
@@ -3534,6 +3548,9 @@ impl Mix32 {
             // and their chief slopes' box.
             let mut todo = [0u8; CHUNK];
             let mut count = 0;
+            // The pixels whose rays one rectangle alone meets, and it.
+            let mut single = [(0u8, 0u8); CHUNK];
+            let mut singles = 0;
             let (mut x0, mut x1, mut y0, mut y1) = (i32::MAX, i32::MIN, i32::MAX, i32::MIN);
             for ((q, r), s) in chief.iter_mut().enumerate().zip(sums.iter_mut()) {
                 let xd = (acc >> 32) as i32;
@@ -3545,14 +3562,22 @@ impl Mix32 {
                         continue;
                     }
                 };
-                let one = match (UNIFORM && self.uniform_on)
-                    .then(|| self.uniform(&ap, r))
-                    .flatten()
-                {
-                    Some(None) => Some(self.bg),
-                    Some(Some(r)) => (self.hit_from::<L, C, true, false>(&r, [[0; 2]; 2], None))
+                let through = if UNIFORM && self.uniform_on {
+                    self.uniform(&ap, r)
+                } else {
+                    Through::Traced
+                };
+                let one = match through {
+                    Through::Background => Some(self.bg),
+                    Through::One(r) => (self.hit_from::<L, C, true, false>(&r, [[0; 2]; 2], None))
                         .map(|h| self.shade_flat::<L, C, true>(&r, &h, &mut k)),
-                    None => None,
+                    Through::Only(i) => {
+                        if let Some(o) = single.get_mut(singles) {
+                            (*o, singles) = ((q as u8, i), singles + 1);
+                        }
+                        continue;
+                    }
+                    Through::Traced => None,
                 };
                 if let Some(one) = one {
                     *s = one.map(|v| v << tz);
@@ -3575,7 +3600,7 @@ impl Mix32 {
             });
             for u in crate::defocus::SPIRAL
                 .iter()
-                .take(if count > 0 { ap.m as usize } else { 0 })
+                .take(if count + singles > 0 { ap.m as usize } else { 0 })
             {
                 // A = u (2⁻¹⁵) times r (S24 U), rounded, and in S18 U; A/Z̃
                 // (S24 U · S40 / U → S26), rounded.
@@ -3611,6 +3636,41 @@ impl Mix32 {
                     };
                     let l = match self.hit_from::<L, C, true, true>(r, [a, a24], None) {
                         Some(h) => self.shade_flat::<L, C, true>(r, &h, &mut k),
+                        None => self.bg,
+                    };
+                    for (s, l) in s.iter_mut().zip(l).take(C) {
+                        *s += l;
+                    }
+                }
+                // The pixels one rectangle alone meets: each ray tested
+                // against it alone (the frame moved to `A` once a point),
+                // without its edges (every ray meets it within them, and
+                // nothing nearer): the hits the passes find.
+                let mut moved: Option<(u8, MixShape)> = None;
+                for &(q, i) in single.iter().take(singles) {
+                    let (Some(c), Some(s), Some(p)) = (
+                        chief.get(q as usize),
+                        sums.get_mut(q as usize),
+                        self.prims.get(i as usize),
+                    ) else {
+                        continue;
+                    };
+                    let shape = match moved {
+                        Some((j, shape)) if j == i => shape,
+                        _ => {
+                            let shape = p.shape.moved(a, a24);
+                            moved = Some((i, shape));
+                            shape
+                        }
+                    };
+                    let mut r = Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
+                    if let MixShape::Rect { n, dist, rz, .. } = shape {
+                        if let Some((t, away)) = r.plane_t::<true>(n, dist, rz) {
+                            (r.t, r.hit) = (t, i | if away { AWAY } else { 0 });
+                        }
+                    }
+                    let l = match self.hit_from::<L, C, true, true>(&r, [a, a24], None) {
+                        Some(h) => self.shade_flat::<L, C, true>(&r, &h, &mut k),
                         None => self.bg,
                     };
                     for (s, l) in s.iter_mut().zip(l).take(C) {
@@ -3653,7 +3713,7 @@ impl Mix32 {
     /// `None` where the pixel's aperture rays are traced; else the ray
     /// `c` with the rectangle's hit, or `None` for the background.
     #[inline(never)]
-    fn uniform(&self, ap: &Aperture, c: &Ray) -> Option<Option<Ray>> {
+    fn uniform(&self, ap: &Aperture, c: &Ray) -> Through {
         // The primitives no aperture ray of the pixel meets, a bit each.
         let mut missed = 0u32;
         let holds = |j: usize, p: &MixPrim, missed: u32| {
@@ -3669,13 +3729,13 @@ impl Mix32 {
                 }
             }
             let Some((i, p)) = near else {
-                return Some(None);
+                return Through::Background;
             };
             let behind =
                 |(j, q): (usize, &MixPrim)| j == i || !holds(j, q, missed) || q.depth[0] > p.depth[1];
             // (A focused depth beyond S18's range: no bound from it.)
             if p.spread == 0 || ap.z18 == i32::MAX || !self.prims.iter().enumerate().all(behind) {
-                return None;
+                return Through::Traced;
             }
             let MixShape::Rect {
                 n,
@@ -3689,9 +3749,11 @@ impl Mix32 {
                 hv,
             } = p.shape
             else {
-                return None;
+                return Through::Traced;
             };
-            let (t, away) = c.plane_t::<true>(n, dist, rz)?;
+            let Some((t, away)) = c.plane_t::<true>(n, dist, rz) else {
+                return Through::Traced;
+            };
             // S18 U · Q8.24 → S42 U, and 2⁻¹¹ U: twice a ray's `along`
             // error (below 2⁻¹⁶ U: `t` and `d·a` within 2⁻²⁰ of them,
             // bounded content within 8 U).
@@ -3705,7 +3767,7 @@ impl Mix32 {
                 continue;
             }
             if du.saturating_add(m) > hu || dv.saturating_add(m) > hv {
-                return None;
+                return Through::Traced;
             }
             if let Some(kc) = &p.checker {
                 let one = |a: [i32; 3], o: i64| {
@@ -3713,14 +3775,14 @@ impl Mix32 {
                     kc.cell::<true>(w - m, true) == kc.cell::<true>(w + m, true)
                 };
                 if !(one(kc.u, kc.ou) && one(kc.v, kc.ov)) {
-                    return None;
+                    return Through::Only(i as u8);
                 }
             }
-            return Some(Some(Ray {
+            return Through::One(Ray {
                 t,
                 hit: i as u8 | if away { AWAY } else { 0 },
                 ..*c
-            }));
+            });
         }
     }
 
@@ -3739,7 +3801,12 @@ impl Mix32 {
                 acc -= self.dx;
                 if let Some((x, y)) = self.undistort(xd, yd, wmul(yd, yd)) {
                     field += 1;
-                    traced += u32::from(!on || self.uniform(ap, &Ray::new::<true>(x, y, 0)).is_none());
+                    let through = if on {
+                        self.uniform(ap, &Ray::new::<true>(x, y, 0))
+                    } else {
+                        Through::Traced
+                    };
+                    traced += u32::from(matches!(through, Through::Traced | Through::Only(_)));
                 }
             }
         }
