@@ -3708,10 +3708,9 @@ impl Mix32 {
     /// and material alone ([`Mix32::shade_flat`]). Where the hit lies that
     /// far outside an edge, no aperture ray meets it, and the next nearest
     /// is taken; where none is left, the background. The same sums as the
-    /// rays traced, which then need not be.
-    ///
-    /// `None` where the pixel's aperture rays are traced; else the ray
-    /// `c` with the rectangle's hit, or `None` for the background.
+    /// rays traced, which then need not be. Where the hit lies within its
+    /// edges by that much but not within one cell, every ray meets the
+    /// rectangle and nothing nearer: [`Through::Only`].
     #[inline(never)]
     fn uniform(&self, ap: &Aperture, c: &Ray) -> Through {
         // The primitives no aperture ray of the pixel meets, a bit each.

@@ -492,7 +492,9 @@ fn fast_defocus_plans_hold_their_bounds_on_random_scenes() {
 
 /// Through the aperture, a pixel whose aperture rays' sums are known to be
 /// one (the background, or a flat rectangle hit well within its edges and
-/// one texture cell, nothing nearer) takes its chief ray's: on random
+/// one texture cell, nothing nearer) takes its chief ray's, and one whose
+/// rays that rectangle alone meets, over more than one cell, tests them
+/// against it alone: on random
 /// defocused scenes (tilted rectangles, checkers, discs, spheres, a point
 /// light or none; gray8, 12-bit, RGB565), the frame is byte for byte the
 /// one with every aperture ray traced, and the rule spares a fair share of
