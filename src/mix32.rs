@@ -1165,6 +1165,13 @@ struct MixPrim {
 /// either way.
 const UNIFORM: bool = !cfg!(feature = "compact");
 
+/// Whether slope bounds `b` (`[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]`, S26) meet the box
+/// `[x̂₀, x̂₁, ŷ₀, ŷ₁]` (a point where `x̂₀ = x̂₁`, `ŷ₀ = ŷ₁`).
+#[inline(always)]
+fn meets(b: &[i32; 4], [x0, x1, y0, y1]: [i32; 4]) -> bool {
+    !(x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3])
+}
+
 /// What the aperture loop does with a pixel ([`Mix32::uniform`]).
 #[derive(Clone, Copy)]
 enum Through {
@@ -1578,6 +1585,7 @@ impl Ray {
             y,
             ox: 0,
             oy: if KEEP_Q2 { NO_Q2 } else { 0 },
+            // `a` as [`Ray::new`] takes it.
             a: (1 << 20) + ((wsq(x) + wsq(y)) >> 32) as i32,
             ra: (0, 0),
             t: NO_HIT,
@@ -3555,13 +3563,11 @@ impl Mix32 {
             for ((q, r), s) in chief.iter_mut().enumerate().zip(sums.iter_mut()) {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
-                *r = match self.undistort(xd, yd, yd2) {
-                    Some((x, y)) => Ray::new::<true>(x, y, 0).with_c4(KEEP_C4_SAMPLED && self.vignetting),
-                    None => {
-                        *r = Ray::OUTSIDE;
-                        continue;
-                    }
+                let Some((x, y)) = self.undistort(xd, yd, yd2) else {
+                    *r = Ray::OUTSIDE;
+                    continue;
                 };
+                *r = Ray::new::<true>(x, y, 0).with_c4(KEEP_C4_SAMPLED && self.vignetting);
                 let through = if UNIFORM && self.uniform_on {
                     self.uniform(&ap, r)
                 } else {
@@ -3595,8 +3601,7 @@ impl Mix32 {
             // chunk's box, the rays go without.
             let sphere = self.prims.iter().any(|p| {
                 matches!(p.shape, MixShape::Sphere { .. })
-                    && p.bounds
-                        .is_none_or(|b| !(x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3]))
+                    && p.bounds.is_none_or(|b| meets(&b, [x0, x1, y0, y1]))
             });
             for u in crate::defocus::SPIRAL
                 .iter()
@@ -3621,10 +3626,8 @@ impl Mix32 {
                     }
                 }
                 for (i, p) in self.prims.iter().enumerate() {
-                    if let Some(b) = p.bounds {
-                        if x1 < b[0] || x0 > b[1] || y1 < b[2] || y0 > b[3] {
-                            continue;
-                        }
+                    if p.bounds.is_some_and(|b| !meets(&b, [x0, x1, y0, y1])) {
+                        continue;
                     }
                     p.shape
                         .moved(a, a24)
@@ -3634,13 +3637,7 @@ impl Mix32 {
                     let Some(s) = sums.get_mut(q as usize) else {
                         continue;
                     };
-                    let l = match self.hit_from::<L, C, true, true>(r, [a, a24], None) {
-                        Some(h) => self.shade_flat::<L, C, true>(r, &h, &mut k),
-                        None => self.bg,
-                    };
-                    for (s, l) in s.iter_mut().zip(l).take(C) {
-                        *s += l;
-                    }
+                    self.add_aperture_ray::<L, C>(r, [a, a24], s, &mut k);
                 }
                 // The pixels one rectangle alone meets: each ray tested
                 // against it alone (the frame moved to `A` once a point),
@@ -3669,13 +3666,7 @@ impl Mix32 {
                             (r.t, r.hit) = (t, i | if away { AWAY } else { 0 });
                         }
                     }
-                    let l = match self.hit_from::<L, C, true, true>(&r, [a, a24], None) {
-                        Some(h) => self.shade_flat::<L, C, true>(&r, &h, &mut k),
-                        None => self.bg,
-                    };
-                    for (s, l) in s.iter_mut().zip(l).take(C) {
-                        *s += l;
-                    }
+                    self.add_aperture_ray::<L, C>(&r, [a, a24], s, &mut k);
                 }
             }
             for (((c, s), out), flag) in chief
@@ -3698,6 +3689,26 @@ impl Mix32 {
         }
     }
 
+    /// Adds to `sum` what aperture ray `r` (its nearest hit found, the frame
+    /// moved to `a`, S18 U and S24 U) sees: its hit's shading, or the
+    /// background.
+    #[inline(always)]
+    fn add_aperture_ray<L: Lines, const C: usize>(
+        &self,
+        r: &Ray,
+        a: [[i32; 2]; 2],
+        sum: &mut [u64; 3],
+        k: &mut KCache,
+    ) {
+        let l = match self.hit_from::<L, C, true, true>(r, a, None) {
+            Some(h) => self.shade_flat::<L, C, true>(r, &h, k),
+            None => self.bg,
+        };
+        for (s, l) in sum.iter_mut().zip(l).take(C) {
+            *s += l;
+        }
+    }
+
     /// The sum of each of a pixel's aperture rays (its chief ray `c`'s),
     /// when they are known to be one. Of the primitives whose bounds hold
     /// its chief slope, the nearest ([`MixPrim::depth`]) lies nearer than
@@ -3716,9 +3727,7 @@ impl Mix32 {
         // The primitives no aperture ray of the pixel meets, a bit each.
         let mut missed = 0u32;
         let holds = |j: usize, p: &MixPrim, missed: u32| {
-            missed >> j & 1 == 0
-                && p.bounds
-                    .is_none_or(|b| c.x >= b[0] && c.x <= b[1] && c.y >= b[2] && c.y <= b[3])
+            missed >> j & 1 == 0 && p.bounds.is_none_or(|b| meets(&b, [c.x, c.x, c.y, c.y]))
         };
         loop {
             let mut near: Option<(usize, &MixPrim)> = None;
