@@ -3586,7 +3586,12 @@ impl Mix32 {
                     Through::Traced => None,
                 };
                 if let Some(one) = one {
-                    *s = one.map(|v| v << tz);
+                    // (The format's channels: the others stay 0.)
+                    each::<C>(|i| {
+                        if let (Some(s), Some(v)) = (s.get_mut(i), one.get(i)) {
+                            *s = v << tz;
+                        }
+                    });
                     continue;
                 }
                 if let Some(t) = todo.get_mut(count) {
@@ -3680,7 +3685,12 @@ impl Mix32 {
                     0
                 } else {
                     *flag = 0;
-                    let sum = s.map(|v| v >> tz);
+                    let mut sum = [0; 3];
+                    each::<C>(|i| {
+                        if let (Some(m), Some(v)) = (sum.get_mut(i), s.get(i)) {
+                            *m = v >> tz;
+                        }
+                    });
                     Self::dn_word::<C>(sum, self.c4::<KEEP_C4_SAMPLED>(c), dn_max, (noise, index))
                 };
                 index = index.wrapping_add(1);
