@@ -3549,8 +3549,10 @@ impl Mix32 {
             let Some(chief) = chief.first(flags.len()) else {
                 return;
             };
-            // Sums of S15 DN below 2⁴⁷ each: at most 2⁵⁵.
-            let mut sums = [[0u64; 3]; CHUNK];
+            // Sums of S15 DN below 2⁴⁷ each: at most 2⁵⁵. (Cleared as one
+            // array: `[[0; 3]; CHUNK]` took a call a pixel.)
+            let mut sums = [0u64; 3 * CHUNK];
+            let (sums, _) = sums.as_chunks_mut::<3>();
             // The pixels whose aperture rays are traced (the others' `m`
             // sums are one sum, [`Mix32::uniform`], or outside the field),
             // and their chief slopes' box.
@@ -3676,7 +3678,7 @@ impl Mix32 {
             }
             for (((c, s), out), flag) in chief
                 .iter()
-                .zip(&sums)
+                .zip(sums.iter())
                 .zip(words.iter_mut())
                 .zip(flags.iter_mut())
             {
