@@ -581,6 +581,8 @@ pub struct Control {
     /// The scene shown.
     pub scene_id: u32,
     due_ns: u64,
+    /// Commands that changed the scene ([`Control::revision`]).
+    revision: u32,
 }
 
 impl Default for Control {
@@ -598,7 +600,17 @@ impl Control {
             pending: 0,
             scene_id: 0,
             due_ns: 0,
+            revision: 0,
         }
+    }
+
+    /// How many commands changed the scene (wrapping): a pose, an
+    /// exposure, a scene selected, a scene loaded whole. What a frame is
+    /// planned from changes only with it, so a camera plans when it moves
+    /// (once a change, not once a frame, and not between a trigger and its
+    /// frame).
+    pub fn revision(&self) -> u32 {
+        self.revision
     }
 
     /// The last command processed.
@@ -663,9 +675,15 @@ impl Control {
                     | crate::Error::OutOfRange(crate::Field::Translation) => invalid("pose.translation"),
                     _ => invalid("pose.rotation"),
                 })?;
-                scene.set_pose(pose).map_err(|_| invalid("pose.translation"))
+                scene.set_pose(pose).map_err(|_| invalid("pose.translation"))?;
+                self.revision = self.revision.wrapping_add(1);
+                Ok(())
             }
-            Command::SetExposure { k } => scene.set_exposure(k).map_err(|_| invalid("exposure.k")),
+            Command::SetExposure { k } => {
+                scene.set_exposure(k).map_err(|_| invalid("exposure.k"))?;
+                self.revision = self.revision.wrapping_add(1);
+                Ok(())
+            }
             Command::SetMode(m) => {
                 self.mode = m;
                 self.pending = 0;
@@ -685,12 +703,13 @@ impl Control {
             }
             Command::SelectScene { id } => {
                 library.show(id, scene)?;
-                self.scene_id = id;
+                (self.scene_id, self.revision) = (id, self.revision.wrapping_add(1));
                 Ok(())
             }
             Command::LoadScene { total, offset, bytes } => {
                 if library.load(total, offset, bytes, scene)? {
                     self.scene_id = library.count() - 1;
+                    self.revision = self.revision.wrapping_add(1);
                 }
                 Ok(())
             }

@@ -376,6 +376,66 @@ fn refused_commands_keep_the_last_good_state() {
     assert_eq!(scene.exposure.to_num::<f64>(), 123.5);
 }
 
+/// The revision (what the camera plans again on) moves with every command
+/// that changes the scene — a pose, an exposure, a scene selected, a scene
+/// loaded whole — and with nothing else: not a trigger, a mode, a
+/// description, a refused command, a repeat or a part of a scene.
+#[test]
+fn the_revision_moves_when_the_scene_changes() {
+    let mut scene = standard();
+    let mut lib = lib();
+    let mut c = Control::new();
+    let barrel = resolved("checkerboard-barrel.toml")
+        .scene_bytes()
+        .expect("scene data");
+    let pose = |x: f64| Command::SetPose {
+        rotation: IDENTITY,
+        translation: [x, 0.2, -3.0],
+    };
+    let steps: Vec<(Command, bool)> = vec![
+        (Command::Trigger { frames: 1 }, false),
+        (pose(0.1), true),
+        (Command::SetExposure { k: 123.5 }, true),
+        (Command::SetExposure { k: -1.0 }, false),
+        (Command::SelectScene { id: 1 }, false),
+        (Command::SelectScene { id: 0 }, true),
+        (Command::SetMode(Mode::FreeRun { period_us: 1000 }), false),
+        (Command::SetMode(Mode::Triggered), false),
+        (pose(f64::NAN), false),
+        (pose(0.3), true),
+    ];
+    let mut seq = 0;
+    for (cmd, changes) in steps {
+        let (before, was) = (c.revision(), scene.clone());
+        c.handle(&request(seq, cmd), &mut scene, &mut lib);
+        assert_eq!(c.revision() != before, changes, "{cmd:?}");
+        assert_eq!(scene != was, changes, "{cmd:?}: the scene");
+        // A repeat is answered, not applied; Describe does not count.
+        let again = c.revision();
+        c.handle(&request(seq, cmd), &mut scene, &mut lib);
+        c.handle(&request(9999, Command::Describe), &mut scene, &mut lib);
+        assert_eq!(c.revision(), again, "{cmd:?} repeated");
+        seq += 1;
+    }
+    // A scene in parts: only the last part, which shows it, moves it.
+    let parts: Vec<&[u8]> = barrel.chunks(MAX_SCENE_CHUNK).collect();
+    assert!(parts.len() > 1);
+    for (i, part) in parts.iter().enumerate() {
+        let (before, was) = (c.revision(), scene.clone());
+        let cmd = Command::LoadScene {
+            total: barrel.len() as u16,
+            offset: (i * MAX_SCENE_CHUNK) as u16,
+            bytes: part,
+        };
+        assert_eq!(
+            c.handle(&request(seq + i as u32, cmd), &mut scene, &mut lib),
+            Answer::Ack
+        );
+        let whole = i + 1 == parts.len();
+        assert_eq!((c.revision() != before, scene != was), (whole, whole), "part {i}");
+    }
+}
+
 /// Frames due: one per trigger in triggered mode; in free run one a period
 /// (back to back when late).
 #[test]

@@ -363,6 +363,10 @@ mod camera {
         let mut control = Control::new();
         let mut rx = Receiver::<MAX_REQUEST>::new();
         let mut frame_id = 0u32;
+        // The plan of the scene as it stands: made again when a command
+        // changes it, before the next trigger is read, so that no frame
+        // waits for the planner.
+        let (mut opts, mut planned) = (super::options(scene), control.revision());
         loop {
             for _ in 0..RX_BUDGET {
                 let Some(byte) = board::read_byte() else {
@@ -380,8 +384,10 @@ mod camera {
                     fail("reply");
                 }
             }
+            if control.revision() != planned {
+                (opts, planned) = (super::options(scene), control.revision());
+            }
             if control.frame_due(ns(ticks())) {
-                let opts = super::options(scene);
                 let mut run = Run {
                     scene,
                     enc,
