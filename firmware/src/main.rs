@@ -363,9 +363,10 @@ mod camera {
         let mut control = Control::new();
         let mut rx = Receiver::<MAX_REQUEST>::new();
         let mut frame_id = 0u32;
-        // The plan of the scene as it stands: made again when a command
-        // changes it, before the next trigger is read, so that no frame
-        // waits for the planner.
+        // The plan of the scene as it stands: made again once the commands
+        // read have changed it, before the next frame begins. A trigger
+        // read after that waits for no planner (one read with the change,
+        // or right behind it, still does).
         let (mut opts, mut planned) = (super::options(scene), control.revision());
         loop {
             for _ in 0..RX_BUDGET {
