@@ -15,6 +15,10 @@ cargo fmt --all -- --check
 echo "== clippy: workspace, warnings are errors (and host-sim without its cli feature, as the fuzz targets use it)"
 cargo clippy --workspace --all-targets -q -- -D warnings
 cargo clippy -p host-sim --no-default-features --lib -q -- -D warnings
+# The core without its optional stages (a size build's features), each alone.
+for features in "" mix32 sensor; do
+  cargo clippy --lib --no-default-features --features "$features" -q -- -D warnings
+done
 
 echo "== clippy: core on thumbv7m with the panic-free lints"
 cargo clippy --lib --target thumbv7m-none-eabi -q -- -D warnings \

@@ -59,6 +59,8 @@ pub struct FrameInfo {
 /// its chunk buffers ([`crate::mix32::ChunkBufs`]).
 #[derive(Debug)]
 pub struct Carry<'a> {
+    // (Read by the fast arithmetic's sampled loop alone.)
+    #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
     pub(crate) corners: Corners<'a>,
     #[cfg(feature = "mix32")]
     pub(crate) chunk: crate::mix32::ChunkBufs,
