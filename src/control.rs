@@ -650,22 +650,26 @@ impl Control {
             _ => {}
         }
         let answer = match self.apply(&req.command, scene, library) {
-            Ok(()) => Answer::Ack,
+            Ok(changed) => {
+                self.revision = self.revision.wrapping_add(u32::from(changed));
+                Answer::Ack
+            }
             Err((reason, fault)) => Answer::Reject(reason, fault),
         };
         self.last = Some((req.seq, answer));
         answer
     }
 
+    /// Applies `c`; whether it changed the scene ([`Control::revision`]).
     fn apply<const N: usize, const T: usize>(
         &mut self,
         c: &Command,
         scene: &mut Scene,
         library: &mut Library<'_, N, T>,
-    ) -> Result<(), (Reason, Fault)> {
+    ) -> Result<bool, (Reason, Fault)> {
         let invalid = |f: &'static str| (Reason::Invalid, Fault::field(f));
         match *c {
-            Command::Describe => Ok(()),
+            Command::Describe => Ok(false),
             Command::SetPose {
                 rotation,
                 translation,
@@ -676,19 +680,17 @@ impl Control {
                     _ => invalid("pose.rotation"),
                 })?;
                 scene.set_pose(pose).map_err(|_| invalid("pose.translation"))?;
-                self.revision = self.revision.wrapping_add(1);
-                Ok(())
+                Ok(true)
             }
             Command::SetExposure { k } => {
                 scene.set_exposure(k).map_err(|_| invalid("exposure.k"))?;
-                self.revision = self.revision.wrapping_add(1);
-                Ok(())
+                Ok(true)
             }
             Command::SetMode(m) => {
                 self.mode = m;
                 self.pending = 0;
                 self.due_ns = 0;
-                Ok(())
+                Ok(false)
             }
             Command::Trigger { frames } => {
                 if self.mode != Mode::Triggered {
@@ -699,19 +701,19 @@ impl Control {
                     return Err(invalid("trigger.frames"));
                 }
                 self.pending = total;
-                Ok(())
+                Ok(false)
             }
             Command::SelectScene { id } => {
                 library.show(id, scene)?;
-                (self.scene_id, self.revision) = (id, self.revision.wrapping_add(1));
-                Ok(())
+                self.scene_id = id;
+                Ok(true)
             }
             Command::LoadScene { total, offset, bytes } => {
-                if library.load(total, offset, bytes, scene)? {
+                let whole = library.load(total, offset, bytes, scene)?;
+                if whole {
                     self.scene_id = library.count() - 1;
-                    self.revision = self.revision.wrapping_add(1);
                 }
-                Ok(())
+                Ok(whole)
             }
         }
     }
