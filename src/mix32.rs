@@ -415,6 +415,22 @@ fn chunks<'a>(
     })
 }
 
+impl Pf {
+    /// The product of two nonzero values with its mantissa rounded up (≥
+    /// the exact product; [`Pf`]'s `*` rounds down): bounds from above,
+    /// once a frame ([`lobe_below`]).
+    fn mul_up(self, o: Pf) -> Pf {
+        let p = umul(self.m, o.m);
+        let n = (p >> 63) as u32 ^ 1; // 1: one shift left
+        let p = p << n;
+        let e = self.e + o.e + 32 - n as i32;
+        match ((p >> 32) as u32).checked_add(u32::from(p as u32 != 0)) {
+            Some(m) => Pf { m, e },
+            None => Pf { m: 1 << 31, e: e + 1 },
+        }
+    }
+}
+
 impl core::ops::Mul for Pf {
     type Output = Pf;
 
@@ -4356,19 +4372,22 @@ impl Mix32 {
 
 /// The least `x` (S30) whose Phong lobe `(x 2⁻³⁰)^s` may exceed 2⁻⁶⁴
 /// (`s ≥ 1`; for `s = 0`, whose lobe is 1 everywhere, `i32::MIN`): one
-/// above the largest `x` whose power rounded up ([`lobe_up`]) is at most
-/// 2⁻⁶⁴, by bisection. Once a material a frame, in integers (f64's `exp2`
-/// cost the M3's firmware 5.8 KB of flash).
+/// above the largest `x` whose power with every product rounded up
+/// ([`Pf::mul_up`]) is at most 2⁻⁶⁴, by bisection. Once a material a frame,
+/// in integers (f64's `exp2` cost the M3's firmware 5.8 KB of flash).
 fn lobe_below(s: u16) -> i32 {
     if s == 0 {
         return i32::MIN;
     }
-    // lobe_up(lo) ≤ 2^-64 < lobe_up(hi) (x = 2^30 is 1).
+    // 2^-64 as a normalized Pf: (2^31, -95). Normalized mantissas order by
+    // (e, m) as their values do.
+    let bound = Pf::new32(1, -64);
+    // up(lo) ≤ 2^-64 < up(hi) (x = 2^30 is 1).
     let (mut lo, mut hi) = (0u32, 1u32 << 30);
     while hi - lo > 1 {
         let mid = lo + (hi - lo) / 2;
-        let (m, e) = lobe_up(mid, s);
-        if e <= -96 || (e == -95 && m == 1 << 31) {
+        let up = power(Pf::new32(mid, -30), s, Pf::mul_up);
+        if (up.e, up.m) <= (bound.e, bound.m) {
             lo = mid;
         } else {
             hi = mid;
@@ -4377,22 +4396,11 @@ fn lobe_below(s: u16) -> i32 {
     lo as i32 + 1
 }
 
-/// `(x 2⁻³⁰)^s` for `0 < x ≤ 2³⁰`, `s ≥ 1`, rounded up, as `m 2^e` (`m`
-/// normalized): by squaring, each product's mantissa rounded up.
-fn lobe_up(x: u32, s: u16) -> (u32, i32) {
-    let mul = |(a, ea): (u32, i32), (b, eb): (u32, i32)| {
-        let p = u64::from(a) * u64::from(b);
-        let n = (p >> 63) as i32 ^ 1;
-        let p = p << n;
-        let (hi, up) = ((p >> 32) as u32, p as u32 != 0);
-        match hi.checked_add(u32::from(up)) {
-            Some(m) => (m, ea + eb + 32 - n),
-            None => (1 << 31, ea + eb + 33 - n),
-        }
-    };
-    let z = x.leading_zeros();
-    let mut base = (x << z, -30 - z as i32);
-    let mut acc = (1u32 << 31, -31);
+/// `base^s` (`s ≥ 1`) by squaring, each product `mul`'s: [`lobe_pf`]'s
+/// (rounded down) and [`lobe_below`]'s (rounded up).
+#[inline(always)]
+fn power(mut base: Pf, s: u16, mul: impl Fn(Pf, Pf) -> Pf) -> Pf {
+    let mut acc = Pf::new32(1, 0);
     let mut n = s;
     loop {
         if n & 1 == 1 {
@@ -4411,26 +4419,13 @@ fn lobe_up(x: u32, s: u16) -> (u32, i32) {
 /// reference.
 #[inline]
 fn lobe_pf(x: i32, s: u16) -> Pf {
-    let one = Pf::new32(1, 0);
     if s == 0 {
-        return one;
+        return Pf::new32(1, 0);
     }
     if x <= 0 {
         return Pf::default();
     }
-    let mut base = Pf::new32(x.min(1 << 30) as u32, -30);
-    let mut acc = one;
-    let mut n = s;
-    loop {
-        if n & 1 == 1 {
-            acc = acc * base;
-        }
-        n >>= 1;
-        if n == 0 {
-            return acc;
-        }
-        base = base * base;
-    }
+    power(Pf::new32(x.min(1 << 30) as u32, -30), s, |a, b| a * b)
 }
 
 /// `w = n·d` (S24) of ray `r` for a plane of normal `n` (S30), as
