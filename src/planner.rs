@@ -1745,7 +1745,15 @@ impl Features {
         mean: ClosedMean,
     ) -> Features {
         let mut f = Features::default();
-        for p in &scene.primitives {
+        for (i, p) in scene.primitives.iter().enumerate() {
+            // A primitive no ray can meet is tested on no chunk.
+            let behind = g.origin_scale.is_none()
+                && g.prims
+                    .get(i)
+                    .is_some_and(|q| q.r > 0.0 && crate::render::behind_lens(q.c[2], q.r));
+            if behind {
+                continue;
+            }
             match p.shape {
                 Shape::Plane { .. } => f.planes += 1.0,
                 Shape::Sphere { .. } => f.spheres += 1.0,

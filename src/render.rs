@@ -2178,7 +2178,8 @@ fn plane_t<S: Scalar, const R: u8>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Opt
 /// meet a bounded primitive (its bounding sphere), widened by 2⁻¹⁰ plus
 /// 2⁻¹⁰ relative — far more than any arithmetic's rounding moves a hit —
 /// or `None` (planes; a bounding sphere that reaches the lens plane).
-/// Perspective rays: the tangents from the centre of projection,
+/// Perspective rays: none where the bounding sphere lies behind the lens
+/// plane ([`behind_lens`]: `[MAX, MIN, MAX, MIN]`), else the tangents from the centre of projection,
 /// `(c_x c_z ± r √(c_x² + c_z² − r²)) / (c_z² − r²)`, widened with
 /// `blur = (d/2, 1/Z̃)` (defocus) by `(d/2) max |1/z − 1/Z̃|` over the
 /// sphere's depths; parallel rays of origin scale `k`: `(c_x ± r) / k`.
@@ -2196,6 +2197,8 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
         (lo - m - m * libm::fabs(lo), hi + m + m * libm::fabs(hi))
     };
     let [(x0, x1), (y0, y1)] = match origin_scale {
+        // No ray meets it: bounds that no slope lies within.
+        None if behind_lens(c[2], r) => return Some([Q::MAX, Q::MIN, Q::MAX, Q::MIN]),
         None => {
             let zz = c[2] * c[2] - r * r;
             if c[2] <= r || zz <= 1e-3 * c[2] * c[2] {
@@ -2230,6 +2233,17 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
     }
     let q = |v: f64| crate::num::from_f64(v).unwrap_or(if v < 0.0 { Q::MIN } else { Q::MAX });
     Some([q(x0), q(x1), q(y0), q(y1)])
+}
+
+/// Whether a bounding sphere (centre depth `c_z`, radius `r`, metres, camera
+/// frame) lies wholly behind the lens plane, with 2⁻¹⁰ m and 2⁻¹⁰ of its
+/// size to spare: no perspective ray meets it, since every one (the chief
+/// ray from the centre of projection, an aperture ray from the lens) runs
+/// forward from `z = 0`. Its primitive is then tested on no chunk
+/// ([`slope_bounds`]) and costs the planner nothing.
+pub(crate) fn behind_lens(c_z: f64, r: f64) -> bool {
+    let m = libm::ldexp(1.0, -10);
+    c_z + r + m + m * (libm::fabs(c_z) + r) < 0.0
 }
 
 /// The lens's `(d/2, 1/Z̃)` (metres, 1/metres): with defocus, a primitive's

@@ -619,3 +619,48 @@ fn a_light_at_the_plane_leaves_the_closed_form() {
         meets_targets(&mix(&r).expect("renders").0);
     }
 }
+
+/// Spheres around the base camera (eye `(0.0123, 1.2, −3)`, looking along
+/// `f ≈ (−0.004, −0.258, 0.966)`): one in front; one wholly behind the
+/// lens plane (camera frame `z = −2 ± 0.5`), which no ray meets and which
+/// is tested on no chunk (`render::behind_lens`); and one whose centre is
+/// behind the lens plane (camera frame `(0, −1, −0.05)`, radius 1) but
+/// which reaches in front of it, 1.25 mm below the camera, into the
+/// bottom of the view.
+const BEHIND_THE_LENS: &str = r#"
+[[primitives]]
+kind = "sphere"
+material = "a"
+centre = [0.0, 0.4, 0.0]
+radius = 0.5
+[[primitives]]
+kind = "sphere"
+material = "b"
+centre = [0.0202, 1.715, -4.932]
+radius = 0.5
+[[primitives]]
+kind = "sphere"
+material = "b"
+centre = [0.0125, 0.2467, -3.306]
+radius = 1.0
+"#;
+
+/// A sphere wholly behind the lens plane is culled, one that reaches in
+/// front of it from behind is not: both against the reference, which
+/// tests every ray against every primitive (culled wrongly, the sphere in
+/// the bottom of the view would be background).
+#[test]
+fn a_sphere_behind_the_lens_is_culled_one_reaching_past_it_is_not() {
+    let r = scene(BEHIND_THE_LENS, &[]);
+    let (m, core) = mix(&r).expect("renders");
+    meets_targets(&m);
+    // The near sphere is seen: the bottom line's middle is not the
+    // background of the top-left corner.
+    let (w, h) = (96, 64);
+    let bottom = &core.pixels[(h - 1) * w..h * w];
+    let seen = bottom.iter().filter(|p| **p != core.pixels[0]).count();
+    assert!(
+        seen > w / 4,
+        "the near sphere covers {seen} of the bottom line's {w} pixels"
+    );
+}
