@@ -2772,6 +2772,8 @@ impl Mix32 {
         }
         let (index, p) = self.prims.iter().enumerate().find(|(_, p)| {
             matches!(p.shape, MixShape::Plane { dist, .. } if dist.unsigned_abs() >= 1 << 14)
+                // (Not one behind the view, whose bounds are empty.)
+                && p.bounds.is_none()
                 && p.checker.is_none()
                 && self.lobe.get(p.material as usize).is_some_and(Option::is_none)
                 && (self.lights.iter().zip(&p.nl))

@@ -2184,10 +2184,23 @@ fn plane_t<S: Scalar, const R: u8>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Opt
 /// `blur = (d/2, 1/Z̃)` (defocus) by `(d/2) max |1/z − 1/Z̃|` over the
 /// sphere's depths; parallel rays of origin scale `k`: `(c_x ± r) / k`.
 /// Computed once a frame, in f64.
-fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64, f64)>) -> Option<[Q; 4]> {
+fn slope_bounds(
+    scene: &Scene,
+    shape: &CamShape<Q>,
+    origin_scale: Option<Q>,
+    blur: Option<(f64, f64)>,
+) -> Option<[Q; 4]> {
+    const NONE: [Q; 4] = [Q::MAX, Q::MIN, Q::MAX, Q::MIN];
     let f = |q: Q| q.to_num::<f64>();
     let (c, r) = match *shape {
-        CamShape::Plane { .. } => return None,
+        CamShape::Plane { n, dist } => {
+            // Through the aperture (radius d/2, focused at Z̃) a ray's slope is
+            // its chief ray's shifted by up to (d/2)/Z̃.
+            let (a, shift) = blur.map_or((0.0, 0.0), |(half_d, inv_focus)| (half_d, half_d * inv_focus));
+            let (x, y) = field_box(scene);
+            let unseen = plane_unseen(n.map(f), f(dist), (x + shift, y + shift), a);
+            return (origin_scale.is_none() && unseen).then_some(NONE);
+        }
         CamShape::Sphere { c, r2, .. } => (c.map(f), libm::sqrt(f(r2))),
         CamShape::Disc { c, r2, .. } => (c.map(f), libm::sqrt(f(r2))),
         CamShape::Rect { c, hu, hv, .. } => (c.map(f), libm::sqrt(f(hu) * f(hu) + f(hv) * f(hv))),
@@ -2198,7 +2211,7 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
     };
     let [(x0, x1), (y0, y1)] = match origin_scale {
         // No ray meets it: bounds that no slope lies within.
-        None if behind_lens(c[2], r) => return Some([Q::MAX, Q::MIN, Q::MAX, Q::MIN]),
+        None if behind_lens(c[2], r) => return Some(NONE),
         None => {
             let zz = c[2] * c[2] - r * r;
             if c[2] <= r || zz <= 1e-3 * c[2] * c[2] {
@@ -2244,6 +2257,43 @@ fn slope_bounds(shape: &CamShape<Q>, origin_scale: Option<Q>, blur: Option<(f64,
 pub(crate) fn behind_lens(c_z: f64, r: f64) -> bool {
     let m = libm::ldexp(1.0, -10);
     c_z + r + m + m * (libm::fabs(c_z) + r) < 0.0
+}
+
+/// The half-widths `(x̂, ŷ)` of a box of undistorted slopes that holds every
+/// pixel's rays (its centre's and up to half a pixel beyond it, the pixel
+/// area's samples; perspective rays through the centre of projection): the
+/// distorted corners' largest |slopes| and half a pixel, times the
+/// polynomial's largest gain `1 + (|k₁| + |k₂| u) u` there. f64, once a
+/// frame.
+pub(crate) fn field_box(scene: &Scene) -> (f64, f64) {
+    let intr = &scene.camera.intrinsics;
+    let (fx, fy) = intr.focal_px();
+    let (fx, fy) = (fx.to_num::<f64>().max(1e-300), fy.to_num::<f64>().max(1e-300));
+    let (w, h) = intr.size();
+    let (ox, oy) = intr.principal_point();
+    let far = |o: f64, n: u16| libm::fabs(o).max(libm::fabs(o - (f64::from(n) - 1.0))) + 0.5;
+    let (x, y) = (far(ox.to_num(), w) / fx, far(oy.to_num(), h) / fy);
+    let u = x * x + y * y;
+    let (k1, k2) = scene.distortion.coefficients();
+    let gain = 1.0 + (libm::fabs(k1.to_num::<f64>()) + libm::fabs(k2.to_num::<f64>()) * u) * u;
+    (x * gain, y * gain)
+}
+
+/// Whether no perspective ray with undistorted slopes in the box `(x, y)`
+/// (`|x̂| ≤ x`, `|ŷ| ≤ y`), from the lens plane within `a` (metres) of its
+/// centre, meets the plane `n̂·P = dist` (camera frame): `t = (dist −
+/// n̂·o)/(n̂·d)` takes the sign of `dist` (`|n̂·o| ≤ a |n̂_xy|`), and `n̂·d`, linear
+/// in the slopes, has the other sign over the whole box — with 2⁻¹⁰ (m,
+/// and of the slopes) to spare. The plane then lies behind the view, as
+/// the wall behind a camera in a room: it is tested on no chunk
+/// ([`slope_bounds`]) and costs the planner nothing.
+pub(crate) fn plane_unseen(n: [f64; 3], dist: f64, (x, y): (f64, f64), a: f64) -> bool {
+    let m = libm::ldexp(1.0, -10);
+    let s = if dist > 0.0 { 1.0 } else { -1.0 };
+    // The largest of s n̂·(x̂, ŷ, 1) over the box, at a corner.
+    let toward = s * n[2] + libm::fabs(n[0]) * x + libm::fabs(n[1]) * y;
+    let nxy = libm::sqrt(n[0] * n[0] + n[1] * n[1]);
+    libm::fabs(dist) > a * nxy + m && toward < -m * (1.0 + x + y)
 }
 
 /// The lens's `(d/2, 1/Z̃)` (metres, 1/metres): with defocus, a primitive's
@@ -2351,7 +2401,7 @@ pub(crate) fn cam_prim(
         shape,
         material: p.material,
         bounds: if cull {
-            slope_bounds(&shape, origin_scale, blur)
+            slope_bounds(scene, &shape, origin_scale, blur)
         } else {
             None
         },

@@ -620,13 +620,16 @@ fn a_light_at_the_plane_leaves_the_closed_form() {
     }
 }
 
-/// Spheres around the base camera (eye `(0.0123, 1.2, −3)`, looking along
-/// `f ≈ (−0.004, −0.258, 0.966)`): one in front; one wholly behind the
-/// lens plane (camera frame `z = −2 ± 0.5`), which no ray meets and which
-/// is tested on no chunk (`render::behind_lens`); and one whose centre is
-/// behind the lens plane (camera frame `(0, −1, −0.05)`, radius 1) but
-/// which reaches in front of it, 1.25 mm below the camera, into the
-/// bottom of the view.
+/// Content around the base camera (eye `(0.0123, 1.2, −3)`, looking along
+/// `f ≈ (−0.004, −0.258, 0.966)`): a sphere in front; a sphere wholly behind
+/// the lens plane (camera frame `z = −2 ± 0.5`) and a wall 3 m behind the
+/// eye, which no ray meets and which are tested on no chunk
+/// (`render::behind_lens`, `render::plane_unseen`); a sphere whose centre
+/// is behind the lens plane (camera frame `(0, −1, −0.05)`, radius 1) but
+/// which reaches in front of it, 1.25 mm below the camera, across the
+/// bottom of the view; and a wall to the right, turned away so that the
+/// rays meet it only beyond a slope of about 0.2 (the view reaches 0.25),
+/// 20 m away: seen only in the right-hand columns.
 const BEHIND_THE_LENS: &str = r#"
 [[primitives]]
 kind = "sphere"
@@ -643,24 +646,40 @@ kind = "sphere"
 material = "b"
 centre = [0.0125, 0.2467, -3.306]
 radius = 1.0
+[[primitives]]
+kind = "plane"
+material = "b"
+point = [0.0, 0.0, -6.0]
+normal = [0.0, 0.0, 1.0]
+[[primitives]]
+kind = "plane"
+material = "b"
+point = [-0.9, 1.2, -3.0]
+normal = [0.9785, 0.0, 0.206]
 "#;
 
-/// A sphere wholly behind the lens plane is culled, one that reaches in
-/// front of it from behind is not: both against the reference, which
-/// tests every ray against every primitive (culled wrongly, the sphere in
-/// the bottom of the view would be background).
+/// What lies behind the view is culled, what reaches into it from behind
+/// is not: against the reference, which tests every ray against every
+/// primitive (culled wrongly, the near sphere or the turned wall would be
+/// background).
 #[test]
-fn a_sphere_behind_the_lens_is_culled_one_reaching_past_it_is_not() {
+fn content_behind_the_view_is_culled_what_reaches_into_it_is_not() {
     let r = scene(BEHIND_THE_LENS, &[]);
     let (m, core) = mix(&r).expect("renders");
     meets_targets(&m);
-    // The near sphere is seen: the bottom line's middle is not the
-    // background of the top-left corner.
+    // Both are seen: the background (radiance 1) is 134 DN and more here,
+    // the dark material b below 60.
     let (w, h) = (96, 64);
+    let dark = |row: &[u8]| row.iter().filter(|p| **p < 100).count();
     let bottom = &core.pixels[(h - 1) * w..h * w];
-    let seen = bottom.iter().filter(|p| **p != core.pixels[0]).count();
+    assert_eq!(
+        dark(bottom),
+        w,
+        "the near sphere across the bottom line: {bottom:?}"
+    );
+    let top = &core.pixels[..w];
     assert!(
-        seen > w / 4,
-        "the near sphere covers {seen} of the bottom line's {w} pixels"
+        (3..12).contains(&dark(top)) && top.iter().rev().take(3).all(|p| *p < 100),
+        "the turned wall in the right-hand columns: {top:?}"
     );
 }
