@@ -24,7 +24,12 @@ use host_sim::variant::Variant;
 /// a sphere, a floor a few pixels away), and defocus runs in the wide
 /// arithmetic only (tests/defocus.rs checks it).
 fn mix(r: &Resolved) -> Result<(Metrics, Collect), String> {
-    let v = Variant::parse("mix32-poly").expect("variant");
+    rendered_as(r, "mix32-poly")
+}
+
+/// [`mix`] in the arithmetic of `variant`.
+fn rendered_as(r: &Resolved, variant: &str) -> Result<(Metrics, Collect), String> {
+    let v = Variant::parse(variant).expect("variant");
     let budget = Budget::default();
     let pinhole = |o: Options| v.options(o).with(Override::Aperture { points: 0 });
     let (_, plan, frame) = prepare::<I32F32>(r, &budget, pinhole)?;
@@ -665,6 +670,9 @@ normal = [0.9785, 0.0, 0.206]
 #[test]
 fn content_behind_the_view_is_culled_what_reaches_into_it_is_not() {
     let r = scene(BEHIND_THE_LENS, &[]);
+    // The wide arithmetic culls by the same bounds.
+    let (m, _) = rendered_as(&r, "i32f32-poly").expect("renders");
+    meets_targets(&m);
     let (m, core) = mix(&r).expect("renders");
     meets_targets(&m);
     // Both are seen: the background (radiance 1) is 134 DN and more here,
