@@ -2177,9 +2177,11 @@ fn plane_t<S: Scalar, const R: u8>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Opt
 /// The undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` of the rays that can
 /// meet a bounded primitive (its bounding sphere), widened by 2⁻¹⁰ plus
 /// 2⁻¹⁰ relative — far more than any arithmetic's rounding moves a hit —
-/// or `None` (planes; a bounding sphere that reaches the lens plane).
-/// Perspective rays: none where the bounding sphere lies behind the lens
-/// plane ([`behind_lens`]: `[MAX, MIN, MAX, MIN]`), else the tangents from the centre of projection,
+/// or `None` (a plane the rays reach; a bounding sphere that reaches the
+/// lens plane). Perspective rays: bounds no slope lies within,
+/// `[MAX, MIN, MAX, MIN]`, for a plane no ray in the field reaches
+/// ([`plane_unseen`]) and a bounding sphere behind the lens plane
+/// ([`behind_lens`]); else the tangents from the centre of projection,
 /// `(c_x c_z ± r √(c_x² + c_z² − r²)) / (c_z² − r²)`, widened with
 /// `blur = (d/2, 1/Z̃)` (defocus) by `(d/2) max |1/z − 1/Z̃|` over the
 /// sphere's depths; parallel rays of origin scale `k`: `(c_x ± r) / k`.
@@ -2193,13 +2195,13 @@ fn slope_bounds(
     const NONE: [Q; 4] = [Q::MAX, Q::MIN, Q::MAX, Q::MIN];
     let f = |q: Q| q.to_num::<f64>();
     let (c, r) = match *shape {
+        CamShape::Plane { .. } if origin_scale.is_some() => return None,
         CamShape::Plane { n, dist } => {
             // Through the aperture (radius d/2, focused at Z̃) a ray's slope is
             // its chief ray's shifted by up to (d/2)/Z̃.
             let (a, shift) = blur.map_or((0.0, 0.0), |(half_d, inv_focus)| (half_d, half_d * inv_focus));
             let (x, y) = field_box(scene);
-            let unseen = plane_unseen(n.map(f), f(dist), (x + shift, y + shift), a);
-            return (origin_scale.is_none() && unseen).then_some(NONE);
+            return plane_unseen(n.map(f), f(dist), (x + shift, y + shift), a).then_some(NONE);
         }
         CamShape::Sphere { c, r2, .. } => (c.map(f), libm::sqrt(f(r2))),
         CamShape::Disc { c, r2, .. } => (c.map(f), libm::sqrt(f(r2))),
@@ -2264,7 +2266,7 @@ pub(crate) fn behind_lens(c_z: f64, r: f64) -> bool {
 /// area's samples; perspective rays through the centre of projection): the
 /// distorted corners' largest |slopes| and half a pixel, times the
 /// polynomial's largest gain `1 + (|k₁| + |k₂| u) u` there. f64, once a
-/// frame.
+/// plane a preparation (and once a plan).
 pub(crate) fn field_box(scene: &Scene) -> (f64, f64) {
     let intr = &scene.camera.intrinsics;
     let (fx, fy) = intr.focal_px();
