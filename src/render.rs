@@ -2174,6 +2174,11 @@ fn plane_t<S: Scalar, const R: u8>(n: V3<S>, dist: S, o: V3<S>, d: V3<S>) -> Opt
     (t > S::ZERO).then_some((t, denom))
 }
 
+/// What the culling keeps to spare, absolute and relative (metres, slopes):
+/// 2⁻¹⁰, far more than any arithmetic's rounding moves a hit
+/// ([`slope_bounds`], [`behind_lens`], [`plane_unseen`]).
+const SPARE: f64 = 1.0 / 1024.0;
+
 /// The undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` of the rays that can
 /// meet a bounded primitive (its bounding sphere), widened by 2⁻¹⁰ plus
 /// 2⁻¹⁰ relative — far more than any arithmetic's rounding moves a hit —
@@ -2208,7 +2213,7 @@ fn slope_bounds(
         CamShape::Rect { c, hu, hv, .. } => (c.map(f), libm::sqrt(f(hu) * f(hu) + f(hv) * f(hv))),
     };
     let widen = |lo: f64, hi: f64| {
-        let m = libm::ldexp(1.0, -10);
+        let m = SPARE;
         (lo - m - m * libm::fabs(lo), hi + m + m * libm::fabs(hi))
     };
     let [(x0, x1), (y0, y1)] = match origin_scale {
@@ -2257,7 +2262,7 @@ fn slope_bounds(
 /// forward from `z = 0`. Its primitive is then tested on no chunk
 /// ([`slope_bounds`]) and costs the planner nothing.
 pub(crate) fn behind_lens(c_z: f64, r: f64) -> bool {
-    let m = libm::ldexp(1.0, -10);
+    let m = SPARE;
     c_z + r + m + m * (libm::fabs(c_z) + r) < 0.0
 }
 
@@ -2290,7 +2295,7 @@ pub(crate) fn field_box(scene: &Scene) -> (f64, f64) {
 /// the wall behind a camera in a room: it is tested on no chunk
 /// ([`slope_bounds`]) and costs the planner nothing.
 pub(crate) fn plane_unseen(n: [f64; 3], dist: f64, (x, y): (f64, f64), a: f64) -> bool {
-    let m = libm::ldexp(1.0, -10);
+    let m = SPARE;
     let s = if dist > 0.0 { 1.0 } else { -1.0 };
     // The largest of s n̂·(x̂, ŷ, 1) over the box, at a corner.
     let toward = s * n[2] + libm::fabs(n[0]) * x + libm::fabs(n[1]) * y;
