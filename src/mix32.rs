@@ -361,20 +361,61 @@ fn word<const C: usize>(dn: [u32; 3]) -> u16 {
 }
 
 /// Writes a chunk's pixel words as [`PixelFormat::pack`] does: one byte
-/// each, or two little-endian. Once a chunk rather than once a pixel, so
-/// that one copy of the line loop serves Gray8 and Gray16 (a copy per byte
-/// width cost 14 KB of flash; this costs about 4 M3 instructions a pixel).
+/// each, or two little-endian; `reversed`, last word first. Once a chunk
+/// rather than once a pixel, so that one copy of the line loop serves
+/// Gray8 and Gray16 (a copy per byte width cost 14 KB of flash). One byte
+/// each four at a time ([`quads`]).
 #[inline(always)]
-fn put<'a>(words: impl Iterator<Item = &'a u16>, bytes_per_pixel: usize, out: &mut [u8]) {
+fn put(words: &[u16], reversed: bool, bytes_per_pixel: usize, out: &mut [u8]) {
     if bytes_per_pixel == 1 {
-        for (o, w) in out.iter_mut().zip(words) {
-            *o = *w as u8;
-        }
+        quads(words, reversed, out);
     } else {
         let (out, _) = out.as_chunks_mut::<2>();
-        for (o, w) in out.iter_mut().zip(words) {
-            *o = w.to_le_bytes();
+        if reversed {
+            out.iter_mut()
+                .zip(words.iter().rev())
+                .for_each(|(o, w)| *o = w.to_le_bytes());
+        } else {
+            out.iter_mut().zip(words).for_each(|(o, w)| *o = w.to_le_bytes());
         }
+    }
+}
+
+/// `out[i] = src[i] as u8`, or of `src` read last first if `reversed`:
+/// four bytes a step, a word each (a byte a step: the M3's
+/// spheres-specular 469.4 against 461.1 instructions a pixel, standard
+/// 229.4 against 228.1), but on the M0 (no unaligned word store: there it
+/// took the standard scene 4 more) and in a `compact` build (flash).
+#[inline(always)]
+fn quads<T: Copy + Into<u32>>(src: &[T], reversed: bool, out: &mut [u8]) {
+    let b = |v: T| v.into() & 0xff;
+    if ARMV6M || cfg!(feature = "compact") {
+        if reversed {
+            out.iter_mut()
+                .zip(src.iter().rev())
+                .for_each(|(o, s)| *o = b(*s) as u8);
+        } else {
+            out.iter_mut().zip(src).for_each(|(o, s)| *o = b(*s) as u8);
+        }
+        return;
+    }
+    let (o4, rest) = out.as_chunks_mut::<4>();
+    if reversed {
+        let mut s4 = src.rchunks_exact(4);
+        for (o, s) in o4.iter_mut().zip(s4.by_ref()) {
+            if let [p, q, r, t] = *s {
+                *o = (b(t) | b(r) << 8 | b(q) << 16 | b(p) << 24).to_le_bytes();
+            }
+        }
+        rest.iter_mut()
+            .zip(s4.remainder().iter().rev())
+            .for_each(|(o, s)| *o = b(*s) as u8);
+    } else {
+        let (s4, tail) = src.as_chunks::<4>();
+        for (o, &[p, q, r, t]) in o4.iter_mut().zip(s4) {
+            *o = (b(p) | b(q) << 8 | b(r) << 16 | b(t) << 24).to_le_bytes();
+        }
+        rest.iter_mut().zip(tail).for_each(|(o, s)| *o = b(*s) as u8);
     }
 }
 
@@ -386,16 +427,9 @@ fn put<'a>(words: impl Iterator<Item = &'a u16>, bytes_per_pixel: usize, out: &m
 #[cfg_attr(not(feature = "compact"), inline(always))]
 fn store(words: &[u16], fl: &[u8], reversed: bool, bytes_per_pixel: usize, out: &mut [u8], flags: &mut [u8]) {
     // Reversed as they are read, not in place: the M0 camera's opt-level z
-    // build keeps `slice::reverse`'s swaps bounds-checked (a panic path),
-    // and on the M3's standard scene this measured 0.3 instructions a
-    // pixel under `slice::reverse`, 2.2 under a swap loop.
-    if reversed {
-        put(words.iter().rev(), bytes_per_pixel, out);
-        flags.iter_mut().zip(fl.iter().rev()).for_each(|(d, f)| *d = *f);
-    } else {
-        put(words.iter(), bytes_per_pixel, out);
-        flags.iter_mut().zip(fl.iter()).for_each(|(d, f)| *d = *f);
-    }
+    // build keeps `slice::reverse`'s swaps bounds-checked (a panic path).
+    put(words, reversed, bytes_per_pixel, out);
+    quads(fl, reversed, flags);
 }
 
 /// A line's pixels (`b` bytes each) and flags in chunks of [`CHUNK`]
@@ -3077,11 +3111,12 @@ impl Mix32 {
                     }
                     () => self.rays::<PERSP>(
                         rays,
-                        |_| {
+                        || {
                             let xd = (acc >> 32) as i32;
                             acc -= self.dx;
-                            (xd, yd, yd2)
+                            xd
                         },
+                        (yd, yd2),
                         true,
                     ),
                 };
@@ -3090,7 +3125,7 @@ impl Mix32 {
             // was hit; the rays no other primitive hit (and those outside
             // the field) see it or nothing, shaded in closed form.
             let closed = if PERSP { self.closed.as_ref() } else { None };
-            self.passes::<PERSP, true>(rays, ys, outside, closed.map(|c| c.index as usize));
+            let met = self.passes::<PERSP, true>(rays, ys, outside, closed.map(|c| c.index as usize));
             // Each pixel's noise key is its index in the frame: the mirrored
             // rays' columns run right to left (`step` is −1 modulo 2³²).
             let index = line.wrapping_add(if mirrored { w - 1 - s } else { s } as u32);
@@ -3102,7 +3137,7 @@ impl Mix32 {
                 Some(c) if cfg!(feature = "compact") => self.closed_run::<LANES, 3>(
                     c,
                     C == 3,
-                    (rays, ys),
+                    (rays, ys, met || outside),
                     words,
                     fl,
                     dn_max,
@@ -3111,7 +3146,7 @@ impl Mix32 {
                 Some(c) => self.closed_run::<LANES, C>(
                     c,
                     C == 3,
-                    (rays, ys),
+                    (rays, ys, met || outside),
                     words,
                     fl,
                     dn_max,
@@ -3153,54 +3188,52 @@ impl Mix32 {
         keep_c4: bool,
     ) {
         let mut acc = x;
-        self.trace::<PERSP, false>(
-            rays,
-            |_| {
-                let xd = (acc >> 32) as i32;
-                acc -= step;
-                (xd, yd, yd2)
-            },
-            keep_c4,
-        );
+        let xd = || {
+            let xd = (acc >> 32) as i32;
+            acc -= step;
+            xd
+        };
+        let (ys, outside) = self.rays::<PERSP>(rays, xd, (yd, yd2), keep_c4);
+        let _ = self.passes::<PERSP, false>(rays, ys, outside, None);
     }
 
-    /// Fills `rays` with the rays of the distorted slopes `slope(q) = (x̂_d,
-    /// ŷ_d, ŷ_d²)` (S26, S26, S52) of ray `q` and runs every primitive's
-    /// pass over them: each ray's nearest hit (`t = 0` outside the field).
-    /// With `TRIM` a bounded primitive's pass skips the rays at either end
-    /// of the chunk that lie outside its bounds.
-    #[inline(always)]
-    fn trace<const PERSP: bool, const TRIM: bool>(
-        &self,
-        rays: &mut [Ray],
-        slope: impl FnMut(usize) -> (i32, i32, i64),
-        keep_c4: bool,
-    ) {
-        let (ys, outside) = self.rays::<PERSP>(rays, slope, keep_c4);
-        self.passes::<PERSP, TRIM>(rays, ys, outside, None);
-    }
-
-    /// [`fill_rays`] with this frame's undistortion (a frame without
-    /// distortion has a loop without its test). With `keep_c4`, each ray's
-    /// `cos⁴α` ([`Ray::c4`], for [`Mix32::c4`]).
+    /// [`fill_rays`] of a row of slopes (`ŷ_d` fixed) with this frame's
+    /// undistortion (a frame without distortion has a loop without its
+    /// test). With `keep_c4`, each ray's `cos⁴α` ([`Ray::c4`], for
+    /// [`Mix32::c4`]).
     #[inline(always)]
     fn rays<const PERSP: bool>(
         &self,
         rays: &mut [Ray],
-        slope: impl FnMut(usize) -> (i32, i32, i64),
+        xd: impl FnMut() -> i32,
+        row: (i32, i64),
         keep_c4: bool,
     ) -> ([i32; 2], bool) {
         let korigin = self.parallel.unwrap_or(0);
         let vignette = keep_c4 && self.vignetting;
+        // (Not in a `compact` build: flash.)
+        let mono = !cfg!(feature = "compact");
         match self.k {
+            // `ŷ = ŷ_d g(u)` is monotone in `u` (so in `|x̂_d|`) where `g` is,
+            // as each of its floors is: `k1`, `k2 ≥ 0` (u ≥ 0).
             Some(k) => fill_rays::<PERSP>(
                 rays,
                 korigin,
-                slope,
+                xd,
+                row,
                 |xd, yd, yd2| undistort_k(k, self.limit, xd, yd, yd2),
-                vignette,
+                (vignette, mono && k[0] >= 0 && k[1] >= 0, || {
+                    undistort_k(k, self.limit, 0, row.0, row.1).map(|(_, y)| y)
+                }),
             ),
-            None => fill_rays::<PERSP>(rays, korigin, slope, |xd, yd, _| Some((xd, yd)), vignette),
+            None => fill_rays::<PERSP>(
+                rays,
+                korigin,
+                xd,
+                row,
+                |xd, yd, _| Some((xd, yd)),
+                (vignette, mono, || Some(row.0)),
+            ),
         }
     }
 
@@ -3211,6 +3244,7 @@ impl Mix32 {
     /// Primitive `skip` (the frame's [`Closed`] plane in the one-sample
     /// loop) has no pass: [`Mix32::closed_keep`] tests it on the rays
     /// another primitive hits, [`Mix32::closed_run`] shades the others.
+    /// Whether any pass ran (else every ray's `t` is as it was).
     #[cfg_attr(feature = "compact", inline(never))]
     #[cfg_attr(not(feature = "compact"), inline(always))]
     fn passes<const PERSP: bool, const TRIM: bool>(
@@ -3219,7 +3253,7 @@ impl Mix32 {
         [y0, y1]: [i32; 2],
         outside: bool,
         skip: Option<usize>,
-    ) {
+    ) -> bool {
         // Along a row (`ŷ_d` fixed) `x̂` is monotone in `x̂_d` within the
         // field: ∂x̂/∂x̂_d = g + 2 x̂_d² g'(u) ≥ g + 2u g'(u) ≥ 0 before the
         // fold (x̂_d² ≤ u). So the ends bound the rest, to twice
@@ -3237,6 +3271,7 @@ impl Mix32 {
                 (x0, x1) = (x0.min(r.x), x1.max(r.x));
             }
         }
+        let mut met = false;
         for (i, p) in self.prims.iter().enumerate() {
             if skip == Some(i) {
                 continue;
@@ -3260,9 +3295,11 @@ impl Mix32 {
             let Some(rays) = rays.get_mut(lo..hi) else {
                 continue;
             };
+            met = true;
             p.shape
                 .nearest::<PERSP, false>(i as u8, rays, (self.inner.as_ref(), [x0, x1, y0, y1]));
         }
+        met
     }
 
     /// The [`Closed`] plane's test on a ray another primitive hit: kept as
@@ -3289,7 +3326,9 @@ impl Mix32 {
     /// each point light on the side it faces, `kd I h (|w| / |q|)³`: `w`
     /// (S24) as [`Ray::plane_t`] takes it, `q` exact in S42 U, then S22 U,
     /// `1/|q|` from [`rsqrt_norm`]. `C` channels are summed, and packed in
-    /// RGB565 if `rgb`, else one. Out of line: its own registers.
+    /// RGB565 if `rgb`, else one. `met`: whether any ray may have been hit
+    /// or lies outside the field (else every `t` is [`NO_HIT`]: a pass ran
+    /// on none, [`Mix32::passes`]). Out of line: its own registers.
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     #[cfg_attr(target_arch = "x86_64", inline(always))]
     #[allow(clippy::too_many_arguments)]
@@ -3297,7 +3336,7 @@ impl Mix32 {
         &self,
         c: &Closed,
         rgb: bool,
-        (rays, ys): (&mut [Ray], [i32; 2]),
+        (rays, ys, met): (&mut [Ray], [i32; 2], bool),
         words: &mut [u16],
         fl: &mut [u8],
         dn_max: [u64; 3],
@@ -3337,7 +3376,7 @@ impl Mix32 {
             // ŷ from `ys`) where its corners' are (`w` is the floor of a
             // linear form), else each ray's is tested. `w` is taken again
             // below for the rays shaded (with `Quads` a third of them).
-            let mut lit = len >= 3 && unhit(rays);
+            let mut lit = len >= 3 && (!met || unhit(rays));
             if lit {
                 let (xa, xb) = (rays.first().map_or(0, |r| r.x), rays.last().map_or(0, |r| r.x));
                 // (`w` of a ray at a corner's slopes.)
@@ -3732,7 +3771,7 @@ impl Mix32 {
                 };
                 index = index.wrapping_add(1);
             }
-            put(words.iter(), b, pixels);
+            put(words, false, b, pixels);
         }
     }
 
@@ -4076,7 +4115,7 @@ impl Mix32 {
                 *out = word::<C>(dn);
                 *flag = f;
             }
-            put(words.iter(), b, pixels);
+            put(&words, false, b, pixels);
             x -= self.dx * rays.len() as i64;
             index = index.wrapping_add(rays.len() as u32);
         }
@@ -4719,31 +4758,49 @@ fn undistort_k([k1, k2]: [i32; 2], limit: i32, xd: i32, yd: i32, yd2: i64) -> Op
     Some((((wmul_px(xd, g)) >> 28) as i32, ((wmul_px(yd, g)) >> 28) as i32))
 }
 
-/// Fills `rays` with the rays of the distorted slopes `slope(q) = (x̂_d,
-/// ŷ_d, ŷ_d²)` undistorted by `undistort` (`korigin`: [`Ray::new`]'s `k`;
-/// with `vignette`, each ray's [`Ray::c4`]): the rays' `[ŷ_lo, ŷ_hi]` (rays
+/// Fills `rays` with the rays of a row's distorted slopes `(x̂_d, ŷ_d)`,
+/// `x̂_d = xd()` for each ray in turn and `(ŷ_d, ŷ_d²)` fixed (S26, S26,
+/// S52), undistorted by `undistort` (`korigin`: [`Ray::new`]'s `k`; with
+/// `vignette`, each ray's [`Ray::c4`]): the rays' `[ŷ_lo, ŷ_hi]` (rays
 /// outside the field count as 0) and whether any is outside the field.
 /// ([`Mix32::passes`] takes `x̂`'s range from the chunk's ends.)
+///
+/// With `mono` (`ŷ` monotone in `|x̂_d|` along the row: [`Mix32::rays`]),
+/// `ŷ`'s range is taken from the chunk's end rays — and, if their `x̂`
+/// (which has `x̂_d`'s sign) differ in sign, from `centre`'s, the row's
+/// `ŷ` at `x̂_d = 0`, too: a range that holds the rays' — not ray by ray.
+/// (`centre` is not `undistort`: called twice here, that was a call a ray
+/// on the M0.)
 #[inline(always)]
 fn fill_rays<const PERSP: bool>(
     rays: &mut [Ray],
     korigin: i32,
-    mut slope: impl FnMut(usize) -> (i32, i32, i64),
+    mut xd: impl FnMut() -> i32,
+    (yd, yd2): (i32, i64),
     undistort: impl Fn(i32, i32, i64) -> Option<(i32, i32)>,
-    vignette: bool,
+    (vignette, mono, centre): (bool, bool, impl FnOnce() -> Option<i32>),
 ) -> ([i32; 2], bool) {
-    let (mut y0, mut y1) = (i32::MAX, i32::MIN);
     let mut outside = false;
-    for (q, r) in rays.iter_mut().enumerate() {
-        let (xd, yd, yd2) = slope(q);
-        *r = match undistort(xd, yd, yd2) {
+    for r in rays.iter_mut() {
+        *r = match undistort(xd(), yd, yd2) {
             Some((x, y)) => Ray::new::<PERSP>(x, y, korigin).with_c4(vignette),
             None => {
                 outside = true;
                 Ray::OUTSIDE
             }
         };
-        (y0, y1) = (y0.min(r.y), y1.max(r.y));
+    }
+    let (mut y0, mut y1) = (i32::MAX, i32::MIN);
+    match (rays.first(), rays.last()) {
+        (Some(a), Some(b)) if mono && !outside => {
+            (y0, y1) = (a.y.min(b.y), a.y.max(b.y));
+            if (a.x ^ b.x) < 0 {
+                if let Some(y) = centre() {
+                    (y0, y1) = (y0.min(y), y1.max(y));
+                }
+            }
+        }
+        _ => rays.iter().for_each(|r| (y0, y1) = (y0.min(r.y), y1.max(r.y))),
     }
     ([y0, y1], outside)
 }
@@ -5246,13 +5303,16 @@ mod tests {
             let ys = run
                 .iter()
                 .fold([i32::MAX, i32::MIN], |[a, b], r| [a.min(r.y), b.max(r.y)]);
+            // Whether a ray may be hit or outside: as the loop's passes say
+            // (none ran, none is), or set regardless.
+            let met = case % 2 == 0 || run.iter().any(|r| r.t != NO_HIT);
             let mut m = Mix32::EMPTY;
             m.bg = [bg; 3];
             let (mut run_words, mut run_fl) = ([7u16; CHUNK], [9u8; CHUNK]);
             let run_left = m.closed_run::<false, 1>(
                 &c,
                 false,
-                (&mut *run, ys),
+                (&mut *run, ys, met),
                 &mut run_words[..count],
                 &mut run_fl[..count],
                 [dn_max; 3],
@@ -5335,7 +5395,7 @@ mod tests {
     fn ray_lanes_are_fill_rays() {
         let mut s = 0x0fa5_7ea7_0000_0005u64;
         let mut r = |lo: i64, hi: i64| lo + (rng(&mut s) % (hi - lo + 1) as u64) as i64;
-        let mut outside_rays = 0;
+        let (mut outside_rays, mut centred) = (0, 0);
         for case in 0..4000 {
             // Steps S58 (2^-18 to 2^-4 a pixel), slopes S26 within 2 (the
             // field's u ≤ 2 at most: `limit` S20), k1, k2 S28 within ¼.
@@ -5351,22 +5411,55 @@ mod tests {
             let (Some(lanes), Some(scalar)) = (lanes.first(count), scalar.first(count)) else {
                 continue;
             };
+            // `fill_rays` ray by ray (`mono` false), then with `mono` where
+            // `ŷ` is monotone in `|x̂_d|`: a range that holds the rays', the
+            // same one unless the chunk's ends lie either side of the centre.
+            let mono = k.is_none_or(|[k1, k2]| k1 >= 0 && k2 >= 0);
+            let mut want = ([0; 2], false);
             let mut a2 = acc;
-            let slope = |_| {
-                let xd = (a2 >> 32) as i32;
-                a2 -= dx;
-                (xd, yd, yd2)
-            };
-            let want = match k {
-                Some(k) => fill_rays::<true>(
-                    scalar,
-                    0,
-                    slope,
-                    |x, y, y2| undistort_k(k, limit, x, y, y2),
-                    vignette,
-                ),
-                None => fill_rays::<true>(scalar, 0, slope, |x, y, _| Some((x, y)), vignette),
-            };
+            for mono in [false, mono] {
+                a2 = acc;
+                let xd = || {
+                    let xd = (a2 >> 32) as i32;
+                    a2 -= dx;
+                    xd
+                };
+                let got = match k {
+                    Some(k) => fill_rays::<true>(
+                        scalar,
+                        0,
+                        xd,
+                        (yd, yd2),
+                        |x, y, y2| undistort_k(k, limit, x, y, y2),
+                        (vignette, mono, || {
+                            undistort_k(k, limit, 0, yd, yd2).map(|(_, y)| y)
+                        }),
+                    ),
+                    None => fill_rays::<true>(
+                        scalar,
+                        0,
+                        xd,
+                        (yd, yd2),
+                        |x, y, _| Some((x, y)),
+                        (vignette, mono, || Some(yd)),
+                    ),
+                };
+                if !mono {
+                    want = got;
+                    continue;
+                }
+                let ([y0, y1], [w0, w1]) = (got.0, want.0);
+                assert!(
+                    y0 <= w0 && y1 >= w1 && got.1 == want.1,
+                    "case {case}: {got:?} for {want:?}"
+                );
+                let across = scalar
+                    .first()
+                    .zip(scalar.last())
+                    .is_some_and(|(a, b)| (a.x ^ b.x) < 0);
+                assert!(got == want || across, "case {case}: {got:?} for {want:?}");
+                centred += usize::from(across && got != want);
+            }
             let got = fill_lanes(lanes, &mut acc, dx, (yd, yd2), (k, limit), vignette);
             assert_eq!(got, want, "case {case}");
             assert_eq!(acc, a2, "case {case}");
@@ -5377,6 +5470,8 @@ mod tests {
         }
         // (31 760 of 66 000 or so.)
         assert!(outside_rays > 1_000, "{outside_rays} rays outside the field");
+        // Chunks across the centre whose range `mono` widened.
+        assert!(centred > 10, "{centred} ranges widened at the centre");
     }
 
     #[test]
