@@ -5505,6 +5505,40 @@ mod tests {
         }
     }
 
+    /// [`store`] writes a chunk's words and flags as a byte (or two
+    /// little-endian) a pixel would, forward and reversed, for every
+    /// length from 0 to [`CHUNK`] (the four-a-step loop and each tail),
+    /// and nothing past them.
+    #[test]
+    fn stored_words_and_flags_are_each_pixels_bytes() {
+        for len in 0..=CHUNK {
+            let words: [u16; CHUNK] = core::array::from_fn(|q| (q as u16).wrapping_mul(0x9e37) ^ 0x5a);
+            let fl: [u8; CHUNK] = core::array::from_fn(|q| (q as u8).wrapping_mul(37) | 1);
+            for (b, reversed) in [(1, false), (1, true), (2, false), (2, true)] {
+                let (mut out, mut flags) = ([0xeeu8; 2 * CHUNK + 2], [0xeeu8; CHUNK + 1]);
+                store(
+                    &words[..len],
+                    &fl[..len],
+                    reversed,
+                    b,
+                    &mut out[..len * b],
+                    &mut flags[..len],
+                );
+                for q in 0..len {
+                    let src = if reversed { len - 1 - q } else { q };
+                    let want = words[src].to_le_bytes();
+                    assert_eq!(
+                        out[q * b..(q + 1) * b],
+                        want[..b],
+                        "len {len} b {b} reversed {reversed} q {q}"
+                    );
+                    assert_eq!(flags[q], fl[src], "len {len} b {b} reversed {reversed} q {q}");
+                }
+                assert!(out[len * b..].iter().chain(&flags[len..]).all(|&v| v == 0xee));
+            }
+        }
+    }
+
     /// The M0's rounding of a sum below 2³² times `cos⁴α` from three
     /// products where the fourth's carries cannot matter: every `c4` near
     /// 2³¹ and the carries' edge exhaustively, random pairs elsewhere.
