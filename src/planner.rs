@@ -468,7 +468,7 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
     let inv_far = ((d * f - b * zt) / (zt * f * (d - b))).max(0.0);
     // The field box: the pixel centres' slopes and half a pixel more (the
     // pixel area's samples), undistorted.
-    let (xs, ys) = crate::render::field_box(scene);
+    let (xs, ys) = g.field;
     // A plane's inverse depths over the field box: `w = n̂·(x̂, ŷ, 1) / (n̂·c)`
     // is linear in the slopes, so its extremes are at the box's corners;
     // `None` for a plane through the lens centre (seen edge on).
@@ -640,6 +640,9 @@ struct Geometry {
     u_max: f64,
     /// Largest |distorted slope| at the corners (x, y).
     slope_d: [f64; 2],
+    /// The undistorted field's box of slopes, half-widths (x, y)
+    /// ([`crate::render::field_box`]).
+    field: (f64, f64),
     /// Largest `g` and `|k1| + |k2| u` over `[0, u_max]`.
     g_max: f64,
     s_max: f64,
@@ -1032,6 +1035,7 @@ impl Geometry {
             closed,
             u_max,
             slope_d,
+            field,
             g_max,
             s_max,
             slope,
