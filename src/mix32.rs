@@ -225,8 +225,9 @@ fn vignette_q(sum: u64, c4: u32) -> Q {
 
 /// The recorded values of a pixel whose channels' sums before `cos⁴α` are
 /// `sum` (S15 DN), with sensor noise: [`noisy_dn`] of each channel's draw
-/// on the exact noise-free value. Out of line: the noiseless pixel loop
-/// stays lean.
+/// on the exact noise-free value, as the pixel's [`word`] (a word back,
+/// not three through memory). Out of line: the noiseless pixel loop stays
+/// lean.
 #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
 #[cfg_attr(target_arch = "x86_64", inline(always))]
 fn noisy<const C: usize>(
@@ -235,12 +236,12 @@ fn noisy<const C: usize>(
     c4: u32,
     index: u32,
     dn_max: [u64; 3],
-) -> [u32; 3] {
+) -> u16 {
     let mut dn = [0u32; 3];
     for (c, ((d, s), max)) in dn.iter_mut().zip(sum).zip(dn_max).take(C).enumerate() {
         *d = noisy_dn(z.draw(index, c), vignette_q(s, c4), max as u16);
     }
-    dn
+    word::<C>(dn)
 }
 
 /// The EMVA 1288 stage's value ([`crate::noise::Stage::apply_with`] with
@@ -3542,11 +3543,10 @@ impl Mix32 {
         dn_max: [u64; 3],
         (noise, index): (Option<&crate::noise::Stage<Q>>, u32),
     ) -> u16 {
-        let dn = match noise {
+        match noise {
             Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
-            None => zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32),
-        };
-        word::<C>(dn)
+            None => word::<C>(zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32)),
+        }
     }
 
     /// A ray's (in the field) sum before vignetting (S15 DN, capped) and
