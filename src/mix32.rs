@@ -3397,8 +3397,11 @@ impl Mix32 {
                 // The last even ray (the even rays below it between the
                 // shaded ones take means).
                 let e = len.saturating_sub(1) & !1;
-                let mut q = 0;
-                while q < len {
+                // (A bit a ray: `next_shaded` a call a ray cost the M3 more.)
+                let mut shaded = c.mean.shaded_mask(len);
+                while shaded != 0 {
+                    let q = shaded.trailing_zeros() as usize;
+                    shaded &= shaded - 1;
                     let (Some(r), Some(word)) = (rays.get_mut(q), words.get_mut(q)) else {
                         break;
                     };
@@ -3411,11 +3414,63 @@ impl Mix32 {
                     // The pixel's noise key (computed where the noise draws).
                     let k = index.wrapping_add((q as u32).wrapping_mul(step));
                     *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                    q = c.mean.next_shaded(q, len);
                 }
-                // With `Quads`: the even rays between, from the shaded ones.
+                // With `Octs`: the rays ≡ 4 (mod 8) between, from the shaded
+                // ones 4 apart (a ray whose ray 4 on lies past `e` was shaded:
+                // `next_shaded`).
+                // (A `compact` build takes both levels in one loop: flash.)
+                let compact = cfg!(feature = "compact");
+                let (octs, quads) = (c.mean == ClosedMean::Octs, c.mean.span() >= 4);
+                let mut d = if compact { (c.mean.span() >> 1) as usize } else { 0 };
+                while d >= 2 {
+                    let mut q = d;
+                    while let (true, Some(a), Some(b)) = (
+                        q + d <= e,
+                        even.get((q - d) >> 1).copied(),
+                        even.get((q + d) >> 1).copied(),
+                    ) {
+                        let mut sum = [0u64; 3];
+                        each::<C>(|ch| {
+                            if let (Some(s), Some(a), Some(b)) = (sum.get_mut(ch), a.get(ch), b.get(ch)) {
+                                *s = mean(*a, *b);
+                            }
+                        });
+                        if let (Some(m), Some(r), Some(word)) =
+                            (even.get_mut(q >> 1), rays.get(q), words.get_mut(q))
+                        {
+                            m.iter_mut().zip(sum).for_each(|(m, s)| *m = s);
+                            let k = index.wrapping_add((q as u32).wrapping_mul(step));
+                            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                        }
+                        q += 2 * d;
+                    }
+                    d >>= 1;
+                }
+                let mut q = 4;
+                while !compact && octs && q + 4 <= e {
+                    if let (Some([a, _, m, _, b]), Some(r), Some(word)) = (
+                        even.get_mut((q >> 1) - 2..(q >> 1) + 3),
+                        rays.get(q),
+                        words.get_mut(q),
+                    ) {
+                        let mut sum = [0u64; 3];
+                        each::<C>(|ch| {
+                            if let (Some(s), Some(a), Some(m), Some(b)) =
+                                (sum.get_mut(ch), a.get(ch), m.get_mut(ch), b.get(ch))
+                            {
+                                *s = mean(*a, *b);
+                                *m = *s;
+                            }
+                        });
+                        let k = index.wrapping_add((q as u32).wrapping_mul(step));
+                        *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                    }
+                    q += 8;
+                }
+                // With `Quads` and `Octs`: the even rays between, from those
+                // 2 apart.
                 let mut q = 2;
-                while c.mean == ClosedMean::Quads && q < e {
+                while !compact && quads && q < e {
                     if let (Some([a, m, b]), Some(r), Some(word)) = (
                         even.get_mut((q >> 1) - 1..(q >> 1) + 2),
                         rays.get(q),
@@ -4631,8 +4686,14 @@ fn closed_lanes(
     let len = rays.len().min(CHUNK);
     let lit = c.mean.on() && len >= 3 && rays.iter().zip(w).all(|(r, wq)| r.t == NO_HIT && c.ahead(wq));
     if lit {
-        if c.mean == ClosedMean::Quads {
-            for q in (2..(len - 1) & !1).step_by(4) {
+        let e = (len - 1) & !1;
+        if c.mean == ClosedMean::Octs {
+            for q in (4..e.saturating_sub(3)).step_by(8) {
+                sums[q] = mean(sums[q - 4], sums[q + 4]);
+            }
+        }
+        if c.mean == ClosedMean::Quads || c.mean == ClosedMean::Octs {
+            for q in (2..e).step_by(4) {
                 sums[q] = mean(sums[q - 2], sums[q + 2]);
             }
         }
@@ -5229,20 +5290,41 @@ mod tests {
     /// lights, gains and chunks of rays (some outside the field, some hit
     /// by another primitive) across the formats' ranges.
     #[cfg(target_arch = "x86_64")]
+    /// The closed run's shaded rays by mask are those `next_shaded` visits,
+    /// for every run it takes (3 to 32 rays) and every mean.
+    #[test]
+    fn shaded_mask_is_next_shaded() {
+        for m in [
+            ClosedMean::Off,
+            ClosedMean::Pairs,
+            ClosedMean::Quads,
+            ClosedMean::Octs,
+        ] {
+            for len in 3..=CHUNK {
+                let (mut q, mut visited) = (0, 0u32);
+                while q < len {
+                    visited |= 1 << q;
+                    q = m.next_shaded(q, len);
+                }
+                assert_eq!(m.shaded_mask(len), visited, "{m:?}, {len} rays");
+                assert_eq!(visited.count_ones() as usize, m.shaded(len));
+            }
+        }
+    }
+
     #[test]
     fn closed_lanes_are_closed_run() {
         let mut s = 0xc105_ed1a_9e50_0003;
         let mut r = |lo: i64, hi: i64| lo + (rng(&mut s) % (hi - lo + 1) as u64) as i64;
         let (mut closed_pixels, mut lit, mut means) = (0, 0, 0);
         for case in 0..3000 {
-            // A quarter of the cases with the pairs' mean, a quarter with the
-            // quads' ([`Closed::mean`]), one in four a chunk whose rays all
-            // see the plane (a normal near the optical axis, the plane on
-            // its side, rays within 45°).
-            let mean_on = match (case % 4 < 2, case % 8 >= 4) {
-                (false, _) => ClosedMean::Off,
-                (true, false) => ClosedMean::Pairs,
-                (true, true) => ClosedMean::Quads,
+            // Half the cases with a mean ([`Closed::mean`]: the pairs', the
+            // quads' and the octs' in turn), one in four a chunk whose rays
+            // all see the plane (a normal near the optical axis, the plane
+            // on its side, rays within 45°).
+            let mean_on = match case % 4 < 2 {
+                false => ClosedMean::Off,
+                true => [ClosedMean::Pairs, ClosedMean::Quads, ClosedMean::Octs][(case / 4) % 3],
             };
             let seen = case % 4 == 0;
             // A unit normal (S30) and the plane's distance (S24 U, at least
@@ -5352,10 +5434,25 @@ mod tests {
             let mut expected = sums;
             if mean_on.on() && all {
                 means += 1;
-                if mean_on == ClosedMean::Quads {
-                    for q in (2..(count - 1) & !1).step_by(4) {
-                        expected[q][0] = mean(expected[q - 2][0], expected[q + 2][0]);
+                // The shaded rays ([`ClosedMean::next_shaded`]); the even
+                // ones between, level by level, the mean of theirs `d` apart.
+                let mut shaded = [false; CHUNK];
+                let mut q = 0;
+                while q < count {
+                    shaded[q] = true;
+                    q = mean_on.next_shaded(q, count);
+                }
+                let e = (count - 1) & !1;
+                let mut d = mean_on.span() as usize / 2;
+                while d >= 2 {
+                    for q in (d..e).step_by(2 * d).filter(|&q| !shaded[q]) {
+                        assert!(
+                            q + d <= e,
+                            "case {case}: ray {q} between {d} and the last even {e}"
+                        );
+                        expected[q][0] = mean(expected[q - d][0], expected[q + d][0]);
                     }
+                    d /= 2;
                 }
                 for q in (1..count - 1).step_by(2) {
                     expected[q][0] = mean(expected[q - 1][0], expected[q + 1][0]);

@@ -341,18 +341,20 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             ErrorModel::of(arithmetic, &g).lsb(scene, &g, g.direct_geom_err(arithmetic, scene) + shifted);
         // The closed form runs in the fast one-sample loop; the rays
         // between those it shades take interpolated sums (perspective
-        // rays): over 4 rays where that bound keeps the LSB within budget,
-        // else over 2 where that one does.
+        // rays): over 8 rays where that bound keeps the LSB within budget,
+        // else over 4, else over 2.
         let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
         let pair_err = match (closed, model) {
             (true, RenderModel::Perspective) => closed_mean_err(scene, &g),
             _ => None,
         };
-        let mean = [ClosedMean::Quads, ClosedMean::Pairs].into_iter().find_map(|m| {
-            let e = pair_err? * closed_mean_factor(m);
-            let moved = (noise_moved(scene, &g, lsb + e), noise_moved(scene, &g, e));
-            (moved.0 + noise_draw_lsb(scene, &g) + 0.5 <= budget.max_lsb).then_some((m, moved))
-        });
+        let mean = [ClosedMean::Octs, ClosedMean::Quads, ClosedMean::Pairs]
+            .into_iter()
+            .find_map(|m| {
+                let e = pair_err? * closed_mean_factor(m);
+                let moved = (noise_moved(scene, &g, lsb + e), noise_moved(scene, &g, e));
+                (moved.0 + noise_draw_lsb(scene, &g) + 0.5 <= budget.max_lsb).then_some((m, moved))
+            });
         let (closed_mean, (moved, mean_lsb)) =
             mean.unwrap_or_else(|| (ClosedMean::Off, (noise_moved(scene, &g, lsb), 0.0)));
         let lsb = moved + noise_draw_lsb(scene, &g);
@@ -1542,7 +1544,8 @@ pub fn closed_mean_factor(m: ClosedMean) -> f64 {
 
 /// The share of the closed plane's light terms that the interpolation `m`
 /// leaves out in a chunk of 32 rays ([`ClosedMean::shaded`]), in units of
-/// the pairs' (15 of 32 left out): `Quads` leaves out 22, so 22/15.
+/// the pairs' (15 of 32 left out): `Quads` leaves out 22 and `Octs` 25,
+/// so 22/15 and 25/15.
 pub fn closed_mean_skipped(m: ClosedMean) -> f64 {
     const RAYS: usize = 32;
     let left_out = |m: ClosedMean| (RAYS - m.shaded(RAYS)) as f64;
@@ -1594,11 +1597,17 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let l = norm3(pos);
     let foot = libm::sqrt((l * l - (h - dist) * (h - dist)).max(0.0));
     let d = g.gain * p.kd * i / (h * h);
-    let (u, s, f) = (g.u_max, g.s_max, g.f_row);
-    let (x1, y1) = ((g.g_max + 4.0 * u * s) / f, 2.0 * u * s / f);
+    let (u, f) = (g.u_max, g.f_row);
+    let (k1, k2) = scene.distortion.coefficients();
+    let (k1, k2) = (libm::fabs(k1.to_num::<f64>()), libm::fabs(k2.to_num::<f64>()) * u);
+    // Along a row (x̂ = x̂_d g(u), ŷ = ŷ_d g(u), u = x̂_d² + ŷ_d², x̂_d
+    // stepping 1/f): ∂x̂/∂x̂_d = g + 2x̂_d² g', ∂ŷ/∂x̂_d = 2x̂_d ŷ_d g',
+    // ∂²x̂/∂x̂_d² = 6x̂_d g' + 8k2 x̂_d³, ∂²ŷ/∂x̂_d² = ŷ_d (2g' + 8k2 x̂_d²),
+    // with g' = k1 + 2k2 u, x̂_d² ≤ u and 2|x̂_d ŷ_d| ≤ u.
+    let (x1, y1) = ((g.g_max + 2.0 * u * (k1 + 2.0 * k2)) / f, u * (k1 + 2.0 * k2) / f);
     let (x2, y2) = (
-        20.0 * libm::sqrt(u) * s / (f * f),
-        12.0 * libm::sqrt(u) * s / (f * f),
+        libm::sqrt(u) * (6.0 * k1 + 20.0 * k2) / (f * f),
+        libm::sqrt(u) * (2.0 * k1 + 12.0 * k2) / (f * f),
     );
     let (nx, ny) = (libm::fabs(p.n[0]), libm::fabs(p.n[1]));
     let (d1, d2) = (libm::sqrt(x1 * x1 + y1 * y1), libm::sqrt(x2 * x2 + y2 * y2));
@@ -1615,13 +1624,29 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
         let rb = ra * if ra < fine { 1.1 } else { 1.25 };
         // How far the hit lies from the camera's foot on the plane.
         let ring_b = libm::sqrt((rb * rb - dist * dist).max(0.0));
-        let gap = (ring_a - foot).max(foot - ring_b).max(0.0);
-        let inv_r = 1.0 / libm::sqrt(h * h + gap * gap);
+        // The hit's distance ρ from the light's foot, in units of h: σ in
+        // [lo, hi].
+        let (lo, hi) = (
+            (ring_a - foot).max(foot - ring_b).max(0.0) / h,
+            (ring_b + foot) / h,
+        );
+        let (s_lo, s_hi) = (lo * lo, hi * hi);
+        // (1 + s)^(−5/2).
+        let fall = |s: f64| 1.0 / ((1.0 + s) * (1.0 + s) * libm::sqrt(1.0 + s));
+        // On the plane T = D (1 + s)^(−3/2), s = σ²: its Hessian's
+        // eigenvalues are T'/ρ = −D (3/h²)(1 + s)^(−5/2), largest at s_lo,
+        // and T'' = D (3/h²)(4s − 1)(1 + s)^(−7/2), within the first where
+        // s ≤ 2/3 and beyond it largest at s = 3/4; its gradient is D (3/h)
+        // σ (1 + σ²)^(−5/2), largest at σ = 1/2. (`max` and `min`, not
+        // `clamp`, which would link a panic path.)
+        let s = 0.75f64.max(s_lo).min(s_hi);
+        let hess = 3.0 * fall(s_lo).max(libm::fabs(4.0 * s - 1.0) * fall(s) / (1.0 + s)) / (h * h);
+        let sg = 0.5f64.max(lo).min(hi);
+        let grad = 3.0 * sg * fall(sg * sg) / h;
         let m = rb * n1 * inv_dist;
         let dp = rb * (d1 + m);
         let ddp = rb * (d2 + 2.0 * m * d1 + 2.0 * m * m + rb * n2 * inv_dist);
-        let k = h * inv_r;
-        worst = worst.max(0.5 * d * k * k * k * inv_r * (12.0 * dp * dp * inv_r + 3.0 * ddp));
+        worst = worst.max(0.5 * d * (hess * dp * dp + grad * ddp));
         (ra, ring_a) = (rb, ring_b);
     }
     Some(worst + libm::ldexp(1.0, -15))
@@ -1734,7 +1759,7 @@ pub struct Features {
     /// [`Features::closed`] times the share of its light terms the
     /// interpolation (`Options::closed_mean`) leaves out, in units of the
     /// pairs' share ([`closed_mean_skipped`]): 0 without it, 1 with
-    /// `Pairs`, 22/15 with `Quads`.
+    /// `Pairs`, 22/15 with `Quads`, 25/15 with `Octs`.
     pub closed_mean: f64,
 }
 
@@ -2006,12 +2031,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        93.5, 36.0, 4.7, 7.0, -2.8, 9.9, 181.5, 4.7, 21.7, 0.0, -11.0, 58.9, 0.8, 82.0, 70.1, 20.0, 222.4,
-        -120.2, -73.9, 342.5, -48.9, -30.8,
+        89.8, 35.3, 4.9, 7.7, -2.6, 12.8, 179.2, 2.3, 16.2, 0.0, -45.5, 50.2, -1.9, 82.5, 65.4, 27.5, 183.0,
+        -109.0, -82.3, 340.1, -47.6, -44.2,
     ],
     samples: SampleCost {
-        grid: [789.976, 266.042, 0.968],
-        aperture: [0.775, 0.908],
+        grid: [811.614, 263.073, 0.972],
+        aperture: [0.936, 0.797],
     },
 };
 
@@ -2019,11 +2044,11 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        799.3, 365.9, 42.3, -34.5, -64.1, 116.9, 1499.5, 189.5, 291.3, 345.9, 1666.3, 234.4, -262.5, -3.3,
-        970.6, 111.1, 882.8, 0.0, 0.0, 111.8, -10.6, 0.0,
+        799.3, 366.1, 42.3, -34.5, -64.1, 116.9, 1499.5, 189.5, 291.3, 346.0, 1666.0, 234.4, -262.6, -3.3,
+        970.6, 111.1, 882.8, 0.0, 0.0, 112.1, -10.6, 0.0,
     ],
     samples: SampleCost {
-        grid: [1210.005, 2084.863, 0.995],
+        grid: [1209.778, 2084.897, 0.995],
         aperture: [0.438, 0.876],
     },
 };

@@ -446,15 +446,22 @@ pub enum ClosedMean {
     /// a linear interpolation over 4 rays, whose error bound is 4 times
     /// the pairs' (`planner::closed_mean_factor`).
     Quads,
+    /// Every eighth ray shaded (and the last two, and a ray `≡ 4 (mod 8)`
+    /// within 4 of the last even one), the other rays `≡ 4 (mod 8)` the
+    /// mean of theirs 4 apart, then as [`ClosedMean::Quads`]: over 8 rays,
+    /// 16 times the pairs' bound.
+    Octs,
 }
 
 impl ClosedMean {
     /// Rays from one shaded ray to the next (1: every ray shaded).
+    #[inline(always)]
     pub const fn span(self) -> u32 {
         match self {
             ClosedMean::Off => 1,
             ClosedMean::Pairs => 2,
             ClosedMean::Quads => 4,
+            ClosedMean::Octs => 8,
         }
     }
 
@@ -465,19 +472,45 @@ impl ClosedMean {
 
     /// The ray shaded after ray `q` of a run of `len` rays that all see the
     /// plane: every [`ClosedMean::span`]-th up to the last even ray, then
-    /// the last ray (the rays between take interpolated sums).
+    /// the last ray (the rays between take interpolated sums). With
+    /// [`ClosedMean::Octs`], a ray `≡ 4 (mod 8)` whose ray 4 on lies past
+    /// the last even one is shaded too (the rays 2 apart take its sum).
     pub const fn next_shaded(self, q: usize, len: usize) -> usize {
         let last_even = len.saturating_sub(1) & !1;
+        let span = self.span() as usize;
         if q < last_even {
-            let next = q + self.span() as usize;
+            let next = q + span;
             if next < last_even {
                 next
+            } else if span == 8 && q + 4 < last_even && next > last_even {
+                q + 4
             } else {
                 last_even
             }
         } else {
             q + 1
         }
+    }
+
+    /// The rays of a run of `len` (3 to 32) that [`ClosedMean::next_shaded`]
+    /// visits, a bit each (bit `q` for ray `q`): every `span`-th below the
+    /// last even ray `e`, `e` and the last ray, and with
+    /// [`ClosedMean::Octs`] ray `e − 2` where it is `≡ 4 (mod 8)`.
+    #[inline(always)]
+    pub const fn shaded_mask(self, len: usize) -> u32 {
+        let e = (len.saturating_sub(1) & !1) as u32 & 31;
+        let every = match self {
+            ClosedMean::Off => u32::MAX,
+            ClosedMean::Pairs => 0x5555_5555,
+            ClosedMean::Quads => 0x1111_1111,
+            ClosedMean::Octs => 0x0101_0101,
+        };
+        let tail = match self {
+            ClosedMean::Octs if e % 8 == 6 => 1 << (e - 2),
+            _ => 0,
+        };
+        let last = if len & 1 == 0 { 3 << e } else { 1 << e };
+        (every & ((1 << e) - 1)) | last | tail
     }
 
     /// How many rays of a run of `len` are shaded ([`ClosedMean::next_shaded`]).

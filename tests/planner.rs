@@ -601,7 +601,7 @@ fn sample_factor_inverts_sample_cost() {
 fn the_closed_planes_mean_stays_within_its_bound() {
     let mut runner = runner(400);
     let (seen, moved, worst) = (Cell::new(0), Cell::new(0), Cell::new(0.0f64));
-    let quads = Cell::new(0);
+    let (quads, octs) = (Cell::new(0), Cell::new(0));
     let budget = Budget::default();
     let result = runner.run(&spec(), |s| {
         let (t, _, scene) = parsed(&s);
@@ -610,6 +610,7 @@ fn the_closed_planes_mean_stays_within_its_bound() {
             return Ok(());
         }
         quads.set(quads.get() + usize::from(p.options.closed_mean == ClosedMean::Quads));
+        octs.set(octs.get() + usize::from(p.options.closed_mean == ClosedMean::Octs));
         let bound = p.candidates.get(p.chosen).map_or(0.0, |c| c.mean_lsb);
         prop_assert!(
             bound > 0.0 && bound < p.predicted_lsb,
@@ -637,9 +638,10 @@ fn the_closed_planes_mean_stays_within_its_bound() {
         Ok(())
     });
     eprintln!(
-        "closed plane's mean: {} scenes ({} over 4 rays), {} with a value moved, largest move {:.3} of its bound",
+        "closed plane's mean: {} scenes ({} over 4 rays, {} over 8), {} with a value moved, largest move {:.3} of its bound",
         seen.get(),
         quads.get(),
+        octs.get(),
         moved.get(),
         worst.get()
     );
@@ -648,8 +650,8 @@ fn the_closed_planes_mean_stays_within_its_bound() {
     }
     assert!(seen.get() > 10, "too few scenes with the mean: {}", seen.get());
     assert!(
-        quads.get() > 5,
-        "too few scenes with the mean over 4 rays: {}",
-        quads.get()
+        octs.get() > 5,
+        "too few scenes with the mean over 8 rays: {}",
+        octs.get()
     );
 }

@@ -972,6 +972,7 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
                 ClosedMean::Off => "",
                 ClosedMean::Pairs => ", with the closed plane's mean over 2 rays",
                 ClosedMean::Quads => ", with the closed plane's mean over 4 rays",
+                ClosedMean::Octs => ", with the closed plane's mean over 8 rays",
             }
         )
     } else {
