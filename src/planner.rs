@@ -1531,8 +1531,12 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
 
 /// The bound of [`closed_mean_err`] (the pairs') times what the
 /// interpolation `m` multiplies it by: over `s` rays its largest
-/// curvature term is `s²/8 · max|φ''|`, 4 times the pairs' over 4 rays;
-/// 0 without it.
+/// curvature term is `s²/8 · max|φ''|` (`M`), 4 times the pairs' over 4
+/// rays, 16 over 8; 0 without it. The means of means below it stay
+/// within it: over 8 rays the rays 4 apart are within `8M`, those 2
+/// apart within `2M + 8M/2`, the odd ones within `M/2 + (6M + 8M)/2`;
+/// over 4, `2M` and `M/2 + 2M/2`. (The roundings down, one a level, are
+/// within the `2⁻¹⁵` it scales.)
 pub fn closed_mean_factor(m: ClosedMean) -> f64 {
     let s = f64::from(m.span());
     if m.on() {
@@ -1557,25 +1561,33 @@ pub fn closed_mean_skipped(m: ClosedMean) -> f64 {
 /// its one point light, `T = D (h/r)³` (`D` at the light's foot, `h` its
 /// height, `r = |p − P_L|`), taken at a ray between two as their mean.
 /// Along a row `φ(i) = T(p(i))`, and `|φ(i) − (φ(i−1) + φ(i+1))/2| ≤
-/// max|φ''|/2`, with `|φ''| ≤ T (12 |p'|²/r² + 3 |p''|/r)` (T's gradient
-/// `3T/r`, its Hessian's norm `12T/r²`). With the hit `p = t d` (`d = (x̂,
-/// ŷ, 1)`, `t ≤ R`, its distance `R ≥ dist` from the camera) and `t' = −t
-/// κ`, `κ = n·d'/n·d` (`|n·d| = dist/t`): `|p'| ≤ R (d₁ + R ν₁/dist)` and
-/// `|p''| ≤ R d₂ + 2R² ν₁ d₁/dist + R (2R² ν₁²/dist² + R ν₂/dist)`, where
-/// `d₁, d₂` bound `|d'|, |d''|` along a row and `ν₁, ν₂` bound `|n·d'|,
-/// |n·d''|` (from `|x̂'| ≤ (g + 4us)/f_x`, `|ŷ'| ≤ 2us/f_x`, `|x̂''| ≤ 20
-/// √u s/f_x²`, `|ŷ''| ≤ 12 √u s/f_x²`; `g`, `s`, `u` the distortion's
-/// largest, [`Geometry`]). The hit lies `√(R² − dist²)` from the camera's
-/// foot on the plane, the light's foot `F` from it, so `r ≥ √(h² + gap²)`
-/// with `gap` how far that circle stays from `F`. The largest over cells
-/// of `R` up to 10³ times the scene's distances (the bound falls as `1/R`
-/// beyond): 10 % wide up to 4 times the distance at which the hit passes
-/// the light's foot, 25 % beyond (cells of 25 % throughout gave the
-/// standard scene 0.134 LSB, these 0.101); before the noise
-/// ([`noise_moved`] adds what it does). `None` without the plane, or with more than one point light (no
-/// mean then). (The camera plans every frame: some 50 cells, one division
-/// each.) [`closed_mean_factor`] scales it to an interpolation over more
-/// rays.
+/// max|φ''|/2`, with `φ'' = p'ᵀ H p' + ∇T·p''`. The hit moves on the
+/// plane, so `H` and `∇T` are those of `T` on the plane, a function of the
+/// hit's distance `ρ = σ h` from the light's foot `F`: `T = D (1 +
+/// s)^(−3/2)`, `s = σ²`, whose Hessian has the eigenvalues `−(3D/h²)(1 +
+/// s)^(−5/2)` and `(3D/h²)(4s − 1)(1 + s)^(−7/2)` and whose gradient is
+/// `(3D/h) σ (1 + σ²)^(−5/2)` (each bounded over a cell's `σ` range at its
+/// largest point: the second is within the first for `s ≤ 2/3` and peaks
+/// at `s = 3/4`, the gradient peaks at `σ = 1/2`; the 3-D bounds `12T/r²`
+/// and `3T/r` gave the standard scene 0.404 LSB over 4 rays, these
+/// 0.066). With the hit `p = t d` (`d = (x̂, ŷ, 1)`, `t ≤ R`, its distance
+/// `R ≥ dist` from the camera) and `t' = −t κ`, `κ = n·d'/n·d` (`|n·d| =
+/// dist/t`): `|p'| ≤ R (d₁ + R ν₁/dist)` and `|p''| ≤ R d₂ + 2R² ν₁
+/// d₁/dist + R (2R² ν₁²/dist² + R ν₂/dist)`, where `d₁, d₂` bound `|d'|,
+/// |d''|` along a row and `ν₁, ν₂` bound `|n·d'|, |n·d''|` (from `x̂ =
+/// x̂_d g(u)`, `ŷ = ŷ_d g(u)` term by term: `|x̂'| ≤ (g + 2u(|k1| +
+/// 2|k2|u))/f_x`, `|ŷ'| ≤ u(|k1| + 2|k2|u)/f_x`, `|x̂''| ≤ √u(6|k1| +
+/// 20|k2|u)/f_x²`, `|ŷ''| ≤ √u(2|k1| + 12|k2|u)/f_x²`; `g`, `u` the
+/// distortion's largest, [`Geometry`]). The hit lies `√(R² − dist²)` from
+/// the camera's foot on the plane, and `F` at `foot` from it, so `ρ` lies
+/// within that ring's nearest and farthest from `F`. The largest over
+/// cells of `R` up to 10³ times the scene's distances (the bound falls as
+/// `1/R` beyond): 10 % wide up to 4 times the distance at which the hit
+/// passes the light's foot, 25 % beyond; before the noise
+/// ([`noise_moved`] adds what it does). `None` without the plane, or with
+/// more than one point light (no mean then). (The camera plans once a
+/// change: some 50 cells, a few divisions and square roots each.)
+/// [`closed_mean_factor`] scales it to an interpolation over more rays.
 #[inline(never)]
 fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let p = g.prims.get(g.closed?)?;
