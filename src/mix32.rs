@@ -5284,12 +5284,6 @@ mod tests {
         );
     }
 
-    /// [`closed_lanes`] gives [`Mix32::closed_run`]'s scalar words and
-    /// flags (the closed plane's ray by ray: [`closed_w`], [`closed_term`],
-    /// [`Mix32::dn_word`]) and leaves it the same rays, on random planes,
-    /// lights, gains and chunks of rays (some outside the field, some hit
-    /// by another primitive) across the formats' ranges.
-    #[cfg(target_arch = "x86_64")]
     /// The closed run's shaded rays by mask are those `next_shaded` visits,
     /// for every run it takes (3 to 32 rays) and every mean.
     #[test]
@@ -5312,6 +5306,12 @@ mod tests {
         }
     }
 
+    /// [`closed_lanes`] gives [`Mix32::closed_run`]'s scalar words and
+    /// flags (the closed plane's ray by ray: [`closed_w`], [`closed_term`],
+    /// [`Mix32::dn_word`]) and leaves it the same rays, on random planes,
+    /// lights, gains and chunks of rays (some outside the field, some hit
+    /// by another primitive) across the formats' ranges.
+    #[cfg(target_arch = "x86_64")]
     #[test]
     fn closed_lanes_are_closed_run() {
         let mut s = 0xc105_ed1a_9e50_0003;

@@ -1611,15 +1611,19 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let d = g.gain * p.kd * i / (h * h);
     let (u, f) = (g.u_max, g.f_row);
     let (k1, k2) = scene.distortion.coefficients();
-    let (k1, k2) = (libm::fabs(k1.to_num::<f64>()), libm::fabs(k2.to_num::<f64>()) * u);
+    // (|k1| and |k2| u.)
+    let (k1, k2u) = (libm::fabs(k1.to_num::<f64>()), libm::fabs(k2.to_num::<f64>()) * u);
     // Along a row (x̂ = x̂_d g(u), ŷ = ŷ_d g(u), u = x̂_d² + ŷ_d², x̂_d
     // stepping 1/f): ∂x̂/∂x̂_d = g + 2x̂_d² g', ∂ŷ/∂x̂_d = 2x̂_d ŷ_d g',
     // ∂²x̂/∂x̂_d² = 6x̂_d g' + 8k2 x̂_d³, ∂²ŷ/∂x̂_d² = ŷ_d (2g' + 8k2 x̂_d²),
     // with g' = k1 + 2k2 u, x̂_d² ≤ u and 2|x̂_d ŷ_d| ≤ u.
-    let (x1, y1) = ((g.g_max + 2.0 * u * (k1 + 2.0 * k2)) / f, u * (k1 + 2.0 * k2) / f);
+    let (x1, y1) = (
+        (g.g_max + 2.0 * u * (k1 + 2.0 * k2u)) / f,
+        u * (k1 + 2.0 * k2u) / f,
+    );
     let (x2, y2) = (
-        libm::sqrt(u) * (6.0 * k1 + 20.0 * k2) / (f * f),
-        libm::sqrt(u) * (2.0 * k1 + 12.0 * k2) / (f * f),
+        libm::sqrt(u) * (6.0 * k1 + 20.0 * k2u) / (f * f),
+        libm::sqrt(u) * (2.0 * k1 + 12.0 * k2u) / (f * f),
     );
     let (nx, ny) = (libm::fabs(p.n[0]), libm::fabs(p.n[1]));
     let (d1, d2) = (libm::sqrt(x1 * x1 + y1 * y1), libm::sqrt(x2 * x2 + y2 * y2));
