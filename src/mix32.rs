@@ -3429,16 +3429,10 @@ impl Mix32 {
                         even.get((q - d) >> 1).copied(),
                         even.get((q + d) >> 1).copied(),
                     ) {
-                        let mut sum = [0u64; 3];
-                        each::<C>(|ch| {
-                            if let (Some(s), Some(a), Some(b)) = (sum.get_mut(ch), a.get(ch), b.get(ch)) {
-                                *s = mean(*a, *b);
-                            }
-                        });
                         if let (Some(m), Some(r), Some(word)) =
                             (even.get_mut(q >> 1), rays.get(q), words.get_mut(q))
                         {
-                            m.iter_mut().zip(sum).for_each(|(m, s)| *m = s);
+                            let sum = mean_into::<C>(&a, &b, m);
                             let k = index.wrapping_add((q as u32).wrapping_mul(step));
                             *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                         }
@@ -3453,15 +3447,7 @@ impl Mix32 {
                         rays.get(q),
                         words.get_mut(q),
                     ) {
-                        let mut sum = [0u64; 3];
-                        each::<C>(|ch| {
-                            if let (Some(s), Some(a), Some(m), Some(b)) =
-                                (sum.get_mut(ch), a.get(ch), m.get_mut(ch), b.get(ch))
-                            {
-                                *s = mean(*a, *b);
-                                *m = *s;
-                            }
-                        });
+                        let sum = mean_into::<C>(a, b, m);
                         let k = index.wrapping_add((q as u32).wrapping_mul(step));
                         *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     }
@@ -3476,17 +3462,7 @@ impl Mix32 {
                         rays.get(q),
                         words.get_mut(q),
                     ) {
-                        // (Channel by channel, written out: a loop over
-                        // them zeroed `sum` through a library call.)
-                        let mut sum = [0u64; 3];
-                        each::<C>(|ch| {
-                            if let (Some(s), Some(a), Some(m), Some(b)) =
-                                (sum.get_mut(ch), a.get(ch), m.get_mut(ch), b.get(ch))
-                            {
-                                *s = mean(*a, *b);
-                                *m = *s;
-                            }
-                        });
+                        let sum = mean_into::<C>(a, b, m);
                         let k = index.wrapping_add((q as u32).wrapping_mul(step));
                         *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     }
@@ -4732,6 +4708,21 @@ fn closed_lanes(
 #[inline(always)]
 fn mean(a: u64, b: u64) -> u64 {
     (a + b) >> 1
+}
+
+/// [`mean`] of two rays' sums channel by channel, also into `m` (the ray
+/// between's slot), for the word (channels past `C` 0). Written out per
+/// channel: a loop over them zeroed the sum through a library call.
+#[inline(always)]
+fn mean_into<const C: usize>(a: &[u64; C], b: &[u64; C], m: &mut [u64; C]) -> [u64; 3] {
+    let mut sum = [0u64; 3];
+    each::<C>(|ch| {
+        if let (Some(s), Some(a), Some(m), Some(b)) = (sum.get_mut(ch), a.get(ch), m.get_mut(ch), b.get(ch)) {
+            *s = mean(*a, *b);
+            *m = *s;
+        }
+    });
+    sum
 }
 
 /// `(a / |q|)³` for `a` in S24 (`|w|`) and `|q|²` in S44 U² (non-zero):
