@@ -3415,10 +3415,12 @@ impl Mix32 {
                     let k = index.wrapping_add((q as u32).wrapping_mul(step));
                     *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                 }
-                // With `Octs`: the rays ≡ 4 (mod 8) between, from the shaded
-                // ones 4 apart (a ray whose ray 4 on lies past `e` was shaded:
-                // `next_shaded`).
-                // (A `compact` build takes both levels in one loop: flash.)
+                // The even rays between, level by level: with `Octs` the rays
+                // ≡ 4 (mod 8) from the shaded ones 4 apart (a ray whose ray 4
+                // on lies past `e` was shaded: `next_shaded`), then with
+                // `Quads` and `Octs` the rays ≡ 2 (mod 4) from those 2 apart.
+                // A `compact` build takes the levels in one loop (flash); the
+                // others a loop each (one loop cost the M3 4 a pixel).
                 let compact = cfg!(feature = "compact");
                 let (octs, quads) = (c.mean == ClosedMean::Octs, c.mean.span() >= 4);
                 let mut d = if compact { (c.mean.span() >> 1) as usize } else { 0 };
@@ -3453,8 +3455,6 @@ impl Mix32 {
                     }
                     q += 8;
                 }
-                // With `Quads` and `Octs`: the even rays between, from those
-                // 2 apart.
                 let mut q = 2;
                 while !compact && quads && q < e {
                     if let (Some([a, m, b]), Some(r), Some(word)) = (
@@ -4668,7 +4668,7 @@ fn closed_lanes(
                 sums[q] = mean(sums[q - 4], sums[q + 4]);
             }
         }
-        if c.mean == ClosedMean::Quads || c.mean == ClosedMean::Octs {
+        if c.mean.span() >= 4 {
             for q in (2..e).step_by(4) {
                 sums[q] = mean(sums[q - 2], sums[q + 2]);
             }

@@ -49,6 +49,9 @@ pub struct CandidateReport {
     pub geom_err_px: f64,
     /// Predicted largest |core − reference| before rounding, LSB.
     pub lsb: f64,
+    /// Of `lsb`, the closed plane's mean's bound (0 without the mean:
+    /// `planner::closed_mean_err`), LSB.
+    pub mean_lsb: f64,
     /// Predicted cost, M3 instructions a pixel (the fitted cost model).
     pub m3_instructions_per_pixel: f64,
     /// Predicted fraction of all pixels that are edge pixels differing from
@@ -746,6 +749,7 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
                 unfit: c.fits.err().map(|u| u.reason().to_string()),
                 geom_err_px: c.geom_err_px,
                 lsb: c.lsb,
+                mean_lsb: c.mean_lsb,
                 m3_instructions_per_pixel: c.m3_instructions_per_pixel,
                 edge_differing: c.edge_differing,
                 meets_budget: c.meets(budget),
