@@ -171,23 +171,40 @@ impl Pf {
 pub const SUM_CAP: u64 = 1 << 47;
 
 /// `DN = floor(sum · cos⁴α + ½)` for a sum in S15 DN (≤ [`SUM_CAP`]) and
-/// `cos⁴α` in S31, exactly: the sum's two 32-bit halves times `cos⁴α`.
+/// `cos⁴α` in S31, exactly, capped at `max` (a channel's full scale, below
+/// 2¹⁶). The common case, a sum below 2³² (below 2¹⁷ DN: any pixel that
+/// is not saturated), is one product's high word in line; a larger sum
+/// takes [`vignette_dn_high`], out of line.
 #[inline(always)]
-fn vignette_dn(sum: u64, c4: u32) -> u64 {
+fn vignette_dn(sum: u64, c4: u32, max: u32) -> u32 {
+    // ⌊(lo c4 + 2^45) / 2^46⌋ = (⌊lo c4 / 2^32⌋ + 2^13) >> 14 (2^45 is a
+    // multiple of 2^32); ⌊lo c4 / 2^32⌋ < 2^31 (c4 ≤ 2^31).
+    let dn = match u32::try_from(sum) {
+        Ok(lo) if ARMV6M => round_c4_words(lo, c4),
+        Ok(lo) => ((umul(lo, c4) >> 32) as u32 + (1 << 13)) >> 14,
+        Err(_) => vignette_dn_high(sum, c4),
+    };
+    dn.min(max)
+}
+
+/// [`vignette_dn`] of a sum of 2³² or more (a saturated pixel), before its
+/// cap: [`vignette_dn_words`].
+#[inline(never)]
+#[cold]
+fn vignette_dn_high(sum: u64, c4: u32) -> u32 {
+    vignette_dn_words(sum, c4)
+}
+
+/// `⌊(sum · cos⁴α + 2⁴⁵) / 2⁴⁶⌋` for any sum up to [`SUM_CAP`] (at most
+/// `u32::MAX`), branch-free: the sum's two 32-bit halves times `cos⁴α`
+/// (the x86-64 lanes' form, which the compiler vectorizes).
+#[inline(always)]
+fn vignette_dn_words(sum: u64, c4: u32) -> u32 {
     // (hi 2^32 + lo) c4 + 2^45 over 2^46 = (hi c4 + ⌊(lo c4 + 2^45) / 2^32⌋) / 2^14
     // (nested floors of integers); hi c4 < 2^46.
     let (hi, lo) = ((sum >> 32) as u32, sum as u32);
-    if ARMV6M && hi == 0 {
-        return round_c4_words(lo, c4) as u64;
-    }
-    // hi < 2^16 below the cap: a 16-bit product on the M0, and none where
-    // the sum is below 2^17 DN (hi = 0: a pixel that is not saturated).
-    let hc = match u16::try_from(hi) {
-        Ok(0) if ARMV6M => 0,
-        Ok(h) if ARMV6M => umul_h(c4, h),
-        _ => umul_px(hi, c4),
-    };
-    (hc + ((umul_px(lo, c4) + (1 << 45)) >> 32)) >> 14
+    let dn = (umul(hi, c4) + ((umul(lo, c4) + (1 << 45)) >> 32)) >> 14;
+    dn.min(u32::MAX as u64) as u32
 }
 
 /// [`vignette_dn`] of a sum below 2³² (`lo`) on the M0: `⌊(lo c4 + 2⁴⁵)
@@ -203,8 +220,16 @@ fn round_c4_words(lo: u32, c4: u32) -> u32 {
     if t & 0x3FFF < 0x3FFE {
         t >> 14
     } else {
-        ((umul16_words(lo, c4) + (1 << 45)) >> 46) as u32
+        round_c4_exact(lo, c4)
     }
+}
+
+/// [`round_c4_words`] from all four products: out of line (2 values of
+/// `t` in 2¹⁴ take it).
+#[inline(never)]
+#[cold]
+fn round_c4_exact(lo: u32, c4: u32) -> u32 {
+    ((umul16_words(lo, c4) + (1 << 45)) >> 46) as u32
 }
 
 /// The noise-free value `sum · cos⁴α` (DN, before rounding) as I32F32,
@@ -3578,7 +3603,7 @@ impl Mix32 {
     ) -> u16 {
         match noise {
             Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
-            None => word::<C>(zip3(sum, dn_max, |s, max| vignette_dn(s, c4).min(max) as u32)),
+            None => word::<C>(zip3(sum, dn_max, |s, max| vignette_dn(s, c4, max as u32))),
         }
     }
 
@@ -4679,7 +4704,7 @@ fn closed_lanes(
     }
     let mut dn = [0u16; CHUNK];
     for q in 0..CHUNK {
-        dn[q] = vignette_dn(sums[q], c4[q]).min(dn_max) as u16;
+        dn[q] = vignette_dn_words(sums[q], c4[q]).min(dn_max as u32) as u16;
     }
     let mut left = 0;
     for (q, ((r, word), flag)) in rays
@@ -5628,6 +5653,33 @@ mod tests {
                 }
                 assert!(out[len * b..].iter().chain(&flags[len..]).all(|&v| v == 0xee));
             }
+        }
+    }
+
+    /// [`vignette_dn`] (its in-line case below 2³², its out-of-line case
+    /// above, the M0's three products) is the exact rounding of `sum ·
+    /// cos⁴α`, capped: sums up to [`SUM_CAP`], `cos⁴α` up to 1.
+    #[test]
+    fn vignette_dn_is_the_exact_rounding() {
+        let exact = |sum: u64, c4: u32, max: u32| {
+            (((sum as u128 * c4 as u128 + (1 << 45)) >> 46).min(max as u128)) as u32
+        };
+        let mut s = 0x5eed_0dd5_0000_0042;
+        for i in 0..1_000_000u32 {
+            let c4 = ((rng(&mut s) as u32) >> (rng(&mut s) % 32) >> 1).max(1 << 13) | (i & 1) << 31 >> 1;
+            let c4 = if i % 7 == 0 { 1 << 31 } else { c4.min(1 << 31) };
+            let sum = (rng(&mut s) >> (rng(&mut s) % 64)).min(SUM_CAP);
+            for max in [255, 4095, 65535, 31] {
+                assert_eq!(vignette_dn(sum, c4, max), exact(sum, c4, max), "sum {sum} c4 {c4}");
+                assert_eq!(
+                    vignette_dn_words(sum, c4).min(max),
+                    exact(sum, c4, max),
+                    "sum {sum} c4 {c4}"
+                );
+            }
+        }
+        for sum in [0, (1 << 32) - 1, 1 << 32, SUM_CAP] {
+            assert_eq!(vignette_dn(sum, 1 << 31, 65535), exact(sum, 1 << 31, 65535), "sum {sum}");
         }
     }
 
