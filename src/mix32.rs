@@ -5670,7 +5670,11 @@ mod tests {
             let c4 = if i % 7 == 0 { 1 << 31 } else { c4.min(1 << 31) };
             let sum = (rng(&mut s) >> (rng(&mut s) % 64)).min(SUM_CAP);
             for max in [255, 4095, 65535, 31] {
-                assert_eq!(vignette_dn(sum, c4, max), exact(sum, c4, max), "sum {sum} c4 {c4}");
+                assert_eq!(
+                    vignette_dn(sum, c4, max),
+                    exact(sum, c4, max),
+                    "sum {sum} c4 {c4}"
+                );
                 assert_eq!(
                     vignette_dn_words(sum, c4).min(max),
                     exact(sum, c4, max),
@@ -5679,7 +5683,11 @@ mod tests {
             }
         }
         for sum in [0, (1 << 32) - 1, 1 << 32, SUM_CAP] {
-            assert_eq!(vignette_dn(sum, 1 << 31, 65535), exact(sum, 1 << 31, 65535), "sum {sum}");
+            assert_eq!(
+                vignette_dn(sum, 1 << 31, 65535),
+                exact(sum, 1 << 31, 65535),
+                "sum {sum}"
+            );
         }
     }
 
