@@ -857,8 +857,8 @@ fn umul(a: u32, b: u32) -> u64 {
 
 /// [`umul`] with the M0's product in 32-bit words ([`umul16_words`]): at
 /// the sites where that measured cheaper on the M0 (`rsqrt_top`'s `m y²`,
-/// [`vignette_dn`], [`Pf::mul_to_sum`]: standard 887.8 → 873.2 a pixel,
-/// every scene down). In [`cube_over`] and [`cos_over_r3`] it cost more
+/// [`Pf::mul_to_sum`], and [`vignette_dn`] before its common case took
+/// [`round_c4_words`]: standard 887.8 → 873.2 a pixel, every scene down). In [`cube_over`] and [`cos_over_r3`] it cost more
 /// (the registers around them), so those keep [`umul`].
 #[inline(always)]
 fn umul_px(a: u32, b: u32) -> u64 {
@@ -5661,8 +5661,9 @@ mod tests {
     }
 
     /// [`vignette_dn`] (its in-line case below 2³², its out-of-line case
-    /// above, the M0's three products) is the exact rounding of `sum ·
-    /// cos⁴α`, capped: sums up to [`SUM_CAP`], `cos⁴α` up to 1.
+    /// above) and the lanes' [`vignette_dn_words`] are the exact rounding
+    /// of `sum · cos⁴α`, capped: sums up to [`SUM_CAP`], `cos⁴α` up to 1.
+    /// (The M0's case below 2³², [`round_c4_words`]: the next test.)
     #[test]
     fn vignette_dn_is_the_exact_rounding() {
         let exact = |sum: u64, c4: u32, max: u32| {
