@@ -858,8 +858,9 @@ fn umul(a: u32, b: u32) -> u64 {
 /// [`umul`] with the M0's product in 32-bit words ([`umul16_words`]): at
 /// the sites where that measured cheaper on the M0 (`rsqrt_top`'s `m y²`,
 /// [`Pf::mul_to_sum`], and [`vignette_dn`] before its common case took
-/// [`round_c4_words`]: standard 887.8 → 873.2 a pixel, every scene down). In [`cube_over`] and [`cos_over_r3`] it cost more
-/// (the registers around them), so those keep [`umul`].
+/// [`round_c4_words`]: standard 887.8 → 873.2 a pixel, every scene down).
+/// In [`cube_over`] and [`cos_over_r3`] it cost more (the registers
+/// around them), so those keep [`umul`].
 #[inline(always)]
 fn umul_px(a: u32, b: u32) -> u64 {
     if ARMV6M {
@@ -5671,7 +5672,7 @@ mod tests {
         };
         let mut s = 0x5eed_0dd5_0000_0042;
         for i in 0..1_000_000u32 {
-            let c4 = ((rng(&mut s) as u32) >> (rng(&mut s) % 32) >> 1).max(1 << 13) | (i & 1) << 31 >> 1;
+            let c4 = ((rng(&mut s) as u32) >> (rng(&mut s) % 32) >> 1).max(1 << 13) | (i & 1) << 30;
             let c4 = if i % 7 == 0 { 1 << 31 } else { c4.min(1 << 31) };
             let sum = (rng(&mut s) >> (rng(&mut s) % 64)).min(SUM_CAP);
             for max in [255, 4095, 65535, 31] {
