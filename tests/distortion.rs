@@ -2,7 +2,7 @@
 //! bracketed inverse, and the fold, against the f64 reference. 10 000 cases
 //! each over k1, k2 in [−1, 1].
 
-mod common;
+use crate::common;
 
 use common::*;
 use fixed::types::I32F32;

@@ -2,11 +2,11 @@
 //! with the reference over smooth pixels, a typed error, a flag, saturation)
 //! and asserts it.
 
+use crate::common;
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, FLAG_OUTSIDE_FIELD};
 use host_sim::harness::{render, RenderOutput};
 use host_sim::reference::render::RefScene;
-mod common;
 
 use common::fixture::{
     agrees, agrees_off_edges, scene, try_scene, CHECKER_FLOOR, INSIDE_SPHERE, TANGENT_SPHERE,

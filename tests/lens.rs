@@ -1,7 +1,7 @@
 //! Property tests: the thin lens of the fixed-point core against the f64
 //! reference, 10 000 cases each over the documented ranges.
 
-mod common;
+use crate::common;
 
 use common::*;
 use hilcam::lens::{Aperture, Distance, Lens, LensConfig};

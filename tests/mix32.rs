@@ -4,7 +4,7 @@
 //! angles, saturation, a light at the surface, the lens fold, every shape
 //! and pixel format) against the f64 reference.
 
-mod common;
+use crate::common;
 
 use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, POINT_LIGHT, TANGENT_SPHERE};
 use hilcam::planner::Budget;

@@ -10,7 +10,7 @@
 //! than the plan's largest blur, and a plan that finds all content within
 //! the depth of field sees no hit outside it.
 
-mod common;
+use crate::common;
 
 use common::Max;
 use hilcam::planner::{plan, Budget};

@@ -1,7 +1,7 @@
 //! Property tests: projection, intrinsics and rays of the fixed-point core
 //! against the f64 reference, 10 000 cases each over the documented ranges.
 
-mod common;
+use crate::common;
 
 use common::*;
 use hilcam::projection::{weak_perspective_bound, weak_perspective_error, DepthBox};

@@ -1,7 +1,7 @@
 //! Property tests: shading and vignetting of the core against the f64
 //! reference, 10 000 cases each.
 
-mod common;
+use crate::common;
 
 use common::*;
 use hilcam::scene::{Material, Q};
