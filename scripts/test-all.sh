@@ -5,12 +5,29 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib.sh
 
+fuzz_smoke_run() {
+  echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
+  ./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
+  if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
+  [ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
+}
+
 echo "== toolchain: the thumb targets and components (scripts/lib.sh ensure_toolchain)"
 ensure_toolchain
 rustc --version
 
 echo "== format"
 cargo fmt --all -- --check
+
+# What the main job needs, in the background while the checks below run:
+# host-sim's release build, niced (its LTO in one codegen unit keeps one
+# core busy; the firmware builds' links, the tests' run and the fuzzers
+# leave a core idle much of the time), and QEMU where it is missing.
+mkdir -p target
+nice -n 19 cargo build -q --release -p host-sim > target/host-sim-release.log 2>&1 &
+release_build=$!
+ensure_qemu > target/qemu-install.log 2>&1 &
+qemu_install=$!
 
 echo "== clippy: workspace, warnings are errors (and host-sim without its cli feature, as the fuzz targets use it)"
 cargo clippy --workspace --all-targets -q -- -D warnings
@@ -38,16 +55,15 @@ build_firmware
   cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
     --target thumbv7m-none-eabi -- -D warnings)
 
-echo "== tests (with the main job's release build of host-sim in the background, niced: its LTO in one"
-echo "   codegen unit keeps one core busy, and the tests' compile and run leave a core idle much of the time)"
+echo "== tests"
 rm -rf target/tmp/accuracy
-nice -n 19 cargo build -q --release -p host-sim > target/host-sim-release.log 2>&1 &
-release_build=$!
 cargo test --workspace
-wait "$release_build" || { cat target/host-sim-release.log; echo "host-sim's release build failed"; exit 1; }
+
+fuzz_smoke_run
 
 echo "== the main job, short (README's first command): renders, streams, QEMU on both boards, tiny sweep"
-ensure_qemu || { echo "qemu-system-arm is missing and could not be installed"; exit 1; }
+wait "$release_build" || { cat target/host-sim-release.log; echo "host-sim's release build failed"; exit 1; }
+wait "$qemu_install" || { cat target/qemu-install.log; echo "qemu-system-arm is missing and could not be installed"; exit 1; }
 ./scripts/emulate.sh --short
 
 echo "== firmware in QEMU at 640x480 (the standard scene, wider): streams by lines, RAM O(width)"
@@ -104,11 +120,6 @@ small_scenes=$(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v shallo
   --scene $small_scenes --variant i32f32-poly --out target/hil/lm3s6965evb-small | tail -3
 awk -F': ' '/"flash_bytes"/ { gsub(",", "", $2); if ($2 + 0 > 65536) { print "flash " $2 " B > 64 KiB"; bad = 1 } } END { exit bad }' \
   target/hil/lm3s6965evb-small/hil.json
-
-echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
-./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
-if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
-[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
 
 echo "== largest errors measured by the property tests (core vs f64 reference)"
 cat target/tmp/accuracy/*.txt
