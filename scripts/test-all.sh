@@ -19,16 +19,6 @@ rustc --version
 echo "== format"
 cargo fmt --all -- --check
 
-# What the main job needs, in the background while the checks below run:
-# host-sim's release build, niced (its LTO in one codegen unit keeps one
-# core busy; the firmware builds' links, the tests' run and the fuzzers
-# leave a core idle much of the time), and QEMU where it is missing.
-mkdir -p target
-nice -n 19 cargo build -q --release -p host-sim > target/host-sim-release.log 2>&1 &
-release_build=$!
-ensure_qemu > target/qemu-install.log 2>&1 &
-qemu_install=$!
-
 echo "== clippy: workspace, warnings are errors (and host-sim without its cli feature, as the fuzz targets use it)"
 cargo clippy --workspace --all-targets -q -- -D warnings
 cargo clippy -p host-sim --no-default-features --lib -q -- -D warnings
@@ -48,6 +38,18 @@ for target in thumbv6m-none-eabi thumbv7m-none-eabi thumbv7em-none-eabihf; do
 done
 cargo build -q --lib --release --target thumbv7em-none-eabihf --features defmt
 echo "   thumbv7em-none-eabihf --features defmt: ok"
+
+# What the main job needs, in the background while the checks below run
+# (after the builds for the thumb targets: their build scripts share
+# target/release, whose lock would make them wait for this one):
+# host-sim's release build, niced (its LTO in one codegen unit keeps one
+# core busy; the firmware builds' links, the tests' run and the fuzzers
+# leave a core idle much of the time), and QEMU where it is missing.
+mkdir -p target
+nice -n 19 cargo build -q --release -p host-sim > target/host-sim-release.log 2>&1 &
+release_build=$!
+ensure_qemu > target/qemu-install.log 2>&1 &
+qemu_install=$!
 
 echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit)"
 build_firmware
