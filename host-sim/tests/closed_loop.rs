@@ -84,22 +84,39 @@ fn the_host_camera_follows_the_trajectory() {
 /// applied twice or out of order (one frame a trigger, however often the
 /// trigger is resent), and no frame arrives with the wrong pixels or the
 /// wrong ground truth — frames are lost instead.
+///
+/// The four seeds run at once, each over its own socket pair: a lost
+/// frame is a second of the driver's `frame_timeout` spent waiting, and in
+/// turn they took 50 s.
 #[test]
 fn faults_lose_frames_but_never_corrupt_them() {
+    // Frames are long (19 kB): low rates lose some of them. Commands are
+    // short (≤ 108 B): rates 100× higher hit some of them too.
+    let faults = |seed, scale: f64| Faults {
+        ber: 5e-7 * scale,
+        drop: 5e-7 * scale,
+        dup: 5e-7 * scale,
+        insert: 5e-7 * scale,
+        truncate: 0.002 * scale.sqrt(),
+        cut: 0.0,
+        seed,
+    };
+    let runs: Vec<_> = std::thread::scope(|s| {
+        let seeds: Vec<_> = (1..=4u64)
+            .map(|seed| {
+                (
+                    seed,
+                    s.spawn(move || run(40, faults(seed, 100.0), faults(seed + 100, 1.0))),
+                )
+            })
+            .collect();
+        seeds
+            .into_iter()
+            .map(|(seed, h)| (seed, h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))))
+            .collect()
+    });
     let (mut total_lost, mut total_resent, mut total_refused) = (0, 0, 0);
-    for seed in 1..=4u64 {
-        // Frames are long (19 kB): low rates lose some of them. Commands
-        // are short (≤ 108 B): rates 100× higher hit some of them too.
-        let faults = |seed, scale: f64| Faults {
-            ber: 5e-7 * scale,
-            drop: 5e-7 * scale,
-            dup: 5e-7 * scale,
-            insert: 5e-7 * scale,
-            truncate: 0.002 * scale.sqrt(),
-            cut: 0.0,
-            seed,
-        };
-        let (r, cam) = run(40, faults(seed, 100.0), faults(seed + 100, 1.0));
+    for (seed, (r, cam)) in runs {
         // Every trigger made exactly one frame, resent or not.
         assert_eq!(cam.frames, 40, "seed {seed}: {cam:?}");
         assert_eq!(r.frames_received + r.lost, 40, "seed {seed}");
