@@ -8,6 +8,10 @@ command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 rustup toolchain list | grep -q nightly || rustup toolchain install nightly --profile minimal
 targets=${1:-$(cargo +nightly fuzz list)}
 secs=${2:-60}
+# Without a target named, every target built in one cargo run first (in
+# parallel, the dependencies once), with the flags `fuzz run` builds with:
+# each run then starts at once.
+[ -n "${1:-}" ] || cargo +nightly fuzz build 2>&1 | grep -vE "^ +(Compiling|Finished|Building)" || true
 for t in $targets; do
   echo "== fuzz $t for ${secs}s"
   cargo +nightly fuzz run "$t" -- -max_total_time="$secs" 2>&1 | grep -E "^Done|ERROR|panicked|SUMMARY" || true
