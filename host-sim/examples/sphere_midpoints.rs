@@ -5,14 +5,15 @@
 //! two neighbours and of the 4-tap cubic at the midpoint, `(9 (v₋₁ + v₊₁)
 //! − v₋₃ − v₊₃) / 16`, against its own value (DN before rounding, every
 //! channel), and how many would round differently. A measurement for a
-//! possible sphere mean (not rendered anywhere). Perspective scenes
-//! without defocus:
+//! possible sphere mean (not rendered anywhere). Perspective scenes (a
+//! defocused one's values are the aperture's means, its lit test the
+//! chief ray's):
 //!
 //! `cargo run --release -p host-sim --example sphere_midpoints -- scenes/standard.toml`
 
 use hilcam::scene::ShapeSpec;
 use hilcam::scene_data::LightData;
-use host_sim::reference::render::RefScene;
+use host_sim::reference::render::{RefModel, RefScene};
 use host_sim::scene_file::load;
 
 const MARGIN: usize = 5;
@@ -29,6 +30,12 @@ fn main() -> Result<(), String> {
     for path in paths {
         let r = load(std::path::Path::new(&path))?;
         let s = RefScene::new(&r);
+        // (The hit point below is `z (x̂, ŷ, 1)`: a perspective ray's.)
+        if s.model != RefModel::Perspective {
+            return Err(format!(
+                "{path}: camera.model: only perspective scenes are measured"
+            ));
+        }
         let (w, h) = (s.sensor.width as usize, s.sensor.height as usize);
         let channels = r.format.channels();
         // Per pixel: the sphere hit (index), the lights that light it (bits)
