@@ -10,7 +10,8 @@ targets=${1:-$(cargo +nightly fuzz list)}
 secs=${2:-60}
 # Without a target named, every target built in one cargo run first (in
 # parallel, the dependencies once), with the flags `fuzz run` builds with:
-# each run then starts at once.
+# each run then starts at once. (A failed build shows as its runs' failure,
+# which the test command counts: no `Done` line.)
 [ -n "${1:-}" ] || cargo +nightly fuzz build 2>&1 | grep -vE "^ +(Compiling|Finished|Building)" || true
 for t in $targets; do
   echo "== fuzz $t for ${secs}s"

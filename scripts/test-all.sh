@@ -5,13 +5,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib.sh
 
-fuzz_smoke_run() {
-  echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
-  ./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
-  if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
-  [ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
-}
-
 echo "== toolchain: the thumb targets and components (scripts/lib.sh ensure_toolchain)"
 ensure_toolchain
 rustc --version
@@ -61,7 +54,10 @@ echo "== tests"
 rm -rf target/tmp/accuracy
 cargo test --workspace
 
-fuzz_smoke_run
+echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
+./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
+if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
+[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
 
 echo "== the main job, short (README's first command): renders, streams, QEMU on both boards, tiny sweep"
 wait "$release_build" || { cat target/host-sim-release.log; echo "host-sim's release build failed"; exit 1; }

@@ -13,14 +13,11 @@
 
 use hilcam::scene::ShapeSpec;
 use hilcam::scene_data::LightData;
+use host_sim::reference::dot;
 use host_sim::reference::render::{RefModel, RefScene};
 use host_sim::scene_file::load;
 
 const MARGIN: usize = 5;
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
 
 fn main() -> Result<(), String> {
     let paths: Vec<String> = std::env::args().skip(1).collect();

@@ -15,7 +15,8 @@ pub mod vignetting;
 /// A 3-vector.
 pub type V3 = [f64; 3];
 
-pub(crate) fn dot(a: V3, b: V3) -> f64 {
+/// `a·b`.
+pub fn dot(a: V3, b: V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
