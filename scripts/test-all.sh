@@ -103,6 +103,15 @@ m3=$(awk -F': ' '/^  "instructions_per_pixel"/ { gsub(",", "", $2); print $2 }' 
 awk -v m0="$m0" -v m3="$m3" 'BEGIN { r = (m3 > 0) ? m0 / m3 : 0; printf "M0 %.0f / M3 %.0f = %.2f\n", m0, m3, r; exit !(m3 > 0 && r <= 3) }' ||
   { echo "the M0 is over 3x the M3 on the standard scene (or not measured)"; exit 1; }
 
+echo "== the compact loops (the driven camera's: one copy serves one and three channels) bit-exact on every shipped scene, M3"
+# The default firmware with the core's compact feature: the same frames as
+# the host's, through the loops the driven camera runs (every scene here;
+# the drives above send it the standard scene alone).
+(cd firmware && CARGO_PROFILE_RELEASE_OPT_LEVEL=s cargo build -q --release --no-default-features \
+  --features board-lm3s6965,status,mix32,sensor,hilcam/compact --target thumbv7m-none-eabi)
+./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
+  --out target/hil/lm3s6965evb-compact | tail -3
+
 echo "== firmware built for size (opt-level z, no status): the M3 image within 64 KiB of flash, still bit-exact"
 # Without the fast arithmetic (the core's mix32 feature): the wide one, which
 # the host renders as the variant i32f32-poly. Without the sensor stages too

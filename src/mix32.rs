@@ -261,6 +261,7 @@ fn vignette_q(sum: u64, c4: u32) -> Q {
 #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
 #[cfg_attr(target_arch = "x86_64", inline(always))]
 fn noisy<const C: usize>(
+    n: usize,
     z: &crate::noise::Stage<Q>,
     sum: [u64; 3],
     c4: u32,
@@ -268,10 +269,10 @@ fn noisy<const C: usize>(
     dn_max: [u64; 3],
 ) -> u16 {
     let mut dn = [0u32; 3];
-    for (c, ((d, s), max)) in dn.iter_mut().zip(sum).zip(dn_max).take(C).enumerate() {
+    for (c, ((d, s), max)) in dn.iter_mut().zip(sum).zip(dn_max).take(chans::<C>(n)).enumerate() {
         *d = noisy_dn(z.draw(index, c), vignette_q(s, c4), max as u16);
     }
-    word::<C>(dn)
+    word::<C>(n, dn)
 }
 
 /// The EMVA 1288 stage's value ([`crate::noise::Stage::apply_with`] with
@@ -352,39 +353,60 @@ fn sigma_z16(s2: u64, z: i32) -> i64 {
 }
 
 /// Whether `L`'s fast loops for `C` channels render the specular lobe
-/// ([`Lines::FAST_GRAY_SPECULAR`], [`Lines::FAST_RGB_SPECULAR`]).
+/// ([`Lines::FAST_GRAY_SPECULAR`], [`Lines::FAST_RGB_SPECULAR`]); in a
+/// `compact` build, whose loop for three channels serves one-channel
+/// frames too ([`chans`]), if either does (a frame whose lobe `L` leaves
+/// out is refused before it reaches a loop: `Frame::line_built`).
 const fn lobe_built<L: Lines, const C: usize>() -> bool {
-    if C == 3 {
+    if cfg!(feature = "compact") {
+        L::FAST_RGB_SPECULAR || L::FAST_GRAY_SPECULAR
+    } else if C == 3 {
         L::FAST_RGB_SPECULAR
     } else {
         L::FAST_GRAY_SPECULAR
     }
 }
 
-/// `f(c)` for each of `C` channels (1 or 3), written out: a loop over them
+/// The channels a loop for `C` channels (1 or 3) computes for a frame of
+/// `n`: `C` — but in a `compact` build (the driven camera's, bound by
+/// flash) `n`, since there the loop for three serves one-channel frames
+/// too (`Mix32::line_any`): a copy of each loop fewer, about 30 KB of the
+/// M0 camera's flash.
+#[inline(always)]
+const fn chans<const C: usize>(n: usize) -> usize {
+    if cfg!(feature = "compact") {
+        if n < C {
+            n
+        } else {
+            C
+        }
+    } else {
+        C
+    }
+}
+
+/// `f(c)` for each of the [`chans`] channels, written out: a loop over them
 /// is not unrolled at opt-level "s" (the firmware's), which cost the RGB565
 /// scene 28 M3 instructions a pixel. (A form taking the sums by reference
-/// cost the M0's standard scene 21 more a pixel.) A loop with the `compact`
-/// feature (the driven camera's, bound by flash: written out, the M0's
-/// overflowed its 256 KiB).
+/// cost the M0's standard scene 21 more a pixel.) In a `compact` build too,
+/// the count tested at run time: a loop over it cost the compact M3
+/// build's checkerboard-barrel 327.1 against 312.9 (`host-sim profile`)
+/// for 1.3 KB of the M0 camera's flash.
 #[inline(always)]
-fn each<const C: usize>(mut f: impl FnMut(usize)) {
-    if cfg!(feature = "compact") {
-        (0..C).for_each(f);
-        return;
-    }
+fn each<const C: usize>(n: usize, mut f: impl FnMut(usize)) {
     f(0);
-    if C == 3 {
+    if chans::<C>(n) == 3 {
         f(1);
         f(2);
     }
 }
 
-/// The pixel word of channel values (each ≤ `dn_max`) for `C` channels:
-/// the gray value, or RGB565's `r << 11 | g << 5 | b`. [`put`] writes it.
+/// The pixel word of channel values (each ≤ `dn_max`) for the [`chans`]
+/// channels: the gray value, or RGB565's `r << 11 | g << 5 | b`. [`put`]
+/// writes it.
 #[inline(always)]
-fn word<const C: usize>(dn: [u32; 3]) -> u16 {
-    if C == 3 {
+fn word<const C: usize>(n: usize, dn: [u32; 3]) -> u16 {
+    if chans::<C>(n) == 3 {
         ((dn[0] << 11) | (dn[1] << 5) | dn[2]) as u16
     } else {
         dn[0] as u16
@@ -1240,13 +1262,6 @@ struct MixPrim {
     spread: u32,
     depth: [i32; 2],
 }
-
-/// Whether the aperture loop takes a pixel's sum from its chief ray where
-/// its aperture rays' sums are known to be one ([`Mix32::uniform`]): not
-/// in a `compact` build (the driven camera's, whose M0 build it would take
-/// 8 KB past the micro:bit's flash). The rule is exact: the same bytes
-/// either way.
-const UNIFORM: bool = !cfg!(feature = "compact");
 
 /// Whether slope bounds `b` (`[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]`, S26) meet the box
 /// `[x̂₀, x̂₁, ŷ₀, ŷ₁]` (a point where `x̂₀ = x̂₁`, `ŷ₀ = ŷ₁`).
@@ -2644,7 +2659,7 @@ impl Mix32 {
                 spread: 0,
                 depth: [i32::MIN, i32::MAX],
             });
-            if let (true, Some(q)) = (UNIFORM && f.aperture > 0, prims.last_mut()) {
+            if let (true, Some(q)) = (f.aperture > 0, prims.last_mut()) {
                 (q.spread, q.depth) = aperture_terms(&p, (ap_r, ap_z), e);
             }
         }
@@ -2996,32 +3011,35 @@ impl Mix32 {
     ) {
         // (The sampled loop keeps its own chunk buffers.)
         let (corners, buf) = (&mut carry.corners, &mut carry.chunk);
+        // One channel's loops: in a `compact` build, those for three, which
+        // compute the frame's one channel ([`chans`]; a copy fewer of each).
+        const G: usize = if cfg!(feature = "compact") { 3 } else { 1 };
         match self.line_loop() {
             LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
-                self.line_f::<L, LANES, 1, true>(j, pixels, flags, buf)
+                self.line_f::<L, LANES, G, true>(j, pixels, flags, buf)
             }
             LineLoop::FastRgbPerspective if L::FAST_RGB_PERSPECTIVE => {
                 self.line_f::<L, LANES, 3, true>(j, pixels, flags, buf)
             }
             LineLoop::FastGrayParallel if L::FAST_GRAY_PARALLEL => {
-                self.line_f::<L, LANES, 1, false>(j, pixels, flags, buf)
+                self.line_f::<L, LANES, G, false>(j, pixels, flags, buf)
             }
             LineLoop::FastRgbParallel if L::FAST_RGB_PARALLEL => {
                 self.line_f::<L, LANES, 3, false>(j, pixels, flags, buf)
             }
             LineLoop::FastGrayPerspectiveSampled if L::FAST_GRAY_PERSPECTIVE_SAMPLED => {
-                self.sampled::<L, 1, true>(j, pixels, flags, corners)
+                self.sampled::<L, G, true>(j, pixels, flags, corners)
             }
             LineLoop::FastRgbPerspectiveSampled if L::FAST_RGB_PERSPECTIVE_SAMPLED => {
                 self.sampled::<L, 3, true>(j, pixels, flags, corners)
             }
             LineLoop::FastGrayParallelSampled if L::FAST_GRAY_PARALLEL_SAMPLED => {
-                self.sampled::<L, 1, false>(j, pixels, flags, corners)
+                self.sampled::<L, G, false>(j, pixels, flags, corners)
             }
             LineLoop::FastRgbParallelSampled if L::FAST_RGB_PARALLEL_SAMPLED => {
                 self.sampled::<L, 3, false>(j, pixels, flags, corners)
             }
-            LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<L, 1>(j, pixels, flags, buf),
+            LineLoop::FastGrayAperture if L::FAST_GRAY_APERTURE => self.line_d::<L, G>(j, pixels, flags, buf),
             LineLoop::FastRgbAperture if L::FAST_RGB_APERTURE => self.line_d::<L, 3>(j, pixels, flags, buf),
             _ => {}
         }
@@ -3165,20 +3183,8 @@ impl Mix32 {
             // The rays left to shade here, a bit each: those the run left
             // (another primitive's hits), else all.
             let mut left = match closed {
-                // A `compact` build sums three channels for either format:
-                // one copy of the run (flash).
-                Some(c) if cfg!(feature = "compact") => self.closed_run::<LANES, 3>(
-                    c,
-                    C == 3,
-                    (rays, ys, met || outside),
-                    words,
-                    fl,
-                    dn_max,
-                    (noise, index, step),
-                ),
                 Some(c) => self.closed_run::<LANES, C>(
                     c,
-                    C == 3,
                     (rays, ys, met || outside),
                     words,
                     fl,
@@ -3358,8 +3364,8 @@ impl Mix32 {
     /// pixel's sum is the plane's ambient and directional terms and, for
     /// each point light on the side it faces, `kd I h (|w| / |q|)³`: `w`
     /// (S24) as [`Ray::plane_t`] takes it, `q` exact in S42 U, then S22 U,
-    /// `1/|q|` from [`rsqrt_norm`]. `C` channels are summed, and packed in
-    /// RGB565 if `rgb`, else one. `met`: whether any ray may have been hit
+    /// `1/|q|` from [`rsqrt_norm`]. The [`chans`] channels are summed, and
+    /// packed in RGB565 if three, else one. `met`: whether any ray may have been hit
     /// or lies outside the field (else every `t` is [`NO_HIT`]: a pass ran
     /// on none, [`Mix32::passes`]). Out of line: its own registers.
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
@@ -3368,7 +3374,6 @@ impl Mix32 {
     fn closed_run<const LANES: bool, const C: usize>(
         &self,
         c: &Closed,
-        rgb: bool,
         (rays, ys, met): (&mut [Ray], [i32; 2], bool),
         words: &mut [u16],
         fl: &mut [u8],
@@ -3386,6 +3391,7 @@ impl Mix32 {
             return closed_lanes(c, l, (bg, max), rays, words, fl);
         }
         let n = c.n;
+        let nch = self.nch();
         let mut left = 0;
         // With n_x = 0 a ray and its mirror share w, q_y and q_z, and the
         // two products of q_x (`closed_term`, [`KEEP_Q2`]): the chunk's
@@ -3394,7 +3400,7 @@ impl Mix32 {
         // (`step` is 1 for an unmirrored chunk, −1 for a mirrored one.)
         let store = keep && step == 1;
         // A compile-time constant but in a `compact` build (one copy).
-        let rgb = if cfg!(feature = "compact") { rgb } else { C == 3 };
+        let rgb = chans::<C>(nch) == 3;
         // A chunk whose rays all see the plane, in a frame with one point
         // light on the plane's side: its even rays'
         // terms (with `Quads`, those of every fourth and of the last even
@@ -3437,7 +3443,7 @@ impl Mix32 {
                     };
                     let w = closed_w(n, r);
                     let mut sum = c.flat;
-                    closed_term::<C>(c, l, r, w, (keep, store), &mut sum);
+                    closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum);
                     if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
                         e.iter_mut().zip(sum).for_each(|(e, s)| *e = s);
                     }
@@ -3464,7 +3470,7 @@ impl Mix32 {
                         if let (Some(m), Some(r), Some(word)) =
                             (even.get_mut(q >> 1), rays.get(q), words.get_mut(q))
                         {
-                            let sum = mean_into::<C>(&a, &b, m);
+                            let sum = mean_into::<C>(nch, &a, &b, m);
                             let k = index.wrapping_add((q as u32).wrapping_mul(step));
                             *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                         }
@@ -3479,7 +3485,7 @@ impl Mix32 {
                         rays.get(q),
                         words.get_mut(q),
                     ) {
-                        let sum = mean_into::<C>(a, b, m);
+                        let sum = mean_into::<C>(nch, a, b, m);
                         let k = index.wrapping_add((q as u32).wrapping_mul(step));
                         *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     }
@@ -3492,7 +3498,7 @@ impl Mix32 {
                         rays.get(q),
                         words.get_mut(q),
                     ) {
-                        let sum = mean_into::<C>(a, b, m);
+                        let sum = mean_into::<C>(nch, a, b, m);
                         let k = index.wrapping_add((q as u32).wrapping_mul(step));
                         *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
                     }
@@ -3507,7 +3513,7 @@ impl Mix32 {
                         words.get_mut(q),
                     ) {
                         let mut sum = [0u64; 3];
-                        each::<C>(|ch| {
+                        each::<C>(nch, |ch| {
                             if let (Some(s), Some(a), Some(b)) = (sum.get_mut(ch), a.get(ch), b.get(ch)) {
                                 *s = mean(*a, *b);
                             }
@@ -3544,10 +3550,10 @@ impl Mix32 {
                 let mut sum = c.flat;
                 // One light (the common case) without the loop's overhead.
                 match c.lights.as_slice() {
-                    [l] => closed_term::<C>(c, l, r, w, (keep, store), &mut sum),
+                    [l] => closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum),
                     ls => ls
                         .iter()
-                        .for_each(|l| closed_term::<C>(c, l, r, w, (false, false), &mut sum)),
+                        .for_each(|l| closed_term::<C>(nch, c, l, r, w, (false, false), &mut sum)),
                 }
                 sum
             } else {
@@ -3570,9 +3576,9 @@ impl Mix32 {
         (noise, k): (Option<&crate::noise::Stage<Q>>, u32),
     ) -> u16 {
         if rgb {
-            Self::dn_word::<3>(sum, self.c4::<true>(r), dn_max, (noise, k))
+            Self::dn_word::<3>(3, sum, self.c4::<true>(r), dn_max, (noise, k))
         } else {
-            Self::dn_word::<1>(sum, self.c4::<true>(r), dn_max, (noise, k))
+            Self::dn_word::<1>(1, sum, self.c4::<true>(r), dn_max, (noise, k))
         }
     }
 
@@ -3593,7 +3599,7 @@ impl Mix32 {
         }
         *flag = 0;
         let (sum, c4) = self.radiance::<L, C, PERSP, true>(r, k, None);
-        Self::dn_word::<C>(sum, c4, dn_max, (noise, index))
+        Self::dn_word::<C>(self.nch(), sum, c4, dn_max, (noise, index))
     }
 
     /// A pixel's [`word`] from its sum before vignetting (S15 DN) and
@@ -3601,14 +3607,27 @@ impl Mix32 {
     /// Channels past `C` are not packed: the compiler drops them.
     #[inline(always)]
     fn dn_word<const C: usize>(
+        n: usize,
         sum: [u64; 3],
         c4: u32,
         dn_max: [u64; 3],
         (noise, index): (Option<&crate::noise::Stage<Q>>, u32),
     ) -> u16 {
         match noise {
-            Some(z) => noisy::<C>(z, sum, c4, index, dn_max),
-            None => word::<C>(zip3(sum, dn_max, |s, max| vignette_dn(s, c4, max as u32))),
+            Some(z) => noisy::<C>(n, z, sum, c4, index, dn_max),
+            // (A `compact` build's loop for three channels serves one-channel
+            // frames too: their channel alone. The others leave the
+            // compiler to drop what `word` does not pack.)
+            None if cfg!(feature = "compact") => {
+                let mut dn = [0u32; 3];
+                each::<C>(n, |c| {
+                    if let (Some(d), Some(&s), Some(&max)) = (dn.get_mut(c), sum.get(c), dn_max.get(c)) {
+                        *d = vignette_dn(s, c4, max as u32);
+                    }
+                });
+                word::<C>(n, dn)
+            }
+            None => word::<C>(n, zip3(sum, dn_max, |s, max| vignette_dn(s, c4, max as u32))),
         }
     }
 
@@ -3627,6 +3646,24 @@ impl Mix32 {
             None => self.bg,
         };
         (sum, c4)
+    }
+
+    /// The channels a loop for `C` computes for this frame ([`chans`]).
+    #[inline(always)]
+    fn chans<const C: usize>(&self) -> usize {
+        chans::<C>(self.nch())
+    }
+
+    /// The frame's channels where a loop takes them at run time (a
+    /// `compact` build's: [`chans`]); elsewhere 0, which no loop reads (its
+    /// `C` says): no code.
+    #[inline(always)]
+    fn nch(&self) -> usize {
+        if cfg!(feature = "compact") {
+            self.format.channels()
+        } else {
+            0
+        }
     }
 
     /// A shaded ray's `cos⁴α` (S31): if `KEPT` (always in the one-sample
@@ -3663,6 +3700,7 @@ impl Mix32 {
         let Some(ap) = self.aperture else {
             return;
         };
+        let nch = self.nch();
         let w = self.width as usize;
         let b = self.format.bytes_per_pixel();
         let (Some(pixels), Some(flags)) = (pixels.get_mut(..w * b), flags.get_mut(..w)) else {
@@ -3707,7 +3745,7 @@ impl Mix32 {
                     continue;
                 };
                 *r = Ray::new::<true>(x, y, 0).with_c4(KEEP_C4_SAMPLED && self.vignetting);
-                let through = if UNIFORM && self.uniform_on {
+                let through = if self.uniform_on {
                     self.uniform(&ap, r)
                 } else {
                     Through::Traced
@@ -3726,7 +3764,7 @@ impl Mix32 {
                 };
                 if let Some(one) = one {
                     // (The format's channels: the others stay 0.)
-                    each::<C>(|i| {
+                    each::<C>(nch, |i| {
                         if let (Some(s), Some(v)) = (s.get_mut(i), one.get(i)) {
                             *s = v << tz;
                         }
@@ -3825,12 +3863,12 @@ impl Mix32 {
                 } else {
                     *flag = 0;
                     let mut sum = [0; 3];
-                    each::<C>(|i| {
+                    each::<C>(nch, |i| {
                         if let (Some(m), Some(v)) = (sum.get_mut(i), s.get(i)) {
                             *m = v >> tz;
                         }
                     });
-                    Self::dn_word::<C>(sum, self.c4::<KEEP_C4_SAMPLED>(c), dn_max, (noise, index))
+                    Self::dn_word::<C>(nch, sum, self.c4::<KEEP_C4_SAMPLED>(c), dn_max, (noise, index))
                 };
                 index = index.wrapping_add(1);
             }
@@ -3853,7 +3891,7 @@ impl Mix32 {
             Some(h) => self.shade_flat::<L, C, true>(r, &h, k),
             None => self.bg,
         };
-        for (s, l) in sum.iter_mut().zip(l).take(C) {
+        for (s, l) in sum.iter_mut().zip(l).take(self.chans::<C>()) {
             *s += l;
         }
     }
@@ -3946,10 +3984,10 @@ impl Mix32 {
     /// The pixels of the frame whose aperture rays [`Mix32::line_d`]
     /// traces (the others' are one sum: [`Mix32::uniform`]), of those in
     /// the field; `None` without defocus. (Every one where the rule is
-    /// off: a `compact` build, [`Mix32::trace_every_aperture_ray`].)
+    /// off: [`Mix32::trace_every_aperture_ray`].)
     pub fn aperture_traced(&self, height: u16) -> Option<(u32, u32)> {
         let ap = self.aperture.as_ref()?;
-        let on = UNIFORM && self.uniform_on;
+        let on = self.uniform_on;
         let (mut traced, mut field) = (0, 0);
         for j in 0..height {
             let (yd, mut acc) = (self.yd(j), self.x0);
@@ -4028,6 +4066,7 @@ impl Mix32 {
             return;
         };
         let n = self.samples;
+        let nch = self.nch();
         let log_n = crate::sampling::log2(n);
         let yc = self.y0 - self.dy * j as i128;
         let yd_of = |y: i128| -> (i32, i64) {
@@ -4148,7 +4187,8 @@ impl Mix32 {
                     if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
                         // In the field: its corners are.
                         let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, &mut k, Some(*c));
-                        *out = Self::dn_word::<C>(sum, c4, dn_max, (noise, index.wrapping_add(q as u32)));
+                        *out =
+                            Self::dn_word::<C>(nch, sum, c4, dn_max, (noise, index.wrapping_add(q as u32)));
                         *flag = 0;
                         grid &= !(1 << q);
                     }
@@ -4165,7 +4205,9 @@ impl Mix32 {
                 let (dn, f) = match value {
                     Some(v) => {
                         let mut dn = [0u32; 3];
-                        for (c, ((d, v), max)) in dn.iter_mut().zip(v).zip(dn_max).take(C).enumerate() {
+                        for (c, ((d, v), max)) in
+                            dn.iter_mut().zip(v).zip(dn_max).take(chans::<C>(nch)).enumerate()
+                        {
                             *d = match noise {
                                 Some(z) => noisy_dn(z.draw(index.wrapping_add(q as u32), c), v, max as u16),
                                 None => crate::vignetting::round_dn(v, max as u32),
@@ -4175,7 +4217,7 @@ impl Mix32 {
                     }
                     None => ([0; 3], FLAG_OUTSIDE_FIELD),
                 };
-                *out = word::<C>(dn);
+                *out = word::<C>(nch, dn);
                 *flag = f;
             }
             put(&words, false, b, pixels);
@@ -4222,7 +4264,7 @@ impl Mix32 {
                     return None;
                 }
                 let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, k, None);
-                for (a, s) in acc.iter_mut().zip(sum).take(C) {
+                for (a, s) in acc.iter_mut().zip(sum).take(self.chans::<C>()) {
                     *a = a.saturating_add(vignette_q(s, c4).to_bits());
                 }
             }
@@ -4375,7 +4417,8 @@ impl Mix32 {
             nl: nls,
             ..
         } = *h;
-        let channels = C;
+        let nch = self.nch();
+        let channels = chans::<C>(nch);
         if k.material != m {
             let (Some(kd), Some(&ka), Some(ks), Some(&lobe)) =
                 (self.kd.get(m), self.ka.get(m), self.ks.get(m), self.lobe.get(m))
@@ -4443,7 +4486,7 @@ impl Mix32 {
                     (w, Some(*l))
                 }
             };
-            each::<C>(|c| {
+            each::<C>(nch, |c| {
                 if let (Some(s), Some(k)) = (sum.get_mut(c), kl.get(c)) {
                     *s = (*s + k.mul_to_sum(w, 15)).min(SUM_CAP);
                 }
@@ -4463,7 +4506,7 @@ impl Mix32 {
                     continue;
                 }
                 let f = lobe_pf(rv, s);
-                each::<C>(|c| {
+                each::<C>(nch, |c| {
                     if let (Some(s), Some(k)) = (sum.get_mut(c), ksl.get(c)) {
                         *s = (*s + (*k * f).mul_to_sum(w, 15)).min(SUM_CAP);
                     }
@@ -4555,6 +4598,7 @@ fn closed_w(n: [i32; 3], r: &Ray) -> i32 {
 /// where each product is four 16-bit ones, the mirror makes none.
 #[inline(always)]
 fn closed_term<const C: usize>(
+    n: usize,
     c: &Closed,
     l: &ClosedLight,
     r: &mut Ray,
@@ -4586,7 +4630,7 @@ fn closed_term<const C: usize>(
         return;
     }
     let s3 = cube_over(w.unsigned_abs(), q2);
-    each::<C>(|ch| {
+    each::<C>(n, |ch| {
         if let (Some(x), Some(k)) = (sum.get_mut(ch), l.k.get(ch)) {
             *x = (*x + s3.times(*k)).min(SUM_CAP);
         }
@@ -4744,9 +4788,9 @@ fn mean(a: u64, b: u64) -> u64 {
 /// between's slot), for the word (channels past `C` 0). Written out per
 /// channel: a loop over them zeroed the sum through a library call.
 #[inline(always)]
-fn mean_into<const C: usize>(a: &[u64; C], b: &[u64; C], m: &mut [u64; C]) -> [u64; 3] {
+fn mean_into<const C: usize>(n: usize, a: &[u64; C], b: &[u64; C], m: &mut [u64; C]) -> [u64; 3] {
     let mut sum = [0u64; 3];
-    each::<C>(|ch| {
+    each::<C>(n, |ch| {
         if let (Some(s), Some(a), Some(m), Some(b)) = (sum.get_mut(ch), a.get(ch), m.get_mut(ch), b.get(ch)) {
             *s = mean(*a, *b);
             *m = *s;
@@ -5416,7 +5460,6 @@ mod tests {
             let (mut run_words, mut run_fl) = ([7u16; CHUNK], [9u8; CHUNK]);
             let run_left = m.closed_run::<false, 1>(
                 &c,
-                false,
                 (&mut *run, ys, met),
                 &mut run_words[..count],
                 &mut run_fl[..count],
@@ -5441,7 +5484,7 @@ mod tests {
                 let w = closed_w(n, &scalar);
                 if c.ahead(w) {
                     let mut sum = c.flat;
-                    closed_term::<1>(&c, &l, &mut scalar, w, (false, false), &mut sum);
+                    closed_term::<1>(1, &c, &l, &mut scalar, w, (false, false), &mut sum);
                     sum
                 } else {
                     [bg; 3]
@@ -5495,7 +5538,7 @@ mod tests {
                     assert_eq!(left & (1 << q), 0);
                     let sum = expected[q];
                     lit += usize::from(sum != c.flat && sum != [bg; 3]);
-                    let word = Mix32::dn_word::<1>(sum, b.c4, [dn_max; 3], (None, 0));
+                    let word = Mix32::dn_word::<1>(1, sum, b.c4, [dn_max; 3], (None, 0));
                     assert_eq!((words[q], fl[q]), (word, 0), "case {case} ray {q}: {b:?}, {c:?}");
                 }
             }
