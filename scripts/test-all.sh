@@ -43,6 +43,8 @@ nice -n 19 cargo build -q --release -p host-sim > target/host-sim-release.log 2>
 release_build=$!
 ensure_qemu > target/qemu-install.log 2>&1 &
 qemu_install=$!
+# Stopped if a check below fails first (after a success both have ended).
+trap 'kill "$release_build" "$qemu_install" 2>/dev/null || true' EXIT
 
 echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit)"
 build_firmware
