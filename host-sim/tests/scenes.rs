@@ -113,3 +113,75 @@ fn render_writes_nothing_on_bad_input_and_four_files_on_good() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The benchmark scenes in `docs/bench/` are the standard scene with
+/// primitives left out or added, and nothing else changed: the figures
+/// `docs/bench/README.md` quotes compare them with it. Fails if the
+/// standard scene's camera, lens, lights, materials or exposure change
+/// without them (or they without it), and if the content behind the view
+/// changes the frame (the README: "the same bytes").
+#[test]
+fn bench_scenes_are_the_standard_scene_but_for_primitives() {
+    let table = |text: &str| -> toml::Table { toml::from_str(text).expect("a scene file parses as TOML") };
+    let standard = table(STANDARD);
+    let prims = |t: &toml::Table| {
+        t.get("primitives")
+            .and_then(|p| p.as_array())
+            .cloned()
+            .unwrap_or_default()
+    };
+    let rest = |t: &toml::Table| {
+        let mut t = t.clone();
+        t.remove("name");
+        t.remove("primitives");
+        t
+    };
+    let all = prims(&standard);
+    // (file, how many of the standard scene's primitives it keeps first, how many it adds)
+    let bench: [(&str, &str, usize, usize); 3] = [
+        (
+            "standard-plane",
+            include_str!("../../docs/bench/standard-plane.toml"),
+            1,
+            0,
+        ),
+        (
+            "standard-one-sphere",
+            include_str!("../../docs/bench/standard-one-sphere.toml"),
+            2,
+            0,
+        ),
+        (
+            "standard-behind",
+            include_str!("../../docs/bench/standard-behind.toml"),
+            all.len(),
+            2,
+        ),
+    ];
+    for (name, text, kept, added) in bench {
+        let t = table(text);
+        assert_eq!(
+            rest(&t),
+            rest(&standard),
+            "{name}: differs from scenes/standard.toml beyond its primitives"
+        );
+        let p = prims(&t);
+        assert_eq!(p.len(), kept + added, "{name}: primitives");
+        assert_eq!(
+            p[..kept],
+            all[..kept],
+            "{name}: the standard scene's first {kept} primitives"
+        );
+    }
+    let frame = |text: &str| {
+        let r = parse(text).expect("the scene loads");
+        host_sim::harness::render(&r, &hilcam::planner::Budget::default())
+            .expect("the scene renders")
+            .core
+    };
+    let (a, b) = (frame(STANDARD), frame(bench[2].1));
+    assert!(
+        a.pixels == b.pixels && a.flags == b.flags,
+        "standard-behind's frame is not the standard scene's"
+    );
+}
