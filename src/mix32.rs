@@ -3365,9 +3365,10 @@ impl Mix32 {
     /// each point light on the side it faces, `kd I h (|w| / |q|)³`: `w`
     /// (S24) as [`Ray::plane_t`] takes it, `q` exact in S42 U, then S22 U,
     /// `1/|q|` from [`rsqrt_norm`]. The [`chans`] channels are summed, and
-    /// packed in RGB565 if three, else one. `met`: whether any ray may have been hit
-    /// or lies outside the field (else every `t` is [`NO_HIT`]: a pass ran
-    /// on none, [`Mix32::passes`]). Out of line: its own registers.
+    /// packed in RGB565 if three, else one. `met`: whether any ray may have
+    /// been hit or lies outside the field (else every `t` is [`NO_HIT`]: a
+    /// pass ran on none, [`Mix32::passes`]). Out of line: its own
+    /// registers.
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     #[cfg_attr(target_arch = "x86_64", inline(always))]
     #[allow(clippy::too_many_arguments)]
