@@ -20,6 +20,9 @@ for features in "" mix32 sensor; do
   cargo clippy --lib --no-default-features --features "$features" -q -- -D warnings
 done
 
+echo "== the core's API docs: no warning (a broken link, or a public doc linking a private item)"
+RUSTDOCFLAGS="-D warnings" cargo doc -q --no-deps -p hilcam
+
 echo "== clippy: core on thumbv7m with the panic-free lints"
 cargo clippy --lib --target thumbv7m-none-eabi -q -- -D warnings \
   -D clippy::unwrap_used -D clippy::expect_used -D clippy::panic -D clippy::indexing_slicing

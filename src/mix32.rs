@@ -42,7 +42,7 @@
 //! | unit vectors (normals, light directions, checker axes) | i32 S30 | ±2 |
 //! | prepared lengths (centres, plane distances) | i32 S24 (U) | ±128 U; content ≤ 8 U |
 //! | `t`, hit points, vectors to lights | i32 S18 (U) | ±8 192 U, saturating |
-//! | a hit's coordinate along a rectangle's or checker's axis, `t (d·a)` ([`Ray::along`]) | i64 S42 (U; S48 for parallel rays) | exact product of `t` and `d·a` (S24) |
+//! | a hit's coordinate along a rectangle's or checker's axis, `t (d·a)` (`Ray::along`) | i64 S42 (U; S48 for parallel rays) | exact product of `t` and `d·a` (S24) |
 //! | sphere `b = d·c`, `d × c` / discriminant `a r² − |d × c|²` | i32 S22 / i64 S44 | ≤ 189 U / 3.6·10⁴ U² |
 //! | `r²` to a point light | u64 S36 (U²) | exact |
 //! | closed form: `w = n·d`; `q = w P_L − dist d`, then `|q|²` | i32 S24; i64 S50 (exact), i32 S22 U; u64 S44 U² | `|w| < 23`; `|q| ≤ 363 U` |
@@ -1833,7 +1833,7 @@ impl Ray {
 struct Rays([Ray; CHUNK]);
 
 /// A chunk's rays and pixel words (and flags), kept from line to line
-/// ([`Carry`]) by the one-sample loops ([`Mix32::line_f`]; the aperture
+/// ([`Carry`]) by the one-sample loops (`Mix32::line_f`; the aperture
 /// loop's chief rays): zeroed once a frame, not once a line — 1.4 KB a
 /// line, 3.6 M3 instructions a pixel of the standard scene. Every entry a
 /// chunk reads it writes first.
@@ -2911,7 +2911,7 @@ impl Mix32 {
     }
 
     /// Traces every pixel's aperture rays, also those whose sums are known
-    /// to be one ([`Mix32::uniform`]): the check that the rule changes no
+    /// to be one (`Mix32::uniform`): the check that the rule changes no
     /// sum, and the cost it saves.
     pub fn trace_every_aperture_ray(&mut self) {
         self.uniform_on = false;
@@ -2973,7 +2973,7 @@ impl Mix32 {
     /// [`Mix32::line`] built for x86-64-v3 processors (AVX2, BMI1, BMI2,
     /// FMA, LZCNT, MOVBE, POPCNT): variable shifts and leading-zero counts
     /// are one instruction each there, and the closed plane's pixels are
-    /// shaded in vector lanes ([`closed_lanes`]). The same bytes.
+    /// shaded in vector lanes (`closed_lanes`). The same bytes.
     ///
     /// # Safety
     ///
@@ -2986,7 +2986,7 @@ impl Mix32 {
 
     /// [`Mix32::line`] built for x86-64-v4 processors (x86-64-v3's features
     /// and AVX-512 F, CD, VL, BW, DQ): the compiler vectorizes more of the
-    /// lanes ([`closed_lanes`]: the count of leading zeros and the seed
+    /// lanes (`closed_lanes`: the count of leading zeros and the seed
     /// table's gather). The same bytes.
     ///
     /// # Safety
@@ -3982,8 +3982,8 @@ impl Mix32 {
         }
     }
 
-    /// The pixels of the frame whose aperture rays [`Mix32::line_d`]
-    /// traces (the others' are one sum: [`Mix32::uniform`]), of those in
+    /// The pixels of the frame whose aperture rays `Mix32::line_d`
+    /// traces (the others' are one sum: `Mix32::uniform`), of those in
     /// the field; `None` without defocus. (Every one where the rule is
     /// off: [`Mix32::trace_every_aperture_ray`].)
     pub fn aperture_traced(&self, height: u16) -> Option<(u32, u32)> {

@@ -145,7 +145,7 @@ pub struct Candidate {
     /// sums (`Options::closed_mean`; its bound is in `lsb`).
     pub closed_mean: ClosedMean,
     /// What the mean alone moves a value by at most, LSB (0 without it):
-    /// its bound on the sum and, with noise, on `σ z` ([`noise_moved`]).
+    /// its bound on the sum and, with noise, on `σ z` (`noise_moved`).
     pub mean_lsb: f64,
     /// Predicted fraction of all pixels that are edge pixels whose value
     /// differs from the reference's: a look (sample, corner, centre)
@@ -1529,7 +1529,7 @@ fn view_light_cos_min(scene: &Scene, g: &Geometry, p: &PrimGeom, l: &Light, lp: 
     }
 }
 
-/// The bound of [`closed_mean_err`] (the pairs') times what the
+/// The bound of `closed_mean_err` (the pairs') times what the
 /// interpolation `m` multiplies it by: over `s` rays its largest
 /// curvature term is `s²/8 · max|φ''|` (`M`), 4 times the pairs' over 4
 /// rays, 16 over 8; 0 without it. The means of means below it stay
