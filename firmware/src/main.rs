@@ -341,7 +341,7 @@ fn sweep(enc: &mut Enc, flags: &mut [u8], keys: &mut [u64]) -> ! {
 #[cfg(feature = "camera")]
 mod camera {
     use super::{board, fail, ns, ticks, Enc, Run, CHUNK, MAX_WIDTH, TABLE};
-    use hilcam::control::{Control, Library, Receiver, MAX_REQUEST};
+    use hilcam::control::{Command, Control, Library, Receiver, MAX_REQUEST};
     use hilcam::scene_data::MAX_SCENE_DATA;
 
     /// Bytes read from RX between two frames at most: a flood of input
@@ -364,9 +364,10 @@ mod camera {
         let mut rx = Receiver::<MAX_REQUEST>::new();
         let mut frame_id = 0u32;
         // The plan of the scene as it stands: made again once the commands
-        // read have changed it, before the next frame begins. A trigger
-        // read after that waits for no planner (one read with the change,
-        // or right behind it, still does).
+        // read have changed it, before the next frame begins — and before
+        // a trigger read in the same batch as the change is acknowledged,
+        // so that no frame's round trip (the trigger's ack to the frame's
+        // first message) holds the planner, however the commands arrive.
         let (mut opts, mut planned) = (super::options(scene), control.revision());
         loop {
             for _ in 0..RX_BUDGET {
@@ -377,6 +378,9 @@ mod camera {
                     continue;
                 };
                 let seq = req.seq;
+                if matches!(req.command, Command::Trigger { .. }) && control.revision() != planned {
+                    (opts, planned) = (super::options(scene), control.revision());
+                }
                 let answer = control.handle(&req, scene, &mut library);
                 let sent = enc.send_answer(seq, answer, ns(ticks()), || {
                     control.describe(scene, &library, frame_id)

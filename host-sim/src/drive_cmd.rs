@@ -83,6 +83,10 @@ pub struct Driver<W: Write> {
     pub frame_timeout: Duration,
     /// Requests sent again after a silence.
     pub resent: u32,
+    /// [`drive`] sends each pose and its trigger in one write, as a system
+    /// under test that fires both at once (the camera reads them in one
+    /// batch); otherwise the trigger after the pose's answer.
+    pub batched: bool,
 }
 
 impl<W: Write> Driver<W> {
@@ -99,6 +103,7 @@ impl<W: Write> Driver<W> {
             timeout: Duration::from_secs(10),
             frame_timeout: Duration::from_secs(120),
             resent: 0,
+            batched: false,
         }
     }
 
@@ -137,26 +142,59 @@ impl<W: Write> Driver<W> {
     /// same number, after each silence of `timeout`, three times at most).
     /// Returns the answer and when the request was first sent.
     pub fn command(&mut self, command: Command) -> Result<(Reply, Instant), String> {
-        let seq = self.seq;
-        if command != Command::Describe {
-            self.seq = seq.wrapping_add(1);
+        let [answer] = self.commands([command])?;
+        Ok(answer)
+    }
+
+    /// Sends `commands` in one write, numbered in turn — as a system under
+    /// test that fires them at once, so that the camera reads them in one
+    /// batch — and waits for each answer in order (a command unanswered
+    /// after a silence of `timeout` is sent again alone, with its number,
+    /// three times at most). Returns each answer and when it was first
+    /// sent.
+    pub fn commands<const N: usize>(&mut self, commands: [Command; N]) -> Result<[(Reply, Instant); N], String> {
+        let (mut wires, mut all) = (Vec::with_capacity(N), Vec::new());
+        for command in &commands {
+            let seq = self.seq;
+            if *command != Command::Describe {
+                self.seq = seq.wrapping_add(1);
+            }
+            let req = Request {
+                version: PROTOCOL_VERSION,
+                seq,
+                command: *command,
+            };
+            let mut wire = [0u8; MAX_REQUEST];
+            let bytes = encode_message(&req, &mut wire).ok_or("request does not fit MAX_REQUEST")?;
+            all.extend_from_slice(bytes);
+            wires.push((seq, bytes.to_vec()));
         }
-        let req = Request {
-            version: PROTOCOL_VERSION,
-            seq,
-            command,
-        };
-        let mut wire = [0u8; MAX_REQUEST];
-        let bytes = encode_message(&req, &mut wire).ok_or("request does not fit MAX_REQUEST")?;
         let sent = Instant::now();
+        self.send(&all, wires.first().map_or(self.seq, |w| w.0))?;
+        let mut answers = Vec::with_capacity(N);
+        for ((seq, bytes), command) in wires.iter().zip(&commands) {
+            answers.push((self.answer(*seq, *command, bytes)?, sent));
+        }
+        answers.try_into().map_err(|_| "answers".to_string())
+    }
+
+    /// Writes a request's bytes.
+    fn send(&mut self, bytes: &[u8], seq: u32) -> Result<(), String> {
+        self.writer
+            .write_all(bytes)
+            .and_then(|_| self.writer.flush())
+            .map_err(|e| format!("sending command {seq}: {e}"))
+    }
+
+    /// Waits for the answer to request `seq` (`command`, sent as `bytes`),
+    /// sending it again after each silence of `timeout`, three times at
+    /// most.
+    fn answer(&mut self, seq: u32, command: Command, bytes: &[u8]) -> Result<Reply, String> {
         for attempt in 0..4 {
             if attempt > 0 {
                 self.resent += 1;
+                self.send(bytes, seq)?;
             }
-            self.writer
-                .write_all(bytes)
-                .and_then(|_| self.writer.flush())
-                .map_err(|e| format!("sending command {seq}: {e}"))?;
             let deadline = Instant::now() + self.timeout;
             loop {
                 while let Some(r) = self.dec.replies.pop_front() {
@@ -166,7 +204,7 @@ impl<W: Write> Driver<W> {
                         Reply::Description(_) => command == Command::Describe,
                     };
                     if ours {
-                        return Ok((r, sent));
+                        return Ok(r);
                     }
                 }
                 if !self.pump(deadline)? {
@@ -307,6 +345,8 @@ pub struct DriveReport {
     pub truth_matches: usize,
     /// Commands sent again after a silence.
     pub resent: u32,
+    /// Each pose was sent with its trigger in one write ([`Driver::batched`]).
+    pub batched: bool,
     /// Round trip in the camera's time, ns: mean and largest.
     pub round_trip_camera_ns: [f64; 2],
     /// The same in instructions, where the camera's time counts them (QEMU
@@ -466,16 +506,18 @@ pub fn drive<W: Write>(
     let (mut lost, mut out_of_order, mut late) = (0, 0, 0);
     let mut next_id = d.next_frame;
     for (k, pose) in poses.iter().enumerate() {
-        expect(
-            driver
-                .command(Command::SetPose {
-                    rotation: pose.rotation,
-                    translation: pose.translation,
-                })?
-                .0,
-            &format!("SetPose {k}"),
-        )?;
-        let (ack, sent) = driver.command(Command::Trigger { frames: 1 })?;
+        let set_pose = Command::SetPose {
+            rotation: pose.rotation,
+            translation: pose.translation,
+        };
+        let trigger = Command::Trigger { frames: 1 };
+        let (posed, (ack, sent)) = if driver.batched {
+            let [posed, triggered] = driver.commands([set_pose, trigger])?;
+            (posed.0, triggered)
+        } else {
+            (driver.command(set_pose)?.0, driver.command(trigger)?)
+        };
+        expect(posed, &format!("SetPose {k}"))?;
         let ack = expect(ack, &format!("Trigger {k}"))?;
         // This trigger's frame: the first whose last command is the
         // trigger (an older frame, already counted lost, is skipped).
@@ -553,6 +595,7 @@ pub fn drive<W: Write>(
         bit_exact: frames.iter().filter(|f| f.bit_exact).count(),
         truth_matches: frames.iter().filter(|f| f.truth_matches).count(),
         resent: driver.resent,
+        batched: driver.batched,
         round_trip_camera_ns: stat(frames.iter().map(|f| f.round_trip_camera_ns as f64).collect()),
         round_trip_instructions: instr_ns.map(|ns| {
             stat(
@@ -613,14 +656,16 @@ pub enum Target {
 }
 
 /// Drives the camera at `target` showing `scene` ([`drive`]) through the
-/// poses of `poses_file` or the scene ([`poses`]); `capture` receives the
-/// raw bytes the camera sent.
+/// poses of `poses_file` or the scene ([`poses`]), each pose with its
+/// trigger in one write if `batched` ([`Driver::batched`]); `capture`
+/// receives the raw bytes the camera sent.
 pub fn drive_target(
     target: &Target,
     scene: &Path,
     poses_file: Option<&Path>,
     frames: usize,
     capture: Option<&Path>,
+    batched: bool,
     out: &Path,
 ) -> Result<DriveReport, String> {
     let r = load(scene)?;
@@ -628,6 +673,7 @@ pub fn drive_target(
     let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns, probe: Option<&Probe>| {
         let capture = capture.map(create_capture).transpose()?;
         let mut driver = Driver::new(writer, spawn_reader(reader, capture));
+        driver.batched = batched;
         drive(&mut driver, name, &r, &poses, instr_ns, probe, out)
     };
     match target {

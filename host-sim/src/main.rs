@@ -155,6 +155,11 @@ enum Cmd {
         /// Baud rate of --device.
         #[arg(long, default_value_t = 115_200)]
         baud: u32,
+        /// Send each pose and its trigger in one write, as a system under
+        /// test that fires both at once (default: the trigger after the
+        /// pose's answer).
+        #[arg(long)]
+        batched: bool,
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
@@ -664,6 +669,7 @@ fn main() -> ExitCode {
             capture,
             device,
             baud,
+            batched,
             out,
         } => finish((|| {
             if frames == 0 {
@@ -680,6 +686,7 @@ fn main() -> ExitCode {
                 poses.as_deref(),
                 frames,
                 capture.as_deref(),
+                batched,
                 &out,
             )?;
             let s = format!(

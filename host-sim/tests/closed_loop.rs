@@ -23,9 +23,15 @@ fn standard() -> host_sim::scene_file::Resolved {
 }
 
 /// Drives the host camera through `n` poses of the standard scene's
-/// wobble, with `to_camera` and `to_host` faults; returns the drive's
-/// report and the camera's counts.
-fn run(n: usize, to_camera: Faults, to_host: Faults) -> (DriveReport, host_sim::camera_cmd::CameraStats) {
+/// wobble, with `to_camera` and `to_host` faults, each pose with its
+/// trigger in one write if `batched`; returns the drive's report and the
+/// camera's counts.
+fn run(
+    n: usize,
+    to_camera: Faults,
+    to_host: Faults,
+    batched: bool,
+) -> (DriveReport, host_sim::camera_cmd::CameraStats) {
     let r = standard();
     let (host, cam) = UnixStream::pair().expect("socket pair");
     let cam_reader = cam.try_clone().expect("clone");
@@ -42,6 +48,7 @@ fn run(n: usize, to_camera: Faults, to_host: Faults) -> (DriveReport, host_sim::
     let mut driver = Driver::new(FaultyWriter::new(host, &to_camera), spawn_reader(reader, None));
     driver.timeout = Duration::from_millis(300);
     driver.frame_timeout = Duration::from_secs(1);
+    driver.batched = batched;
     let out = std::env::temp_dir().join(format!("hilcam-loop-{}-{}", std::process::id(), to_host.seed));
     let poses = poses(&r, None, n).expect("poses");
     let report = drive(&mut driver, "host", &r, &poses, None, None, &out).expect("drive");
@@ -59,7 +66,7 @@ fn run(n: usize, to_camera: Faults, to_host: Faults) -> (DriveReport, host_sim::
 /// applied once.
 #[test]
 fn the_host_camera_follows_the_trajectory() {
-    let (r, cam) = run(30, Faults::default(), Faults::default());
+    let (r, cam) = run(30, Faults::default(), Faults::default(), false);
     assert!(r.passed(), "{r:#?}");
     assert_eq!(
         (r.frames_received, r.lost, r.out_of_order, r.resent),
@@ -77,6 +84,22 @@ fn the_host_camera_follows_the_trajectory() {
     // The poses differ from frame to frame (the loop moves the camera).
     let t0 = r.frames[0].truth.translation;
     assert!(r.frames.iter().any(|f| f.truth.translation != t0));
+}
+
+/// Each pose sent with its trigger in one write (`host-sim drive
+/// --batched`): the camera reads both in one batch and answers each; every
+/// frame is still the render of its pose, with its truth.
+#[test]
+fn a_pose_and_its_trigger_sent_at_once() {
+    let (r, cam) = run(10, Faults::default(), Faults::default(), true);
+    assert!(r.passed() && r.batched, "{r:#?}");
+    assert_eq!(
+        (r.frames_received, r.bit_exact, r.truth_matches, r.resent),
+        (10, 10, 10, 0)
+    );
+    assert_eq!((cam.rejects, cam.frames), (0, 10));
+    // Each frame's truth names its trigger, the command after its pose.
+    assert!(r.frames.windows(2).all(|w| w[1].command == w[0].command + 2));
 }
 
 /// Faults in both directions (bit errors, drops, duplicates, inserted
@@ -106,7 +129,7 @@ fn faults_lose_frames_but_never_corrupt_them() {
             .map(|seed| {
                 (
                     seed,
-                    s.spawn(move || run(40, faults(seed, 100.0), faults(seed + 100, 1.0))),
+                    s.spawn(move || run(40, faults(seed, 100.0), faults(seed + 100, 1.0), false)),
                 )
             })
             .collect();
