@@ -1879,14 +1879,14 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// One sample at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw): `K E`
     /// per channel in DN before rounding, and what the ray sees; `None`
     /// beyond the fold. Out of line, for the grid and the adaptive rule (one
-    /// copy in flash); the one-sample loop inlines [`Frame::sample_inline`].
+    /// copy in flash); the one-sample loop inlines [`WideFrame::sample_inline`].
     #[cfg(feature = "sensor")]
     #[inline(never)]
     fn sample<L: Lines, const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
         self.sample_inline::<L, R>(xacc, yacc)
     }
 
-    /// [`Frame::sample`], inlined.
+    /// [`WideFrame::sample`], inlined.
     #[inline(always)]
     fn sample_inline<L: Lines, const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
         let PixelRay { o, d, a, xy: (x, y) } = self.ray::<R>(xacc, yacc)?;

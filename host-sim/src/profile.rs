@@ -134,7 +134,7 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("mix32::directional_w", Stage::Shading),
     ("mix32::Mix32::view", Stage::Shading),
     ("mix32::lobe_pf", Stage::Shading),
-    ("mix32::cos_over_r", Stage::Shading),
+    ("mix32::arith::cos_over_r", Stage::Shading),
     ("mix32::KCache", Stage::Shading),
     ("mix32::Mix32::c4", Stage::Vignetting),
     ("mix32::vignette_", Stage::Vignetting),

@@ -1,0 +1,986 @@
+use super::*;
+
+/// `1/√(x · 2^e)` for `x > 0`, `e` even.
+fn rsqrt(x: u64, e: i32) -> Pf {
+    if x == 0 {
+        return Pf::default();
+    }
+    let (_, y, z) = rsqrt_norm(x);
+    // x 2^e = (m/2^64) 2^(64 − z + e); y ≈ (m/2^64)^(−½) · 2^30.
+    Pf::new32(y, -30 - (64 - z as i32 + e) / 2)
+}
+
+/// A small deterministic generator (xorshift).
+fn rng(seed: &mut u64) -> u64 {
+    *seed ^= *seed << 13;
+    *seed ^= *seed >> 7;
+    *seed ^= *seed << 17;
+    *seed
+}
+
+/// Every ray of a slope box that [`Inner::covers`] passes the
+/// rectangle's own test (its pass keeps the plane's `t`), on random
+/// rectangles — tilted up to grazing, near and far, small and large —
+/// and boxes from a fraction of a pixel to many pixels wide; and the
+/// region is not empty where the rectangle is seen well.
+#[test]
+fn inner_boxes_pass_the_rectangles_test() {
+    let mut s = 0x1a2e_5eed_0bad_cafe;
+    let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
+    let (mut covered, mut rays_checked, mut frames) = (0, 0, 0);
+    for _ in 0..4000 {
+        // An orthonormal frame (n, u, v) from random angles; the
+        // centre 0.1 to 7 U ahead, half sizes 2^-6 to 4 U.
+        let [n, u, v] = random_frame(&mut f);
+        let c = [f(-3.0, 3.0), f(-3.0, 3.0), f(0.1, 7.0)];
+        let (hu, hv) = (f(-6.0, 2.0).exp2(), f(-6.0, 2.0).exp2());
+        let (shape, n30, dist) = rect_shape([n, u, v], c, [hu, hv]);
+        let prim = MixPrim {
+            shape,
+            material: 0,
+            checker: None,
+            bounds: None,
+            nl: [0; crate::scene::MAX_LIGHTS],
+            flat: false,
+            spread: 0,
+            depth: [i32::MIN, i32::MAX],
+        };
+        let Some(q) = Inner::of(&[prim]) else { continue };
+        frames += 1;
+        for _ in 0..40 {
+            // A point of the rectangle, its slopes (within ±16), and a
+            // box around them.
+            let (a, b) = (f(-1.0, 1.0) * hu, f(-1.0, 1.0) * hv);
+            let p = [0, 1, 2].map(|i| c[i] + a * u[i] + b * v[i]);
+            if p[2] <= 0.0 || (p[0] / p[2]).abs() > 15.0 || (p[1] / p[2]).abs() > 15.0 {
+                continue;
+            }
+            let half = f(-16.0, -4.0).exp2();
+            let s26 = |x: f64| (x * (1u64 << 26) as f64) as i32;
+            let slopes = [
+                s26(p[0] / p[2] - half),
+                s26(p[0] / p[2] + half),
+                s26(p[1] / p[2] - half),
+                s26(p[1] / p[2] + half),
+            ];
+            if !q.covers(slopes) {
+                continue;
+            }
+            covered += 1;
+            let [x0, x1, y0, y1] = slopes;
+            for k in 0..16 {
+                let (x, y) = match k {
+                    0 => (x0, y0),
+                    1 => (x0, y1),
+                    2 => (x1, y0),
+                    3 => (x1, y1),
+                    _ => (
+                        s26(f(x0 as f64, x1 as f64) / (1u64 << 26) as f64),
+                        s26(f(y0 as f64, y1 as f64) / (1u64 << 26) as f64),
+                    ),
+                };
+                let (x, y) = (x.clamp(x0, x1), y.clamp(y0, y1));
+                let mut ray = [Ray::new::<true>(x, y, 0)];
+                let expect = ray[0].plane_t::<true>(n30, dist, recip_z(n30)).map(|(t, _)| t);
+                prim.shape.nearest::<true, false>(3, &mut ray, (None, [0; 4]));
+                rays_checked += 1;
+                assert!(
+                    expect.is_some() && ray[0].t == expect.unwrap_or(0) && ray[0].hit & !AWAY == 3,
+                    "a ray of a covered box fails the test: slopes {x} {y}, box {slopes:?}, c {c:?} n {n:?}"
+                );
+            }
+        }
+    }
+    assert!(
+        frames > 2000 && covered > 20_000,
+        "{frames} rectangles, {covered} boxes covered"
+    );
+    std::println!("{frames} rectangles with a region, {covered} boxes covered, {rays_checked} rays");
+}
+
+/// [`Mix32::hit_from`]'s sphere normal without saturation: at every hit
+/// of random spheres (radius 2⁻¹⁰ to 4 U, within the content's 8 U),
+/// by rays at random points of their surface and grazing their
+/// silhouettes, `(p − c)/r` in S30 fits i32 — [`sar64_low`] gives the
+/// saturated value — and lies below 1.5 in magnitude; and
+/// [`fine_normal`]'s (taken through `sar64_low` too) is a unit vector
+/// within 10 %.
+#[test]
+fn a_sphere_hits_normal_fits_without_saturation() {
+    let mut s = 0x5fe3_e0a1_d00d_0001;
+    let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
+    let (mut hits, mut widest) = (0u32, 0f64);
+    let unit = unit3;
+    for case in 0..3000 {
+        let r = f(-10.0, 2.0).exp2();
+        let c = [f(-4.0, 4.0), f(-4.0, 4.0), f(0.0, 6.0)];
+        let lc = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        if lc + r > 8.0 || c[2] - r <= 0.01 {
+            continue;
+        }
+        let q = |x: f64| Q::from_num(x);
+        let c24 = c.map(|x| len_s(q(x), 0, 24));
+        let r24 = len_s(q(r), 0, 24);
+        let r18 = len_s(q(r), 0, 18) as u64;
+        let Some(inv_r) = recip_len(q(r), 0) else {
+            continue;
+        };
+        let c18 = c.map(|x| len_s(q(x), 0, 18));
+        let shape = MixShape::Sphere {
+            cz50: (c24[2] as i64) << 26,
+            c: c24,
+            c18,
+            r2_24: sat32((r24 as i64 * r24 as i64) >> 24),
+            r2: r18 * r18,
+            r24,
+            fine: false,
+            inv_r,
+        };
+        for k in 0..40 {
+            // A random point of the surface, or one on the silhouette
+            // (perpendicular to the centre's direction) moved out or
+            // in by up to 10⁻⁶ r.
+            let dir = unit([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]);
+            let u = if k % 2 == 0 {
+                dir
+            } else {
+                let d = dir[0] * c[0] / lc + dir[1] * c[1] / lc + dir[2] * c[2] / lc;
+                unit([0, 1, 2].map(|i| dir[i] - d * c[i] / lc)).map(|x| x * (1.0 + f(-1e-6, 1e-6)))
+            };
+            let p = [0, 1, 2].map(|i| c[i] + r * u[i]);
+            if p[2] <= 0.0 || (p[0] / p[2]).abs() > 15.0 || (p[1] / p[2]).abs() > 15.0 {
+                continue;
+            }
+            let s26 = |x: f64| (x * (1u64 << 26) as f64) as i32;
+            let mut ray = [Ray::new::<true>(s26(p[0] / p[2]), s26(p[1] / p[2]), 0)];
+            for exact in [false, true] {
+                ray[0].t = NO_HIT;
+                if exact {
+                    shape.sphere_pass::<true, true>(3, &mut ray);
+                } else {
+                    shape.sphere_pass::<true, false>(3, &mut ray);
+                }
+                if ray[0].t == NO_HIT {
+                    continue;
+                }
+                hits += 1;
+                // The lobe's normal from the ray and the sphere: unit
+                // within its errors (a wrapped component would not be).
+                let n = fine_normal::<true>(&ray[0], c24, r24, inv_r, ray[0].hit & AWAY != 0);
+                let n2: f64 = n.iter().map(|&x| (x as f64 / (1u64 << 30) as f64).powi(2)).sum();
+                assert!(
+                    (0.9..1.1).contains(&n2),
+                    "case {case}: fine normal {n:?}, r {r} c {c:?}"
+                );
+                let pt = ray[0].hit_point::<true, false>([0, 0]);
+                for (p, c) in pt.into_iter().zip(c18) {
+                    let v = smul_u(p.saturating_sub(c), inv_r.0);
+                    let want = sat32(sar64(v, inv_r.1));
+                    assert_eq!(want, sar64_low(v, inv_r.1), "case {case}: r {r} c {c:?} p {p}");
+                    widest = widest.max((want as f64 / (1u64 << 30) as f64).abs());
+                }
+            }
+        }
+    }
+    assert!(hits > 20_000 && widest < 1.5, "{hits} hits, widest {widest}");
+    std::println!("{hits} hits, widest normal component {widest:.6}");
+}
+
+/// `a` scaled to unit length.
+fn unit3(a: [f64; 3]) -> [f64; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    a.map(|x| x / l)
+}
+
+fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// An orthonormal frame `[n, u, v]` from three random angles (`n`
+/// anywhere, so tilted up to grazing).
+fn random_frame(f: &mut impl FnMut(f64, f64) -> f64) -> [[f64; 3]; 3] {
+    let (th, ph, ro) = (f(0.0, 3.1), f(-3.2, 3.2), f(-3.2, 3.2));
+    let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+    let t0 = if n[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let e1 = unit3(cross3(n, t0));
+    let e2 = cross3(n, e1);
+    let u = [0, 1, 2].map(|i| e1[i] * ro.cos() + e2[i] * ro.sin());
+    [n, u, cross3(n, u)]
+}
+
+/// The rectangle of centre `c`, axes `u`, `v` and half sizes `h` (U) as
+/// [`Mix32::fill`] stores it for perspective rays (the unit 1 U), with
+/// its normal (S30) and `dist` (S24).
+fn rect_shape([n, u, v]: [[f64; 3]; 3], c: [f64; 3], [hu, hv]: [f64; 2]) -> (MixShape, [i32; 3], i32) {
+    let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
+    let (n30, u30, v30) = (s30(n), s30(u), s30(v));
+    let c18 = c.map(|x| (x * (1u64 << 18) as f64).round() as i32);
+    let dist = ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) * (1u64 << 24) as f64).round() as i32;
+    let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
+    let shape = MixShape::Rect {
+        n: n30,
+        dist,
+        rz: recip_z(n30),
+        u: u30,
+        v: v30,
+        cu: dot48(c18, u30) >> ALONG_S42,
+        cv: dot48(c18, v30) >> ALONG_S42,
+        hu: ((hu * (1u64 << 18) as f64) as i64) << 24,
+        hv: ((hv * (1u64 << 18) as f64) as i64) << 24,
+    };
+    (shape, n30, dist)
+}
+
+/// [`MixChecker::cell`]'s `bounded`: a ray's hit on a rectangle within
+/// the content's 8 U, along any unit axis less any origin within 8 U
+/// ([`Ray::along`]), lies far inside the S18 range — the shift without
+/// saturation gives [`shr_sat`]'s value. Random rectangles, tilted to
+/// grazing, and rays at their points and just beyond their edges (the
+/// full test decides the hit).
+#[test]
+fn a_bounded_hit_along_any_axis_needs_no_saturation() {
+    let mut s = 0x0b0d_ed00_cafe_f00d;
+    let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
+    let (mut hits, mut widest) = (0u32, 0i64);
+    for _ in 0..3000 {
+        let [n, u, v] = random_frame(&mut f);
+        let c = [f(-4.0, 4.0), f(-4.0, 4.0), f(0.1, 5.0)];
+        let (hu, hv) = (f(-6.0, 1.5).exp2(), f(-6.0, 1.5).exp2());
+        // Within the content's 8 U: every corner.
+        let corner = |a: f64, b: f64| [0, 1, 2].map(|i| c[i] + a * hu * u[i] + b * hv * v[i]);
+        let len = |p: [f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        if [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+            .iter()
+            .any(|&(a, b)| len(corner(a, b)) > 8.0)
+        {
+            continue;
+        }
+        let (shape, ..) = rect_shape([n, u, v], c, [hu, hv]);
+        let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
+        let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
+        for _ in 0..30 {
+            // A point of the rectangle or just beyond an edge.
+            let p = corner(f(-1.1, 1.1), f(-1.1, 1.1));
+            if p[2] <= 0.0 || (p[0] / p[2]).abs() > 15.0 || (p[1] / p[2]).abs() > 15.0 {
+                continue;
+            }
+            let s26 = |x: f64| (x * (1u64 << 26) as f64) as i32;
+            let mut ray = [Ray::new::<true>(s26(p[0] / p[2]), s26(p[1] / p[2]), 0)];
+            shape.nearest::<true, false>(3, &mut ray, (None, [0; 4]));
+            if ray[0].hit & !AWAY != 3 || ray[0].t == NO_HIT {
+                continue;
+            }
+            hits += 1;
+            // A checker's axis and origin (S18, within 8 U).
+            let a = unit3([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]);
+            let o = unit3([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]).map(|x| x * f(0.0, 8.0));
+            let (a30, o18) = (s30(a), o.map(|x| (x * (1u64 << 18) as f64).round() as i32));
+            let w = ray[0].along::<true>(ray[0].t, a30) - (dot48(o18, a30) >> ALONG_S42);
+            assert_eq!(
+                shr_sat::<24>(w),
+                (w >> 24) as i32,
+                "w {w}: c {c:?} n {n:?} p {p:?}"
+            );
+            widest = widest.max((w >> 24).abs());
+        }
+    }
+    // Below 2^9 U of the S18 i32's 2^13 U (S18: 2^27).
+    assert!(hits > 20_000 && widest < 1 << 27, "{hits} hits, widest {widest}");
+    std::println!(
+        "{hits} hits, widest |w| {:.2} U",
+        widest as f64 / (1u64 << 18) as f64
+    );
+}
+
+/// The closed run's shaded rays by mask are those `next_shaded` visits,
+/// for every run it takes (3 to 32 rays) and every mean.
+#[test]
+fn shaded_mask_is_next_shaded() {
+    for m in [
+        ClosedMean::Off,
+        ClosedMean::Pairs,
+        ClosedMean::Quads,
+        ClosedMean::Octs,
+    ] {
+        for len in 3..=CHUNK {
+            let (mut q, mut visited) = (0, 0u32);
+            while q < len {
+                visited |= 1 << q;
+                q = m.next_shaded(q, len);
+            }
+            assert_eq!(m.shaded_mask(len), visited, "{m:?}, {len} rays");
+            assert_eq!(visited.count_ones() as usize, m.shaded(len));
+        }
+    }
+}
+
+/// [`closed_lanes`] gives [`Mix32::closed_run`]'s scalar words and
+/// flags (the closed plane's ray by ray: [`closed_w`], [`closed_term`],
+/// [`Mix32::dn_word`]) and leaves it the same rays, on random planes,
+/// lights, gains and chunks of rays (some outside the field, some hit
+/// by another primitive) across the formats' ranges.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn closed_lanes_are_closed_run() {
+    let mut s = 0xc105_ed1a_9e50_0003;
+    let mut r = |lo: i64, hi: i64| lo + (rng(&mut s) % (hi - lo + 1) as u64) as i64;
+    let (mut closed_pixels, mut lit, mut means) = (0, 0, 0);
+    for case in 0..3000 {
+        // Half the cases with a mean ([`Closed::mean`]: the pairs', the
+        // quads' and the octs' in turn), one in four a chunk whose rays
+        // all see the plane (a normal near the optical axis, the plane
+        // on its side, rays within 45°).
+        let mean_on = match case % 4 < 2 {
+            false => ClosedMean::Off,
+            true => [ClosedMean::Pairs, ClosedMean::Quads, ClosedMean::Octs][(case / 4) % 3],
+        };
+        let seen = case % 4 == 0;
+        // A unit normal (S30) and the plane's distance (S24 U, at least
+        // 2^-10 U, within 8 U), a light within 8 U (S26 U).
+        let mut v = [r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20), r(-1 << 20, 1 << 20)];
+        if seen {
+            v[2] = r(1 << 22, 1 << 23) * if r(0, 1) == 0 { 1 } else { -1 };
+        }
+        let len = ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) as f64).sqrt().max(1.0);
+        let n = v.map(|x| (x as f64 / len * (1u64 << 30) as f64) as i32);
+        let dist = r(1 << 14, 1 << 27) as i32 * if r(0, 1) == 0 { 1 } else { -1 };
+        let dist = if seen { dist.abs() * n[2].signum() } else { dist };
+        let p26 = [0; 3].map(|_| r(-(1 << 29), 1 << 29) as i32);
+        let top = r(0, 62);
+        let k = Pf::new(r(1, i64::MAX >> top) as u64, r(-90, 20) as i32);
+        let flat = (r(0, 1 << 40) as u64 >> r(0, 40)).min(SUM_CAP);
+        let bg = (r(0, 1 << 40) as u64 >> r(0, 40)).min(SUM_CAP);
+        let dn_max = [255, 4095, 65535][case % 3];
+        let mut lights = heapless::Vec::new();
+        let l = ClosedLight { p26, k: [k; 3] };
+        let _ = lights.push(l);
+        let c = Closed {
+            index: 1,
+            mean: mean_on,
+            n,
+            dist,
+            ndist: -dist,
+            ndist50: -((dist as i64) << 26),
+            flat: [flat; 3],
+            lights,
+        };
+        let count = r(1, CHUNK as i64) as usize;
+        let mut rays = Rays::default();
+        let Some(rays) = rays.first(count) else { continue };
+        let span = if seen { 1 << 26 } else { 1 << 30 };
+        // x̂ monotone along the chunk, as along a row (a mirrored
+        // chunk's falls): `closed_run`'s box of slopes takes its ends.
+        let mut xs: [i32; CHUNK] = core::array::from_fn(|_| r(-span, span) as i32);
+        xs.sort_unstable();
+        if (case / 4) % 2 == 0 {
+            xs.reverse();
+        }
+        for (ray, &x) in rays.iter_mut().zip(&xs[CHUNK - count..]) {
+            let y = r(-span, span) as i32;
+            *ray = Ray::new::<true>(x, y, 0).with_c4(r(0, 1) == 0);
+            match r(0, 9) {
+                0 if !seen => *ray = Ray::OUTSIDE,
+                1 if !seen => ray.t = r(1, T_MAX as i64) as i32,
+                _ => {}
+            }
+        }
+        let before: [Ray; CHUNK] = core::array::from_fn(|q| rays.get(q).copied().unwrap_or(Ray::OUTSIDE));
+        let (mut words, mut fl) = ([7u16; CHUNK], [9u8; CHUNK]);
+        let left = closed_lanes(&c, &l, (bg, dn_max), rays, &mut words, &mut fl);
+        // The boards' scalar run, given the chunk's ŷ range as
+        // `fill_rays` gives it (its box test of a chunk that sees the
+        // plane, then its interpolation): the same words, flags and rays.
+        let mut run = before;
+        let run = &mut run[..count];
+        let ys = run
+            .iter()
+            .fold([i32::MAX, i32::MIN], |[a, b], r| [a.min(r.y), b.max(r.y)]);
+        // Whether a ray may be hit or outside: as the loop's passes say
+        // (none ran, none is), or set regardless.
+        let met = case % 2 == 0 || run.iter().any(|r| r.t != NO_HIT);
+        let mut m = Mix32::EMPTY;
+        m.bg = [bg; 3];
+        let (mut run_words, mut run_fl) = ([7u16; CHUNK], [9u8; CHUNK]);
+        let run_left = m.closed_run::<false, 1>(
+            &c,
+            (&mut *run, ys, met),
+            &mut run_words[..count],
+            &mut run_fl[..count],
+            [dn_max; 3],
+            (None, 0, 1),
+        );
+        assert_eq!(run_left, left, "case {case}");
+        for (q, (a, b)) in run.iter().zip(rays.iter()).enumerate() {
+            assert_eq!((a.t, a.hit), (b.t, b.hit), "case {case} ray {q}");
+            if left & (1 << q) == 0 {
+                assert_eq!(
+                    (run_words[q], run_fl[q]),
+                    (words[q], fl[q]),
+                    "case {case} ray {q}"
+                );
+            }
+        }
+        // Each ray's sum as `closed_term` gives it, then the odd rays'
+        // means where every ray sees the plane.
+        let sums: [[u64; 3]; CHUNK] = core::array::from_fn(|q| {
+            let mut scalar = before[q];
+            let w = closed_w(n, &scalar);
+            if c.ahead(w) {
+                let mut sum = c.flat;
+                closed_term::<1>(1, &c, &l, &mut scalar, w, (false, false), &mut sum);
+                sum
+            } else {
+                [bg; 3]
+            }
+        });
+        let all = count >= 3
+            && before[..count].iter().all(|b| {
+                let w = closed_w(n, b);
+                b.t == NO_HIT && c.ahead(w)
+            });
+        let mut expected = sums;
+        if mean_on.on() && all {
+            means += 1;
+            // The shaded rays ([`ClosedMean::next_shaded`]); the even
+            // ones between, level by level, the mean of theirs `d` apart.
+            let mut shaded = [false; CHUNK];
+            let mut q = 0;
+            while q < count {
+                shaded[q] = true;
+                q = mean_on.next_shaded(q, count);
+            }
+            let e = (count - 1) & !1;
+            let mut d = mean_on.span() as usize / 2;
+            while d >= 2 {
+                for q in (d..e).step_by(2 * d).filter(|&q| !shaded[q]) {
+                    assert!(
+                        q + d <= e,
+                        "case {case}: ray {q} between {d} and the last even {e}"
+                    );
+                    expected[q][0] = mean(expected[q - d][0], expected[q + d][0]);
+                }
+                d /= 2;
+            }
+            for q in (1..count - 1).step_by(2) {
+                expected[q][0] = mean(expected[q - 1][0], expected[q + 1][0]);
+            }
+        }
+        for (q, ray) in rays.iter().enumerate() {
+            let b = before[q];
+            if b.t == 0 {
+                assert_eq!((words[q], fl[q]), (0, FLAG_OUTSIDE_FIELD), "case {case} ray {q}");
+                assert_eq!(left & (1 << q), 0);
+            } else if b.t != NO_HIT {
+                // Left to the general path, the plane tested on it.
+                assert_ne!(left & (1 << q), 0, "case {case} ray {q}");
+                let mut scalar = b;
+                Mix32::closed_keep(&c, &mut scalar);
+                assert_eq!((ray.t, ray.hit), (scalar.t, scalar.hit), "case {case} ray {q}");
+            } else {
+                closed_pixels += 1;
+                assert_eq!(left & (1 << q), 0);
+                let sum = expected[q];
+                lit += usize::from(sum != c.flat && sum != [bg; 3]);
+                let word = Mix32::dn_word::<1>(1, sum, b.c4, [dn_max; 3], (None, 0));
+                assert_eq!((words[q], fl[q]), (word, 0), "case {case} ray {q}: {b:?}, {c:?}");
+            }
+        }
+    }
+    assert!(
+        closed_pixels > 30_000 && lit > 5_000 && means > 300,
+        "{closed_pixels} pixels compared, {lit} lit, {means} chunks with means"
+    );
+    std::println!("{closed_pixels} pixels compared, {lit} lit, {means} chunks with means");
+}
+
+/// [`fill_lanes`] gives [`fill_rays`]' rays (every field), `ŷ` range and
+/// outside flag, and moves `acc` as its slopes do, on random rows with
+/// and without distortion and vignetting, some rays outside the field.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn ray_lanes_are_fill_rays() {
+    let mut s = 0x0fa5_7ea7_0000_0005u64;
+    let mut r = |lo: i64, hi: i64| lo + (rng(&mut s) % (hi - lo + 1) as u64) as i64;
+    let (mut outside_rays, mut centred) = (0, 0);
+    for case in 0..4000 {
+        // Steps S58 (2^-18 to 2^-4 a pixel), slopes S26 within 2 (the
+        // field's u ≤ 2 at most: `limit` S20), k1, k2 S28 within ¼.
+        let dx = r(1 << 40, 1 << 54);
+        let mut acc = r(-(1 << 59), 1 << 59);
+        let yd = r(-(3 << 25), 3 << 25) as i32;
+        let yd2 = yd as i64 * yd as i64;
+        let k = (case % 3 != 0).then(|| [r(-(1 << 26), 1 << 26) as i32, r(-(1 << 26), 1 << 26) as i32]);
+        let limit = r(1 << 18, 1 << 21) as i32;
+        let vignette = case % 2 == 0;
+        let count = r(1, CHUNK as i64) as usize;
+        let (mut lanes, mut scalar) = (Rays::default(), Rays::default());
+        let (Some(lanes), Some(scalar)) = (lanes.first(count), scalar.first(count)) else {
+            continue;
+        };
+        // `fill_rays` ray by ray (`mono` false), then with `mono` where
+        // `ŷ` is monotone in `|x̂_d|`: a range that holds the rays', the
+        // same one unless the chunk's ends lie either side of the centre.
+        let mono = k.is_none_or(|[k1, k2]| k1 >= 0 && k2 >= 0);
+        let mut want = ([0; 2], false);
+        let mut a2 = acc;
+        // (The second pass only where `mono` holds: without it, the
+        // same call again.)
+        for mono in [false, true].into_iter().take(1 + usize::from(mono)) {
+            a2 = acc;
+            let xd = || {
+                let xd = (a2 >> 32) as i32;
+                a2 -= dx;
+                xd
+            };
+            let got = match k {
+                Some(k) => fill_rays::<true>(
+                    scalar,
+                    0,
+                    xd,
+                    (yd, yd2),
+                    |x, y, y2| undistort_k(k, limit, x, y, y2),
+                    (vignette, mono, || {
+                        undistort_k(k, limit, 0, yd, yd2).map(|(_, y)| y)
+                    }),
+                ),
+                None => fill_rays::<true>(
+                    scalar,
+                    0,
+                    xd,
+                    (yd, yd2),
+                    |x, y, _| Some((x, y)),
+                    (vignette, mono, || Some(yd)),
+                ),
+            };
+            if !mono {
+                want = got;
+                continue;
+            }
+            let ([y0, y1], [w0, w1]) = (got.0, want.0);
+            assert!(
+                y0 <= w0 && y1 >= w1 && got.1 == want.1,
+                "case {case}: {got:?} for {want:?}"
+            );
+            let across = scalar
+                .first()
+                .zip(scalar.last())
+                .is_some_and(|(a, b)| (a.x ^ b.x) < 0);
+            assert!(got == want || across, "case {case}: {got:?} for {want:?}");
+            centred += usize::from(across && got != want);
+        }
+        let got = fill_lanes(lanes, &mut acc, dx, (yd, yd2), (k, limit), vignette);
+        assert_eq!(got, want, "case {case}");
+        assert_eq!(acc, a2, "case {case}");
+        for (q, (l, w)) in lanes.iter().zip(scalar.iter()).enumerate() {
+            assert_eq!(format!("{l:?}"), format!("{w:?}"), "case {case} ray {q}");
+            outside_rays += usize::from(w.t == 0);
+        }
+    }
+    // (31 760 of 66 000 or so.)
+    assert!(outside_rays > 1_000, "{outside_rays} rays outside the field");
+    // Chunks across the centre whose range `mono` widened.
+    assert!(centred > 10, "{centred} ranges widened at the centre");
+}
+
+#[test]
+fn the_non_negative_product_is_the_scalar_product() {
+    use crate::scalar::Scalar;
+    let mut s = 0x5eed_0000_0000_0001;
+    for _ in 0..200_000 {
+        let (a, b) = (
+            rng(&mut s) >> (rng(&mut s) % 64),
+            rng(&mut s) >> (rng(&mut s) % 64),
+        );
+        // (And both below 2^16 DN: `mul_nonneg`'s 64-bit path.)
+        // (The cases halve them: 2^49 − 1 is 2^16 − 2^-32 DN.)
+        let small = (
+            a.checked_shr((rng(&mut s) % 64 + 16) as u32).unwrap_or(0),
+            b.checked_shr((rng(&mut s) % 64 + 16) as u32).unwrap_or(0),
+        );
+        let top = u64::MAX >> 15;
+        for (a, b) in [
+            (a, b),
+            (a, u64::MAX),
+            (a, 0),
+            (a, 1 << 32),
+            small,
+            (small.0, top),
+            (top, top),
+        ] {
+            let (a, b) = (Q::from_bits((a >> 1) as i64), Q::from_bits((b >> 1) as i64));
+            assert_eq!(mul_nonneg(a, b), a.mul(b), "{a:?} * {b:?}");
+        }
+    }
+}
+
+/// [`store`] writes a chunk's words and flags as a byte (or two
+/// little-endian) a pixel would, forward and reversed, for every
+/// length from 0 to [`CHUNK`] (the four-a-step loop and each tail),
+/// and nothing past them.
+#[test]
+fn stored_words_and_flags_are_each_pixels_bytes() {
+    for len in 0..=CHUNK {
+        let words: [u16; CHUNK] = core::array::from_fn(|q| (q as u16).wrapping_mul(0x9e37) ^ 0x5a);
+        let fl: [u8; CHUNK] = core::array::from_fn(|q| (q as u8).wrapping_mul(37) | 1);
+        for (b, reversed) in [(1, false), (1, true), (2, false), (2, true)] {
+            let (mut out, mut flags) = ([0xeeu8; 2 * CHUNK + 2], [0xeeu8; CHUNK + 1]);
+            store(
+                &words[..len],
+                &fl[..len],
+                reversed,
+                b,
+                &mut out[..len * b],
+                &mut flags[..len],
+            );
+            for q in 0..len {
+                let src = if reversed { len - 1 - q } else { q };
+                let want = words[src].to_le_bytes();
+                assert_eq!(
+                    out[q * b..(q + 1) * b],
+                    want[..b],
+                    "len {len} b {b} reversed {reversed} q {q}"
+                );
+                assert_eq!(flags[q], fl[src], "len {len} b {b} reversed {reversed} q {q}");
+            }
+            assert!(out[len * b..].iter().chain(&flags[len..]).all(|&v| v == 0xee));
+        }
+    }
+}
+
+/// [`vignette_dn`] (its in-line case below 2³², its out-of-line case
+/// above) and the lanes' [`vignette_dn_words`] are the exact rounding
+/// of `sum · cos⁴α`, capped: sums up to [`SUM_CAP`], `cos⁴α` up to 1.
+/// (The M0's case below 2³², [`round_c4_words`]: the next test.)
+#[test]
+fn vignette_dn_is_the_exact_rounding() {
+    let exact = |sum: u64, c4: u32, max: u32| {
+        (((sum as u128 * c4 as u128 + (1 << 45)) >> 46).min(max as u128)) as u32
+    };
+    let mut s = 0x5eed_0dd5_0000_0042;
+    for i in 0..1_000_000u32 {
+        let c4 = ((rng(&mut s) as u32) >> (rng(&mut s) % 32) >> 1).max(1 << 13) | (i & 1) << 30;
+        let c4 = if i % 7 == 0 { 1 << 31 } else { c4.min(1 << 31) };
+        let sum = (rng(&mut s) >> (rng(&mut s) % 64)).min(SUM_CAP);
+        for max in [255, 4095, 65535, 31] {
+            assert_eq!(
+                vignette_dn(sum, c4, max),
+                exact(sum, c4, max),
+                "sum {sum} c4 {c4}"
+            );
+            assert_eq!(
+                vignette_dn_words(sum, c4).min(max),
+                exact(sum, c4, max),
+                "sum {sum} c4 {c4}"
+            );
+        }
+    }
+    for sum in [0, (1 << 32) - 1, 1 << 32, SUM_CAP] {
+        assert_eq!(
+            vignette_dn(sum, 1 << 31, 65535),
+            exact(sum, 1 << 31, 65535),
+            "sum {sum}"
+        );
+    }
+}
+
+/// The M0's rounding of a sum below 2³² times `cos⁴α` from three
+/// products where the fourth's carries cannot matter: every `c4` near
+/// 2³¹ and the carries' edge exhaustively, random pairs elsewhere.
+#[test]
+fn vignette_in_three_products_is_vignette_dn() {
+    let exact = |lo: u32, c4: u32| ((lo as u64 * c4 as u64 + (1 << 45)) >> 46) as u32;
+    let mut s = 0xc4c4_0000_0000_0011;
+    for i in 0..2_000_000u32 {
+        let c4 = if i % 4 == 0 {
+            (1u32 << 31) - (rng(&mut s) as u32 % 4096)
+        } else {
+            (rng(&mut s) as u32) >> 1 | (i & 1) << 31 >> 1
+        }
+        .min(1 << 31);
+        let lo = (rng(&mut s) as u32) >> (rng(&mut s) % 32);
+        assert_eq!(round_c4_words(lo, c4), exact(lo, c4), "lo {lo} c4 {c4}");
+    }
+    // Where t's low bits lie at the edge: lo chosen so that lo c4 / 2^32
+    // ends near 0x3FFF − 2^13 in its low 14 bits.
+    for c4 in [1u32 << 31, (1 << 31) - 1, 0x4000_0001, 0x7654_3210, 12_345_679] {
+        for k in 0..20_000u64 {
+            let target = ((k << 14) | 0x1FFE) << 32;
+            let lo = (target / c4 as u64).min(u32::MAX as u64) as u32;
+            for d in 0..4 {
+                let lo = lo.saturating_add(d);
+                assert_eq!(round_c4_words(lo, c4), exact(lo, c4), "lo {lo} c4 {c4}");
+            }
+        }
+    }
+}
+
+/// The M0's products in 32-bit words ([`mul_hi_64_words`],
+/// [`mul_shr61_words`]) are the 128-bit forms the other targets
+/// compute.
+#[test]
+fn high_words_are_the_128_bit_products() {
+    let mut s = 0x4a11_0000_0000_0009;
+    let ends = [0, 1, u32::MAX as u64, 1 << 32, u64::MAX - 1, u64::MAX];
+    for i in 0..200_000 {
+        let (a, b) = if i < 36 {
+            (ends[i % 6], ends[i / 6])
+        } else {
+            (
+                rng(&mut s) >> (rng(&mut s) % 64),
+                rng(&mut s) >> (rng(&mut s) % 64),
+            )
+        };
+        assert_eq!(
+            mul_hi_64_words(a, b),
+            ((a as u128 * b as u128) >> 64) as u64,
+            "{a} {b}"
+        );
+        let y = b as u32;
+        let f = a >> 2;
+        assert_eq!(
+            mul_shr61_words(y, f),
+            ((y as u128 * f as u128) >> 61) as u64,
+            "{y} {f}"
+        );
+    }
+}
+
+/// [`rsqrt_top`]'s Newton factor `3·2³⁰ − m y²`, taken without
+/// saturation on the M3 and M4F, never wraps.
+#[test]
+fn rsqrt_tops_newton_factor_never_wraps() {
+    // m y² rises with m under one seed: the top of each seed's range
+    // of m bounds it (3·2^30 − m y² is taken without saturation).
+    for idx in 0..768u32 {
+        let top = ((idx + 257) << 22).wrapping_sub(1).max(1 << 30);
+        let seed = SEED[idx as usize];
+        let my2 = (umul_px(top, (seed as u32 * seed as u32) << 1) >> 31) as u32;
+        assert!(my2 < 3 << 30, "entry {idx}: m y² {my2}");
+        // The saturating form it replaced gives the same y.
+        assert_eq!(
+            rsqrt_top(top),
+            (umul_h((3u32 << 30).saturating_sub(my2), seed) >> 15) as u32
+        );
+    }
+}
+
+/// [`sigma_z16`]'s `σ` taken from the top word of `m y` is the 64-bit
+/// shift's (with its saturation) it replaced: `m y < 2⁶²` on every `m`
+/// near `2³²` (where the Newton step's truncations could carry it
+/// over: the top 2²⁰ exhaustively) and on random `σ²` everywhere.
+#[test]
+fn sigma_from_the_top_word_is_the_wide_shifts() {
+    let wide = |s2: u64, z: i32| {
+        if s2 == 0 {
+            return 0;
+        }
+        let (m, y, e) = rsqrt_norm(s2);
+        let s16 = (umul(m, y) >> (30 + e / 2)).min(u32::MAX as u64);
+        s16 as i64 * z as i64
+    };
+    for m in (1u64 << 32) - (1 << 20)..1 << 32 {
+        let y = rsqrt_top(m as u32);
+        assert!(umul(m as u32, y) < 1 << 62, "m {m}: y {y}");
+        assert_eq!(sigma_z16(m << 32, 65_536), wide(m << 32, 65_536), "m {m}");
+    }
+    let mut s = 0x5167_a000_0000_0003;
+    for _ in 0..400_000 {
+        let s2 = rng(&mut s) >> (rng(&mut s) % 64);
+        let z = (rng(&mut s) % 1_200_000) as i32 - 600_000;
+        assert_eq!(sigma_z16(s2, z), wide(s2, z), "s2 {s2} z {z}");
+    }
+    // Its normalization in words is `rsqrt_norm`'s, at every count.
+    for k in 0..64 {
+        for s2 in [
+            1u64 << k,
+            (1u64 << k) | 1,
+            (2u64 << k).wrapping_sub(1),
+            rng(&mut s) >> (63 - k),
+        ] {
+            let (m, _, e) = rsqrt_norm(s2.max(1));
+            assert_eq!(norm_top_even(s2.max(1)), (m, e), "s2 {s2}");
+        }
+    }
+}
+
+/// Below [`lobe_below`] the exact lobe `(x 2⁻³⁰)^s` is at most 2⁻⁶⁴, so
+/// its term (below 2⁻¹⁵ DN where `shade` skips it) floors to 0; at it
+/// the lobe is above 2⁻⁶⁴ to within the bound's slack, and
+/// [`lobe_pf`] there is no larger than the exact power.
+#[test]
+fn below_lobe_below_the_lobe_vanishes() {
+    assert_eq!(lobe_below(0), i32::MIN);
+    for s in (1..=400u16).chain([1000, 4096, 65535]) {
+        let b = lobe_below(s);
+        let log = |x: i32| f64::from(s) * (libm::log2(f64::from(x)) - 30.0);
+        assert!((1..=1 << 30).contains(&b), "s {s}: {b}");
+        if b > 1 {
+            assert!(log(b - 1) <= -64.0, "s {s}: {} above", log(b - 1));
+        }
+        assert!(log(b) > -64.0 - 1e-6 * f64::from(s), "s {s}: {}", log(b));
+        let f = lobe_pf(b - 1, s).to_f64();
+        assert!(f <= libm::exp2(-64.0), "s {s}: lobe_pf {f}");
+    }
+}
+
+#[test]
+fn the_noisy_value_is_the_noise_stages() {
+    use crate::scene::{Noise, PixelFormat};
+    let mut s = 0x0dd5_eed5_0000_0007;
+    // Constants from the scene's ranges and beyond them (a saturation
+    // below 1 e⁻, offsets and dark noise past any full scale).
+    let q = |v: u64| Q::from_bits((v >> 1) as i64);
+    for _ in 0..400 {
+        let noise = Noise {
+            saturation_e: q(rng(&mut s) >> (rng(&mut s) % 64)),
+            dark_noise_e: q(rng(&mut s) >> (rng(&mut s) % 64)),
+            dark_offset_dn: q(rng(&mut s) >> (rng(&mut s) % 64)),
+            seed: rng(&mut s),
+        };
+        for format in [
+            PixelFormat::Gray8,
+            PixelFormat::Gray16 { bits: 12 },
+            PixelFormat::Rgb565,
+        ] {
+            let stage = crate::noise::Stage::<Q>::new(&noise, format, rng(&mut s) as u32);
+            for _ in 0..200 {
+                let mu = Q::from_bits(rng(&mut s) as i64 >> (rng(&mut s) % 64));
+                let (p, c) = (rng(&mut s) as u32, (rng(&mut s) % 3) as usize);
+                let max = format.dn_max(c) as u16;
+                assert_eq!(
+                    noisy_dn(stage.draw(p, c), mu, max),
+                    stage.apply_with(mu, p, c, max as u32, mul_nonneg, sigma_z),
+                    "{noise:?} {format:?} mu {mu:?} pixel {p} channel {c}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn reciprocal_square_root_and_square_root_within_2_pow_minus_19() {
+    let mut s = 0x0123_4567_89AB_CDEF;
+    let mut worst: f64 = 0.0;
+    for _ in 0..200_000 {
+        let x = rng(&mut s) >> (rng(&mut s) % 64);
+        if x == 0 {
+            continue;
+        }
+        let e = 2 * (rng(&mut s) % 40) as i32 - 40;
+        let got = rsqrt(x, e).to_f64();
+        let want = 1.0 / ((x as f64) * 2f64.powi(e)).sqrt();
+        worst = worst.max((got / want - 1.0).abs());
+        let r = sqrt_s44_to_s22(x >> 2) as f64;
+        let w = ((x >> 2) as f64 * 2f64.powi(-44)).sqrt() * 2f64.powi(22);
+        assert!((r - w).abs() <= 1.0 + w * 2f64.powi(-19), "sqrt {x}: {r} vs {w}");
+    }
+    assert!(worst < 2f64.powi(-19), "rsqrt relative error {worst:e}");
+    // (n·l)/r³ over lengths from 2⁻¹⁸ to 2¹³ U and n̂·l̂ from 2⁻⁸ to 1.
+    let mut worst3: f64 = 0.0;
+    for _ in 0..100_000 {
+        let len = rng(&mut s) % 31;
+        let l = [0, 1, 2].map(|_| (rng(&mut s) >> (33 + len)) as i64 - (1i64 << (30 - len)));
+        let r2: u64 = l.iter().map(|v| (v * v) as u64).sum();
+        let cos = 2f64.powf(-8.0 * (rng(&mut s) % 1024) as f64 / 1024.0);
+        let nl = (cos * (r2 as f64).sqrt() * 2f64.powi(30)) as u64;
+        if r2 == 0 || nl == 0 {
+            continue;
+        }
+        let want = nl as f64 * 2f64.powi(-48) / (r2 as f64 * 2f64.powi(-36)).powf(1.5);
+        worst3 = worst3.max((cos_over_r2(nl, r2).to_f64() / want - 1.0).abs());
+    }
+    assert!(
+        worst3 < 3.0 * 2f64.powi(-19) + 2f64.powi(-21),
+        "(n·l)/r³ relative error {worst3:e}"
+    );
+}
+
+#[test]
+fn reciprocal_within_2_pow_minus_21() {
+    let mut s = 0x5555_1234_9876_ABCD;
+    let mut worst: f64 = 0.0;
+    for i in 0..300_000u32 {
+        let d = if i < 1000 {
+            i + 1
+        } else {
+            (rng(&mut s) >> (rng(&mut s) % 64)) as u32 | 1
+        };
+        let (r, z) = recip(NonZeroU32::new(d).unwrap());
+        let got = r as f64 * 2f64.powi(z as i32 - 62);
+        worst = worst.max((got * d as f64 - 1.0).abs());
+    }
+    assert!(worst < 2f64.powi(-21), "relative error {worst:e}");
+}
+
+/// The product `plane_t` took before [`mul_shr_t`]: saturated to the
+/// i32 limits.
+fn mul_shr_var(v: i32, r: u32, sh: u32) -> i32 {
+    let q = (smul_u(v, r) >> 31) as i32;
+    if sh >= 31 {
+        q >> (sh - 31).min(31)
+    } else {
+        let l = 31 - sh;
+        if q.unsigned_abs().leading_zeros() > l {
+            q << l
+        } else if q < 0 {
+            i32::MIN
+        } else {
+            i32::MAX
+        }
+    }
+}
+
+/// `plane_t`'s `t`: [`mul_shr_t`] negated where `n·d < 0` (or `n_z`, for
+/// parallel rays) is what negating the product saturated to the i32
+/// limits, then capping at `T_MAX`, gave, on every path (shifts right
+/// and left, saturated or not), for numerators up to 2³⁰·⁵.
+#[test]
+fn plane_t_negation_is_the_saturating_one() {
+    let mut s = 0x2468_ACE0_1357_9BDF;
+    let mut saturated = 0;
+    for i in 0..400_000u32 {
+        // |v| below 1.5 2^30 (a parallel ray's numerator; |dist| ≤
+        // 2^28), r in (2^30, 2^31], the shift 44 − z or 38 − z for z
+        // in 0..=31.
+        let v =
+            ((rng(&mut s) >> (33 + rng(&mut s) % 31)) % (3 << 29)) as i32 * if i % 2 == 0 { 1 } else { -1 };
+        let r = (1u32 << 30) + 1 + (rng(&mut s) % (1 << 30)) as u32;
+        let sh = 7 + (rng(&mut s) % 38) as u32;
+        for den_neg in [false, true] {
+            let old = mul_shr_var(v, r, sh);
+            let old = if den_neg { old.saturating_neg() } else { old };
+            let sg = -(den_neg as i32);
+            let new = (mul_shr_t(v, r, sh) ^ sg).wrapping_sub(sg);
+            assert_eq!(old > 0, new > 0, "v {v} r {r} sh {sh} neg {den_neg}");
+            if old > 0 {
+                assert_eq!(old.min(T_MAX), new, "v {v} r {r} sh {sh} neg {den_neg}");
+                saturated += (new == T_MAX) as u32;
+            }
+        }
+    }
+    // The saturated path is taken.
+    assert!(saturated > 1000, "{saturated}");
+}
+
+#[test]
+fn pseudo_float_products_and_saturation() {
+    let a = Pf::new(3, 0);
+    let b = Pf::new(5, -1);
+    assert_eq!((a * b).to_f64(), 7.5);
+    assert_eq!((a * b).to_sum(1), 15);
+    assert_eq!(Pf::new(1, 40).to_sum(0), 1 << 40);
+    assert_eq!(Pf::new(1, 50).to_sum(0), SUM_CAP);
+    assert_eq!(a.mul_to_sum(b, 2), 30);
+    assert_eq!(a.mul_to_sum(Pf::new(1, 60), 0), SUM_CAP);
+    assert_eq!(a.mul_to_sum(Pf::new(1, -80), 0), 0);
+    assert_eq!(Pf::new(1, -40).to_sum(0), 0);
+    assert_eq!((Pf::default() * a).to_sum(15), 0);
+}
