@@ -915,15 +915,15 @@ mod tests {
     fn a_helper_counts_for_the_stage_that_inlined_it() {
         // recip inlined in the plane's intersection, in the line loop.
         let c = chain(&[
-            "hilcam::mix32::recip",
-            "hilcam::mix32::Ray::plane_t",
-            "hilcam::mix32::MixShape::nearest",
-            "hilcam::mix32::Mix32::trace",
+            "hilcam::mix32::arith::recip",
+            "hilcam::mix32::rays::Ray::plane_t",
+            "hilcam::mix32::intersect::MixShape::nearest",
+            "hilcam::mix32::Mix32::trace_row",
             "hilcam::mix32::Mix32::line_f",
         ]);
         assert_eq!(stage_of(&c), Some(Stage::Intersection));
         // The same helper for a ray's 1/a.
-        let c = chain(&["hilcam::mix32::recip", "hilcam::mix32::Ray::new", "hilcam::mix32::Mix32::trace"]);
+        let c = chain(&["hilcam::mix32::arith::recip", "hilcam::mix32::rays::Ray::new", "hilcam::mix32::Mix32::trace_row"]);
         assert_eq!(stage_of(&c), Some(Stage::Rays));
         // The sampled loop's own code, not the plain loop's.
         let c = chain(&["core::cmp::Ord::min", "hilcam::mix32::Mix32::line_s"]);
@@ -933,21 +933,21 @@ mod tests {
         // The closed-form plane: 1/|q| in its term is shading, its w the
         // intersection's, the run's own loop the line loop's.
         let c = chain(&[
-            "hilcam::mix32::rsqrt_top",
-            "hilcam::mix32::rsqrt_norm",
-            "hilcam::mix32::cube_over",
-            "hilcam::mix32::closed_term",
+            "hilcam::mix32::arith::rsqrt_top",
+            "hilcam::mix32::arith::rsqrt_norm",
+            "hilcam::mix32::shade::cube_over",
+            "hilcam::mix32::shade::closed_term",
             "hilcam::mix32::Mix32::closed_run",
         ]);
         assert_eq!(stage_of(&c), Some(Stage::Shading));
-        let c = chain(&["hilcam::mix32::wmul_px", "hilcam::mix32::closed_w", "hilcam::mix32::Mix32::closed_run"]);
+        let c = chain(&["hilcam::mix32::arith::wmul_px", "hilcam::mix32::shade::closed_w", "hilcam::mix32::Mix32::closed_run"]);
         assert_eq!(stage_of(&c), Some(Stage::Intersection));
         let c = chain(&["hilcam::mix32::Mix32::closed_run"]);
         assert_eq!(stage_of(&c), Some(Stage::LineLoop));
         // The frame's preparation, however the demangler spaces generics
         // (not the render module's line loop).
         for f in ["hilcam::render::Frame<S,_>::prepare_inner", "hilcam::render::Frame<S, _>::prepare_mix32"] {
-            assert_eq!(stage_of(&chain(&["hilcam::mix32::shl_q", f])), Some(Stage::Preparation));
+            assert_eq!(stage_of(&chain(&["hilcam::mix32::arith::shl_q", f])), Some(Stage::Preparation));
         }
         let c = chain(&["hilcam::render::Frame<S,_>::render_carried"]);
         assert_eq!(stage_of(&c), Some(Stage::LineLoop));
