@@ -318,6 +318,10 @@ pub struct DriveFrame {
     pub round_trip_camera_ns: u64,
     /// Host time from sending the `Trigger` to the frame's first bytes, ms.
     pub round_trip_wall_ms: f64,
+    /// Sent with its pose ([`Driver::batched`]): camera time from answering
+    /// the pose to answering the trigger, ns — the new pose's plan, which
+    /// the camera makes between the two, and the trigger's decoding.
+    pub pose_to_trigger_camera_ns: Option<u64>,
 }
 
 /// `drive.json`.
@@ -354,6 +358,10 @@ pub struct DriveReport {
     pub round_trip_instructions: Option<[f64; 2]>,
     /// Round trip in host time, ms: mean and largest.
     pub round_trip_wall_ms: [f64; 2],
+    /// Sent with its pose: what a new pose costs the camera before its
+    /// frame (`DriveFrame::pose_to_trigger_camera_ns` in instructions, where
+    /// the camera's time counts them): mean and largest.
+    pub pose_to_trigger_instructions: Option<[f64; 2]>,
     /// Wall time of the whole drive, s.
     pub seconds: f64,
     /// The decoder's counts.
@@ -517,7 +525,7 @@ pub fn drive<W: Write>(
         } else {
             (driver.command(set_pose)?.0, driver.command(trigger)?)
         };
-        expect(posed, &format!("SetPose {k}"))?;
+        let posed = expect(posed, &format!("SetPose {k}"))?;
         let ack = expect(ack, &format!("Trigger {k}"))?;
         // This trigger's frame: the first whose last command is the
         // trigger (an older frame, already counted lost, is skipped).
@@ -573,6 +581,9 @@ pub fn drive<W: Write>(
             instructions: f.end.cost,
             round_trip_camera_ns: f.start.truth.timestamp_ns.saturating_sub(ack.timestamp_ns),
             round_trip_wall_ms: a.first_byte.saturating_duration_since(sent).as_secs_f64() * 1e3,
+            pose_to_trigger_camera_ns: driver
+                .batched
+                .then(|| ack.timestamp_ns.saturating_sub(posed.timestamp_ns)),
         };
         outputs.write(&format!("frame-{k:05}.png"), &png)?;
         let json = serde_json::to_vec_pretty(&df).map_err(|e| e.to_string())?;
@@ -606,6 +617,15 @@ pub fn drive<W: Write>(
             )
         }),
         round_trip_wall_ms: stat(frames.iter().map(|f| f.round_trip_wall_ms).collect()),
+        pose_to_trigger_instructions: instr_ns.filter(|_| driver.batched && !frames.is_empty()).map(|ns| {
+            stat(
+                frames
+                    .iter()
+                    .filter_map(|f| f.pose_to_trigger_camera_ns)
+                    .map(|v| v as f64 / ns)
+                    .collect(),
+            )
+        }),
         seconds: t_all.elapsed().as_secs_f64(),
         link: driver.stats(),
         ram_bytes: probe.map(|p| p.static_bytes),

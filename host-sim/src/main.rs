@@ -710,6 +710,12 @@ fn main() -> ExitCode {
                 r.round_trip_wall_ms[1],
                 r.seconds
             );
+            let s = match r.pose_to_trigger_instructions {
+                Some([mean, max]) => {
+                    format!("{s}; pose to its trigger's answer (the plan) mean {mean:.0} / max {max:.0} instructions")
+                }
+                None => s,
+            };
             let s = match r.ram_peak_bytes {
                 Some(ram) => format!("{s}; camera peak RAM {ram} B (painted stack + static)"),
                 None => s,

@@ -98,8 +98,10 @@ fn a_pose_and_its_trigger_sent_at_once() {
         (10, 10, 10, 0)
     );
     assert_eq!((cam.rejects, cam.frames), (0, 10));
-    // Each frame's truth names its trigger, the command after its pose.
+    // Each frame's truth names its trigger, the command after its pose;
+    // the camera's time from the pose's answer to the trigger's is kept.
     assert!(r.frames.windows(2).all(|w| w[1].command == w[0].command + 2));
+    assert!(r.frames.iter().all(|f| f.pose_to_trigger_camera_ns.is_some()));
 }
 
 /// Faults in both directions (bit errors, drops, duplicates, inserted
