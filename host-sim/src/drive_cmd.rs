@@ -175,7 +175,7 @@ impl<W: Write> Driver<W> {
         for ((seq, bytes), command) in wires.iter().zip(&commands) {
             answers.push((self.answer(*seq, *command, bytes)?, sent));
         }
-        answers.try_into().map_err(|_| "answers".to_string())
+        answers.try_into().map_err(|_| format!("{N} answers expected"))
     }
 
     /// Writes a request's bytes.
