@@ -342,11 +342,35 @@ fn sweep(enc: &mut Enc, flags: &mut [u8], keys: &mut [u64]) -> ! {
 mod camera {
     use super::{board, fail, ns, ticks, Enc, Run, CHUNK, MAX_WIDTH, TABLE};
     use hilcam::control::{Command, Control, Library, Receiver, MAX_REQUEST};
+    use hilcam::scene::Scene;
     use hilcam::scene_data::MAX_SCENE_DATA;
 
     /// Bytes read from RX between two frames at most: a flood of input
     /// delays a promised frame by at most this much decoding.
     const RX_BUDGET: usize = 4 * MAX_REQUEST;
+
+    /// The planner's choice for the scene shown, and the
+    /// [`Control::revision`] it was made at.
+    struct Planned {
+        opts: hilcam::render::Options,
+        revision: u32,
+    }
+
+    impl Planned {
+        fn of(scene: &Scene, control: &Control) -> Planned {
+            Planned {
+                opts: super::options(scene),
+                revision: control.revision(),
+            }
+        }
+
+        /// Plans again if the commands changed the scene since.
+        fn refresh(&mut self, scene: &Scene, control: &Control) {
+            if control.revision() != self.revision {
+                *self = Planned::of(scene, control);
+            }
+        }
+    }
 
     /// Runs the camera forever (starting on scene 0, triggered).
     pub fn run(enc: &mut Enc, flags: &mut [u8]) -> ! {
@@ -363,12 +387,12 @@ mod camera {
         let mut control = Control::new();
         let mut rx = Receiver::<MAX_REQUEST>::new();
         let mut frame_id = 0u32;
-        // The plan of the scene as it stands: made again once the commands
-        // read have changed it, before the next frame begins — and before
-        // a trigger read in the same batch as the change is acknowledged,
-        // so that no frame's round trip (the trigger's ack to the frame's
+        // The plan of the scene as it stands, made again once the commands
+        // read have changed it: before the next frame begins, and before a
+        // trigger read in the same batch as the change is acknowledged, so
+        // that no frame's round trip (the trigger's ack to the frame's
         // first message) holds the planner, however the commands arrive.
-        let (mut opts, mut planned) = (super::options(scene), control.revision());
+        let mut plan = Planned::of(scene, &control);
         loop {
             for _ in 0..RX_BUDGET {
                 let Some(byte) = board::read_byte() else {
@@ -378,8 +402,8 @@ mod camera {
                     continue;
                 };
                 let seq = req.seq;
-                if matches!(req.command, Command::Trigger { .. }) && control.revision() != planned {
-                    (opts, planned) = (super::options(scene), control.revision());
+                if matches!(req.command, Command::Trigger { .. }) {
+                    plan.refresh(scene, &control);
                 }
                 let answer = control.handle(&req, scene, &mut library);
                 let sent = enc.send_answer(seq, answer, ns(ticks()), || {
@@ -389,9 +413,7 @@ mod camera {
                     fail("reply");
                 }
             }
-            if control.revision() != planned {
-                (opts, planned) = (super::options(scene), control.revision());
-            }
+            plan.refresh(scene, &control);
             if control.frame_due(ns(ticks())) {
                 let mut run = Run {
                     scene,
@@ -402,7 +424,7 @@ mod camera {
                     scene_id: control.scene_id,
                     command: control.last_command(),
                 };
-                if super::scenes::render_variant(0, &opts, &mut run).is_err() {
+                if super::scenes::render_variant(0, &plan.opts, &mut run).is_err() {
                     fail("render");
                 }
                 // The deepest stack use so far (host-sim drive reports it).

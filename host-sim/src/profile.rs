@@ -108,7 +108,7 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("mix32::rays::undistort_k", Stage::Distortion),
     ("mix32::rays::fill_rays", Stage::Rays),
     ("mix32::rays::Ray::new", Stage::Rays),
-    ("mix32::Mix32::trace", Stage::Rays),
+    ("mix32::Mix32::trace_row", Stage::Rays),
     ("mix32::Mix32::rays", Stage::Rays),
     // The chunk's slope box and each primitive's cull by its bounds (the
     // passes themselves are `MixShape::nearest`'s).
