@@ -311,8 +311,9 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             let _ = evals.push((None, 0));
         } else {
             let _ = evals.push((Some(DistortionEval::Polynomial), 0));
-            let entries = table_entries(scene, &g, half);
-            if arithmetic == Arithmetic::Wide && entries <= budget.max_table_entries {
+            // (Only the wide arithmetic reads a table.)
+            let entries = (arithmetic == Arithmetic::Wide).then(|| table_entries(scene, &g, half));
+            if let Some(entries) = entries.filter(|e| *e <= budget.max_table_entries) {
                 let _ = evals.push((Some(DistortionEval::Linear), entries));
             }
         }
@@ -707,35 +708,73 @@ enum Reach {
 const COVERAGE_GRID: (u32, u32) = (8, 6);
 
 impl PrimGeom {
+    /// What [`PrimGeom::hit`] takes of a ray's origin `o`, whatever its
+    /// direction: once a primitive for perspective rays (all from `o = 0`).
+    fn from(&self, o: [f64; 3]) -> FromOrigin {
+        let oc = sub3(self.c, o);
+        let cc = dot3(oc, oc);
+        FromOrigin {
+            o,
+            v: match self.shape {
+                Shape::Sphere { .. } => oc,
+                _ => self.n,
+            },
+            vx: 0.0,
+            inside: cc <= self.r * self.r,
+            cc_rr: cc - self.r * self.r,
+            noc: dot3(self.n, oc),
+        }
+    }
+
     /// Where the ray `o + t d`, `t > 0`, first meets the primitive (a
     /// rectangle as the disc through its corners: coverage, not shading):
-    /// its `t` (0 from inside a sphere), or `None`.
-    fn hit(&self, o: [f64; 3], d: [f64; 3]) -> Option<f64> {
-        let oc = sub3(self.c, o);
+    /// its `t` (0 from inside a sphere), or `None`. `k` is [`PrimGeom::from`]
+    /// `o`, `dd` is `d·d` and `vd` is `k.v·d`.
+    fn hit(&self, k: &FromOrigin, d: [f64; 3], dd: f64, vd: f64) -> Option<f64> {
         match self.shape {
             Shape::Sphere { .. } => {
-                let (dd, t, cc) = (dot3(d, d), dot3(oc, d), dot3(oc, oc));
-                let disc = t * t - dd * (cc - self.r * self.r);
-                if cc <= self.r * self.r {
+                let t = vd;
+                if k.inside {
                     Some(0.0)
-                } else if t > 0.0 && disc >= 0.0 {
-                    Some((t - libm::sqrt(disc)) / dd)
+                } else if t > 0.0 {
+                    let disc = t * t - dd * k.cc_rr;
+                    (disc >= 0.0).then(|| (t - libm::sqrt(disc)) / dd)
                 } else {
                     None
                 }
             }
             _ => {
-                let den = dot3(self.n, d);
+                let den = vd;
                 if libm::fabs(den) < 1e-12 {
                     return None;
                 }
-                let t = dot3(self.n, oc) / den;
-                let plane = matches!(self.shape, Shape::Plane { .. });
+                let t = k.noc / den;
+                if matches!(self.shape, Shape::Plane { .. }) {
+                    return (t > 0.0).then_some(t);
+                }
+                let o = k.o;
                 let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
-                (t > 0.0 && (plane || norm3(sub3(p, self.c)) <= self.r)).then_some(t)
+                (t > 0.0 && norm3(sub3(p, self.c)) <= self.r).then_some(t)
             }
         }
     }
+}
+
+/// A ray origin's terms for one primitive ([`PrimGeom::from`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct FromOrigin {
+    o: [f64; 3],
+    /// What a ray's direction `d` is dotted with: `c − o` (a sphere's), or
+    /// the normal (a flat shape's).
+    v: [f64; 3],
+    /// `v₀ x̂` for the perspective rays of one column (`x̂` its slope).
+    vx: f64,
+    /// `|c − o| ≤ r` (a sphere's).
+    inside: bool,
+    /// `|c − o|² − r²`.
+    cc_rr: f64,
+    /// `n·(c − o)`.
+    noc: f64,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -999,18 +1038,49 @@ impl Geometry {
                 && libm::fabs(p.n[0]) < S30_HALF_UNIT
                 && libm::fabs(p.n[1]) < S30_HALF_UNIT;
         }
+        // The origin's terms: once a primitive for perspective rays, once
+        // a ray and primitive for parallel ones.
+        let mut at = [FromOrigin::default(); crate::scene::MAX_PRIMITIVES];
+        if origin_scale.is_none() {
+            for (k, p) in at.iter_mut().zip(&prims) {
+                *k = p.from([0.0; 3]);
+            }
+        }
+        // The rows' slopes, once.
+        let mut ys = [0.0f64; COVERAGE_GRID.1 as usize];
+        for (b, y) in ys.iter_mut().enumerate() {
+            *y = (oy - (b as f64 + 0.5) * h as f64 / gy as f64) / fy;
+        }
         for a in 0..gx {
-            for b in 0..gy {
-                let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
-                let y = (oy - (b as f64 + 0.5) * h as f64 / gy as f64) / fy;
+            let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
+            // A perspective ray's `v·d = (v₀ x̂ + v₁ ŷ) + v₂` (`dot3`'s
+            // order, `d₂ = 1`), with `v₀ x̂` once a column.
+            let xx = x * x;
+            for k in &mut at {
+                k.vx = k.v[0] * x;
+            }
+            for &y in &ys {
                 let (o, d) = match origin_scale {
                     None => ([0.0; 3], [x, y, 1.0]),
                     Some(k) => ([x * k, y * k, 0.0], [0.0, 0.0, 1.0]),
                 };
+                let dd = match origin_scale {
+                    None => (xx + y * y) + 1.0,
+                    Some(_) => dot3(d, d),
+                };
+                if origin_scale.is_some() {
+                    for (k, p) in at.iter_mut().zip(&prims) {
+                        *k = p.from(o);
+                    }
+                }
                 let (mut any, mut others) = (false, false);
                 let mut nearest: Option<(f64, &PrimGeom)> = None;
-                for (i, p) in prims.iter().enumerate() {
-                    if let Some(t) = p.hit(o, d) {
+                for (i, (p, k)) in prims.iter().zip(&at).enumerate() {
+                    let vd = match origin_scale {
+                        None => (k.vx + k.v[1] * y) + k.v[2],
+                        Some(_) => dot3(k.v, d),
+                    };
+                    if let Some(t) = p.hit(k, d, dd, vd) {
                         any = true;
                         bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
                         if facing.get(i) == Some(&true) {
@@ -1585,8 +1655,9 @@ pub fn closed_mean_skipped(m: ClosedMean) -> f64 {
 /// `1/R` beyond): 10 % wide up to 4 times the distance at which the hit
 /// passes the light's foot, 25 % beyond; before the noise
 /// ([`noise_moved`] adds what it does). `None` without the plane, or with
-/// more than one point light (no mean then). (The camera plans once a
-/// change: some 50 cells, a few divisions and square roots each.)
+/// more than one point light (no mean then). (The camera plans every
+/// pose: some 50 cells, a few divisions and square roots each, the cells
+/// past the fine ones cut short by [`MeanCells::worst`].)
 /// [`closed_mean_factor`] scales it to an interpolation over more rays.
 #[inline(never)]
 fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
@@ -1632,40 +1703,137 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     // scene's distances, where the bound falls as 1/R: 10 % wide up to 4
     // times the distance at which the hit passes the light's foot (the
     // bound's largest lie there), 25 % beyond.
-    let top = 1e3 * (dist + l + h);
-    let fine = 4.0 * libm::sqrt(foot * foot + dist * dist);
-    let inv_dist = 1.0 / dist;
-    let (mut ra, mut ring_a, mut worst) = (dist, 0.0, 0.0f64);
-    while ra < top {
-        let rb = ra * if ra < fine { 1.1 } else { 1.25 };
-        // How far the hit lies from the camera's foot on the plane.
-        let ring_b = libm::sqrt((rb * rb - dist * dist).max(0.0));
-        // The hit's distance ρ from the light's foot, in units of h: σ in
-        // [lo, hi].
-        let (lo, hi) = (
-            (ring_a - foot).max(foot - ring_b).max(0.0) / h,
-            (ring_b + foot) / h,
-        );
-        let (s_lo, s_hi) = (lo * lo, hi * hi);
-        // (1 + s)^(−5/2).
-        let fall = |s: f64| 1.0 / ((1.0 + s) * (1.0 + s) * libm::sqrt(1.0 + s));
-        // On the plane T = D (1 + s)^(−3/2), s = σ²: its Hessian's
-        // eigenvalues are T'/ρ = −D (3/h²)(1 + s)^(−5/2), largest at s_lo,
-        // and T'' = D (3/h²)(4s − 1)(1 + s)^(−7/2), within the first where
-        // s ≤ 2/3 and beyond it largest at s = 3/4; its gradient is D (3/h)
-        // σ (1 + σ²)^(−5/2), largest at σ = 1/2. (`max` and `min`, not
-        // `clamp`, which would link a panic path.)
-        let s = 0.75f64.max(s_lo).min(s_hi);
-        let hess = 3.0 * fall(s_lo).max(libm::fabs(4.0 * s - 1.0) * fall(s) / (1.0 + s)) / (h * h);
-        let sg = 0.5f64.max(lo).min(hi);
-        let grad = 3.0 * sg * fall(sg * sg) / h;
-        let m = rb * n1 * inv_dist;
-        let dp = rb * (d1 + m);
-        let ddp = rb * (d2 + 2.0 * m * d1 + 2.0 * m * m + rb * n2 * inv_dist);
-        worst = worst.max(0.5 * d * (hess * dp * dp + grad * ddp));
-        (ra, ring_a) = (rb, ring_b);
+    let cells = MeanCells {
+        dist,
+        foot,
+        h,
+        d,
+        d1,
+        d2,
+        n1,
+        n2,
+        top: 1e3 * (dist + l + h),
+        fine: 4.0 * libm::sqrt(foot * foot + dist * dist),
+    };
+    Some(cells.worst(true).0 + libm::ldexp(1.0, -15))
+}
+
+/// [`closed_mean_err`]'s cells of `R`: the plane's distance `dist`, the
+/// light's foot `foot` from the camera's and its height `h` (m), `D`, the
+/// bounds `d₁, d₂` on `|d'|, |d''|` and `ν₁ dist, ν₂ dist` on `|n·d'|,
+/// |n·d''|` along a row, and the cells' end `top` and the end of the fine
+/// ones `fine` (m).
+#[derive(Clone, Copy, Debug)]
+struct MeanCells {
+    dist: f64,
+    foot: f64,
+    h: f64,
+    d: f64,
+    d1: f64,
+    d2: f64,
+    n1: f64,
+    n2: f64,
+    top: f64,
+    fine: f64,
+}
+
+impl MeanCells {
+    /// The largest cell's bound, LSB, and the cells taken. With `early`,
+    /// the cells beyond the fine ones stop once [`closed_mean_tail`] bounds
+    /// every one left within the largest so far: the same value (`tests`),
+    /// with fewer cells (the camera plans every pose, at some 5 000 M3
+    /// instructions a cell in soft-float).
+    fn worst(&self, early: bool) -> (f64, u32) {
+        let MeanCells {
+            dist,
+            foot,
+            h,
+            d,
+            d1,
+            d2,
+            n1,
+            n2,
+            top,
+            fine,
+        } = *self;
+        let inv_dist = 1.0 / dist;
+        let (nu1, nu2) = (n1 * inv_dist, n2 * inv_dist);
+        let (mut ra, mut ring_a, mut worst, mut cells) = (dist, 0.0, 0.0f64, 0);
+        while ra < top {
+            // Beyond the fine cells, once every cell from here on is
+            // provably within `worst`, the rest cannot move it.
+            if early
+                && ra >= fine
+                && closed_mean_tail((ra, ring_a - foot), (h, d), (d1, d2), (nu1, nu2)) <= worst
+            {
+                break;
+            }
+            let rb = ra * if ra < fine { 1.1 } else { 1.25 };
+            // How far the hit lies from the camera's foot on the plane.
+            let ring_b = libm::sqrt((rb * rb - dist * dist).max(0.0));
+            // The hit's distance ρ from the light's foot, in units of h: σ in
+            // [lo, hi].
+            let (lo, hi) = (
+                (ring_a - foot).max(foot - ring_b).max(0.0) / h,
+                (ring_b + foot) / h,
+            );
+            let (s_lo, s_hi) = (lo * lo, hi * hi);
+            // (1 + s)^(−5/2).
+            let fall = |s: f64| 1.0 / ((1.0 + s) * (1.0 + s) * libm::sqrt(1.0 + s));
+            // On the plane T = D (1 + s)^(−3/2), s = σ²: its Hessian's
+            // eigenvalues are T'/ρ = −D (3/h²)(1 + s)^(−5/2), largest at s_lo,
+            // and T'' = D (3/h²)(4s − 1)(1 + s)^(−7/2), within the first where
+            // s ≤ 2/3 and beyond it largest at s = 3/4; its gradient is D (3/h)
+            // σ (1 + σ²)^(−5/2), largest at σ = 1/2. (`max` and `min`, not
+            // `clamp`, which would link a panic path.) Where the cell lies
+            // beyond both peaks (s_lo ≥ 3/4, σ_lo ≥ 1/2) all three are taken
+            // at s_lo: one square root, not three.
+            let f_lo = fall(s_lo);
+            let s = 0.75f64.max(s_lo).min(s_hi);
+            let f_s = if s == s_lo { f_lo } else { fall(s) };
+            let hess = 3.0 * f_lo.max(libm::fabs(4.0 * s - 1.0) * f_s / (1.0 + s)) / (h * h);
+            let sg = 0.5f64.max(lo).min(hi);
+            let sg2 = sg * sg;
+            let f_g = if sg2 == s_lo { f_lo } else { fall(sg2) };
+            let grad = 3.0 * sg * f_g / h;
+            let m = rb * n1 * inv_dist;
+            let dp = rb * (d1 + m);
+            let ddp = rb * (d2 + 2.0 * m * d1 + 2.0 * m * m + rb * n2 * inv_dist);
+            worst = worst.max(0.5 * d * (hess * dp * dp + grad * ddp));
+            (ra, ring_a, cells) = (rb, ring_b, cells + 1);
+        }
+        (worst, cells)
     }
-    Some(worst + libm::ldexp(1.0, -15))
+}
+
+/// An upper bound on [`closed_mean_err`]'s cell values for every cell from
+/// `ra` (m) on, decreasing in `ra`; infinite where it does not apply.
+/// With `L = ring_a − foot ≥ κ ra` (`κ = L/ra`, which only grows with
+/// `ra`) and `κ ra ≥ h/2`, every later cell `[r, r_b]` (`r_b ≤ 1.25 r`)
+/// has `σ_lo ≥ L/h ≥ 1/2`, so its Hessian bound is at most `12 σ_lo⁻⁵/h²`
+/// (`(1 + s)^(−5/2) ≤ σ⁻⁵`, `|4s − 1|/(1 + s) < 4`, the value at `s ≥
+/// s_lo` at most that at `s_lo`) and its gradient bound `3 σ_lo⁻⁴/h`,
+/// with `σ_lo ≥ κ r/h`; `|p'| ≤ 1.25 r (d₁ + 1.25 r ν₁)` and `|p''| ≤
+/// 1.25 r (d₂ + 2.5 r ν₁ d₁ + 3.125 r² ν₁² + 1.25 r ν₂)` (`ν = n·d/dist`).
+/// Each term is a positive multiple of `r^(−k)`, `k ≥ 1`: decreasing.
+fn closed_mean_tail(
+    (ra, l): (f64, f64),
+    (h, d): (f64, f64),
+    (d1, d2): (f64, f64),
+    (nu1, nu2): (f64, f64),
+) -> f64 {
+    if !(l > 0.0 && 2.0 * l >= h) {
+        return f64::INFINITY;
+    }
+    let k = l / ra;
+    let (k2, r) = (k * k, ra);
+    let hess = 12.0 / (k2 * k2 * k);
+    let grad = 3.75 / (k2 * k2);
+    let a = 1.25 * d1 + 1.5625 * r * nu1;
+    let tail = hess * a * a / (r * r * r)
+        + grad * (d2 / (r * r * r) + (2.5 * nu1 * d1 + 1.25 * nu2) / (r * r) + 3.125 * nu1 * nu1 / r);
+    // (A hair above, for the roundings of the values it bounds.)
+    0.5 * d * h * h * h * tail * (1.0 + 1e-9)
 }
 
 /// A bound (LSB) on what a move `e` of the noise-free value `μ` moves a
@@ -2153,4 +2321,58 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
         return None;
     }
     Some((bound.value.to_num::<f64>(), z_bar))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::MeanCells;
+    use proptest::prelude::*;
+
+    /// Cells for a camera `dist` above the plane, the light `h` above it
+    /// with its foot `foot` from the camera's.
+    fn cells(dist: f64, foot: f64, h: f64, d: f64, (d1, d2, n1, n2): (f64, f64, f64, f64)) -> MeanCells {
+        let l = libm::sqrt(foot * foot + (h - dist) * (h - dist));
+        MeanCells {
+            dist,
+            foot,
+            h,
+            d,
+            d1,
+            d2,
+            n1,
+            n2,
+            top: 1e3 * (dist + l + h),
+            fine: 4.0 * libm::sqrt(foot * foot + dist * dist),
+        }
+    }
+
+    #[test]
+    fn the_standard_scene_s_cells_stop_early() {
+        // The standard scene's: the camera 1.2 m up, the light 3 m up with
+        // its foot 2.24 m off; row bounds for f = 200 px, k1 0.15, k2 0.05.
+        let c = cells(1.2, 2.236, 3.0, 40.0, (5.5e-3, 2.6e-6, 5.3e-3, 2.6e-6));
+        let (full, early) = (c.worst(false), c.worst(true));
+        assert_eq!(full.0.to_bits(), early.0.to_bits());
+        assert!(early.1 < full.1, "{early:?} {full:?}");
+    }
+
+    proptest! {
+        /// Stopping early gives the largest cell's bound to the bit.
+        #[test]
+        fn the_tail_bound_stops_only_where_no_cell_left_is_larger(
+            dist in -3.0f64..3.0,
+            foot in -3.0f64..3.0,
+            h in -3.0f64..3.0,
+            d in -6.0f64..6.0,
+            row in (-6.0f64..0.0, -9.0f64..-3.0, -6.0f64..0.0, -9.0f64..-3.0),
+            no_tilt in any::<bool>(),
+        ) {
+            let e = |x: f64| libm::pow(10.0, x);
+            let n1 = if no_tilt { 0.0 } else { e(row.2) };
+            let c = cells(e(dist), e(foot), e(h), e(d), (e(row.0), e(row.1), n1, e(row.3)));
+            let (full, early) = (c.worst(false), c.worst(true));
+            prop_assert_eq!(full.0.to_bits(), early.0.to_bits(), "{:?}: {:?} {:?}", c, full, early);
+            prop_assert!(early.1 <= full.1);
+        }
+    }
 }
