@@ -6,6 +6,12 @@
 //!
 //! An arithmetic that refuses a scene is pinned as `refused`: a change that
 //! makes it render (or stop rendering) shows up here too.
+//!
+//! The planner's results are pinned the same way (`tests/golden/plans.txt`):
+//! each shipped scene's plan at its own pose and at [`POSES`] poses about
+//! it, every prediction to the bit (CRC-64 of their `Debug` text, which
+//! gives each `f64` exactly). A change that makes the planner faster
+//! without changing what it decides or predicts passes here unchanged.
 
 use hilcam::planner::{Budget, Plan};
 use hilcam::render::Frame;
@@ -38,6 +44,10 @@ const CRC: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_ECMA_182);
 
 fn golden_path() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/frames.txt"))
+}
+
+fn plans_path() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/plans.txt"))
 }
 
 fn scenes() -> Vec<PathBuf> {
@@ -78,15 +88,72 @@ fn current() -> BTreeMap<String, String> {
 
 #[test]
 fn shipped_frames_match_the_committed_hashes() {
-    let now = current();
-    let path = golden_path();
+    check(
+        current(),
+        &golden_path(),
+        scenes().len() * FORMATS.len() * VARIANTS.len(),
+    );
+}
+
+/// Poses about a scene's own whose plans are pinned: half turned by up to
+/// ±1.4° about each axis and moved by up to ±5 cm, half by up to ±11° and
+/// ±40 cm (a deterministic sequence).
+const POSES: usize = 40;
+
+/// `scene` → the hash of its plans at its pose and at [`POSES`] poses about it.
+fn current_plans() -> BTreeMap<String, String> {
+    use host_sim::trajectory::{quaternion_of, rotation_of};
+    let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let budget = Budget::default();
+    let mut out = BTreeMap::new();
+    for path in scenes() {
+        let r = load(&path).expect("a shipped scene loads");
+        let scene = r.core_scene().expect("a shipped scene builds");
+        let pose = host_sim::drive_cmd::scene_pose(&r).expect("its pose");
+        let mut d = CRC.digest();
+        d.update(format!("{:?}", hilcam::planner::plan(&scene, &budget)).as_bytes());
+        let q0 = quaternion_of(&pose.rotation);
+        for k in 0..POSES {
+            let s = if k < POSES / 2 { 0.025 } else { 0.2 };
+            let q = [q0[0], q0[1] + s * next(), q0[2] + s * next(), q0[3] + s * next()];
+            let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let t = pose.translation.map(|v| v + 2.0 * s * next());
+            let mut at = scene.clone();
+            let e = hilcam::extrinsics::Extrinsics::from_matrix(rotation_of(q.map(|v| v / n)), t);
+            let moved = e.is_ok_and(|e| at.set_pose(e).is_ok());
+            assert!(moved, "{}: pose {k}", r.desc.name);
+            d.update(format!("{:?}", hilcam::planner::plan(&at, &budget)).as_bytes());
+        }
+        out.insert(r.desc.name.clone(), format!("{:016x}", d.finalize()));
+    }
+    out
+}
+
+#[test]
+fn shipped_plans_match_the_committed_hashes() {
+    check(current_plans(), &plans_path(), scenes().len());
+}
+
+/// Compares `now` with the committed file at `path` (rewrites it with
+/// `HILCAM_BLESS`); `count` entries expected.
+fn check(now: BTreeMap<String, String>, path: &std::path::Path, count: usize) {
+    let name = path
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
     if std::env::var_os("HILCAM_BLESS").is_some() {
         let text: String = now.iter().map(|(k, v)| format!("{k} {v}\n")).collect();
         std::fs::create_dir_all(path.parent().expect("dir")).expect("mkdir");
-        std::fs::write(&path, text).expect("write golden");
+        std::fs::write(path, text).expect("write golden");
         return;
     }
-    let text = std::fs::read_to_string(&path).expect("tests/golden/frames.txt (HILCAM_BLESS=1 writes it)");
+    let text = std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("tests/golden/{name} (HILCAM_BLESS=1 writes it): {e}"));
     let golden: BTreeMap<String, String> = text
         .lines()
         .filter_map(|l| l.rsplit_once(' '))
@@ -105,10 +172,10 @@ fn shipped_frames_match_the_committed_hashes() {
     }
     assert!(
         diffs.is_empty(),
-        "{} of {} frames differ from tests/golden/frames.txt:\n{}",
+        "{} of {} entries differ from tests/golden/{name}:\n{}",
         diffs.len(),
         now.len(),
         diffs.join("\n")
     );
-    assert_eq!(now.len(), scenes().len() * FORMATS.len() * VARIANTS.len());
+    assert_eq!(now.len(), count);
 }
