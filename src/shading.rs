@@ -136,14 +136,31 @@ impl Brdf {
             exponent: m.exponent,
             ..Brdf::default()
         };
+        // The quotients of the channel before where its albedos repeat (a
+        // gray material: one division, not three), and no lobe's quotient
+        // where its product is 0 — the same values, fewer 128-bit
+        // divisions (the driven camera folds every material each pose it
+        // plans).
+        let mut last: Option<([Q; 2], [Q; 2])> = None;
         for c in 0..3 {
             let (Some(rho), Some(rhos), Some(amb)) = (m.albedo.get(c), m.specular.get(c), ambient.get(c))
             else {
                 continue;
             };
+            let [d, s] = match last {
+                Some((albedos, k)) if albedos == [*rho, *rhos] => k,
+                _ => [
+                    quotient::<Q>(n.mul(Wide::of(*rho)), pi).value,
+                    if *rhos == Q::ZERO || m.mix == Q::ONE {
+                        Q::ZERO
+                    } else {
+                        quotient::<Q>(ns.mul(Wide::of(*rhos)).mul(lobe), pi.mul(Wide::int(2))).value
+                    },
+                ],
+            };
+            last = Some(([*rho, *rhos], [d, s]));
             if let (Some(kd), Some(ks), Some(ka)) = (b.kd.get_mut(c), b.ks.get_mut(c), b.ka.get_mut(c)) {
-                *kd = quotient::<Q>(n.mul(Wide::of(*rho)), pi).value;
-                *ks = quotient::<Q>(ns.mul(Wide::of(*rhos)).mul(lobe), pi.mul(Wide::int(2))).value;
+                (*kd, *ks) = (d, s);
                 *ka = Wide::of(*rho).mul(Wide::of(*amb)).narrow::<Q>().value;
             }
         }

@@ -206,3 +206,47 @@ fn quantization_matches_reference() {
         Ok(())
     });
 }
+
+/// A channel value from `a`, `b` or 0 (`pick` 0, 1, 2): materials whose
+/// channels repeat, differ or vanish.
+fn channel(pick: u8, a: f64, b: f64) -> Q {
+    Q::from_num([a, b, 0.0][pick as usize % 3])
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// [`Brdf::new`] folds each channel as camera-model.md §6 gives it —
+    /// `k_d = n ρ/π`, `k_s = (1 − n) ρ_s (s + 2)/2π`, `k_a = ρ A` — however
+    /// it shares the work between channels that repeat.
+    #[test]
+    fn brdf_constants_are_each_channel_s_own(
+        albedo in (0u8..3, 0u8..3, 0u8..3, 0.0f64..=1.0, 0.0f64..=1.0),
+        specular in (0u8..3, 0u8..3, 0u8..3, 0.0f64..=1.0, 0.0f64..=1.0),
+        mix in prop_oneof![Just(0.0f64), Just(1.0), 0.0f64..=1.0],
+        exponent in 0u16..=hilcam::scene::MAX_EXPONENT,
+        ambient in colour(1.0),
+    ) {
+        use core::ops::{Mul as _, Sub as _};
+        use hilcam::num::{quotient, Angle, Wide};
+        let m = Material {
+            albedo: [albedo.0, albedo.1, albedo.2].map(|p| channel(p, albedo.3, albedo.4)),
+            specular: [specular.0, specular.1, specular.2].map(|p| channel(p, specular.3, specular.4)),
+            mix: Q::from_num(mix),
+            exponent,
+        };
+        let amb = ambient.map(Q::from_num);
+        let b = Brdf::new(&m, amb);
+        let (pi, n) = (Wide::of(Angle::PI), Wide::of(m.mix));
+        for (c, a) in amb.iter().enumerate() {
+            let kd = quotient::<Q>(n.mul(Wide::of(m.albedo[c])), pi).value;
+            let ks = quotient::<Q>(
+                Wide::int(1).sub(n).mul(Wide::of(m.specular[c])).mul(Wide::int(i64::from(exponent) + 2)),
+                pi.mul(Wide::int(2)),
+            )
+            .value;
+            let ka = Wide::of(m.albedo[c]).mul(Wide::of(*a)).narrow::<Q>().value;
+            prop_assert_eq!((b.kd[c], b.ks[c], b.ka[c]), (kd, ks, ka), "channel {}", c);
+        }
+    }
+}
