@@ -710,7 +710,7 @@ const COVERAGE_GRID: (u32, u32) = (8, 6);
 impl PrimGeom {
     /// What [`PrimGeom::hit`] takes of a ray's origin `o`, whatever its
     /// direction: once a primitive for perspective rays (all from `o = 0`).
-    fn from(&self, o: [f64; 3]) -> FromOrigin {
+    fn seen_from(&self, o: [f64; 3]) -> FromOrigin {
         let oc = sub3(self.c, o);
         let cc = dot3(oc, oc);
         FromOrigin {
@@ -728,8 +728,8 @@ impl PrimGeom {
 
     /// Where the ray `o + t d`, `t > 0`, first meets the primitive (a
     /// rectangle as the disc through its corners: coverage, not shading):
-    /// its `t` (0 from inside a sphere), or `None`. `k` is [`PrimGeom::from`]
-    /// `o`, `dd` is `d·d` and `vd` is `k.v·d`.
+    /// its `t` (0 from inside a sphere), or `None`. `k` is
+    /// [`PrimGeom::seen_from`] `o`, `dd` is `d·d` and `vd` is `k.v·d`.
     fn hit(&self, k: &FromOrigin, d: [f64; 3], dd: f64, vd: f64) -> Option<f64> {
         match self.shape {
             Shape::Sphere { .. } => {
@@ -760,9 +760,10 @@ impl PrimGeom {
     }
 }
 
-/// A ray origin's terms for one primitive ([`PrimGeom::from`]).
+/// A ray origin's terms for one primitive ([`PrimGeom::seen_from`]).
 #[derive(Clone, Copy, Debug, Default)]
 struct FromOrigin {
+    /// The origin `o`, camera frame.
     o: [f64; 3],
     /// What a ray's direction `d` is dotted with: `c − o` (a sphere's), or
     /// the normal (a flat shape's).
@@ -1043,7 +1044,7 @@ impl Geometry {
         let mut at = [FromOrigin::default(); crate::scene::MAX_PRIMITIVES];
         if origin_scale.is_none() {
             for (k, p) in at.iter_mut().zip(&prims) {
-                *k = p.from([0.0; 3]);
+                *k = p.seen_from([0.0; 3]);
             }
         }
         // The rows' slopes, once.
@@ -1070,7 +1071,7 @@ impl Geometry {
                 };
                 if origin_scale.is_some() {
                     for (k, p) in at.iter_mut().zip(&prims) {
-                        *k = p.from(o);
+                        *k = p.seen_from(o);
                     }
                 }
                 let (mut any, mut others) = (false, false);

@@ -96,8 +96,8 @@ fn shipped_frames_match_the_committed_hashes() {
 }
 
 /// Poses about a scene's own whose plans are pinned: half turned by up to
-/// ±1.4° about each axis and moved by up to ±5 cm, half by up to ±11° and
-/// ±40 cm (a deterministic sequence).
+/// ±1.4° about each axis and moved by up to ±2.5 cm along each, half by
+/// up to ±11° and ±20 cm (a deterministic sequence).
 const POSES: usize = 40;
 
 /// `scene` → the hash of its plans at its pose and at [`POSES`] poses about it.
