@@ -82,9 +82,8 @@ sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 
 ./target/release/host-sim drive --board microbit --scene scenes/standard.toml --frames 3 --out target/drive-microbit | tail -1
 
 echo "== a pose and its trigger sent at once: the camera plans before it answers the trigger (round trips within 1 %)"
-# The camera plans again after a change of pose (soft-float f64: about
-# 0.94 M M3 instructions, which the batched drive prints as the pose's
-# cost). A trigger read in the same batch as its pose
+# The camera plans again after a change of pose (soft-float f64; the
+# batched drive prints it as the pose's cost). A trigger read in the same batch as its pose
 # is answered after that plan, so its round trip (answer to frame) is the
 # same however the host's writes are split. Before, it held the plan when
 # the host was loaded (20 frames --batched beside six busy loops on 2

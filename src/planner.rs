@@ -1700,22 +1700,7 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let (nx, ny) = (libm::fabs(p.n[0]), libm::fabs(p.n[1]));
     let (d1, d2) = (libm::sqrt(x1 * x1 + y1 * y1), libm::sqrt(x2 * x2 + y2 * y2));
     let (n1, n2) = (nx * x1 + ny * y1, nx * x2 + ny * y2);
-    // Cells of R (each bounded at its worst ends) up to 10³ times the
-    // scene's distances, where the bound falls as 1/R: 10 % wide up to 4
-    // times the distance at which the hit passes the light's foot (the
-    // bound's largest lie there), 25 % beyond.
-    let cells = MeanCells {
-        dist,
-        foot,
-        h,
-        d,
-        d1,
-        d2,
-        n1,
-        n2,
-        top: 1e3 * (dist + l + h),
-        fine: 4.0 * libm::sqrt(foot * foot + dist * dist),
-    };
+    let cells = MeanCells::new((dist, foot, h, l), d, (d1, d2, n1, n2));
     Some(cells.worst(true).0 + libm::ldexp(1.0, -15))
 }
 
@@ -1739,6 +1724,31 @@ struct MeanCells {
 }
 
 impl MeanCells {
+    /// The cells for the plane `dist` from the camera, the light `h` from
+    /// the plane and `l` from the camera, its foot `foot` from the
+    /// camera's (m): cells of R (each bounded at its worst ends) up to 10³
+    /// times the scene's distances, where the bound falls as 1/R — 10 %
+    /// wide up to 4 times the distance at which the hit passes the light's
+    /// foot (the bound's largest lie there), 25 % beyond.
+    fn new(
+        (dist, foot, h, l): (f64, f64, f64, f64),
+        d: f64,
+        (d1, d2, n1, n2): (f64, f64, f64, f64),
+    ) -> MeanCells {
+        MeanCells {
+            dist,
+            foot,
+            h,
+            d,
+            d1,
+            d2,
+            n1,
+            n2,
+            top: 1e3 * (dist + l + h),
+            fine: 4.0 * libm::sqrt(foot * foot + dist * dist),
+        }
+    }
+
     /// The largest cell's bound, LSB, and the cells taken. With `early`,
     /// the cells beyond the fine ones stop once [`closed_mean_tail`] bounds
     /// every one left within the largest so far: the same value (`tests`),
@@ -2331,27 +2341,19 @@ mod tests {
 
     /// Cells for a camera `dist` above the plane, the light `h` above it
     /// with its foot `foot` from the camera's.
-    fn cells(dist: f64, foot: f64, h: f64, d: f64, (d1, d2, n1, n2): (f64, f64, f64, f64)) -> MeanCells {
+    fn cells(dist: f64, foot: f64, h: f64, d: f64, row: (f64, f64, f64, f64)) -> MeanCells {
         let l = libm::sqrt(foot * foot + (h - dist) * (h - dist));
-        MeanCells {
-            dist,
-            foot,
-            h,
-            d,
-            d1,
-            d2,
-            n1,
-            n2,
-            top: 1e3 * (dist + l + h),
-            fine: 4.0 * libm::sqrt(foot * foot + dist * dist),
-        }
+        MeanCells::new((dist, foot, h, l), d, row)
     }
 
     #[test]
     fn the_standard_scene_s_cells_stop_early() {
         // The standard scene's: the camera 1.2 m up, the light 3 m up with
-        // its foot 2.24 m off; row bounds for f = 200 px, k1 0.15, k2 0.05.
-        let c = cells(1.2, 2.236, 3.0, 40.0, (5.5e-3, 2.6e-6, 5.3e-3, 2.6e-6));
+        // its foot 2.24 m off; `closed_mean_err`'s row bounds for f = 200
+        // px, k1 0.15, k2 0.05 to the corner (u = 0.2465) and the floor's
+        // normal 14.9° off the camera's y axis (|n_x| 0, |n_y| 0.966); `D`
+        // scales every cell alike.
+        let c = cells(1.2, 2.236, 3.0, 1.0, (5.63e-3, 1.53e-5, 2.08e-4, 5.37e-6));
         let (full, early) = (c.worst(false), c.worst(true));
         assert_eq!(full.0.to_bits(), early.0.to_bits());
         assert!(early.1 < full.1, "{early:?} {full:?}");
