@@ -5,6 +5,7 @@
 //! methods of [`crate::Extrinsics`] and [`crate::Intrinsics`].
 
 use crate::error::{to_fixed, Error, Field};
+use crate::num::AsF64;
 use crate::num::{Len, Norm, Px};
 
 macro_rules! point3 {
@@ -33,7 +34,7 @@ macro_rules! point3 {
 
             /// The coordinates in metres.
             pub fn to_f64(self) -> [f64; 3] {
-                [self.x.to_num(), self.y.to_num(), self.z.to_num()]
+                [self.x.as_f64(), self.y.as_f64(), self.z.as_f64()]
             }
         }
     };
@@ -98,7 +99,7 @@ impl PixelPoint {
 
     /// The coordinates in pixels.
     pub fn to_f64(self) -> [f64; 2] {
-        [self.x.to_num(), self.y.to_num()]
+        [self.x.as_f64(), self.y.as_f64()]
     }
 }
 

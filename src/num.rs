@@ -655,6 +655,28 @@ pub fn quotient<T: Format>(n: Wide, d: Wide) -> Sat<T> {
     }
 }
 
+/// `x` as `f64`, rounded to the nearest (`fixed`'s `to_num`). One shared
+/// copy a format: it runs where parameters are taken, once a frame or a
+/// plan, and in line at each of those places it cost flash (M3 default
+/// firmware, 4 KB).
+#[inline(never)]
+pub fn to_f64<T: fixed::traits::Fixed>(x: T) -> f64 {
+    x.to_num()
+}
+
+/// [`to_f64`] as a method.
+pub trait AsF64 {
+    /// The value as `f64`, rounded to the nearest.
+    fn as_f64(self) -> f64;
+}
+
+impl<T: fixed::traits::Fixed> AsF64 for T {
+    #[inline(always)]
+    fn as_f64(self) -> f64 {
+        to_f64(self)
+    }
+}
+
 /// Converts a finite `f64` into a storage format, rounding to the nearest
 /// (ties to even, as `fixed`'s `from_num`); `None` if it is not finite or
 /// does not fit. For parameters converted once, at construction. Written

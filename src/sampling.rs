@@ -60,7 +60,7 @@ pub fn scaled_offsets(step: i128, n: u8) -> [i128; MAX_GRID as usize] {
 /// planner puts in its options.
 pub fn of_scene(scene: &crate::scene::Scene) -> (u8, bool) {
     match scene.sampling {
-        Some(s) => (grid_for(s.edge_error_px.to_num()), s.adaptive),
+        Some(s) => (grid_for(crate::num::to_f64(s.edge_error_px)), s.adaptive),
         None => (1, false),
     }
 }

@@ -349,7 +349,7 @@ macro_rules! fixed_scalar {
                 <$t>::saturating_from_num(i)
             }
             fn to_f64(self) -> f64 {
-                self.to_num::<f64>()
+                crate::num::to_f64(self)
             }
             #[inline(always)]
             fn from_fixed_bits(bits: i32, frac: u32) -> Self {
