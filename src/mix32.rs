@@ -73,8 +73,7 @@
 //! ([`crate::render::RenderError::OutsideFormat`]); the generic path renders
 //! them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
-use crate::num::AsF64;
-use crate::num::{clz64, umul16_words, ARMV6M};
+use crate::num::{clz64, div_q, mul_sat, umul16_words, AsF64, ARMV6M};
 use crate::render::from_acc;
 use crate::render::{Carry, ClosedMean, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::sampling::Corners;
@@ -748,7 +747,7 @@ impl Mix32 {
                 Some(k) => {
                     let o = k.origin.map(l18);
                     let (u, v) = (u3(k.u), u3(k.v));
-                    let cell = Q::ONE.checked_div(k.inv_cell).ok_or(bad)?;
+                    let cell = div_q(Q::ONE, k.inv_cell).ok_or(bad)?;
                     Some(MixChecker {
                         u,
                         v,
@@ -864,10 +863,10 @@ impl Mix32 {
         }
         let (k, limit, gmax, margin) = match f.distortion {
             Some(([k1, k2], limit)) => {
-                let u_corner = xm.saturating_mul(xm).saturating_add(ym.saturating_mul(ym));
+                let u_corner = mul_sat(xm, xm).saturating_add(mul_sat(ym, ym));
                 let u_max = u_corner.min(limit);
-                let s = k1.abs().saturating_add(k2.abs().saturating_mul(u_max));
-                let g = Q::ONE.saturating_add(s.saturating_mul(u_max));
+                let s = k1.abs().saturating_add(mul_sat(k2.abs(), u_max));
+                let g = Q::ONE.saturating_add(mul_sat(s, u_max));
                 if s >= Q::from_num(8) || g >= Q::from_num(8) {
                     return Err(bad);
                 }
@@ -879,8 +878,7 @@ impl Mix32 {
                 // truncation: E = |x̂_d| (128 s + (1 + u)²/4) + 1. The slope
                 // box's margin is 2E ([`Mix32::trace`]).
                 let w = Q::ONE.saturating_add(u_max);
-                let e = xm
-                    .saturating_mul(s.saturating_mul_int(128).saturating_add(w.saturating_mul(w) >> 2))
+                let e = mul_sat(xm, s.saturating_mul_int(128).saturating_add(mul_sat(w, w) >> 2))
                     .saturating_add(Q::ONE);
                 let margin = e
                     .saturating_mul_int(2)
@@ -892,8 +890,8 @@ impl Mix32 {
         };
         // (Aperture rays' slopes are the chief ray's shifted by up to d/(2Z̃):
         // d/2 ≤ (16 − slope) Z̃.)
-        let slope = xm.max(ym).saturating_mul(gmax);
-        if slope > Q::from_num(16) || ap_r > (Q::from_num(16) - slope).saturating_mul(ap_z) {
+        let slope = mul_sat(xm.max(ym), gmax);
+        if slope > Q::from_num(16) || ap_r > mul_sat(Q::from_num(16) - slope, ap_z) {
             return Err(bad);
         }
         // Parallel rays: origins within 64 U (so that n·o and the sphere's
@@ -902,7 +900,7 @@ impl Mix32 {
             None => None,
             Some(k) => {
                 let k24 = len_s(k, e, 24);
-                if k <= Q::ZERO || k24 == i32::MAX || slope.saturating_mul(k) > shl_q(64, e) {
+                if k <= Q::ZERO || k24 == i32::MAX || mul_sat(slope, k) > shl_q(64, e) {
                     return Err(bad);
                 }
                 Some(k24)

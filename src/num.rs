@@ -664,6 +664,20 @@ pub fn to_f64<T: fixed::traits::Fixed>(x: T) -> f64 {
     x.to_num()
 }
 
+/// `a · b`, saturated. One shared copy for the code that runs once a
+/// frame or a plan: in line, each 128-bit product cost flash.
+#[inline(never)]
+pub fn mul_sat(a: I32F32, b: I32F32) -> I32F32 {
+    a.saturating_mul(b)
+}
+
+/// `a / b`, `None` if `b` is 0 or the quotient is out of range. Out of
+/// line, as [`mul_sat`].
+#[inline(never)]
+pub fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
+    a.checked_div(b)
+}
+
 /// [`to_f64`] as a method.
 pub trait AsF64 {
     /// The value as `f64`, rounded to the nearest.

@@ -2386,7 +2386,7 @@ pub(crate) fn cam_prim(
                 CamShape::Sphere {
                     c,
                     r2: q(Wide::of(radius).mul(Wide::of(radius))),
-                    inv_r: Q::ONE.checked_div(r).unwrap_or(Q::MAX),
+                    inv_r: crate::num::div_q(Q::ONE, r).unwrap_or(Q::MAX),
                 },
                 c,
             )

@@ -434,6 +434,9 @@ impl Reader<'_> {
         Some(b)
     }
 
+    /// Out of line: in line at each of the scene's numbers it cost 0.5 KB
+    /// of flash (M3).
+    #[inline(never)]
     fn f64(&mut self) -> Option<f64> {
         let (b, rest) = self.0.split_first_chunk::<8>()?;
         self.0 = rest;
