@@ -16,7 +16,7 @@
 
 use crate::error::{Error, Field};
 use crate::frame::NormPoint;
-use crate::num::AsF64;
+use crate::num::FixedF64;
 use crate::num::{quotient, Norm, Sat, Wide};
 use crate::scalar::Scalar;
 use core::ops::{Add as _, Mul as _};
@@ -67,7 +67,7 @@ impl Distortion {
         let k2f = crate::num::from_f64::<Norm>(k2).ok_or(Error::OutOfRange(Field::Distortion))?;
         // The fold from the stored (rounded) coefficients, so that every user
         // of this value agrees with the LUT built from them.
-        let (a, b) = (3.0 * k1f.as_f64(), 5.0 * k2f.as_f64());
+        let (a, b) = (3.0 * k1f.f64(), 5.0 * k2f.f64());
         let fold = smallest_positive_root(b, a, 1.0);
         Ok(Distortion {
             k1: k1f,
@@ -249,7 +249,7 @@ impl Distortion {
     /// `entries` over `[0, u_max]`: `|k2| h² / 4`, `h = u_max / (entries − 1)`.
     pub fn lut_interp_error(&self, u_max: f64, entries: usize) -> f64 {
         let h = u_max / (entries.max(2) - 1) as f64;
-        self.k2.as_f64().abs() * h * h / 4.0
+        self.k2.f64().abs() * h * h / 4.0
     }
 }
 

@@ -5,7 +5,7 @@
 //! methods of [`crate::Extrinsics`] and [`crate::Intrinsics`].
 
 use crate::error::{to_fixed, Error, Field};
-use crate::num::AsF64;
+use crate::num::FixedF64;
 use crate::num::{Len, Norm, Px};
 
 macro_rules! point3 {
@@ -34,7 +34,7 @@ macro_rules! point3 {
 
             /// The coordinates in metres.
             pub fn to_f64(self) -> [f64; 3] {
-                [self.x.as_f64(), self.y.as_f64(), self.z.as_f64()]
+                [self.x.f64(), self.y.f64(), self.z.f64()]
             }
         }
     };
@@ -99,7 +99,7 @@ impl PixelPoint {
 
     /// The coordinates in pixels.
     pub fn to_f64(self) -> [f64; 2] {
-        [self.x.as_f64(), self.y.as_f64()]
+        [self.x.f64(), self.y.f64()]
     }
 }
 

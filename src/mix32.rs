@@ -73,7 +73,7 @@
 //! ([`crate::render::RenderError::OutsideFormat`]); the generic path renders
 //! them. Accuracy and cost: `host-sim tradeoff` (`mix32-poly`).
 
-use crate::num::{clz64, div_q, mul_sat, umul16_words, AsF64, ARMV6M};
+use crate::num::{clz64, div_q, mul_sat, umul16_words, FixedF64, ARMV6M};
 use crate::render::from_acc;
 use crate::render::{Carry, ClosedMean, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::sampling::Corners;
@@ -180,7 +180,7 @@ enum Through {
 #[inline(never)]
 fn aperture_terms(p: &crate::render::CamPrimQ, (r, z): (Q, Q), e: i32) -> (u32, [i32; 2]) {
     use crate::render::CamShapeQ as S;
-    let f = |q: Q| q.as_f64();
+    let f = |q: Q| q.f64();
     let (c, reach) = match &p.shape {
         S::Plane { .. } => return (0, [i32::MIN, i32::MAX]),
         S::Sphere { c, r2, .. } | S::Disc { c, r2, .. } => (c, libm::sqrt(f(*r2))),

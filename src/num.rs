@@ -679,14 +679,14 @@ pub fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
 }
 
 /// [`to_f64`] as a method.
-pub trait AsF64 {
+pub trait FixedF64 {
     /// The value as `f64`, rounded to the nearest.
-    fn as_f64(self) -> f64;
+    fn f64(self) -> f64;
 }
 
-impl<T: fixed::traits::Fixed> AsF64 for T {
+impl<T: fixed::traits::Fixed> FixedF64 for T {
     #[inline(always)]
-    fn as_f64(self) -> f64 {
+    fn f64(self) -> f64 {
         to_f64(self)
     }
 }

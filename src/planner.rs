@@ -42,7 +42,7 @@
 //! Planning runs once per scene, like construction, and uses f64.
 
 use crate::noise::{Z_ERR, Z_MAX};
-use crate::num::AsF64;
+use crate::num::FixedF64;
 use crate::projection::{weak_perspective_bound, DepthBox};
 use crate::render::{Arithmetic, ClosedMean, DistortionEval, Options, RenderModel};
 use crate::scene::{Light, Scene, Shape};
@@ -285,7 +285,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let half = budget.max_geom_err_px / 2.0;
     let (mut model, wp) = ray_model_and_bound(scene, budget);
     let mut g = Geometry::of(scene, model);
-    let edge_budget = scene.sampling.map_or(0.5, |s| s.edge_error_px.as_f64());
+    let edge_budget = scene.sampling.map_or(0.5, |s| s.edge_error_px.f64());
     let df = defocus(scene, &g, edge_budget);
     if df.points > 0 && model != RenderModel::Perspective {
         // Through the aperture, rays are perspective.
@@ -457,8 +457,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
 #[inline(never)]
 fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
     let lens = &scene.camera.lens;
-    let (d, f) = (lens.diameter().as_f64(), lens.focal_length().as_f64());
-    let (zt, b) = (lens.focus_distance().as_f64(), lens.tolerable_blur().as_f64());
+    let (d, f) = (lens.diameter().f64(), lens.focal_length().f64());
+    let (zt, b) = (lens.focus_distance().f64(), lens.tolerable_blur().f64());
     let inv_focus = 1.0 / zt;
     // §4's planes as inverse depths: 1/Ẑ_n = (d f + b̃ Z̃) / (Z̃ f (d + b̃)),
     // 1/Ẑ_f = (d f − b̃ Z̃) / (Z̃ f (d − b̃)), 0 (infinite) when ≤ 0.
@@ -577,7 +577,7 @@ fn edge_fraction(scene: &Scene, g: &Geometry) -> f64 {
                 g.coverage * area
             }
             Shape::Rectangle { half, .. } => {
-                let (hu, hv) = (half[0].as_f64() * k, half[1].as_f64() * k);
+                let (hu, hv) = (half[0].f64() * k, half[1].f64() * k);
                 length += 4.0 * (hu + hv);
                 4.0 * hu * hv
             }
@@ -588,7 +588,7 @@ fn edge_fraction(scene: &Scene, g: &Geometry) -> f64 {
             }
         };
         if let Some(ch) = &p.checker {
-            let cell = (ch.cell.as_f64() * k).max(1e-9);
+            let cell = (ch.cell.f64() * k).max(1e-9);
             length += 2.0 * covered.min(area) / cell;
         }
     }
@@ -821,10 +821,10 @@ impl Geometry {
         let cam = &scene.camera;
         let intr = &cam.intrinsics;
         let (fx, fy) = intr.focal_px();
-        let (fx, fy) = (fx.as_f64(), fy.as_f64());
+        let (fx, fy) = (fx.f64(), fy.f64());
         let (w, h) = intr.size();
         let (ox, oy) = intr.principal_point();
-        let (ox, oy) = (ox.as_f64(), oy.as_f64());
+        let (ox, oy) = (ox.f64(), oy.f64());
         let mut slope_d = [0.0f64; 2];
         let mut u_corner: f64 = 0.0;
         for (i, j) in [
@@ -840,9 +840,9 @@ impl Geometry {
             u_corner = u_corner.max(xd * xd + yd * yd);
         }
         let (k1, k2) = scene.distortion.coefficients();
-        let (k1, k2) = (k1.as_f64(), k2.as_f64());
+        let (k1, k2) = (k1.f64(), k2.f64());
         let u_max = match scene.distortion.fold_u() {
-            Some(f) if !scene.distortion.is_none() => u_corner.min(f.as_f64()),
+            Some(f) if !scene.distortion.is_none() => u_corner.min(f.f64()),
             _ => u_corner,
         };
         let s_max = libm::fabs(k1) + libm::fabs(k2) * u_max;
@@ -850,10 +850,8 @@ impl Geometry {
         let slope = slope_d[0].max(slope_d[1]) * g_max;
         let origin_scale = match model {
             RenderModel::Perspective => None,
-            RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.as_f64()),
-            RenderModel::Orthographic { scale } => {
-                Some(intr.focal_length().as_f64() / scale.as_f64().max(1e-300))
-            }
+            RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.f64()),
+            RenderModel::Orthographic { scale } => Some(intr.focal_length().f64() / scale.f64().max(1e-300)),
         };
         let cam_pt = |p: crate::WorldPoint| cam_point(scene, p);
         let cam_dir = |d: [crate::Norm; 3]| cam_direction(scene, d);
@@ -874,7 +872,7 @@ impl Geometry {
                 }
                 Shape::Sphere { centre, radius } => {
                     let c = cam_pt(centre);
-                    let r = radius.as_f64();
+                    let r = radius.f64();
                     (c, [0.0; 3], r, r, Reach::Around(c, r))
                 }
                 Shape::Disc {
@@ -883,7 +881,7 @@ impl Geometry {
                     radius,
                 } => {
                     let c = cam_pt(centre);
-                    let r = radius.as_f64();
+                    let r = radius.f64();
                     (c, cam_dir(normal), r, f64::INFINITY, Reach::Around(c, r))
                 }
                 Shape::Rectangle {
@@ -893,7 +891,7 @@ impl Geometry {
                     half,
                 } => {
                     let c = cam_pt(centre);
-                    let (a, b) = (half[0].as_f64(), half[1].as_f64());
+                    let (a, b) = (half[0].f64(), half[1].f64());
                     let (u, v) = (cam_dir(u_axis), cam_dir(v_axis));
                     let n = [
                         u[1] * v[2] - u[2] * v[1],
@@ -912,8 +910,8 @@ impl Geometry {
                 if let Some(m) = m {
                     let b = crate::shading::Brdf::new(m, [crate::scene::Q::ZERO; 3]);
                     for c in 0..3 {
-                        kd = kd.max(b.kd.get(c).map_or(0.0, |v| v.as_f64()));
-                        ks = ks.max(b.ks.get(c).map_or(0.0, |v| v.as_f64()));
+                        kd = kd.max(b.kd.get(c).map_or(0.0, |v| v.f64()));
+                        ks = ks.max(b.ks.get(c).map_or(0.0, |v| v.f64()));
                     }
                     if m.has_specular() {
                         exponent = exponent.max(m.exponent);
@@ -923,7 +921,7 @@ impl Geometry {
             take(mat(p.material));
             if let Some(k) = &p.checker {
                 take(mat(k.material));
-                smallest = smallest.min(k.cell.as_f64());
+                smallest = smallest.min(k.cell.f64());
             }
             let unseen = origin_scale.is_none()
                 && match p.shape {
@@ -987,13 +985,12 @@ impl Geometry {
         };
         let e = unit_exp(fast_extent);
         let lens = &cam.lens;
-        let d_over_f = lens.diameter().as_f64() / lens.focal_length().as_f64();
+        let d_over_f = lens.diameter().f64() / lens.focal_length().f64();
         let fmt = scene.format;
         let gain = (0..fmt.channels())
             .map(|c| {
                 let (n, d) = fmt.channel_scale(c);
-                scene.exposure.as_f64() * core::f64::consts::PI / 4.0 * d_over_f * d_over_f * n as f64
-                    / d as f64
+                scene.exposure.f64() * core::f64::consts::PI / 4.0 * d_over_f * d_over_f * n as f64 / d as f64
             })
             .fold(0.0, f64::max);
         let dn_max = (0..fmt.channels()).map(|c| fmt.dn_max(c)).max().unwrap_or(255) as f64;
@@ -1143,8 +1140,8 @@ impl Geometry {
     /// (the fast arithmetic's unit holds the content from there too).
     fn through_aperture(&mut self, scene: &Scene) {
         let lens = &scene.camera.lens;
-        let r = lens.diameter().as_f64() / 2.0;
-        let rz = r / lens.focus_distance().as_f64().max(1e-300);
+        let r = lens.diameter().f64() / 2.0;
+        let rz = r / lens.focus_distance().f64().max(1e-300);
         self.aperture = Some((r, rz));
         self.fast_extent += r;
         self.unit = libm::ldexp(1.0, unit_exp(self.fast_extent));
@@ -1174,7 +1171,7 @@ impl Geometry {
             0.0
         } else {
             let (k1, k2) = scene.distortion.coefficients();
-            let deriv = libm::fabs(k1.as_f64()) + 2.0 * libm::fabs(k2.as_f64()) * self.u_max;
+            let deriv = libm::fabs(k1.f64()) + 2.0 * libm::fabs(k2.f64()) * self.u_max;
             self.slope_d[0].max(self.slope_d[1]) * (deriv * du + dg)
         };
         core::f64::consts::SQRT_2 * self.f_px * (dist + dx)
@@ -1437,12 +1434,12 @@ impl ErrorModel {
         for (l, lp) in scene.lights.iter().zip(&g.lights) {
             let (strength, r_min) = match (*l, lp) {
                 (Light::Point { intensity, .. }, Some(pos)) => {
-                    let i = intensity.iter().map(|v| v.as_f64()).fold(0.0, f64::max);
+                    let i = intensity.iter().map(|v| v.f64()).fold(0.0, f64::max);
                     let r = prim_light_distance(p, *pos).max(1e-9);
                     (i / (r * r), r)
                 }
                 (Light::Directional { irradiance, .. }, _) => (
-                    irradiance.iter().map(|v| v.as_f64()).fold(0.0, f64::max),
+                    irradiance.iter().map(|v| v.f64()).fold(0.0, f64::max),
                     f64::INFINITY,
                 ),
                 _ => (0.0, f64::INFINITY),
@@ -1508,7 +1505,7 @@ impl ErrorModel {
                 (Light::Directional { irradiance, .. }, _) => (irradiance, [f64::INFINITY; 3]),
                 _ => continue,
             };
-            let i = irradiance.iter().map(|v| v.as_f64()).fold(0.0, f64::max);
+            let i = irradiance.iter().map(|v| v.f64()).fold(0.0, f64::max);
             // Directional terms are the general path's, summed once a frame.
             let (d, rel) = if pos[0].is_finite() {
                 let h = prim_light_distance(p, pos).max(1e-9);
@@ -1670,7 +1667,7 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     if points.next().is_some() {
         return None;
     }
-    let i = intensity.iter().map(|v| v.as_f64()).fold(0.0, f64::max);
+    let i = intensity.iter().map(|v| v.f64()).fold(0.0, f64::max);
     let dist = libm::fabs(dot3(p.c, p.n)).max(1e-300);
     let h = prim_light_distance(p, pos).max(1e-300);
     let l = norm3(pos);
@@ -1679,7 +1676,7 @@ fn closed_mean_err(scene: &Scene, g: &Geometry) -> Option<f64> {
     let (u, f) = (g.u_max, g.f_row);
     let (k1, k2) = scene.distortion.coefficients();
     // (|k1| and |k2| u.)
-    let (k1, k2u) = (libm::fabs(k1.as_f64()), libm::fabs(k2.as_f64()) * u);
+    let (k1, k2u) = (libm::fabs(k1.f64()), libm::fabs(k2.f64()) * u);
     // Along a row (x̂ = x̂_d g(u), ŷ = ŷ_d g(u), u = x̂_d² + ŷ_d², x̂_d
     // stepping 1/f): ∂x̂/∂x̂_d = g + 2x̂_d² g', ∂ŷ/∂x̂_d = 2x̂_d ŷ_d g',
     // ∂²x̂/∂x̂_d² = 6x̂_d g' + 8k2 x̂_d³, ∂²ŷ/∂x̂_d² = ŷ_d (2g' + 8k2 x̂_d²),
@@ -1852,8 +1849,8 @@ fn noise_moved(scene: &Scene, g: &Geometry, e: f64) -> f64 {
     let Some(z) = scene.noise else {
         return e;
     };
-    let k = g.dn_max / z.saturation_e.as_f64().max(1.0);
-    let sd = z.dark_noise_e.as_f64();
+    let k = g.dn_max / z.saturation_e.f64().max(1.0);
+    let sd = z.dark_noise_e.f64();
     let slope = if sd > 0.0 {
         Z_MAX * e / (2.0 * sd)
     } else {
@@ -1871,8 +1868,8 @@ fn noise_draw_lsb(scene: &Scene, g: &Geometry) -> f64 {
     let Some(z) = scene.noise else {
         return 0.0;
     };
-    let k = g.dn_max / z.saturation_e.as_f64().max(1.0);
-    let sd = z.dark_noise_e.as_f64();
+    let k = g.dn_max / z.saturation_e.f64().max(1.0);
+    let sd = z.dark_noise_e.f64();
     let sigma = libm::sqrt(k * g.dn_max + k * k * sd * sd);
     sigma * Z_ERR + Z_MAX * (sigma * libm::ldexp(1.0, -19) + libm::ldexp(1.0, -16))
 }
@@ -2252,11 +2249,7 @@ fn cam_point(scene: &Scene, p: crate::WorldPoint) -> [f64; 3] {
 fn cam_direction(scene: &Scene, d: [crate::Norm; 3]) -> [f64; 3] {
     scene.camera.extrinsics.rotation().map(|row| {
         (0..3)
-            .map(|k| {
-                row.get(k)
-                    .zip(d.get(k))
-                    .map_or(0.0, |(a, b)| a.as_f64() * b.as_f64())
-            })
+            .map(|k| row.get(k).zip(d.get(k)).map_or(0.0, |(a, b)| a.f64() * b.f64()))
             .sum::<f64>()
     })
 }
@@ -2283,7 +2276,7 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
         match prim.shape {
             Shape::Plane { .. } => return None,
             Shape::Sphere { centre, radius } => {
-                let (c, r) = (cam_pt(centre), radius.as_f64());
+                let (c, r) = (cam_pt(centre), radius.f64());
                 grow([c[0] - r, c[1] - r, c[2] - r]);
                 grow([c[0] + r, c[1] + r, c[2] + r]);
             }
@@ -2293,7 +2286,7 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
                 radius,
             } => {
                 // Extent of a disc along axis k: r·sqrt(1 − n_k²).
-                let (c, n, r) = (cam_pt(centre), cam_dir(normal), radius.as_f64());
+                let (c, n, r) = (cam_pt(centre), cam_dir(normal), radius.f64());
                 let e = n.map(|nk| r * libm::sqrt((1.0 - nk * nk).max(0.0)));
                 grow([c[0] - e[0], c[1] - e[1], c[2] - e[2]]);
                 grow([c[0] + e[0], c[1] + e[1], c[2] + e[2]]);
@@ -2305,7 +2298,7 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
                 half,
             } => {
                 let (c, u, v) = (cam_pt(centre), cam_dir(u_axis), cam_dir(v_axis));
-                let (a, b) = (half[0].as_f64(), half[1].as_f64());
+                let (a, b) = (half[0].f64(), half[1].f64());
                 for (su, sv) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
                     grow([
                         c[0] + su * a * u[0] + sv * b * v[0],
@@ -2326,7 +2319,7 @@ fn weak_perspective_over_scene(scene: &Scene) -> Option<(f64, Len)> {
     if bound.saturated {
         return None;
     }
-    Some((bound.value.as_f64(), z_bar))
+    Some((bound.value.f64(), z_bar))
 }
 
 #[cfg(test)]

@@ -25,7 +25,7 @@
 //! formats cannot hold the planner does not send them.
 
 use crate::distortion::{Lut, MAX_LUT};
-use crate::num::AsF64;
+use crate::num::FixedF64;
 use crate::num::{quotient, Len, Norm, Wide};
 use crate::sampling::Corners;
 use crate::scalar::Scalar;
@@ -2232,7 +2232,7 @@ fn slope_bounds(
     blur: Option<(f64, f64)>,
 ) -> Option<[Q; 4]> {
     const NONE: [Q; 4] = [Q::MAX, Q::MIN, Q::MAX, Q::MIN];
-    let f = |q: Q| q.as_f64();
+    let f = |q: Q| q.f64();
     let (c, r) = match *shape {
         CamShape::Plane { .. } if origin_scale.is_some() => return None,
         CamShape::Plane { n, dist } => {
@@ -2309,14 +2309,14 @@ pub(crate) fn behind_lens(c_z: f64, r: f64) -> bool {
 pub(crate) fn field_box(scene: &Scene) -> (f64, f64) {
     let intr = &scene.camera.intrinsics;
     let (fx, fy) = intr.focal_px();
-    let (fx, fy) = (fx.as_f64().max(1e-300), fy.as_f64().max(1e-300));
+    let (fx, fy) = (fx.f64().max(1e-300), fy.f64().max(1e-300));
     let (w, h) = intr.size();
     let (ox, oy) = intr.principal_point();
     let far = |o: f64, n: u16| libm::fabs(o).max(libm::fabs(o - (f64::from(n) - 1.0))) + 0.5;
-    let (x, y) = (far(ox.as_f64(), w) / fx, far(oy.as_f64(), h) / fy);
+    let (x, y) = (far(ox.f64(), w) / fx, far(oy.f64(), h) / fy);
     let u = x * x + y * y;
     let (k1, k2) = scene.distortion.coefficients();
-    let gain = 1.0 + (libm::fabs(k1.as_f64()) + libm::fabs(k2.as_f64()) * u) * u;
+    let gain = 1.0 + (libm::fabs(k1.f64()) + libm::fabs(k2.f64()) * u) * u;
     (x * gain, y * gain)
 }
 
@@ -2344,8 +2344,8 @@ pub(crate) fn plane_unseen(n: [f64; 3], dist: f64, (x, y): (f64, f64), a: f64) -
 #[inline(never)]
 pub(crate) fn lens_blur(scene: &Scene) -> (f64, f64) {
     let lens = &scene.camera.lens;
-    let focus = lens.focus_distance().as_f64();
-    (lens.diameter().as_f64() / 2.0, 1.0 / focus)
+    let focus = lens.focus_distance().f64();
+    (lens.diameter().f64() / 2.0, 1.0 / focus)
 }
 
 /// A light in the camera frame, I32F32.
