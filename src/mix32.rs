@@ -1225,7 +1225,12 @@ impl Mix32 {
         let mut k = KCache::EMPTY;
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let noise = self.noise.as_ref();
-        let ChunkBufs { rays, words, fl } = buf;
+        let ChunkBufs {
+            rays,
+            words,
+            fl,
+            even3,
+        } = buf;
         // The index of the line's first pixel in the frame (the noise's key).
         let line = j as u32 * self.width as u32;
         // Columns `w − half ..` take the rays of columns `.. half` mirrored.
@@ -1297,7 +1302,7 @@ impl Mix32 {
                 Some(c) => self.closed_run::<LANES, C>(
                     c,
                     (rays, ys, met || outside),
-                    words,
+                    (words, &mut *even3),
                     fl,
                     dn_max,
                     (noise, index, step),
@@ -1487,7 +1492,7 @@ impl Mix32 {
         &self,
         c: &Closed,
         (rays, ys, met): (&mut [Ray], [i32; 2], bool),
-        words: &mut [u16],
+        (words, even3): (&mut [u16], &mut [[u64; 3]; CHUNK / 2 + 1]),
         fl: &mut [u8],
         dn_max: [u64; 3],
         (noise, index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
@@ -1541,7 +1546,17 @@ impl Mix32 {
                 // Ray q's at q/2 (q even; an odd one reads q/2 and q/2 + 1).
                 // One slot spare: with 16, spheres-specular measured 549.1
                 // against 545.7 M3 instructions a pixel (the frame's layout).
-                let mut even = [[0u64; C]; CHUNK / 2 + 1];
+                // Three channels' in the chunk buffers (`ChunkBufs::even3`):
+                // every slot read is written first in the chunk.
+                let mut own = [[0u64; C]; CHUNK / 2 + 1];
+                let even: &mut [[u64; C]; CHUNK / 2 + 1] =
+                    match (C == 3, even3.as_flattened_mut().as_chunks_mut::<C>()) {
+                        (true, (e, _)) => match e.try_into() {
+                            Ok(e) => e,
+                            Err(_) => &mut own,
+                        },
+                        _ => &mut own,
+                    };
                 // The last even ray (the even rays below it between the
                 // shaded ones take means).
                 let e = len.saturating_sub(1) & !1;

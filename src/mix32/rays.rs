@@ -311,6 +311,12 @@ pub struct ChunkBufs {
     pub(super) rays: Rays,
     pub(super) words: [u16; CHUNK],
     pub(super) fl: [u8; CHUNK],
+    /// The closed plane's even sums of a chunk of three channels
+    /// (`Mix32::closed_run`): here, not zeroed a chunk (408 B; every slot
+    /// a chunk reads it writes first). One channel's stay in the run's own
+    /// frame, zeroed (kept here too, they cost the M3's standard scene 4
+    /// instructions a pixel: the loop's registers).
+    pub(super) even3: [[u64; 3]; CHUNK / 2 + 1],
 }
 
 impl core::fmt::Debug for ChunkBufs {

@@ -412,12 +412,28 @@ fn closed_lanes_are_closed_run() {
         let run_left = m.closed_run::<false, 1>(
             &c,
             (&mut *run, ys, met),
-            &mut run_words[..count],
+            (&mut run_words[..count], &mut [[0; 3]; CHUNK / 2 + 1]),
             &mut run_fl[..count],
             [dn_max; 3],
             (None, 0, 1),
         );
         assert_eq!(run_left, left, "case {case}");
+        // Three channels' even sums are the chunk buffers' (not zeroed a
+        // chunk): what a chunk before left there changes no word.
+        let three = |stale: u64| {
+            let mut rays = before;
+            let (mut w, mut f) = ([0u16; CHUNK], [0u8; CHUNK]);
+            let left = m.closed_run::<false, 3>(
+                &c,
+                (&mut rays[..count], ys, met),
+                (&mut w[..count], &mut [[stale; 3]; CHUNK / 2 + 1]),
+                &mut f[..count],
+                [dn_max; 3],
+                (None, 0, 1),
+            );
+            (left, w, f)
+        };
+        assert_eq!(three(0), three(u64::MAX / 3), "case {case}");
         for (q, (a, b)) in run.iter().zip(rays.iter()).enumerate() {
             assert_eq!((a.t, a.hit), (b.t, b.hit), "case {case} ray {q}");
             if left & (1 << q) == 0 {
