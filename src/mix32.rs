@@ -1572,7 +1572,13 @@ impl Mix32 {
                     let mut sum = c.flat;
                     closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum);
                     if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
-                        e.iter_mut().zip(sum).for_each(|(e, s)| *e = s);
+                        // (The frame's channels: a `compact` build's gray
+                        // frame stores one, not its loop's three.)
+                        each::<C>(nch, |ch| {
+                            if let (Some(e), Some(s)) = (e.get_mut(ch), sum.get(ch)) {
+                                *e = *s;
+                            }
+                        });
                     }
                     // The pixel's noise key (computed where the noise draws).
                     let k = index.wrapping_add((q as u32).wrapping_mul(step));
