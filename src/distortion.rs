@@ -16,8 +16,7 @@
 
 use crate::error::{Error, Field};
 use crate::frame::NormPoint;
-use crate::num::FixedF64;
-use crate::num::{quotient, Norm, Sat, Wide};
+use crate::num::{quotient, FixedF64, Norm, Sat, Wide};
 use crate::scalar::Scalar;
 use core::ops::{Add as _, Mul as _};
 use fixed::types::{I32F0, I32F32};

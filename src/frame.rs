@@ -5,8 +5,7 @@
 //! methods of [`crate::Extrinsics`] and [`crate::Intrinsics`].
 
 use crate::error::{to_fixed, Error, Field};
-use crate::num::FixedF64;
-use crate::num::{Len, Norm, Px};
+use crate::num::{FixedF64, Len, Norm, Px};
 
 macro_rules! point3 {
     ($(#[$m:meta])* $name:ident) => {

@@ -25,8 +25,7 @@
 //! formats cannot hold the planner does not send them.
 
 use crate::distortion::{Lut, MAX_LUT};
-use crate::num::FixedF64;
-use crate::num::{quotient, Len, Norm, Wide};
+use crate::num::{quotient, FixedF64, Len, Norm, Wide};
 use crate::sampling::Corners;
 use crate::scalar::Scalar;
 use crate::scene::{Light, PixelFormat, Primitive, Scene, Shape, Q};
