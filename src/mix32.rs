@@ -1464,6 +1464,13 @@ impl Mix32 {
     /// instructions a pixel).
     #[inline(always)]
     fn closed_keep(c: &Closed, r: &mut Ray) {
+        // Most of these rays meet the other primitive before the plane,
+        // which no reciprocal then needs to show (`Ray::plane_beyond`).
+        let den = r.n_dot_d(c.n);
+        if Ray::plane_beyond(den, c.dist, r.t) {
+            return;
+        }
+        // (The rest, rare, takes `n·d` again: one copy of `plane_t`.)
         if let Some((t, away)) = r.plane_t::<true>(c.n, c.dist, (0, 0)) {
             if t < r.t || (t == r.t && c.index < r.hit & !AWAY) {
                 r.t = t;

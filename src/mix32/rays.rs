@@ -272,8 +272,8 @@ impl Ray {
         rz: (u32, u32),
     ) -> Option<(i32, bool)> {
         if PERSP {
-            // n·d S56 → S24; t = dist / (n·d) in S18.
-            let den = ((wmul_px(n[0], self.x) + wmul_px(n[1], self.y) + ((n[2] as i64) << 26)) >> 32) as i32;
+            // t = dist / (n·d) in S18.
+            let den = self.n_dot_d(n);
             // t = dist 2^18 / den: dist · (1/den) with 1/den = r 2^(z − 62).
             let (r, z) = recip(NonZeroU32::new(den.unsigned_abs())?);
             // Negated where n·d < 0 (`s` = −1): exact, and within T_MAX
@@ -295,6 +295,37 @@ impl Ray {
             let t = (mul_shr_t(dist.saturating_sub(no), rz.0, 38 - rz.1) ^ s).wrapping_sub(s);
             (t > 0).then_some((t, n[2] > 0))
         }
+    }
+
+    /// A perspective ray's `n·d` (S24, from `n` in S30): [`Ray::plane_t`]'s
+    /// denominator.
+    #[inline(always)]
+    pub(super) fn n_dot_d(&self, n: [i32; 3]) -> i32 {
+        // n·d S56 → S24.
+        ((wmul_px(n[0], self.x) + wmul_px(n[1], self.y) + ((n[2] as i64) << 26)) >> 32) as i32
+    }
+
+    /// Whether [`Ray::plane_t`] of a perspective ray whose `n·d` is `den`
+    /// (S24; the plane `n·p = dist`) is `None` or a `t` above
+    /// `t` (`0 ≤ t`, S18 U), decided without its reciprocal where it can
+    /// be: `false` only where it may not be. The plane is behind (or
+    /// never met) where `den` or `dist` is 0 or their signs differ.
+    /// Otherwise, with `T = |dist| 2¹⁸ / |den|` exact, `plane_t`'s `t`
+    /// is at least `min(T_MAX, T (1 − 2⁻²¹) − 2^l − 2)`: [`recip`] is
+    /// within 2⁻²¹ of `1/|den|` (relative), [`mul_shr_t`]'s floors
+    /// lose under one unit before its left shift by `l = z − 13` (`z` the
+    /// leading zeros of `|den|`) and one after a right shift, and
+    /// `2^l |den| < 2¹⁹`. So `t < T_MAX` and `(t + 2) |den| + 2¹⁹ + D
+    /// 2⁻²⁰ < D`, `D = |dist| 2¹⁸`, put the plane beyond `t`.
+    /// (`tests::plane_beyond_is_plane_t_s`.)
+    #[inline(always)]
+    pub(super) fn plane_beyond(den: i32, dist: i32, t: i32) -> bool {
+        if den == 0 || dist == 0 || (den ^ dist) < 0 {
+            return true;
+        }
+        let d = u64::from(dist.unsigned_abs()) << 18;
+        let lhs = umul(t as u32 + 2, den.unsigned_abs()) + (1 << 19) + (d >> 20);
+        t < T_MAX && lhs < d
     }
 }
 

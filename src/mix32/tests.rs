@@ -1000,3 +1000,55 @@ fn pseudo_float_products_and_saturation() {
     assert_eq!(Pf::new(1, -40).to_sum(0), 0);
     assert_eq!((Pf::default() * a).to_sum(15), 0);
 }
+
+/// [`Ray::plane_beyond`] says a plane is beyond a hit at `t` only where
+/// [`Ray::plane_t`] gives no `t` or one above it: on random
+/// denominators and heights over every leading-zero count, with `t`
+/// drawn around the plane's own (ties within a few units included), on
+/// both signs; and it decides most rays that are well short of the plane.
+#[test]
+fn plane_beyond_is_plane_t_s() {
+    let mut s = 0x9e37_79b9_7f4a_7c15;
+    let (mut decided, mut short) = (0u32, 0u32);
+    for i in 0..400_000u32 {
+        // (|n·d| < 2^29: a unit normal's, S30, on slopes within ±32.)
+        let den = ((rng(&mut s) >> (rng(&mut s) % 63)) as u32 >> 3) as i32;
+        let dist = ((rng(&mut s) >> (36 + rng(&mut s) % 28)) % (1 << 28)) as i32;
+        let (den, dist) = match i % 4 {
+            0 => (den, dist),
+            1 => (-den, -dist),
+            2 => (-den, dist),
+            _ => (den, -dist),
+        };
+        // A ray whose n·d is den: n = (1, 0, 0) (S30), x̂ = 4 den (S26).
+        let ray = Ray::flat(4 * den, 0);
+        assert_eq!(ray.n_dot_d([1 << 30, 0, 0]), den);
+        let exact = ray.plane_t::<true>([1 << 30, 0, 0], dist, (0, 0));
+        // t near the plane's (±8 units, or a relative 2^-k), or anywhere.
+        let base = exact.map_or(rng(&mut s) as i32 & i32::MAX, |(t, _)| t);
+        let t = match rng(&mut s) % 4 {
+            0 => base.saturating_add((rng(&mut s) % 17) as i32 - 8),
+            1 => base.saturating_sub(((base as u64) >> (rng(&mut s) % 40)) as i32),
+            2 => (rng(&mut s) >> 33) as i32,
+            _ => base,
+        }
+        .clamp(0, NO_HIT);
+        let beyond = Ray::plane_beyond(den, dist, t);
+        if beyond {
+            if let Some((tp, _)) = exact {
+                assert!(tp > t, "den {den} dist {dist}: plane at {tp}, said beyond {t}");
+                decided += 1;
+            }
+        }
+        if let Some((tp, _)) = exact {
+            // Well short: by 2^-10 of the plane's t and 16 units, on a plane above 2^-8
+            // U (S24) that the ray does not graze (|n·d| above 2^-8).
+            let seen = den.unsigned_abs() > 1 << 16 && dist.unsigned_abs() > 1 << 16;
+            if seen && tp < T_MAX && (t as i64) < tp as i64 - (tp as i64 >> 10) - 16 {
+                short += 1;
+                assert!(beyond, "den {den} dist {dist}: plane at {tp}, {t} undecided");
+            }
+        }
+    }
+    assert!(decided > 10_000 && short > 1_000, "{decided} {short}");
+}
