@@ -490,6 +490,18 @@ pub(super) fn sar64_low(v: i64, s: u32) -> i32 {
     sar64(v, s) as i32
 }
 
+/// [`sar64_low`] for a shift `s` below 32, in 32-bit words: `(lo >> s) |
+/// (hi << (32 − s))` (the left shift in two steps, so that `s = 0` is
+/// exact). The same value as `sar64_low` for every `s < 32`, without the
+/// test for 32 and more that a 64-bit shift by a variable amount takes
+/// (`tests::m0_products_and_counts_are_exact`).
+#[inline(always)]
+pub(super) fn sar64_low_lt32(v: i64, s: u32) -> i32 {
+    let (hi, lo) = ((v >> 32) as u32, v as u32);
+    let s = s & 31;
+    ((lo >> s) | ((hi << 1) << (31 - s))) as i32
+}
+
 /// For `v ≠ 0`: the top word of `v << z` and `z`, the count of `v`'s
 /// leading zeros, in 32-bit words: [`Pf::new`]'s normalization, which the
 /// 64-bit count and shift by a variable amount took the M3 twelve
@@ -747,10 +759,14 @@ mod tests {
                 assert_eq!(super::smul_u16(a as i32, b), a as i32 as i64 * b as i64);
                 assert_eq!(super::usq16(a as i32), (a as i32 as i64 * a as i32 as i64) as u64);
                 assert_eq!(super::umul_h16(a, b as u16), a as u64 * (b as u16) as u64);
-                for z in [0, 1, b % 64, 31, 32, 33, 63] {
+                for z in [0, 1, b % 32, b % 64, 31, 32, 33, 63] {
                     let v = (a as u64) << 32 | b as u64;
                     assert_eq!(super::shl64_words(v, z), v << z, "{v} << {z}");
                     assert_eq!(super::sar64_words(v as i64, z), v as i64 >> z, "{v} >> {z}");
+                    if z < 32 {
+                        let want = (v as i64 >> z) as i32;
+                        assert_eq!(super::sar64_low_lt32(v as i64, z), want, "{v} >> {z}");
+                    }
                 }
                 let w = (a as u64) << 32 | b as u64;
                 for v in [w, b as u64, w >> (b % 64)] {
