@@ -279,6 +279,8 @@ struct Closed {
     dist: i32,
     ndist: i32,
     ndist50: i64,
+    /// [`Ray::beyond_limit`] of `dist` ([`Mix32::closed_keep`]).
+    beyond: u64,
     /// The ambient and directional terms (S15 DN, capped) on the side the
     /// rays see: the same at every point. (A ray meets the plane where `w`
     /// has the sign of `dist`, so every hit faces away if `dist > 0`, and
@@ -987,6 +989,7 @@ impl Mix32 {
             dist,
             ndist: dist.saturating_neg(),
             ndist50: -((dist as i64) << 26),
+            beyond: Ray::beyond_limit(dist),
             flat: *ka,
             lights: heapless::Vec::new(),
         };
@@ -1466,8 +1469,7 @@ impl Mix32 {
     fn closed_keep(c: &Closed, r: &mut Ray) {
         // Most of these rays meet the other primitive before the plane,
         // which no reciprocal then needs to show (`Ray::plane_beyond`).
-        let den = r.n_dot_d(c.n);
-        if Ray::plane_beyond(den, c.dist, r.t) {
+        if Ray::plane_beyond(r.n_dot_d(c.n), c.dist, r.t, c.beyond) {
             return;
         }
         // (The rest, rare, takes `n·d` again: one copy of `plane_t`.)

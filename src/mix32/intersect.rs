@@ -60,9 +60,12 @@ pub(super) fn fine_normal<const PERSP: bool>(
     // S24 → S30 by 1/r: six more bits of shift than from S18. |p − c| is
     // r (or |c⊥|, within the hit test's error of r, where s² < 0): each
     // component fits i32 in S30, the low word of the shift
-    // (`tests::a_sphere_hits_normal_fits_without_saturation`).
-    let sh = (inv_r.1 + 6).min(63);
-    rel.map(|v| sar64_low(smul_u(v, inv_r.0), sh))
+    // (`tests::a_sphere_hits_normal_fits_without_saturation`). The shift
+    // is below 32, in words ([`sar64_low_lt32`]): the radius lies within
+    // the content's 8 U (S24, below 2²⁷), so [`recip_len`] normalizes
+    // 2⁵⁴/s of 28 bits or more and its shift is at most 22.
+    let sh = inv_r.1 + 6;
+    rel.map(|v| sar64_low_lt32(smul_u(v, inv_r.0), sh))
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -306,26 +306,33 @@ impl Ray {
     }
 
     /// Whether [`Ray::plane_t`] of a perspective ray whose `n·d` is `den`
-    /// (S24; the plane `n·p = dist`) is `None` or a `t` above
-    /// `t` (`0 ≤ t`, S18 U), decided without its reciprocal where it can
-    /// be: `false` only where it may not be. The plane is behind (or
-    /// never met) where `den` or `dist` is 0 or their signs differ.
-    /// Otherwise, with `T = |dist| 2¹⁸ / |den|` exact, `plane_t`'s `t`
-    /// is at least `min(T_MAX, T (1 − 2⁻²¹) − 2^l − 2)`: [`recip`] is
-    /// within 2⁻²¹ of `1/|den|` (relative), [`mul_shr_t`]'s floors
-    /// lose under one unit before its left shift by `l = z − 13` (`z` the
-    /// leading zeros of `|den|`) and one after a right shift, and
-    /// `2^l |den| < 2¹⁹`. So `t < T_MAX` and `(t + 2) |den| + 2¹⁹ + D
-    /// 2⁻²⁰ < D`, `D = |dist| 2¹⁸`, put the plane beyond `t`.
-    /// (`tests::plane_beyond_is_plane_t_s`.)
+    /// (S24, `|den| < 2³¹`; the plane `n·p = dist`) is `None` or a `t`
+    /// above `t` (`0 ≤ t`, S18 U), decided without its reciprocal where it
+    /// can be: `false` only where it may not be. `limit` is
+    /// [`Ray::beyond_limit`]`(dist)`, a constant of the plane. The plane is
+    /// behind (or never met) where `den` is 0 or its sign is not `dist`'s.
+    /// Otherwise, with `T = |dist| 2¹⁸ / |den|` exact, `plane_t`'s `t` is
+    /// at least `min(T_MAX, T (1 − 2⁻²¹) − 2^l − 2)`: [`recip`] is within
+    /// 2⁻²¹ of `1/|den|` (relative), [`mul_shr_t`]'s floors lose under one
+    /// unit before its left shift by `l = z − 13` (`z` the leading zeros of
+    /// `|den|`) and one after a right shift, and `2^l |den| < 2¹⁹`. So `t <
+    /// T_MAX` and `(t + 2) |den| + 2¹⁹ + D 2⁻²⁰ < D`, `D = |dist| 2¹⁸`,
+    /// put the plane beyond `t`. (`tests::plane_beyond_is_plane_t_s`.)
     #[inline(always)]
-    pub(super) fn plane_beyond(den: i32, dist: i32, t: i32) -> bool {
-        if den == 0 || dist == 0 || (den ^ dist) < 0 {
-            return true;
-        }
+    pub(super) fn plane_beyond(den: i32, dist: i32, t: i32, limit: u64) -> bool {
+        // |den| where it has dist's sign, else 0 or below (and with
+        // dist = 0 the limit is 0: the test below fails, and `plane_t`
+        // has no t either).
+        let s = dist >> 31;
+        let w = (den ^ s).wrapping_sub(s);
+        w <= 0 || (t < T_MAX && umul(t as u32 + 2, w as u32) < limit)
+    }
+
+    /// [`Ray::plane_beyond`]'s `limit` for a plane at `dist` (S24 U): `D −
+    /// 2¹⁹ − ⌊D 2⁻²⁰⌋` with `D = |dist| 2¹⁸` (0 where that is negative).
+    pub(super) fn beyond_limit(dist: i32) -> u64 {
         let d = u64::from(dist.unsigned_abs()) << 18;
-        let lhs = umul(t as u32 + 2, den.unsigned_abs()) + (1 << 19) + (d >> 20);
-        t < T_MAX && lhs < d
+        d.saturating_sub((1 << 19) + (d >> 20))
     }
 }
 

@@ -103,14 +103,19 @@ fn inner_boxes_pass_the_rectangles_test() {
 /// by rays at random points of their surface and grazing their
 /// silhouettes, `(p − c)/r` in S30 fits i32 — [`sar64_low`] gives the
 /// saturated value — and lies below 1.5 in magnitude; and
-/// [`fine_normal`]'s (taken through `sar64_low` too) is a unit vector
-/// within 10 %.
+/// [`fine_normal`]'s is a unit vector within 10 %. Both shift in words
+/// ([`sar64_low_lt32`]): `recip_len`'s shift is 9 to 22 for radii from
+/// 2⁻¹⁰ U to the content's 8 U.
 #[test]
 fn a_sphere_hits_normal_fits_without_saturation() {
     let mut s = 0x5fe3_e0a1_d00d_0001;
     let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
     let (mut hits, mut widest) = (0u32, 0f64);
     let unit = unit3;
+    for r in [2f64.powi(-10), 8.0] {
+        let sh = recip_len(Q::from_num(r), 0).map(|(_, sh)| sh);
+        assert!(sh.is_some_and(|sh| (9..=22).contains(&sh)), "r {r}: {sh:?}");
+    }
     for case in 0..3000 {
         let r = f(-10.0, 2.0).exp2();
         let c = [f(-4.0, 4.0), f(-4.0, 4.0), f(0.0, 6.0)];
@@ -125,6 +130,9 @@ fn a_sphere_hits_normal_fits_without_saturation() {
         let Some(inv_r) = recip_len(q(r), 0) else {
             continue;
         };
+        // `fine_normal` shifts by `inv_r.1 + 6` in words, `hit_from` by
+        // `inv_r.1`: both below 32 for any radius within the content's 8 U.
+        assert!((9..=22).contains(&inv_r.1), "r {r}: shift {}", inv_r.1);
         let c18 = c.map(|x| len_s(q(x), 0, 18));
         let shape = MixShape::Sphere {
             cz50: (c24[2] as i64) << 26,
@@ -176,7 +184,11 @@ fn a_sphere_hits_normal_fits_without_saturation() {
                 for (p, c) in pt.into_iter().zip(c18) {
                     let v = smul_u(p.saturating_sub(c), inv_r.0);
                     let want = sat32(sar64(v, inv_r.1));
-                    assert_eq!(want, sar64_low(v, inv_r.1), "case {case}: r {r} c {c:?} p {p}");
+                    assert_eq!(
+                        want,
+                        sar64_low_lt32(v, inv_r.1),
+                        "case {case}: r {r} c {c:?} p {p}"
+                    );
                     widest = widest.max((want as f64 / (1u64 << 30) as f64).abs());
                 }
             }
@@ -369,6 +381,7 @@ fn closed_lanes_are_closed_run() {
             dist,
             ndist: -dist,
             ndist50: -((dist as i64) << 26),
+            beyond: Ray::beyond_limit(dist),
             flat: [flat; 3],
             lights,
         };
@@ -1033,7 +1046,7 @@ fn plane_beyond_is_plane_t_s() {
             _ => base,
         }
         .clamp(0, NO_HIT);
-        let beyond = Ray::plane_beyond(den, dist, t);
+        let beyond = Ray::plane_beyond(den, dist, t, Ray::beyond_limit(dist));
         if beyond {
             if let Some((tp, _)) = exact {
                 assert!(tp > t, "den {den} dist {dist}: plane at {tp}, said beyond {t}");
