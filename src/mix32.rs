@@ -2621,7 +2621,7 @@ impl Mix32 {
                     // l̂ = l/r in S30 (only for the lobe): 1/r = y 2^((z − 28)/2)
                     // with lv in S18.
                     let ldir = view.map(|_| {
-                        let (y, z) = rsqrt_fine(r2);
+                        let (y, z) = rsqrt_refine(r2, y, z);
                         lv.map(|c| sar64_low(smul_u(c, y), 32 - z / 2))
                     });
                     (cos_over_r3(nl as u64, y, z), ldir)

@@ -257,6 +257,13 @@ pub(super) fn rsqrt_top(m32: u32) -> u32 {
 #[inline]
 pub(super) fn rsqrt_fine(x: u64) -> (u32, u32) {
     let (_, y, z) = rsqrt_norm(x);
+    rsqrt_refine(x, y, z)
+}
+
+/// [`rsqrt_fine`] from [`rsqrt_norm`]'s `y` and `z` of the same `x`, for a
+/// caller that has them already (a lit pixel's `1/r` and the lobe's `l̂`).
+#[inline]
+pub(super) fn rsqrt_refine(x: u64, y: u32, z: u32) -> (u32, u32) {
     let m = shl64(x, z);
     // y (3 − m y²) / 2: y² Q4.60, m y² Q4.60 (m/2^64 < 1), then Q2.30.
     let y2 = umul(y, y);
