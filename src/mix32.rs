@@ -248,6 +248,9 @@ struct Hit<'a> {
     nl: &'a [i64; crate::scene::MAX_LIGHTS],
     /// [`MixPrim::flat`].
     flat: bool,
+    /// [`Mix32::view`] of the ray, where the normal took it already
+    /// ([`fine_normal`]: a sphere under a lobe), for the lobe.
+    view: Option<[i32; 3]>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -2442,6 +2445,7 @@ impl Mix32 {
         } else {
             r.hit_point::<PERSP, MOVED>(a)
         };
+        let mut view = None;
         let n = match &p.shape {
             MixShape::Plane { n, .. } | MixShape::Disc { n, .. } | MixShape::Rect { n, .. } => *n,
             // Under a specular lobe, whose exponent multiplies the normal's
@@ -2456,7 +2460,9 @@ impl Mix32 {
             } if lobe_built::<L, C>() => {
                 // The centre the pass took ([`MixShape::moved`]).
                 let c = if MOVED { moved_point(*c, a24) } else { *c };
-                fine_normal::<PERSP>(r, c, *r24, *inv_r, away)
+                let (n, v) = fine_normal::<PERSP>(r, c, *r24, *inv_r, away);
+                view = Some(v);
+                n
             }
             // A point of the sphere: `|p − c|` is `r` within the hit's
             // error (`r` ≥ 2⁻¹⁰ U, [`recip_len`]; the point within 2⁻¹⁶ U:
@@ -2497,6 +2503,7 @@ impl Mix32 {
             away,
             nl: &p.nl,
             flat: p.flat,
+            view,
         })
     }
 
@@ -2562,6 +2569,7 @@ impl Mix32 {
             n,
             away,
             nl: nls,
+            view: kept,
             ..
         } = *h;
         let nch = self.nch();
@@ -2600,7 +2608,7 @@ impl Mix32 {
         // The lobe, if this build's loop for `C` channels has it (a frame
         // with one is refused by a build without: `Frame::line_built`).
         let lobe = if lobe_built::<L, C>() { k.lobe } else { None };
-        let view = lobe.map(|_| Self::view::<PERSP>(r));
+        let view = lobe.map(|_| kept.unwrap_or_else(|| Self::view::<PERSP>(r)));
         let mut sum = k.ka;
         for (((l, kl), (ksl, top)), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
             let (w, ldir) = match l {

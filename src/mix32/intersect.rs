@@ -28,11 +28,12 @@ pub(super) fn fine_normal<const PERSP: bool>(
     r24: i32,
     inv_r: (u32, u32),
     inside: bool,
-) -> [i32; 3] {
+) -> ([i32; 3], [i32; 3]) {
     // d̂ (S30) and the centre from the ray's origin (S24 U; parallel
     // origins are within 64 U, S18).
+    let view = Mix32::view::<PERSP>(r);
     let (dh, cr) = if PERSP {
-        (Mix32::view::<true>(r).map(i32::saturating_neg), c)
+        (view.map(i32::saturating_neg), c)
     } else {
         (
             [0, 0, 1 << 30],
@@ -65,7 +66,7 @@ pub(super) fn fine_normal<const PERSP: bool>(
     // the content's 8 U (S24, below 2²⁷), so [`recip_len`] normalizes
     // 2⁵⁴/s of 28 bits or more and its shift is at most 22.
     let sh = inv_r.1 + 6;
-    rel.map(|v| sar64_low_lt32(smul_u(v, inv_r.0), sh))
+    (rel.map(|v| sar64_low_lt32(smul_u(v, inv_r.0), sh)), view)
 }
 
 #[derive(Clone, Copy, Debug)]
