@@ -2460,7 +2460,7 @@ impl Mix32 {
             } if lobe_built::<L, C>() => {
                 // The centre the pass took ([`MixShape::moved`]).
                 let c = if MOVED { moved_point(*c, a24) } else { *c };
-                let (n, v) = fine_normal::<PERSP>(r, c, *r24, *inv_r, away);
+                let (n, v) = fine_normal::<PERSP, MOVED>(r, c, *r24, *inv_r, away);
                 view = Some(v);
                 n
             }

@@ -22,7 +22,7 @@ use super::*;
 #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
 #[cfg_attr(target_arch = "x86_64", inline(always))]
 #[cold]
-pub(super) fn fine_normal<const PERSP: bool>(
+pub(super) fn fine_normal<const PERSP: bool, const MOVED: bool>(
     r: &Ray,
     c: [i32; 3],
     r24: i32,
@@ -46,16 +46,29 @@ pub(super) fn fine_normal<const PERSP: bool>(
     };
     // d̂·c, S54 → S24 (|c| ≤ 72 U).
     let k = ((wmul(dh[0], cr[0]) + wmul(dh[1], cr[1]) + wmul(dh[2], cr[2])) >> 30) as i32;
-    let cp = zip3(cr, dh, |ci, di| ci.saturating_sub((wmul(k, di) >> 30) as i32));
+    // (Perspective rays from the centre of the lens: the centre lies
+    // within the content's 8 U, below 2²⁷ in S24, so `c⊥` and `p − c`
+    // below 2²⁸ and no sum saturates — wrapping is the same value, without
+    // the saturation's tests. Parallel rays' centres lie within 72 U of
+    // their origin, and the aperture loop's are moved by its points.)
+    let wrap = PERSP && !MOVED;
+    let sub = |a: i32, b: i32| {
+        if wrap {
+            a.wrapping_sub(b)
+        } else {
+            a.saturating_sub(b)
+        }
+    };
+    let cp = zip3(cr, dh, |ci, di| sub(ci, (wmul(k, di) >> 30) as i32));
     // s² = r² − |c⊥|², S48 (|c⊥| ≤ r ≤ 8 U at a hit).
     let s2 = wmul(r24, r24) - (wsq(cp[0]) + wsq(cp[1]) + wsq(cp[2])) as i64;
     let s = sqrt_fine(s2.max(0) as u64);
     let rel = zip3(cp, dh, |a, d| {
         let sd = (wmul(s, d) >> 30) as i32;
-        if inside {
-            sd.saturating_sub(a)
-        } else {
-            a.saturating_add(sd).saturating_neg()
+        match (inside, wrap) {
+            (true, _) => sub(sd, a),
+            (false, true) => a.wrapping_add(sd).wrapping_neg(),
+            (false, false) => a.saturating_add(sd).saturating_neg(),
         }
     });
     // S24 → S30 by 1/r: six more bits of shift than from S18. |p − c| is

@@ -174,7 +174,7 @@ fn a_sphere_hits_normal_fits_without_saturation() {
                 hits += 1;
                 // The lobe's normal from the ray and the sphere: unit
                 // within its errors (a wrapped component would not be).
-                let (n, v) = fine_normal::<true>(&ray[0], c24, r24, inv_r, ray[0].hit & AWAY != 0);
+                let (n, v) = fine_normal::<true, false>(&ray[0], c24, r24, inv_r, ray[0].hit & AWAY != 0);
                 assert_eq!(v, Mix32::view::<true>(&ray[0]));
                 let n2: f64 = n.iter().map(|&x| (x as f64 / (1u64 << 30) as f64).powi(2)).sum();
                 assert!(
