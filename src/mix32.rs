@@ -1924,12 +1924,6 @@ impl Mix32 {
             let Some(rays) = rays.first(count) else {
                 return;
             };
-            // A sphere's pass takes the rays' `1/a`: without one in the
-            // chunk's box, the rays go without.
-            let sphere = self.prims.iter().any(|p| {
-                matches!(p.shape, MixShape::Sphere { .. })
-                    && p.bounds.is_none_or(|b| meets(&b, [x0, x1, y0, y1]))
-            });
             for u in crate::defocus::SPIRAL
                 .iter()
                 .take(if count + singles > 0 { ap.m as usize } else { 0 })
@@ -1944,12 +1938,9 @@ impl Mix32 {
                 });
                 for (r, q) in rays.iter_mut().zip(todo) {
                     if let Some(c) = chief.get(q as usize) {
-                        let (x, y) = (c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
-                        *r = if sphere {
-                            Ray::new::<true>(x, y, 0)
-                        } else {
-                            Ray::flat(x, y)
-                        };
+                        // (Without `1/a`: a sphere's pass takes it for the
+                        // rays that meet the sphere, `MixShape::nearest`.)
+                        *r = Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
                     }
                 }
                 for (i, p) in self.prims.iter().enumerate() {

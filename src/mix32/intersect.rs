@@ -319,7 +319,8 @@ impl MixShape {
     /// edge), a perspective ray that the S44 discriminant puts within its
     /// truncations (< 2³³) of a sphere's silhouette is decided exactly, in
     /// 128 bits, on the ray's S26 slopes and the sphere's S24 centre and
-    /// radius.
+    /// radius; and a sphere's pass takes a ray's `1/a` itself, where the
+    /// ray meets it (those rays are built without: [`Ray::flat`]).
     #[inline(always)]
     pub(super) fn nearest<const PERSP: bool, const EXACT: bool>(
         &self,
@@ -457,9 +458,17 @@ impl MixShape {
             // S18; parallel a = 1, S18 already. (`1/a`'s `z` is at
             // most 11, `a` ≥ 2²⁰: the shift is 35 or more, so
             // [`mul_shr_right`], and `|t|` below `|v|/16`, within T_MAX.)
+            // (The aperture loop's rays, `EXACT`, come without their `1/a`
+            // ([`Ray::flat`]): taken here, as [`Ray::new`] takes it, for
+            // the rays that meet the sphere alone.)
+            let ra = if PERSP && EXACT {
+                NonZeroU32::new(r.a as u32).map_or((0, 0), recip)
+            } else {
+                r.ra
+            };
             let over_a = |v: i32| {
                 if PERSP {
-                    mul_shr_right(v, r.ra.0, 46 - r.ra.1)
+                    mul_shr_right(v, ra.0, 46 - ra.1)
                 } else {
                     v
                 }

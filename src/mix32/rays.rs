@@ -144,10 +144,10 @@ impl Ray {
             c4: 1 << 31,
         }
     }
-
     /// [`Ray::new`] of a perspective ray without its `1/a` (0), which only
-    /// a sphere's pass and [`Ray::c4`] take: the aperture loop's rays in a
-    /// chunk that no sphere's bounds meet.
+    /// a sphere's pass and [`Ray::c4`] take: the aperture loop's rays,
+    /// whose `1/a` a sphere's pass takes itself where the ray meets it
+    /// ([`MixShape::nearest`]'s `EXACT`).
     #[inline(always)]
     pub(super) fn flat(x: i32, y: i32) -> Ray {
         Ray {
