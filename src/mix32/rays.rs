@@ -144,6 +144,7 @@ impl Ray {
             c4: 1 << 31,
         }
     }
+
     /// [`Ray::new`] of a perspective ray without its `1/a` (0), which only
     /// a sphere's pass and [`Ray::c4`] take: the aperture loop's rays,
     /// whose `1/a` a sphere's pass takes itself where the ray meets it
