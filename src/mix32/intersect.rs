@@ -148,13 +148,11 @@ impl MixChecker {
     #[inline(always)]
     pub(super) fn cells<const PERSP: bool>(&self, pt: [i32; 3], bounded: bool) -> (i32, i32) {
         let shift = if PERSP { ALONG_S42 } else { 0 };
-        // (On the Cortex-M0, where a product is four 16-bit ones, an axis
-        // with a_z = 0 — a plane facing the camera — has that product left
-        // out, as [`closed_w`]'s: the same sum. On the M3 the test cost
-        // shallow-dof 568 instructions a pixel more, 1 089 fewer on the
-        // M0.)
-        let z = |p: i32, a: i32| if ARMV6M && a == 0 { 0 } else { wmul(p, a) };
-        let along = |a: [i32; 3]| (wmul(pt[0], a[0]) + wmul(pt[1], a[1]) + z(pt[2], a[2])) >> shift;
+        // (On the Cortex-M0 an axis with a_z = 0 — a plane facing the
+        // camera — has that product left out, [`wmul_axis`]: shallow-dof
+        // 1 089 instructions a pixel fewer there; on the M3 the test cost
+        // 568 more.)
+        let along = |a: [i32; 3]| (wmul(pt[0], a[0]) + wmul(pt[1], a[1]) + wmul_axis(pt[2], a[2])) >> shift;
         (
             self.cell::<PERSP>(along(self.u) - self.ou, bounded),
             self.cell::<PERSP>(along(self.v) - self.ov, bounded),

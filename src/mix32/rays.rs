@@ -243,20 +243,19 @@ impl Ray {
     /// products fewer than [`Ray::point`]'s, and finer: no coordinate
     /// rounded to S18); a parallel ray's from its point, S48 U, exact.
     ///
-    /// On the Cortex-M0, where a product is four 16-bit ones, a parallel
-    /// ray's product by a zero component of the axis (a rectangle or
-    /// checker square to the camera) is left out, as [`closed_w`]'s: the
-    /// same sum. (For perspective rays too, the M0's checkerboard-barrel
-    /// measured 726.0 → 691.4 and shallow-dof 32 611 → 32 360, but
-    /// calibration-board 2 926.2 → 2 970.9, whose second axis has none.)
+    /// On the Cortex-M0 a parallel ray's product by a zero component of
+    /// the axis (a rectangle or checker square to the camera) is left out
+    /// ([`wmul_axis`]): the same sum. (For perspective rays too, the M0's
+    /// checkerboard-barrel measured 726.0 → 691.4 and shallow-dof 32 611 →
+    /// 32 360, but calibration-board 2 926.2 → 2 970.9, whose second axis
+    /// has none.)
     #[inline(always)]
     pub(super) fn along<const PERSP: bool>(&self, t: i32, a: [i32; 3]) -> i64 {
         if PERSP {
             let da = ((wmul_px(self.x, a[0]) + wmul_px(self.y, a[1]) + ((a[2] as i64) << 26)) >> 32) as i32;
             wmul_px(t, da)
         } else {
-            let by = |v: i32, c: i32| if ARMV6M && c == 0 { 0 } else { wmul(v, c) };
-            by(self.ox, a[0]) + by(self.oy, a[1]) + by(t, a[2])
+            wmul_axis(self.ox, a[0]) + wmul_axis(self.oy, a[1]) + wmul_axis(t, a[2])
         }
     }
 
