@@ -1553,120 +1553,30 @@ impl Mix32 {
                     || rays.iter().all(|r| c.ahead(closed_w(n, r)));
             }
             if lit {
-                // Two loops, the even rays' sums kept between them: one with
-                // the lag cost the M3's standard scene 14 instructions a pixel.
-                // Ray q's at q/2 (q even; an odd one reads q/2 and q/2 + 1).
-                // One slot spare: with 16, spheres-specular measured 549.1
-                // against 545.7 M3 instructions a pixel (the frame's layout).
-                // Three channels' in the chunk buffers (`ChunkBufs::even3`):
-                // every slot read is written first in the chunk.
-                let mut own = [[0u64; C]; CHUNK / 2 + 1];
-                let even: &mut [[u64; C]; CHUNK / 2 + 1] =
-                    match (C == 3, even3.as_flattened_mut().as_chunks_mut::<C>()) {
-                        (true, (e, _)) => match e.try_into() {
-                            Ok(e) => e,
-                            Err(_) => &mut own,
-                        },
-                        _ => &mut own,
-                    };
-                // The last even ray (the even rays below it between the
-                // shaded ones take means).
-                let e = len.saturating_sub(1) & !1;
-                // (A bit a ray: `next_shaded` a call a ray cost the M3 more.)
-                let mut shaded = c.mean.shaded_mask(len);
-                while shaded != 0 {
-                    let q = shaded.trailing_zeros() as usize;
-                    shaded &= shaded - 1;
-                    let (Some(r), Some(word)) = (rays.get_mut(q), words.get_mut(q)) else {
-                        break;
-                    };
-                    let w = closed_w(n, r);
-                    let mut sum = c.flat;
-                    closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum);
-                    if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
-                        // (The frame's channels: a `compact` build's gray
-                        // frame stores one, not its loop's three.)
-                        each::<C>(nch, |ch| {
-                            if let (Some(e), Some(s)) = (e.get_mut(ch), sum.get(ch)) {
-                                *e = *s;
-                            }
-                        });
-                    }
-                    // The pixel's noise key (computed where the noise draws).
-                    let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                    *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                }
-                // The even rays between, level by level: with `Octs` the rays
-                // ≡ 4 (mod 8) from the shaded ones 4 apart (a ray whose ray 4
-                // on lies past `e` was shaded: `next_shaded`), then with
-                // `Quads` and `Octs` the rays ≡ 2 (mod 4) from those 2 apart.
-                // A `compact` build takes the levels in one loop (flash); the
-                // others a loop each (one loop cost the M3 4 a pixel).
-                let compact = cfg!(feature = "compact");
-                let (octs, quads) = (c.mean == ClosedMean::Octs, c.mean.span() >= 4);
-                let mut d = if compact { (c.mean.span() >> 1) as usize } else { 0 };
-                while d >= 2 {
-                    let mut q = d;
-                    while let (true, Some(a), Some(b)) = (
-                        q + d <= e,
-                        even.get((q - d) >> 1).copied(),
-                        even.get((q + d) >> 1).copied(),
-                    ) {
-                        if let (Some(m), Some(r), Some(word)) =
-                            (even.get_mut(q >> 1), rays.get(q), words.get_mut(q))
-                        {
-                            let sum = mean_into::<C>(nch, &a, &b, m);
-                            let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                        }
-                        q += 2 * d;
-                    }
-                    d >>= 1;
-                }
-                let mut q = 4;
-                while !compact && octs && q + 4 <= e {
-                    if let (Some([a, _, m, _, b]), Some(r), Some(word)) = (
-                        even.get_mut((q >> 1) - 2..(q >> 1) + 3),
-                        rays.get(q),
-                        words.get_mut(q),
-                    ) {
-                        let sum = mean_into::<C>(nch, a, b, m);
-                        let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                        *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                    }
-                    q += 8;
-                }
-                let mut q = 2;
-                while !compact && quads && q < e {
-                    if let (Some([a, m, b]), Some(r), Some(word)) = (
-                        even.get_mut((q >> 1) - 1..(q >> 1) + 2),
-                        rays.get(q),
-                        words.get_mut(q),
-                    ) {
-                        let sum = mean_into::<C>(nch, a, b, m);
-                        let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                        *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                    }
-                    q += 4;
-                }
-                let mut q = 1;
-                while q + 1 < len {
-                    if let (Some(a), Some(b), Some(r), Some(word)) = (
-                        even.get(q >> 1),
-                        even.get((q >> 1) + 1),
-                        rays.get(q),
-                        words.get_mut(q),
-                    ) {
-                        let mut sum = [0u64; 3];
-                        each::<C>(nch, |ch| {
-                            if let (Some(s), Some(a), Some(b)) = (sum.get_mut(ch), a.get(ch), b.get(ch)) {
-                                *s = mean(*a, *b);
-                            }
-                        });
-                        let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                        *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
-                    }
-                    q += 2;
+                // Without noise, a copy of the loops without its test (a
+                // branch a ray: the M3's standard scene 207.8 against 205.9
+                // instructions a pixel, for 2 KB of flash; not in a
+                // `compact` build).
+                match noise {
+                    #[cfg(not(feature = "compact"))]
+                    None => self.closed_lit::<C>(
+                        c,
+                        l,
+                        (rays, len),
+                        (words, even3),
+                        dn_max,
+                        (keep, store),
+                        (None, index, step),
+                    ),
+                    _ => self.closed_lit::<C>(
+                        c,
+                        l,
+                        (rays, len),
+                        (words, even3),
+                        dn_max,
+                        (keep, store),
+                        (noise, index, step),
+                    ),
                 }
                 fl.iter_mut().for_each(|f| *f = 0);
                 return 0;
@@ -1707,6 +1617,137 @@ impl Mix32 {
             *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
         }
         left
+    }
+
+    /// [`Mix32::closed_run`]'s chunk whose rays all see the plane under its
+    /// one point light `l`: the first `len` rays' words, their sums kept in
+    /// `even3` (three channels) or the run's own frame.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn closed_lit<const C: usize>(
+        &self,
+        c: &Closed,
+        l: &ClosedLight,
+        (rays, len): (&mut [Ray], usize),
+        (words, even3): (&mut [u16], &mut [[u64; 3]; CHUNK / 2 + 1]),
+        dn_max: [u64; 3],
+        (keep, store): (bool, bool),
+        (noise, index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
+    ) {
+        let (n, nch) = (c.n, self.nch());
+        let rgb = chans::<C>(nch) == 3;
+        // Two loops, the even rays' sums kept between them: one with
+        // the lag cost the M3's standard scene 14 instructions a pixel.
+        // Ray q's at q/2 (q even; an odd one reads q/2 and q/2 + 1).
+        // One slot spare: with 16, spheres-specular measured 549.1
+        // against 545.7 M3 instructions a pixel (the frame's layout).
+        // Three channels' in the chunk buffers (`ChunkBufs::even3`):
+        // every slot read is written first in the chunk.
+        let mut own = [[0u64; C]; CHUNK / 2 + 1];
+        let even: &mut [[u64; C]; CHUNK / 2 + 1] =
+            match (C == 3, even3.as_flattened_mut().as_chunks_mut::<C>()) {
+                (true, (e, _)) => match e.try_into() {
+                    Ok(e) => e,
+                    Err(_) => &mut own,
+                },
+                _ => &mut own,
+            };
+        // The last even ray (the even rays below it between the
+        // shaded ones take means).
+        let e = len.saturating_sub(1) & !1;
+        // (A bit a ray: `next_shaded` a call a ray cost the M3 more.)
+        let mut shaded = c.mean.shaded_mask(len);
+        while shaded != 0 {
+            let q = shaded.trailing_zeros() as usize;
+            shaded &= shaded - 1;
+            let (Some(r), Some(word)) = (rays.get_mut(q), words.get_mut(q)) else {
+                break;
+            };
+            let w = closed_w(n, r);
+            let mut sum = c.flat;
+            closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum);
+            if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
+                // (The frame's channels: a `compact` build's gray
+                // frame stores one, not its loop's three.)
+                each::<C>(nch, |ch| {
+                    if let (Some(e), Some(s)) = (e.get_mut(ch), sum.get(ch)) {
+                        *e = *s;
+                    }
+                });
+            }
+            // The pixel's noise key (computed where the noise draws).
+            let k = index.wrapping_add((q as u32).wrapping_mul(step));
+            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+        }
+        // The even rays between, level by level: with `Octs` the rays
+        // ≡ 4 (mod 8) from the shaded ones 4 apart (a ray whose ray 4
+        // on lies past `e` was shaded: `next_shaded`), then with
+        // `Quads` and `Octs` the rays ≡ 2 (mod 4) from those 2 apart.
+        // A `compact` build takes the levels in one loop (flash); the
+        // others a loop each (one loop cost the M3 4 a pixel).
+        let compact = cfg!(feature = "compact");
+        let (octs, quads) = (c.mean == ClosedMean::Octs, c.mean.span() >= 4);
+        let mut d = if compact { (c.mean.span() >> 1) as usize } else { 0 };
+        while d >= 2 {
+            let mut q = d;
+            while let (true, Some(a), Some(b)) = (
+                q + d <= e,
+                even.get((q - d) >> 1).copied(),
+                even.get((q + d) >> 1).copied(),
+            ) {
+                if let (Some(m), Some(r), Some(word)) = (even.get_mut(q >> 1), rays.get(q), words.get_mut(q))
+                {
+                    let sum = mean_into::<C>(nch, &a, &b, m);
+                    let k = index.wrapping_add((q as u32).wrapping_mul(step));
+                    *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                }
+                q += 2 * d;
+            }
+            d >>= 1;
+        }
+        let mut q = 4;
+        while !compact && octs && q + 4 <= e {
+            if let (Some([a, _, m, _, b]), Some(r), Some(word)) = (
+                even.get_mut((q >> 1) - 2..(q >> 1) + 3),
+                rays.get(q),
+                words.get_mut(q),
+            ) {
+                let sum = mean_into::<C>(nch, a, b, m);
+                let k = index.wrapping_add((q as u32).wrapping_mul(step));
+                *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+            }
+            q += 8;
+        }
+        // Rays `4i + 2` below `e`: chunks of 4 rays and words (as the odd
+        // rays below).
+        if let (false, true, Some(rs), Some(ws)) = (compact, quads, rays.get(..e), words.get_mut(..e)) {
+            let fours = rs.as_chunks::<4>().0.iter().zip(ws.as_chunks_mut::<4>().0);
+            for (i, ([_, _, r, _], [_, _, word, _])) in fours.enumerate() {
+                if let Some([a, m, b]) = even.get_mut(2 * i..2 * i + 3) {
+                    let sum = mean_into::<C>(nch, a, b, m);
+                    let k = index.wrapping_add((4 * i as u32 + 2).wrapping_mul(step));
+                    *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                }
+            }
+        }
+        // The odd rays below the last: pairs of rays and words, the odd
+        // ray second (index and bounds tests a ray fewer than by index).
+        let below = len.saturating_sub(1);
+        let (Some(rs), Some(ws)) = (rays.get(..below), words.get_mut(..below)) else {
+            return;
+        };
+        let pairs = rs.as_chunks::<2>().0.iter().zip(ws.as_chunks_mut::<2>().0);
+        for (i, (([_, r], [_, word]), (a, b))) in pairs.zip(even.iter().zip(even.iter().skip(1))).enumerate()
+        {
+            let mut sum = [0u64; 3];
+            each::<C>(nch, |ch| {
+                if let (Some(s), Some(a), Some(b)) = (sum.get_mut(ch), a.get(ch), b.get(ch)) {
+                    *s = mean(*a, *b);
+                }
+            });
+            let k = index.wrapping_add((2 * i as u32 + 1).wrapping_mul(step));
+            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+        }
     }
 
     /// [`Mix32::closed_run`]'s [`word`] of a ray from its sum, noise key
