@@ -2311,13 +2311,13 @@ impl Mix32 {
                 // Right corners, top line (carried, or traced) then bottom
                 // line (kept for the next line).
                 let chunk_keys = key_chunks.as_mut().and_then(Iterator::next);
-                match (carried, &chunk_keys) {
-                    (true, Some(k)) => {
-                        for (c, k) in corners.iter_mut().zip(k.iter()) {
-                            *c = Key(*k);
-                        }
-                    }
-                    _ => {
+                // (Carried, the top keys are read where the bottom ones go,
+                // below: copied out first, they cost calibration-board 6.5
+                // M3 instructions a pixel.)
+                let read = carried && chunk_keys.is_some();
+                match read {
+                    true => {}
+                    false => {
                         self.trace_row::<PERSP>(rays, x - hx, self.dx, top, false);
                         for (c, r) in corners.iter_mut().zip(rays.iter()) {
                             *c = self.key::<PERSP>(r);
@@ -2327,31 +2327,30 @@ impl Mix32 {
                 self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom, false);
                 // (Two loops, not one storing where it has a buffer: a test a
                 // ray cost calibration-board 10 M3 instructions a pixel.)
+                // A pixel's corners agree if its top and bottom right ones
+                // do (`b`, the bottom one) and so do its left ones (`left`,
+                // the column before's right ones, in the same pass).
+                let agree = |c: &mut Key, b: Key, left: &mut Key| {
+                    let right = if *c == b { b } else { Key::OUTSIDE };
+                    *c = if *left == right { right } else { Key::OUTSIDE };
+                    *left = right;
+                };
                 match chunk_keys {
                     Some(k) => {
                         for ((c, r), k) in corners.iter_mut().zip(rays.iter()).zip(k.iter_mut()) {
                             let b = self.key::<PERSP>(r);
-                            *k = b.0;
-                            if *c != b {
-                                *c = Key::OUTSIDE;
+                            if read {
+                                *c = Key(*k);
                             }
+                            *k = b.0;
+                            agree(c, b, &mut left);
                         }
                     }
                     None => {
                         for (c, r) in corners.iter_mut().zip(rays.iter()) {
-                            if *c != self.key::<PERSP>(r) {
-                                *c = Key::OUTSIDE;
-                            }
+                            agree(c, self.key::<PERSP>(r), &mut left);
                         }
                     }
-                }
-                // A pixel's corners agree if its left and right columns do.
-                for c in corners.iter_mut().take(rays.len()) {
-                    let right = *c;
-                    if left != right {
-                        *c = Key::OUTSIDE;
-                    }
-                    left = right;
                 }
                 // Centres: their own sample where the corners agree with it.
                 self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), KEEP_C4_SAMPLED);
@@ -2665,7 +2664,7 @@ impl Mix32 {
                     // with lv in S18.
                     let ldir = view.map(|_| {
                         let (y, z) = rsqrt_refine(r2, y, z);
-                        lv.map(|c| sar64_low(smul_u(c, y), 32 - z / 2))
+                        map3(lv, |c| sar64_low(smul_u(c, y), 32 - z / 2))
                     });
                     (cos_over_r3(nl as u64, y, z), ldir)
                 }

@@ -372,6 +372,17 @@ pub(super) fn zip3<A: Copy, B: Copy, R>(a: [A; 3], b: [B; 3], f: impl Fn(A, B) -
     [f(a[0], b[0]), f(a[1], b[1]), f(a[2], b[2])]
 }
 
+/// `a.map(f)` written out: in a pixel's code `array::map` was a loop
+/// through the stack (five M3 instructions a component).
+#[inline(always)]
+pub(super) fn map3<A: Copy, R>(a: [A; 3], f: impl Fn(A) -> R) -> [R; 3] {
+    if cfg!(feature = "compact") {
+        a.map(f)
+    } else {
+        [f(a[0]), f(a[1]), f(a[2])]
+    }
+}
+
 // Products and bit counts. Cortex-M0 (ARMv6-M, the Arm target without
 // atomics) has only a 32 × 32 → 32 multiply and no count of leading
 // zeros: the compiler's 64-bit product there is a 64 × 64 library call and

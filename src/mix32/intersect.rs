@@ -33,7 +33,7 @@ pub(super) fn fine_normal<const PERSP: bool, const MOVED: bool>(
     // origins are within 64 U, S18).
     let view = Mix32::view::<PERSP>(r);
     let (dh, cr) = if PERSP {
-        (view.map(i32::saturating_neg), c)
+        (map3(view, i32::saturating_neg), c)
     } else {
         (
             [0, 0, 1 << 30],
@@ -79,7 +79,7 @@ pub(super) fn fine_normal<const PERSP: bool, const MOVED: bool>(
     // the content's 8 U (S24, below 2²⁷), so [`recip_len`] normalizes
     // 2⁵⁴/s of 28 bits or more and its shift is at most 22.
     let sh = inv_r.1 + 6;
-    (rel.map(|v| sar64_low_lt32(smul_u(v, inv_r.0), sh)), view)
+    (map3(rel, |v| sar64_low_lt32(smul_u(v, inv_r.0), sh)), view)
 }
 
 #[derive(Clone, Copy, Debug)]
