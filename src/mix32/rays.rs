@@ -357,11 +357,13 @@ pub struct ChunkBufs {
     pub(super) rays: Rays,
     pub(super) words: [u16; CHUNK],
     pub(super) fl: [u8; CHUNK],
-    /// The closed plane's even sums of a chunk of three channels
-    /// (`Mix32::closed_run`): here, not zeroed a chunk (408 B; every slot
-    /// a chunk reads it writes first). One channel's stay in the run's own
-    /// frame, zeroed (kept here too, they cost the M3's standard scene 4
-    /// instructions a pixel: the loop's registers).
+    /// The closed plane's even sums of a chunk (`Mix32::closed_lit`), three
+    /// channels' or one's in the first 17 words: here, not zeroed a chunk
+    /// (408 B; every slot a chunk reads it writes first). One channel's in
+    /// the run's own frame, zeroed, measured the M3's standard scene 203.6
+    /// against 201.8 instructions a pixel (at bd1c493, before the run's
+    /// chunk had a function of its own, the other way: 4 a pixel more
+    /// here).
     pub(super) even3: [[u64; 3]; CHUNK / 2 + 1],
 }
 

@@ -448,6 +448,23 @@ fn closed_lanes_are_closed_run() {
             (left, w, f)
         };
         assert_eq!(three(0), three(u64::MAX / 3), "case {case}");
+        // And one channel's, in the buffers' first words: the run's above,
+        // whatever a chunk before left there.
+        let one = |stale: u64| {
+            let mut rays = before;
+            let (mut w, mut f) = ([7u16; CHUNK], [9u8; CHUNK]);
+            let left = m.closed_run::<false, 1>(
+                &c,
+                (&mut rays[..count], ys, met),
+                (&mut w[..count], &mut [[stale; 3]; CHUNK / 2 + 1]),
+                &mut f[..count],
+                [dn_max; 3],
+                (None, 0, 1),
+            );
+            (left, w, f)
+        };
+        assert_eq!(one(0), one(u64::MAX / 3), "case {case}");
+        assert_eq!(one(u64::MAX / 3), (run_left, run_words, run_fl), "case {case}");
         for (q, (a, b)) in run.iter().zip(rays.iter()).enumerate() {
             assert_eq!((a.t, a.hit), (b.t, b.hit), "case {case} ray {q}");
             if left & (1 << q) == 0 {
