@@ -432,39 +432,28 @@ fn closed_lanes_are_closed_run() {
             (None, 0, 1),
         );
         assert_eq!(run_left, left, "case {case}");
-        // Three channels' even sums are the chunk buffers' (not zeroed a
-        // chunk): what a chunk before left there changes no word.
-        let three = |stale: u64| {
-            let mut rays = before;
-            let (mut w, mut f) = ([0u16; CHUNK], [0u8; CHUNK]);
-            let left = m.closed_run::<false, 3>(
-                &c,
-                (&mut rays[..count], ys, met),
-                (&mut w[..count], &mut [[stale; 3]; CHUNK / 2 + 1]),
-                &mut f[..count],
-                [dn_max; 3],
-                (None, 0, 1),
-            );
+        // The even sums are the chunk buffers' (not zeroed a chunk): what a
+        // chunk before left there changes no word, of three channels or of
+        // one (in their first words: the run's above).
+        let stale = |three: bool, stale: u64| {
+            let run = |rays: &mut [Ray], w: &mut [u16], f: &mut [u8]| {
+                let bufs = (w, &mut [[stale; 3]; CHUNK / 2 + 1]);
+                let (rays, keys) = ((rays, ys, met), (None, 0, 1));
+                match three {
+                    true => m.closed_run::<false, 3>(&c, rays, bufs, f, [dn_max; 3], keys),
+                    false => m.closed_run::<false, 1>(&c, rays, bufs, f, [dn_max; 3], keys),
+                }
+            };
+            let (mut rays, mut w, mut f) = (before, [7u16; CHUNK], [9u8; CHUNK]);
+            let left = run(&mut rays[..count], &mut w[..count], &mut f[..count]);
             (left, w, f)
         };
-        assert_eq!(three(0), three(u64::MAX / 3), "case {case}");
-        // And one channel's, in the buffers' first words: the run's above,
-        // whatever a chunk before left there.
-        let one = |stale: u64| {
-            let mut rays = before;
-            let (mut w, mut f) = ([7u16; CHUNK], [9u8; CHUNK]);
-            let left = m.closed_run::<false, 1>(
-                &c,
-                (&mut rays[..count], ys, met),
-                (&mut w[..count], &mut [[stale; 3]; CHUNK / 2 + 1]),
-                &mut f[..count],
-                [dn_max; 3],
-                (None, 0, 1),
-            );
-            (left, w, f)
-        };
-        assert_eq!(one(0), one(u64::MAX / 3), "case {case}");
-        assert_eq!(one(u64::MAX / 3), (run_left, run_words, run_fl), "case {case}");
+        assert_eq!(stale(true, 0), stale(true, u64::MAX / 3), "case {case}");
+        assert_eq!(
+            stale(false, u64::MAX / 3),
+            (run_left, run_words, run_fl),
+            "case {case}"
+        );
         for (q, (a, b)) in run.iter().zip(rays.iter()).enumerate() {
             assert_eq!((a.t, a.hit), (b.t, b.hit), "case {case} ray {q}");
             if left & (1 << q) == 0 {
