@@ -1582,41 +1582,50 @@ impl Mix32 {
                 return 0;
             }
         }
-        for (q, ((r, word), flag)) in rays
-            .iter_mut()
-            .zip(words.iter_mut())
-            .zip(fl.iter_mut())
-            .enumerate()
-        {
-            // The pixel's noise key (computed where the noise draws).
-            let k = index.wrapping_add((q as u32).wrapping_mul(step));
-            if r.t == 0 {
-                (*word, *flag) = (0, FLAG_OUTSIDE_FIELD);
-                continue;
-            }
-            if r.t != NO_HIT {
-                Self::closed_keep(c, r);
-                left |= 1 << q;
-                continue;
-            }
-            *flag = 0;
-            let w = closed_w(n, r);
-            let sum = if c.ahead(w) {
-                let mut sum = c.flat;
-                // One light (the common case) without the loop's overhead.
-                match c.lights.as_slice() {
-                    [l] => closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum),
-                    ls => ls
-                        .iter()
-                        .for_each(|l| closed_term::<C>(nch, c, l, r, w, (false, false), &mut sum)),
+        // Without noise, a copy of the loop without its test (not in a
+        // `compact` build), as `closed_lit` has.
+        let mut each = |noise: Option<&crate::noise::Stage<Q>>| {
+            for (q, ((r, word), flag)) in rays
+                .iter_mut()
+                .zip(words.iter_mut())
+                .zip(fl.iter_mut())
+                .enumerate()
+            {
+                // The pixel's noise key (computed where the noise draws).
+                let k = index.wrapping_add((q as u32).wrapping_mul(step));
+                if r.t == 0 {
+                    (*word, *flag) = (0, FLAG_OUTSIDE_FIELD);
+                    continue;
                 }
-                sum
-            } else {
-                self.bg
-            };
-            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                if r.t != NO_HIT {
+                    Self::closed_keep(c, r);
+                    left |= 1 << q;
+                    continue;
+                }
+                *flag = 0;
+                let w = closed_w(n, r);
+                let sum = if c.ahead(w) {
+                    let mut sum = c.flat;
+                    // One light (the common case) without the loop's overhead.
+                    match c.lights.as_slice() {
+                        [l] => closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum),
+                        ls => ls
+                            .iter()
+                            .for_each(|l| closed_term::<C>(nch, c, l, r, w, (false, false), &mut sum)),
+                    }
+                    sum
+                } else {
+                    self.bg
+                };
+                *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+            }
+            left
+        };
+        match noise {
+            #[cfg(not(feature = "compact"))]
+            None => each(None),
+            _ => each(noise),
         }
-        left
     }
 
     /// [`Mix32::closed_run`]'s chunk whose rays all see the plane under its
