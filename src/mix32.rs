@@ -1629,8 +1629,9 @@ impl Mix32 {
     }
 
     /// [`Mix32::closed_run`]'s chunk whose rays all see the plane under its
-    /// one point light `l`: the first `len` rays' words, their sums kept in
-    /// `even3` (three channels) or the run's own frame.
+    /// one point light `l`: the first `len` rays' words, the even rays'
+    /// sums kept in `even3` (three channels, or one in its first words;
+    /// the `let … else` never returns: 51 words hold 17 of either).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn closed_lit<const C: usize>(
