@@ -281,6 +281,28 @@ enum Cmd {
         #[arg(long)]
         out: std::path::PathBuf,
     },
+    /// Instructions of each call of a function in QEMU's block log of a
+    /// firmware's run (`-d in_asm,exec,nochain -D LOG`, without
+    /// -icount), by function, a library routine's (soft-float, `__aeabi_*`)
+    /// counted for its caller: e.g. a driven camera's plan per pose,
+    /// `--function hilcam::planner::plan --caller hilcam_firmware::options`
+    Calls {
+        /// QEMU's log.
+        #[arg(long)]
+        log: std::path::PathBuf,
+        /// The firmware ELF that ran.
+        #[arg(long)]
+        elf: std::path::PathBuf,
+        /// The function whose calls are counted (its path without hash).
+        #[arg(long)]
+        function: String,
+        /// The functions it returns to, which end a call.
+        #[arg(long, num_args = 1.., required = true)]
+        caller: Vec<String>,
+        /// Functions listed for the last call.
+        #[arg(long, default_value_t = 12)]
+        top: usize,
+    },
     /// Host throughput of the default render (plan, prepare and render
     /// every frame, lines in parallel on every core, as `render` does),
     /// and on one core: frames/s and ns/pixel (medians over the frames),
@@ -803,6 +825,24 @@ fn main() -> ExitCode {
                 host_sim::profile::table(&r),
                 out.display()
             ))
+        })()),
+        Cmd::Calls {
+            log,
+            elf,
+            function,
+            caller,
+            top,
+        } => finish((|| {
+            let c = host_sim::profile::calls(&log, &elf, &function, &caller, top)?;
+            let mut s = String::new();
+            for (k, t) in c.totals.iter().enumerate() {
+                s += &format!("call {k}: {t} instructions\n");
+            }
+            s += "the last, by function (a library routine's instructions counted for its caller):";
+            for (name, n) in c.last {
+                s += &format!("\n{n:>10}  {name}");
+            }
+            Ok(s)
         })()),
         Cmd::Hil {
             board,

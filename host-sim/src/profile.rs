@@ -243,12 +243,19 @@ struct Block {
     lines: Vec<(usize, u64)>,
     /// The stage of the block's last instruction (where a call leaves).
     last: Option<Stage>,
+    /// Instructions by function as [`Window::by_caller`] counts them: an
+    /// instruction of a library routine (no frame of its inlined chain
+    /// in the repository's files) as `None`, for the caller.
+    own: Vec<(Option<usize>, u64)>,
+    /// The function of the block's last instruction outside a library
+    /// routine, if any (the caller of a routine run next).
+    last_own: Option<usize>,
 }
 
 /// One window of the run: instructions by stage and by function.
 #[derive(Default)]
 pub struct Window {
-    /// A frame's (else what runs between frames).
+    /// A marked call's, a frame in `profile` (else what runs between them).
     pub frame: bool,
     /// Instructions by stage.
     pub stages: HashMap<Stage, u64>,
@@ -256,6 +263,10 @@ pub struct Window {
     functions: HashMap<(usize, Stage), u64>,
     /// Instructions by source line (index into [`Symbols::lines`]).
     lines: HashMap<usize, u64>,
+    /// Instructions by function (index into [`Symbols::names`]), a library
+    /// routine's (`compiler_builtins`' soft-float, `__aeabi_*`, `libm`)
+    /// counted for the function that called it.
+    by_caller: HashMap<usize, u64>,
 }
 
 /// A run's instructions, in windows: before the first frame, then one a
@@ -286,6 +297,8 @@ impl Trace {
         let mut current: HashMap<u32, usize> = HashMap::new();
         let mut open = false;
         let mut context = Stage::Firmware;
+        // The function a library routine's instructions count for.
+        let mut caller = None;
         for line in log.split(b'\n') {
             let line = line.map_err(|e| format!("QEMU log: {e}"))?;
             if line.starts_with(b"IN:") {
@@ -341,8 +354,16 @@ impl Trace {
                 for (l, n) in &block.lines {
                     *w.lines.entry(*l).or_insert(0) += n;
                 }
+                for (f, n) in &block.own {
+                    if let Some(f) = f.or(caller) {
+                        *w.by_caller.entry(f).or_insert(0) += n;
+                    }
+                }
                 if let Some(s) = block.last {
                     context = s;
+                }
+                if block.last_own.is_some() {
+                    caller = block.last_own;
                 }
             }
         }
@@ -367,6 +388,20 @@ impl Trace {
             .map(|((f, s), c)| (self.names.get(*f).cloned().unwrap_or_default(), *s, *c))
             .collect();
         v.sort_by(|a, b| b.2.cmp(&a.2).then(a.0.cmp(&b.0)));
+        v.truncate(n);
+        v
+    }
+
+    /// The functions of window `w` that cost the most, each with the
+    /// library routines it called ([`Window::by_caller`]): `(name,
+    /// instructions)`, at most `n`.
+    pub fn top_callers(&self, w: &Window, n: usize) -> Vec<(String, u64)> {
+        let mut v: Vec<(String, u64)> = w
+            .by_caller
+            .iter()
+            .map(|(f, c)| (self.names.get(*f).cloned().unwrap_or_default(), *c))
+            .collect();
+        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
         v.truncate(n);
         v
     }
@@ -499,9 +534,14 @@ impl Symbols {
         let mut stages: Vec<(Option<Stage>, u64)> = Vec::new();
         let mut functions: Vec<(usize, Option<Stage>, u64)> = Vec::new();
         let mut lines: Vec<(usize, u64)> = Vec::new();
-        let mut last = None;
+        let mut own: Vec<(Option<usize>, u64)> = Vec::new();
+        let (mut last, mut last_own) = (None, None);
         for pc in pcs {
-            let l = self.lines.id(self.line(*pc));
+            let line = self.line(*pc);
+            // (`line` finds no location in the repository's files: a
+            // library routine's instruction, not one inlined in ours.)
+            let library = line.starts_with("? in ");
+            let l = self.lines.id(line);
             match lines.iter_mut().find(|(x, _)| *x == l) {
                 Some((_, n)) => *n += 1,
                 None => lines.push((l, 1)),
@@ -524,13 +564,23 @@ impl Symbols {
                 Some((_, _, n)) => *n += 1,
                 None => functions.push((k, s, 1)),
             }
+            let o = (!library).then_some(k);
+            match own.iter_mut().find(|(x, _)| *x == o) {
+                Some((_, n)) => *n += 1,
+                None => own.push((o, 1)),
+            }
             last = s;
+            if o.is_some() {
+                last_own = o;
+            }
         }
         Block {
             stages,
             functions,
             lines,
             last,
+            own,
+            last_own,
         }
     }
 }
@@ -622,20 +672,11 @@ fn name_of(raw: &str) -> String {
 /// ranges of the loops that call them (`sweep`, the camera's `run`), to
 /// which each frame returns.
 pub fn frame_marks(elf: &Path) -> Result<Marks, String> {
-    use object::{Object, ObjectSymbol};
-    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
-    let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
-    let mut m = Marks::default();
-    for s in file.symbols() {
-        let Ok(name) = s.name() else { continue };
-        let name = name_of(name);
-        let start = (s.address() as u32) & !1;
-        if name.contains("as hilcam_firmware::Runner>::run") {
-            m.starts.push(start);
-        } else if name == "hilcam_firmware::sweep" || name == "hilcam_firmware::camera::run" {
-            m.callers.push((start, start + s.size() as u32));
-        }
-    }
+    let m = marks_by(
+        elf,
+        |name| name.contains("as hilcam_firmware::Runner>::run"),
+        |name| name == "hilcam_firmware::sweep" || name == "hilcam_firmware::camera::run",
+    )?;
     if m.starts.is_empty() || m.callers.is_empty() {
         return Err(format!(
             "{}: no Runner::run or no sweep: not hilcam's firmware",
@@ -643,6 +684,87 @@ pub fn frame_marks(elf: &Path) -> Result<Marks, String> {
         ));
     }
     Ok(m)
+}
+
+/// Where the calls of `function` start and end in `elf` (names as
+/// [`name_of`] gives them, without hashes): its entries, and the address
+/// ranges of `callers`, to which each call returns.
+pub fn call_marks(elf: &Path, function: &str, callers: &[String]) -> Result<Marks, String> {
+    let m = marks_by(elf, |name| name == function, |name| callers.iter().any(|c| c == name))?;
+    if m.starts.is_empty() {
+        return Err(format!("{}: no function {function}", elf.display()));
+    }
+    if m.callers.is_empty() {
+        return Err(format!("{}: none of {callers:?} is a function here", elf.display()));
+    }
+    Ok(m)
+}
+
+/// The entries of the symbols `start` names, and the address ranges of
+/// those `caller` names.
+fn marks_by(elf: &Path, start: impl Fn(&str) -> bool, caller: impl Fn(&str) -> bool) -> Result<Marks, String> {
+    use object::{Object, ObjectSymbol};
+    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let mut m = Marks::default();
+    for s in file.symbols() {
+        let Ok(name) = s.name() else { continue };
+        let name = name_of(name);
+        let addr = (s.address() as u32) & !1;
+        if start(&name) {
+            m.starts.push(addr);
+        } else if caller(&name) {
+            m.callers.push((addr, addr + s.size() as u32));
+        }
+    }
+    Ok(m)
+}
+
+/// [`calls`]' answer.
+pub struct Calls {
+    /// Each call's instructions, in order.
+    pub totals: Vec<u64>,
+    /// The last call's costliest functions: `(name, instructions)`.
+    pub last: Vec<(String, u64)>,
+}
+
+/// The calls of `function` in QEMU's `-d in_asm,exec,nochain` log of
+/// `elf`'s run (`log`: a file), each ending when one of `callers` runs
+/// again ([`call_marks`]): for each, its instructions, and the `top`
+/// functions that cost the most in the last, a library routine's
+/// instructions counted for its caller ([`Trace::top_callers`]); an error
+/// if any of the last call's instructions is counted for none. For what
+/// is not a frame: a driven camera's plan per pose (README, "The closed
+/// loop"), its log from a `host-sim drive` whose QEMU logs its blocks.
+pub fn calls(
+    log: &Path,
+    elf: &Path,
+    function: &str,
+    callers: &[String],
+    top: usize,
+) -> Result<Calls, String> {
+    let marks = call_marks(elf, function, callers)?;
+    let file = std::fs::File::open(log).map_err(|e| format!("{}: {e}", log.display()))?;
+    let trace = Trace::read(std::io::BufReader::with_capacity(1 << 20, file), elf, &marks)?;
+    let windows = trace.frames();
+    let Some(last) = windows.last() else {
+        return Err(format!("{}: no call of {function} from {callers:?}", log.display()));
+    };
+    let totals: Vec<u64> = windows.iter().map(|w| w.stages.values().sum()).collect();
+    // Every instruction of the call counted for a function: a library
+    // routine entered before any function of ours in it would be lost.
+    let counted: u64 = last.by_caller.values().sum();
+    if Some(&counted) != totals.last() {
+        return Err(format!(
+            "{}: {counted} of the last call's {:?} instructions counted for a function",
+            log.display(),
+            totals.last()
+        ));
+    }
+    Ok(Calls {
+        totals,
+        last: trace.top_callers(last, top),
+    })
 }
 
 /// Frame boundaries in a firmware ([`frame_marks`]).
