@@ -94,10 +94,23 @@ pub fn encode_png(format: PixelFormat, w: usize, h: usize, bytes: &[u8]) -> Resu
         png_row(format, &decode_all(format, line), &mut row);
         data.extend_from_slice(&row);
     }
+    encode(&data, w, h, Some(format))
+}
+
+/// Encodes 8-bit RGB rows (`3 w h` bytes, the plot's bitmap) as a PNG.
+pub fn encode_rgb8(w: usize, h: usize, rgb: &[u8]) -> Result<Vec<u8>, String> {
+    if rgb.len() != 3 * w * h || w == 0 || h == 0 {
+        return Err(format!("RGB image of {} bytes is not {w}x{h}", rgb.len()));
+    }
+    encode(rgb, w, h, None)
+}
+
+/// Whole PNG rows (`png_encoder`'s layout for `format`) as a PNG file.
+fn encode(data: &[u8], w: usize, h: usize, format: Option<PixelFormat>) -> Result<Vec<u8>, String> {
     let mut out = Vec::new();
-    png_encoder(&mut out, w, h, Some(format))
+    png_encoder(&mut out, w, h, format)
         .write_header()
-        .and_then(|mut png| png.write_image_data(&data).and_then(|_| png.finish()))
+        .and_then(|mut png| png.write_image_data(data).and_then(|_| png.finish()))
         .map_err(|e| format!("PNG encoding failed: {e}"))?;
     Ok(out)
 }

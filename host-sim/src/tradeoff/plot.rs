@@ -174,11 +174,7 @@ pub fn plot(r: &Report) -> Result<Vec<u8>, String> {
         )?;
         root.present().map_err(|e| e.to_string())?;
     }
-    let img = image::RgbImage::from_raw(w, h, buf).ok_or("plot: buffer size")?;
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png)
-        .map_err(|e| format!("PNG encoding failed: {e}"))?;
-    Ok(out.into_inner())
+    crate::frame_png::encode_rgb8(w as usize, h as usize, &buf)
 }
 
 #[cfg(test)]
