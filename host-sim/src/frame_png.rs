@@ -114,3 +114,21 @@ fn encode(data: &[u8], w: usize, h: usize, format: Option<PixelFormat>) -> Resul
         .map_err(|e| format!("PNG encoding failed: {e}"))?;
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    /// The plot's bitmap: its size checked, its pixels back from a decoder.
+    #[test]
+    fn rgb8_round_trips_and_a_wrong_size_is_refused() {
+        let (w, h) = (3usize, 2usize);
+        let rgb: Vec<u8> = (0..3 * w * h).map(|i| (i * 13) as u8).collect();
+        let png = super::encode_rgb8(w, h, &rgb).expect("encodes");
+        let mut reader = png::Decoder::new(std::io::Cursor::new(png)).read_info().expect("header");
+        let mut out = vec![0; reader.output_buffer_size().expect("size")];
+        let info = reader.next_frame(&mut out).expect("frame");
+        assert_eq!((info.width, info.height, info.color_type), (3, 2, png::ColorType::Rgb));
+        assert_eq!(&out[..info.buffer_size()], &rgb[..]);
+        let err = super::encode_rgb8(w, h, &rgb[1..]).expect_err("one byte short");
+        assert!(err.contains("17 bytes is not 3x2"), "{err}");
+    }
+}
