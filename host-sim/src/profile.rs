@@ -396,28 +396,22 @@ impl Trace {
     /// library routines it called ([`Window::by_caller`]): `(name,
     /// instructions)`, at most `n`.
     pub fn top_callers(&self, w: &Window, n: usize) -> Vec<(String, u64)> {
-        let mut v: Vec<(String, u64)> = w
-            .by_caller
-            .iter()
-            .map(|(f, c)| (self.names.get(*f).cloned().unwrap_or_default(), *c))
-            .collect();
-        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-        v.truncate(n);
-        v
+        top(w.by_caller.iter().map(|(f, c)| (self.names.get(*f).cloned().unwrap_or_default(), *c)), n)
     }
 
     /// The source lines of window `w` that cost the most: `(file:line,
     /// instructions)`, at most `n`.
     pub fn top_lines(&self, w: &Window, n: usize) -> Vec<(String, u64)> {
-        let mut v: Vec<(String, u64)> = w
-            .lines
-            .iter()
-            .map(|(l, c)| (self.lines.get(*l).cloned().unwrap_or_default(), *c))
-            .collect();
-        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-        v.truncate(n);
-        v
+        top(w.lines.iter().map(|(l, c)| (self.lines.get(*l).cloned().unwrap_or_default(), *c)), n)
     }
+}
+
+/// The `n` largest counts of `named`, largest first (ties by name).
+fn top(named: impl Iterator<Item = (String, u64)>, n: usize) -> Vec<(String, u64)> {
+    let mut v: Vec<(String, u64)> = named.collect();
+    v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    v.truncate(n);
+    v
 }
 
 fn hex(s: &[u8]) -> Option<u32> {
