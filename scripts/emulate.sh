@@ -17,10 +17,18 @@ cd "$(dirname "$0")/.."
 short=0
 [ "${1:-}" = "--short" ] && short=1
 ensure_toolchain
-cargo build -q --release -p host-sim
+# host-sim's release build, or a host-sim the caller built (HILCAM_HOST_SIM:
+# the test command gives the one its tests ran, built at the test profile;
+# the same frames and instruction counts, only its host timings slower).
+if [ -n "${HILCAM_HOST_SIM:-}" ]; then
+  host_sim=$HILCAM_HOST_SIM
+else
+  cargo build -q --release -p host-sim
+  host_sim=./target/release/host-sim
+fi
 for scene in scenes/*.toml; do
   name=$(basename "$scene" .toml)
-  ./target/release/host-sim render --scene "$scene" --out "out/$name"
+  "$host_sim" render --scene "$scene" --out "out/$name"
 done
 echo "frames, diff maps and metrics.json: out/<scene>/"
 echo
@@ -28,9 +36,9 @@ echo
 # standard fault campaign.
 uart_frames=20 usb_frames=200
 [ $short = 1 ] && uart_frames=3 usb_frames=20
-./target/release/host-sim stream --scene scenes/standard.toml --link uart:921600 --frames $uart_frames --out out/stream-uart
-./target/release/host-sim stream --scene scenes/standard.toml --link usb-fs --frames $usb_frames --out out/stream-usb
-./target/release/host-sim faults --out out/faults 2>/dev/null
+"$host_sim" stream --scene scenes/standard.toml --link uart:921600 --frames $uart_frames --out out/stream-uart
+"$host_sim" stream --scene scenes/standard.toml --link usb-fs --frames $usb_frames --out out/stream-usb
+"$host_sim" faults --out out/faults 2>/dev/null
 echo
 # The sensor as calibration software sees it: OpenCV's corners and
 # calibrateCamera on the 36-frame calibration set (pixel-area integration by
@@ -47,17 +55,17 @@ qemu=0
 ensure_qemu && qemu=1
 if [ $qemu = 1 ]; then
   build_firmware
-  ./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
-  ./target/release/host-sim hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
+  "$host_sim" hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
+  "$host_sim" hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
   # The Cortex-M0 with 16 KiB of RAM (QEMU microbit, nRF51 UART).
-  ./target/release/host-sim hil --board microbit --elf firmware/target/thumbv6m-none-eabi/release/hilcam-firmware --out out/hil/microbit
+  "$host_sim" hil --board microbit --elf firmware/target/thumbv6m-none-eabi/release/hilcam-firmware --out out/hil/microbit
   # The closed loop: the camera build of the firmware driven over its UART
   # (LoadScene: the scene as data; then SetPose, Trigger) along a
   # trajectory, every frame checked byte for byte against the host render
   # of its pose and its ground truth against the pose sent.
   loop_frames=300
   [ $short = 1 ] && loop_frames=30
-  ./target/release/host-sim drive --board lm3s6965evb --scene scenes/standard.toml --frames $loop_frames \
+  "$host_sim" drive --board lm3s6965evb --scene scenes/standard.toml --frames $loop_frames \
     --capture out/drive/camera.bin --out out/drive
   # A scene the firmware was not built with (the standard scene in RGB565,
   # a sphere moved and coloured, a lens whose fold lies inside the sensor:
@@ -69,7 +77,7 @@ if [ $qemu = 1 ]; then
       -e 's/^albedo = 0.8$/albedo = [0.8, 0.5, 0.3]/' \
       -e 's/^centre = \[-0.5, 0.4, 0.3\]/centre = [-0.3, 0.5, 0.6]/' scenes/standard.toml > out/drive-new/scene.toml
   cmp -s scenes/standard.toml out/drive-new/scene.toml && { echo "the edits changed nothing"; exit 1; }
-  ./target/release/host-sim drive --board lm3s6965evb --scene out/drive-new/scene.toml --frames 10 \
+  "$host_sim" drive --board lm3s6965evb --scene out/drive-new/scene.toml --frames 10 \
     --out out/drive-new/frames
 else
   echo "SKIPPED: the firmware-in-QEMU run (qemu-system-arm is not installed and could not be"
@@ -82,11 +90,11 @@ echo
 sweep=()
 [ $short = 1 ] && sweep=(--tiny --repeats 1)
 [ $qemu = 1 ] || sweep+=(--boards none)
-./target/release/host-sim tradeoff "${sweep[@]}" --out out/tradeoff | { sed -n '/^Cheapest/,$p' | grep -v '^| standard-' || true; }
+"$host_sim" tradeoff "${sweep[@]}" --out out/tradeoff | { sed -n '/^Cheapest/,$p' | grep -v '^| standard-' || true; }
 if grep -q '"bit_exact_m3": false\|"bit_exact_m4f": false' out/tradeoff/tradeoff.json; then
   echo "a variant was not bit-exact on a board"
   exit 1
 fi
 echo "the whole table and the plot: out/tradeoff/tradeoff.md, out/tradeoff/tradeoff.png"
 echo
-./target/release/host-sim demo
+"$host_sim" demo

@@ -27,45 +27,57 @@ echo "== clippy: core on thumbv7m with the panic-free lints"
 cargo clippy --lib --target thumbv7m-none-eabi -q -- -D warnings \
   -D clippy::unwrap_used -D clippy::expect_used -D clippy::panic -D clippy::indexing_slicing
 
-echo "== core builds for the Cortex-M targets"
-# One cargo run for the three targets: each build's codegen is one unit
-# (the release profile), so the targets build side by side on the cores.
-cargo build -q --lib --release --target thumbv6m-none-eabi --target thumbv7m-none-eabi --target thumbv7em-none-eabihf
-echo "   thumbv6m-none-eabi, thumbv7m-none-eabi, thumbv7em-none-eabihf: ok"
+echo "== the core's defmt feature builds for the Cortex-M4F"
+# The core with its default features is built for each of the three thumb
+# targets by the firmware builds below (the firmware takes the core's
+# default features, mix32 and sensor; the size build at the end takes none):
+# a library build of its own for each target compiled the same code again
+# (92-115 s of this command, 2026-12-03).
 cargo build -q --lib --release --target thumbv7em-none-eabihf --features defmt
 echo "   thumbv7em-none-eabihf --features defmt: ok"
 
-# What the main job needs, in the background while the checks below run
-# (after the builds for the thumb targets: their build scripts share
-# target/release, whose lock would make them wait for this one):
-# host-sim's release build, niced (its LTO in one codegen unit keeps one
-# core busy; the firmware builds' links, the tests' run and the fuzzers
-# leave a core idle much of the time), and QEMU where it is missing.
+# QEMU where it is missing, in the background while the checks below run.
 mkdir -p target
-nice -n 19 cargo build -q --release -p host-sim > target/host-sim-release.log 2>&1 &
-release_build=$!
 ensure_qemu > target/qemu-install.log 2>&1 &
 qemu_install=$!
-# Stopped if a check below fails first (after a success both have ended).
-trap 'kill "$release_build" "$qemu_install" 2>/dev/null || true' EXIT
+# Stopped if a check below fails first (after a success it has ended).
+trap 'kill "$qemu_install" 2>/dev/null || true' EXIT
 
-echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit)"
-build_firmware
-(cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings &&
+# The firmware builds beside the tests' build and run: each board's build
+# ends in one LTO codegen unit on one core, and the tests' build and run
+# leave a core idle at times.
+echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit), and their clippy; in the background"
+(build_firmware &&
+  cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings &&
   cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
-    --target thumbv7m-none-eabi -- -D warnings)
+    --target thumbv7m-none-eabi -- -D warnings) > target/firmware-build.log 2>&1 &
+firmware_build=$!
+trap 'kill "$qemu_install" "$firmware_build" 2>/dev/null || true' EXIT
 
 echo "== tests"
 rm -rf target/tmp/accuracy
 cargo test --workspace
 
-echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing)"
-./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
-if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
-[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
+echo "== firmware builds and their clippy (above)"
+wait "$firmware_build" || { cat target/firmware-build.log; echo "a firmware build or its clippy failed"; exit 1; }
+cat target/firmware-build.log
+echo "   lm3s6965evb, mps2-an386, microbit; clippy of the default firmware and the driven camera: ok"
+
+# The fuzz targets' build (nightly, the address sanitizer) beside the main
+# job below, niced: the main job waits on QEMU and on single-unit firmware
+# links much of the time. The targets run at the end, on idle cores.
+nice -n 19 ./scripts/fuzz.sh --build > target/fuzz-build.log 2>&1 &
+fuzz_build=$!
+trap 'kill "$qemu_install" "$fuzz_build" 2>/dev/null || true' EXIT
 
 echo "== the main job, short (README's first command): renders, streams, QEMU on both boards, tiny sweep"
-wait "$release_build" || { cat target/host-sim-release.log; echo "host-sim's release build failed"; exit 1; }
+# host-sim as the tests above built and ran it (the test profile,
+# opt-level 1): the main job's frames, comparisons and QEMU counts do not
+# depend on host-sim's optimisation, and its release build (LTO in one
+# codegen unit) cost this command about 5 minutes (2026-12-03). The
+# README's main-job command builds and runs the release binary.
+export HILCAM_HOST_SIM="$PWD/target/debug/host-sim"
+[ -x "$HILCAM_HOST_SIM" ] || { echo "$HILCAM_HOST_SIM: not built by the tests"; exit 1; }
 wait "$qemu_install" || { cat target/qemu-install.log; echo "qemu-system-arm is missing and could not be installed"; exit 1; }
 ./scripts/emulate.sh --short
 
@@ -75,13 +87,13 @@ sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 
     -e 's/^height = 120/height = 480/' -e 's/^pitch = 12e-6/pitch = 3e-6/' \
     -e 's/^tolerable_blur = 12e-6/tolerable_blur = 3e-6/' scenes/standard.toml > target/scenes640/standard-640.toml
 for b in lm3s6965evb mps2-an386 microbit; do
-  ./target/release/host-sim hil --board "$b" --scene target/scenes640/standard-640.toml --out "target/hil/$b-640"
+  "$HILCAM_HOST_SIM" hil --board "$b" --scene target/scenes640/standard-640.toml --out "target/hil/$b-640"
 done
 # The driven camera, sent the 640x480 scene as data: its RAM with the widest lines it takes;
 # and the driven camera on the M0 (built for size there: host-sim's build_firmware_as).
-./target/release/host-sim drive --board lm3s6965evb --scene target/scenes640/standard-640.toml --frames 3 \
+"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene target/scenes640/standard-640.toml --frames 3 \
   --out target/drive-640 | tail -1
-./target/release/host-sim drive --board microbit --scene scenes/standard.toml --frames 3 --out target/drive-microbit | tail -1
+"$HILCAM_HOST_SIM" drive --board microbit --scene scenes/standard.toml --frames 3 --out target/drive-microbit | tail -1
 
 echo "== a pose and its trigger sent at once: the camera plans before it answers the trigger (round trips within 1 %)"
 # The camera plans again after a change of pose (soft-float f64; the
@@ -90,8 +102,8 @@ echo "== a pose and its trigger sent at once: the camera plans before it answers
 # same however the host's writes are split. Before, it held the plan when
 # the host was loaded (20 frames --batched beside six busy loops on 2
 # cores: a mean of 738 932 instructions, against 180 159 since).
-./target/release/host-sim drive --board lm3s6965evb --scene scenes/standard.toml --frames 3 --out target/drive-seq | tail -1
-./target/release/host-sim drive --board lm3s6965evb --scene scenes/standard.toml --frames 3 --batched \
+"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene scenes/standard.toml --frames 3 --out target/drive-seq | tail -1
+"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene scenes/standard.toml --frames 3 --batched \
   --out target/drive-batched | tail -1
 rt() { awk '/"round_trip_instructions"/ { getline; gsub("[ ,]", ""); print; exit }' "$1"; }
 awk -v a="$(rt target/drive-seq/drive.json)" -v b="$(rt target/drive-batched/drive.json)" \
@@ -99,8 +111,8 @@ awk -v a="$(rt target/drive-seq/drive.json)" -v b="$(rt target/drive-batched/dri
   { echo "a trigger sent with its pose waited for the planner (or a round trip was not measured)"; exit 1; }
 
 echo "== where the instructions go: the standard scene's stages on the M3 and the M0 (host-sim profile; fails if the trace misses the -icount frame cost by over 1 %)"
-./target/release/host-sim profile --board lm3s6965evb --out target/profile/lm3s6965evb | tail -n 20
-./target/release/host-sim profile --board microbit --out target/profile/microbit | tail -n 20
+"$HILCAM_HOST_SIM" profile --board lm3s6965evb --out target/profile/lm3s6965evb | tail -n 20
+"$HILCAM_HOST_SIM" profile --board microbit --out target/profile/microbit | tail -n 20
 
 echo "== peak RAM (painted stack + static) within 16 KiB on every board, at 160x120 and 640x480, and in the driven camera"
 for j in out/hil/lm3s6965evb/hil.json out/hil/mps2-an386/hil.json out/hil/microbit/hil.json target/hil/lm3s6965evb-640/hil.json \
@@ -132,7 +144,7 @@ echo "== the compact loops (the driven camera's: one copy serves one and three c
 # the drives above send it the standard scene alone).
 (cd firmware && CARGO_PROFILE_RELEASE_OPT_LEVEL=s cargo build -q --release --no-default-features \
   --features board-lm3s6965,status,mix32,sensor,hilcam/compact --target thumbv7m-none-eabi)
-./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
+"$HILCAM_HOST_SIM" hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
   --out target/hil/lm3s6965evb-compact | tail -3
 
 echo "== firmware built for size (opt-level z, no status): the M3 image within 64 KiB of flash, still bit-exact"
@@ -146,10 +158,16 @@ small_scenes=$(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v shallo
   CARGO_PROFILE_RELEASE_OPT_LEVEL=z \
   cargo build -q --release --no-default-features --features board-lm3s6965 --target thumbv7m-none-eabi)
 # shellcheck disable=SC2086
-./target/release/host-sim hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
+"$HILCAM_HOST_SIM" hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
   --scene $small_scenes --variant i32f32-poly --out target/hil/lm3s6965evb-small | tail -3
 awk -F': ' '/"flash_bytes"/ { gsub(",", "", $2); if ($2 + 0 > 65536) { print "flash " $2 " B > 64 KiB"; bad = 1 } } END { exit bad }' \
   target/hil/lm3s6965evb-small/hil.json
+
+echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz, installed if missing; built above)"
+wait "$fuzz_build" || { cat target/fuzz-build.log; echo "the fuzz targets' build failed"; exit 1; }
+./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
+if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
+[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
 
 echo "== largest errors measured by the property tests (core vs f64 reference)"
 cat target/tmp/accuracy/*.txt
