@@ -44,10 +44,10 @@ echo
 # calibrateCamera on the 36-frame calibration set (pixel-area integration by
 # default) against the true corners (docs/sensor.md). Installs
 # opencv-python-headless and numpy with pip when they are missing.
-python3 scripts/opencv-check.py --out out/opencv
+python3 scripts/opencv-check.py --host-sim "$host_sim" --out out/opencv
 # The ground-truth export (host-sim export: OpenCV and ROS YAML), loaded by
 # OpenCV and checked with cv2.projectPoints on every shipped camera.
-python3 scripts/export-check.py --out out/export
+python3 scripts/export-check.py --host-sim "$host_sim" --out out/export
 echo
 # The firmware in QEMU: the same scenes rendered on a Cortex-M3 and a
 # Cortex-M4F, streamed over their UARTs, checked byte for byte.

@@ -34,9 +34,13 @@ cv2 = need("cv2", "opencv-python-headless")
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "out" / "export"))
+    ap.add_argument("--host-sim", help="a host-sim binary to run (default: the release build, built here)")
     args = ap.parse_args()
     out = pathlib.Path(args.out)
-    host_sim = ROOT / "target" / "release" / "host-sim"
+    host_sim = args.host_sim
+    if not host_sim:
+        subprocess.run(["cargo", "build", "--release", "-q", "-p", "host-sim"], cwd=ROOT, check=True)
+        host_sim = ROOT / "target" / "release" / "host-sim"
     rows, ok = [], True
     for scene in sorted((ROOT / "scenes").glob("*.toml")):
         name = scene.stem

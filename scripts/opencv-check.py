@@ -90,9 +90,12 @@ def main():
     ap.add_argument("--variant", default="planned",
                     help="host-sim variant, e.g. i32f32-s1 for one sample a pixel")
     ap.add_argument("--no-check", action="store_true", help="report without failing on the targets")
+    ap.add_argument("--host-sim", help="a host-sim binary to run (default: the release build, built here)")
     a = ap.parse_args()
-    subprocess.run(["cargo", "build", "--release", "-q", "-p", "host-sim"], cwd=ROOT, check=True)
-    host_sim = str(ROOT / "target" / "release" / "host-sim")
+    host_sim = a.host_sim
+    if not host_sim:
+        subprocess.run(["cargo", "build", "--release", "-q", "-p", "host-sim"], cwd=ROOT, check=True)
+        host_sim = str(ROOT / "target" / "release" / "host-sim")
     out = pathlib.Path(a.out)
     res = {"variant": a.variant, "opencv": cv2.__version__}
     ok = True
