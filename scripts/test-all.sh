@@ -52,7 +52,14 @@ echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv
   cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
     --target thumbv7m-none-eabi -- -D warnings) > target/firmware-build.log 2>&1 &
 firmware_build=$!
-trap 'kill "$qemu_install" "$firmware_build" 2>/dev/null || true' EXIT
+# The fuzz targets' build (nightly, the address sanitizer) from here on,
+# niced: it takes the cycles the tests, the main job and the QEMU runs
+# below leave (they wait on single-unit links and on QEMU much of the
+# time). Started after the main job instead, it ended 155 s after
+# everything else (2026-12-03). The targets run at the end, on idle cores.
+nice -n 19 ./scripts/fuzz.sh --build > target/fuzz-build.log 2>&1 &
+fuzz_build=$!
+trap 'kill "$qemu_install" "$firmware_build" "$fuzz_build" 2>/dev/null || true' EXIT
 
 echo "== tests"
 rm -rf target/tmp/accuracy
@@ -62,13 +69,6 @@ echo "== firmware builds and their clippy (above)"
 wait "$firmware_build" || { cat target/firmware-build.log; echo "a firmware build or its clippy failed"; exit 1; }
 cat target/firmware-build.log
 echo "   lm3s6965evb, mps2-an386, microbit; clippy of the default firmware and the driven camera: ok"
-
-# The fuzz targets' build (nightly, the address sanitizer) beside the main
-# job below, niced: the main job waits on QEMU and on single-unit firmware
-# links much of the time. The targets run at the end, on idle cores.
-nice -n 19 ./scripts/fuzz.sh --build > target/fuzz-build.log 2>&1 &
-fuzz_build=$!
-trap 'kill "$qemu_install" "$fuzz_build" 2>/dev/null || true' EXIT
 
 echo "== the main job, short (README's first command): renders, streams, QEMU on both boards, tiny sweep"
 # host-sim as the tests above built and ran it (the test profile,
