@@ -7,17 +7,18 @@ set -euo pipefail
 cd "$(dirname "$0")/../fuzz"
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 rustup toolchain list | grep -q nightly || rustup toolchain install nightly --profile minimal
+# Every target in one cargo run (in parallel, the dependencies once), with
+# the flags `fuzz run` builds with: each run then starts at once.
+build_all() { cargo +nightly fuzz build; }
 if [ "${1:-}" = --build ]; then
-  cargo +nightly fuzz build
+  build_all
   exit
 fi
 targets=${1:-$(cargo +nightly fuzz list)}
 secs=${2:-60}
-# Without a target named, every target built in one cargo run first (in
-# parallel, the dependencies once), with the flags `fuzz run` builds with:
-# each run then starts at once. (A failed build shows as its runs' failure,
-# which the test command counts: no `Done` line.)
-[ -n "${1:-}" ] || cargo +nightly fuzz build 2>&1 | grep -vE "^ +(Compiling|Finished|Building)" || true
+# Without a target named, every target built first. (A failed build shows
+# as its runs' failure, which the test command counts: no `Done` line.)
+[ -n "${1:-}" ] || build_all 2>&1 | grep -vE "^ +(Compiling|Finished|Building)" || true
 # The targets run side by side, one a core (each libFuzzer process is one
 # thread): the same time each, in a fraction of the wall time. Each one's
 # lines are printed together, in the targets' order.
