@@ -860,6 +860,17 @@ pub struct LineOut {
     pub tally: Tally,
 }
 
+/// The samples a pixel and aperture points `frame` renders with, as the
+/// reference's pattern: the reference sampled as the frame is.
+pub fn frame_pattern<S: Scalar>(frame: &Frame<S>) -> Pattern {
+    let st = frame.stages();
+    Pattern {
+        n: st.samples,
+        adaptive: st.adaptive,
+        aperture: st.aperture,
+    }
+}
+
 /// Renders every line with the core and the reference, compares them, and
 /// hands the lines to `sink` in order. Lines are rendered in parallel on
 /// every core, a band at a time, so memory stays O(width).
@@ -873,12 +884,7 @@ pub fn run_lines<S: Scalar>(
     // The reference samples each pixel as the frame does; where the frame
     // has more than one sample a pixel, the pattern's own error is measured
     // against 16×16.
-    let st = frame.stages();
-    let rs = &rs.with_pattern(Pattern {
-        n: st.samples,
-        adaptive: st.adaptive,
-        aperture: st.aperture,
-    });
+    let rs = &rs.with_pattern(frame_pattern(frame));
     let converged = Converged::of(rs);
     let band = rayon::current_num_threads().max(1) * 4;
     let mut total = Tally::default();

@@ -6,9 +6,8 @@
 //! rejected the same way or give a scene that renders.
 
 use hilcam::planner::Budget;
-use host_sim::harness::core_render;
+use host_sim::harness::{core_render, frame_pattern};
 use host_sim::reference::render::RefScene;
-use host_sim::reference::sampling::Pattern;
 use host_sim::scene_file::parse;
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -145,12 +144,7 @@ fn every_field_wrong_in_turn_is_rejected_naming_it() {
                         // a pixel, 1 024 aperture points) `harness::render`
                         // measures the stages against: 85 s of this
                         // test's 87 s, against 15 s without (2026-12-03).
-                        let st = frame.stages();
-                        let rs = RefScene::new(&r).with_pattern(Pattern {
-                            n: st.samples,
-                            adaptive: st.adaptive,
-                            aperture: st.aperture,
-                        });
+                        let rs = RefScene::new(&r).with_pattern(frame_pattern(&frame));
                         for j in 0..frame.size().1 as usize {
                             black_box(rs.render_line(j));
                         }
