@@ -277,6 +277,10 @@ enum Cmd {
         /// A firmware ELF built already, holding `--scene` (default: build it).
         #[arg(long)]
         elf: Option<std::path::PathBuf>,
+        /// How many of each frame's costliest functions and source lines
+        /// profile.json keeps (profile.md's table shows at most 25 lines).
+        #[arg(long, default_value_t = 40)]
+        top: usize,
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
@@ -811,6 +815,7 @@ fn main() -> ExitCode {
             board,
             scene,
             elf,
+            top,
             out,
         } => finish((|| {
             let board = host_sim::hil_cmd::Board::parse(&board)?;
@@ -819,7 +824,7 @@ fn main() -> ExitCode {
             } else {
                 scene
             };
-            let r = host_sim::profile::profile(board, elf, &scenes, &out)?;
+            let r = host_sim::profile::profile(board, elf, &scenes, top, &out)?;
             Ok(format!(
                 "{}\nprofile.json, profile.md in {}",
                 host_sim::profile::table(&r),

@@ -789,11 +789,12 @@ pub struct FrameProfile {
     pub icount_per_pixel: Option<f64>,
     /// Instructions a pixel with the link and the firmware.
     pub total_per_pixel: f64,
-    /// The innermost functions that cost the most, with the stage they
-    /// counted for, instructions a pixel.
+    /// The innermost functions that cost the most (`--top` of them, 40
+    /// by default), with the stage they counted for, instructions a pixel.
     pub functions: Vec<(String, Stage, f64)>,
-    /// The workspace's source lines that cost the most (a library helper
-    /// counted for the line that inlined it), instructions a pixel.
+    /// The workspace's source lines that cost the most (`--top` of them; a
+    /// library helper counted for the line that inlined it), instructions
+    /// a pixel.
     pub lines: Vec<(String, f64)>,
 }
 
@@ -808,12 +809,22 @@ pub struct ProfileReport {
 
 /// Profiles the planned renderer's frames of `scenes` on `board` (a
 /// firmware holding them is built unless `elf` is given; then `scenes`
-/// name what it holds, in order). Writes `profile.json` and `profile.md`;
+/// name what it holds, in order), each frame's `top` costliest functions
+/// and source lines kept. Writes `profile.json` and `profile.md`;
 /// fails, writing nothing, if a frame's traced instructions are more than
 /// 1 % off its cost under `-icount`, or that run gives it no cost.
-pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Path) -> Result<ProfileReport, String> {
+pub fn profile(
+    board: Board,
+    elf: Option<PathBuf>,
+    scenes: &[PathBuf],
+    top: usize,
+    out: &Path,
+) -> Result<ProfileReport, String> {
     if scenes.is_empty() {
         return Err("--scene: name the scenes the firmware holds, in order".into());
+    }
+    if top == 0 {
+        return Err("--top: keep at least one function and line a frame".into());
     }
     let resolved = scenes.iter().map(|p| load(p)).collect::<Result<Vec<_>, _>>()?;
     let mut outputs = crate::output::Outputs::prepare(out)?;
@@ -907,12 +918,12 @@ pub fn profile(board: Board, elf: Option<PathBuf>, scenes: &[PathBuf], out: &Pat
             icount_per_pixel: costs.get(k).copied().flatten().map(per),
             total_per_pixel: per(total),
             functions: trace
-                .top_functions(w, 40)
+                .top_functions(w, top)
                 .into_iter()
                 .map(|(f, s, n)| (f, s, per(n)))
                 .collect(),
             lines: trace
-                .top_lines(w, 40)
+                .top_lines(w, top)
                 .into_iter()
                 .map(|(l, n)| (l, per(n)))
                 .collect(),

@@ -612,6 +612,32 @@ fn numeric_flags_are_range_checked() {
         (vec!["faults", "--out", o, "--scale", "1e9"], "--scale"),
         (vec!["throughput", "--scene", s, "--frames", "0"], "--frames"),
         (vec!["tradeoff", "--out", o, "--repeats", "0"], "--repeats"),
+        (
+            vec![
+                "profile",
+                "--board",
+                "lm3s6965evb",
+                "--scene",
+                s,
+                "--out",
+                o,
+                "--top",
+                "0",
+            ],
+            "--top",
+        ),
+        (
+            vec![
+                "profile",
+                "--board",
+                "lm3s6965evb",
+                "--out",
+                o,
+                "--top",
+                "18446744073709551616",
+            ],
+            "--top",
+        ),
     ];
     for (args, flag) in cases {
         let r = run(&args);
