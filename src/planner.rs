@@ -223,6 +223,10 @@ pub struct Plan {
     pub predicted_sample_factor: f64,
     /// Defocus: the content's blur and the aperture pattern chosen for it.
     pub defocus: Defocus,
+    /// Sampled, a checkered plane's horizon lies within the field: the
+    /// share of differing edge pixels is not predicted (every candidate's
+    /// `edge_differing` is 1), so no candidate meets the budget.
+    pub edges_unpredicted: bool,
 }
 
 /// Defocus as planned (camera-model.md §8, [`crate::defocus`]).
@@ -305,6 +309,16 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         (n, true) => f64::from(n) * f64::from(n) + 5.0,
     };
     let edge_looks = edge_fraction(scene, &g) * core::f64::consts::FRAC_PI_4 * looks;
+    // Sampled, a checkered plane whose horizon lies within the field is
+    // past this estimate in either arithmetic (toward the horizon the
+    // cells shrink below a pixel and the hit's error along the plane
+    // grows as 1/(n̂·d)): not predicted, so not within the budget.
+    let horizon = samples > 1
+        && scene
+            .primitives
+            .iter()
+            .zip(&g.prims)
+            .any(|(p, pg)| p.checker.is_some() && g.horizon_in_field(pg));
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
         let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
@@ -380,7 +394,11 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 m3_instructions_per_pixel: cost,
                 closed_mean,
                 mean_lsb,
-                edge_differing: (edge_looks * 2.0 * geom).min(1.0),
+                edge_differing: if horizon {
+                    1.0
+                } else {
+                    (edge_looks * 2.0 * geom).min(1.0)
+                },
             });
         }
     }
@@ -442,6 +460,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             .samples
             .factor(c.m3_instructions_per_pixel, &terms),
         defocus: df,
+        edges_unpredicted: horizon,
     }
 }
 
@@ -1120,6 +1139,17 @@ impl Geometry {
             facing_area: facing_hits as f64 / (gx * gy) as f64,
             closed_facing_area: closed_facing_hits as f64 / (gx * gy) as f64,
         }
+    }
+
+    /// Whether `p` is a plane whose horizon (`n̂·d = 0`) crosses the box
+    /// of perspective rays' slopes around the field: `n̂·(x̂, ŷ, 1)`,
+    /// linear, takes both signs over it. Never for parallel rays.
+    fn horizon_in_field(&self, p: &PrimGeom) -> bool {
+        let reach = libm::fabs(p.n[0]) * self.field.0 + libm::fabs(p.n[1]) * self.field.1;
+        matches!(p.shape, Shape::Plane { .. })
+            && !p.unseen
+            && self.origin_scale.is_none()
+            && libm::fabs(p.n[2]) < reach
     }
 
     /// Through the aperture, the largest `|1 − z/Z̃|` over `p`'s depths
