@@ -311,8 +311,8 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let edge_looks = edge_fraction(scene, &g) * core::f64::consts::FRAC_PI_4 * looks;
     // Sampled, a checkered plane whose horizon lies within the field is
     // past this estimate in either arithmetic (toward the horizon the
-    // cells shrink below a pixel and the hit's error along the plane
-    // grows as 1/(n̂·d)): not predicted, so not within the budget.
+    // cells shrink below a pixel: docs/sensor.md): not predicted, so not
+    // within the budget.
     let horizon = samples > 1
         && scene
             .primitives

@@ -485,7 +485,7 @@ fn facing_area_counts_the_flat_primitives_facing_the_camera() {
 /// `max_edge_differing` of the pixels differing at edges. Checkered planes
 /// included: toward a checkered plane's horizon the cells shrink below a
 /// pixel and neither arithmetic keeps the differing edge pixels within
-/// 0.05 % (the wide one measured up to 0.23 % on these scenes), so a
+/// 0.05 % (the wide one measured up to 0.203 % on these scenes), so a
 /// sampled plan with such a horizon within the field does not claim the
 /// budget (its `edge_differing` is 1); the fast arithmetic is not given
 /// sampled checkered planes at all (`Unfit::SampledCheckeredPlane`). Both
