@@ -483,27 +483,11 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
     // 1/Ẑ_f = (d f − b̃ Z̃) / (Z̃ f (d − b̃)), 0 (infinite) when ≤ 0.
     let inv_near = (d * f + b * zt) / (zt * f * (d + b));
     let inv_far = ((d * f - b * zt) / (zt * f * (d - b))).max(0.0);
-    // The field box: the pixel centres' slopes and half a pixel more (the
-    // pixel area's samples), undistorted.
     let (xs, ys) = g.field;
-    // A plane's inverse depths over the field box: `w = n̂·(x̂, ŷ, 1) / (n̂·c)`
-    // is linear in the slopes, so its extremes are at the box's corners;
-    // `None` for a plane through the lens centre (seen edge on).
-    let plane_w = |n: [f64; 3], c: [f64; 3]| -> Option<(f64, f64)> {
-        let dist = dot3(n, c);
-        if libm::fabs(dist) < 1e-12 {
-            return None;
-        }
-        let w =
-            [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)].map(|(x, y)| (n[0] * x + n[1] * y + n[2]) / dist);
-        Some(w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(*v), b.max(*v))
-        }))
-    };
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in &g.prims {
         if let Shape::Plane { .. } = p.shape {
-            let Some((wmin, wmax)) = plane_w(p.n, p.c) else {
+            let Some((wmin, wmax)) = g.plane_w(p) else {
                 continue;
             };
             if wmax <= 0.0 {
@@ -517,7 +501,7 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
         // within the plane's over the field too (finite where its bounding
         // sphere reaches the lens plane).
         let flat = match p.shape {
-            Shape::Disc { .. } | Shape::Rectangle { .. } => plane_w(p.n, p.c),
+            Shape::Disc { .. } | Shape::Rectangle { .. } => g.plane_w(p),
             _ => None,
         };
         if flat.is_some_and(|(_, wmax)| wmax <= 0.0) {
@@ -1141,15 +1125,31 @@ impl Geometry {
         }
     }
 
-    /// Whether `p` is a plane whose horizon (`n̂·d = 0`) crosses the box
-    /// of perspective rays' slopes around the field: `n̂·(x̂, ŷ, 1)`,
-    /// linear, takes both signs over it. Never for parallel rays.
+    /// A plane's inverse depths over the field box (the pixel centres'
+    /// slopes and half a pixel more, undistorted): `w = n̂·(x̂, ŷ, 1) /
+    /// (n̂·c)` is linear in the slopes, so its extremes are at the box's
+    /// corners; `None` for a plane through the lens centre (seen edge on).
+    fn plane_w(&self, p: &PrimGeom) -> Option<(f64, f64)> {
+        let (n, (xs, ys)) = (p.n, self.field);
+        let dist = dot3(n, p.c);
+        if libm::fabs(dist) < 1e-12 {
+            return None;
+        }
+        let w =
+            [(-xs, -ys), (xs, -ys), (-xs, ys), (xs, ys)].map(|(x, y)| (n[0] * x + n[1] * y + n[2]) / dist);
+        Some(w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        }))
+    }
+
+    /// Whether `p` is a plane whose horizon (`w = 0`, [`Geometry::plane_w`])
+    /// crosses the field box: `w` takes both signs over it. Never for
+    /// parallel rays.
     fn horizon_in_field(&self, p: &PrimGeom) -> bool {
-        let reach = libm::fabs(p.n[0]) * self.field.0 + libm::fabs(p.n[1]) * self.field.1;
         matches!(p.shape, Shape::Plane { .. })
             && !p.unseen
             && self.origin_scale.is_none()
-            && libm::fabs(p.n[2]) < reach
+            && self.plane_w(p).is_some_and(|(lo, hi)| lo < 0.0 && hi > 0.0)
     }
 
     /// Through the aperture, the largest `|1 − z/Z̃|` over `p`'s depths
