@@ -645,6 +645,21 @@ pub fn tally_line<S: Scalar>(
     t
 }
 
+/// Whether a render measures its sampling and defocus stages against
+/// converged estimates ([`Converged`]), as `host-sim render` does
+/// (`metrics.json`'s `sampling_error` and `defocus_error`). Where a frame
+/// samples, they cost more than the comparison itself: 16×16 reference
+/// samples a pixel, [`crate::reference::defocus::CONVERGED`] aperture
+/// points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StageErrors {
+    /// Measured: the metrics have them where the frame samples.
+    Measured,
+    /// Not measured: `sampling_error` and `defocus_error` are `None`; the
+    /// comparison with the reference sampled as the frame is, whole.
+    Skipped,
+}
+
 /// The converged estimates a frame's stages are measured against: the
 /// reference with 16×16 samples a pixel (where the frame samples the pixel
 /// area) and with [`crate::reference::defocus::CONVERGED`] aperture points
@@ -655,12 +670,14 @@ pub struct Converged {
 }
 
 impl Converged {
-    /// For `rs` (sampled as the frame is).
-    pub fn of(rs: &RefScene) -> Converged {
+    /// For `rs` (sampled as the frame is); none where `stage_errors` skips
+    /// them.
+    pub fn of(rs: &RefScene, stage_errors: StageErrors) -> Converged {
         let p = rs.pattern;
+        let measured = stage_errors == StageErrors::Measured;
         Converged {
-            grid: (p.n > 1).then(|| rs.with_pattern(p.converged_grid())),
-            aperture: (p.aperture > 0).then(|| rs.with_pattern(p.converged_aperture())),
+            grid: (measured && p.n > 1).then(|| rs.with_pattern(p.converged_grid())),
+            aperture: (measured && p.aperture > 0).then(|| rs.with_pattern(p.converged_aperture())),
         }
     }
 
@@ -715,7 +732,7 @@ pub fn compare<S: Scalar>(
     // parallel.
     {
         use rayon::prelude::*;
-        let conv = Converged::of(rs);
+        let conv = Converged::of(rs, StageErrors::Measured);
         let parts: Vec<Tally> = (0..h as usize)
             .into_par_iter()
             .map(|j| {
@@ -728,7 +745,7 @@ pub fn compare<S: Scalar>(
             t.merge(p);
         }
     }
-    metrics(r, plan, budget, frame, &t)
+    metrics(r, plan, budget, frame, &t, StageErrors::Measured)
 }
 
 /// The planner's choice as reported, for the frame prepared from it.
@@ -789,14 +806,17 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
     }
 }
 
-/// The metrics from a whole frame's [`Tally`].
+/// The metrics from a whole frame's [`Tally`] (its stage errors as
+/// `stage_errors` says it measured them).
 pub fn metrics<S: Scalar>(
     r: &Resolved,
     plan: &Plan,
     budget: &Budget,
     frame: &Frame<S>,
     t: &Tally,
+    stage_errors: StageErrors,
 ) -> Metrics {
+    let measured = stage_errors == StageErrors::Measured;
     let (w, h) = frame.size();
     let (w, h) = (w as usize, h as usize);
     let format = r.format;
@@ -833,12 +853,12 @@ pub fn metrics<S: Scalar>(
         exact_fraction_smooth: t.exact_smooth as f64 / t.smooth.max(1) as f64,
         outside_field_pixels: t.outside,
         field_flags_differing: t.flags_diff,
-        sampling_error: (frame.stages().samples > 1).then(|| SamplingError {
+        sampling_error: (measured && frame.stages().samples > 1).then(|| SamplingError {
             max_dn: t.samp.max,
             rms_dn: t.samp.rms(),
             grid_pixels: t.samp_grid,
         }),
-        defocus_error: (frame.stages().aperture > 0).then(|| DefocusError {
+        defocus_error: (measured && frame.stages().aperture > 0).then(|| DefocusError {
             max_dn: t.def.max,
             rms_dn: t.def.rms(),
             converged_points: crate::reference::defocus::CONVERGED,
@@ -877,15 +897,16 @@ pub fn frame_pattern<S: Scalar>(frame: &Frame<S>) -> Pattern {
 pub fn run_lines<S: Scalar>(
     frame: &Frame<S>,
     rs: &RefScene,
+    stage_errors: StageErrors,
     sink: &mut dyn FnMut(LineOut) -> Result<(), String>,
 ) -> Result<Tally, String> {
     use rayon::prelude::*;
     let (w, h) = frame.size();
     // The reference samples each pixel as the frame does; where the frame
     // has more than one sample a pixel, the pattern's own error is measured
-    // against 16×16.
+    // against 16×16 (unless `stage_errors` skips it).
     let rs = &rs.with_pattern(frame_pattern(frame));
-    let converged = Converged::of(rs);
+    let converged = Converged::of(rs, stage_errors);
     let band = rayon::current_num_threads().max(1) * 4;
     let mut total = Tally::default();
     for j0 in (0..h as usize).step_by(band) {
@@ -918,16 +939,25 @@ pub fn run_lines<S: Scalar>(
     Ok(total)
 }
 
-/// Renders with both, and compares, in memory.
+/// Renders with both, and compares, in memory: what `host-sim render`
+/// measures, the stage errors too.
 pub fn render(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
-    render_with(r, budget, |o| o)
+    render_with(r, budget, StageErrors::Measured, |o| o)
+}
+
+/// [`render`] without the stage errors ([`StageErrors::Skipped`]): the
+/// frame against the reference sampled as it is, for what asks no more.
+pub fn render_skipping_stage_errors(r: &Resolved, budget: &Budget) -> Result<RenderOutput, String> {
+    render_with(r, budget, StageErrors::Skipped, |o| o)
 }
 
 /// [`render`] with the plan's options as `options` changes them (a
-/// variant's); the metrics still report the plan.
+/// variant's), measuring the stage errors as `stage_errors` says; the
+/// metrics still report the plan.
 pub fn render_with(
     r: &Resolved,
     budget: &Budget,
+    stage_errors: StageErrors,
     options: impl FnOnce(Options) -> Options,
 ) -> Result<RenderOutput, String> {
     let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, options)?;
@@ -946,14 +976,14 @@ pub fn render_with(
         edge: Vec::new(),
         undistorted: Vec::new(),
     };
-    let t = run_lines(&frame, &rs, &mut |l| {
+    let t = run_lines(&frame, &rs, stage_errors, &mut |l| {
         core.pixels.extend_from_slice(&l.pixels);
         core.flags.extend_from_slice(&l.flags);
         core_dn.extend_from_slice(&l.core_dn);
         reference.append(l.reference);
         Ok(())
     })?;
-    let metrics = metrics(r, &plan, budget, &frame, &t);
+    let metrics = metrics(r, &plan, budget, &frame, &t, stage_errors);
     Ok(RenderOutput {
         core,
         core_dn,

@@ -4,7 +4,7 @@
 //! directory; the plan and the summary as text.
 
 use crate::frame_png::{diff_row, png_row, png_stream};
-use crate::harness::{metrics, plan_report, prepare, run_lines, Metrics, PlanReport};
+use crate::harness::{metrics, plan_report, prepare, run_lines, Metrics, PlanReport, StageErrors};
 use crate::reference::render::RefScene;
 use crate::scene_file::Resolved;
 use hilcam::planner::Budget;
@@ -42,7 +42,7 @@ pub fn render_to(
     let names = ["frame.png", "reference.png", "diff.png"];
     let io = |k: usize, e: &dyn std::fmt::Display| format!("{}: {e}", out.dir().join(names[k]).display());
     let mut row = Vec::new();
-    let t = run_lines(&frame, &rs, &mut |l| {
+    let t = run_lines(&frame, &rs, StageErrors::Measured, &mut |l| {
         use std::io::Write;
         png_row(format, &l.core_dn, &mut row);
         pngs[0].write_all(&row).map_err(|e| io(0, &e))?;
@@ -54,7 +54,7 @@ pub fn render_to(
     for (k, p) in pngs.into_iter().enumerate() {
         p.finish().map_err(|e| io(k, &e))?;
     }
-    let m = metrics(r, &plan, budget, &frame, &t);
+    let m = metrics(r, &plan, budget, &frame, &t, StageErrors::Measured);
     out.write(
         "metrics.json",
         &serde_json::to_vec_pretty(&m).map_err(|e| format!("metrics: {e}"))?,

@@ -175,7 +175,7 @@ fn bench_scenes_are_the_standard_scene_but_for_primitives() {
     }
     let frame = |text: &str| {
         let r = parse(text).expect("the scene loads");
-        host_sim::harness::render(&r, &hilcam::planner::Budget::default())
+        host_sim::harness::render_skipping_stage_errors(&r, &hilcam::planner::Budget::default())
             .expect("the scene renders")
             .core
     };
