@@ -9,6 +9,33 @@ echo "== toolchain: the thumb targets and components (scripts/lib.sh ensure_tool
 ensure_toolchain
 rustc --version
 
+# QEMU where it is missing, in the background while the checks below run.
+mkdir -p target
+ensure_qemu > target/qemu-install.log 2>&1 &
+qemu_install=$!
+# Stopped if a check below fails first (after a success it has ended).
+trap 'kill "$qemu_install" 2>/dev/null || true' EXIT
+
+# The firmware builds beside the checks, the tests' build and run: each
+# board's build ends in one LTO codegen unit on one core, and the checks
+# below (clippy of one crate, the docs, the thumb lints, one after another)
+# and the tests leave a core idle at times.
+echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit), and their clippy; in the background"
+(build_firmware &&
+  cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings &&
+  cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
+    --target thumbv7m-none-eabi -- -D warnings) > target/firmware-build.log 2>&1 &
+firmware_build=$!
+# The fuzz targets' build (nightly, the address sanitizer; on a fresh
+# machine nightly and cargo-fuzz installed first) from here on, niced: it
+# takes the cycles the checks, the tests, the main job and the QEMU runs
+# below leave (they wait on single-unit links and on QEMU much of the
+# time). Started after the main job instead, it ended 155 s after
+# everything else (2026-12-03). The targets run at the end, on idle cores.
+nice -n 19 ./scripts/fuzz.sh --build > target/fuzz-build.log 2>&1 &
+fuzz_build=$!
+trap 'kill "$qemu_install" "$firmware_build" "$fuzz_build" 2>/dev/null || true' EXIT
+
 echo "== format"
 cargo fmt --all -- --check
 
@@ -28,39 +55,14 @@ cargo clippy --lib --target thumbv7m-none-eabi -q -- -D warnings \
   -D clippy::unwrap_used -D clippy::expect_used -D clippy::panic -D clippy::indexing_slicing
 
 echo "== the core's defmt feature on the Cortex-M4F: clippy, warnings are errors"
-# Checked, not built: the firmware builds below compile the core for the
-# three thumb targets with its default features (mix32 and sensor; the
+# Checked, not built: the firmware builds (in the background, above)
+# compile the core for the three thumb targets with its default features (mix32 and sensor; the
 # size build at the end with none), and a library build with defmt added
 # only the machine code of a library no binary links (a release build,
 # 41-44 s of this command on one core, 2026-12-03; a check compiles
 # everything a type or a constant can reject).
 cargo clippy -q --lib --target thumbv7em-none-eabihf --features defmt -- -D warnings
 echo "   thumbv7em-none-eabihf --features defmt: ok"
-
-# QEMU where it is missing, in the background while the checks below run.
-mkdir -p target
-ensure_qemu > target/qemu-install.log 2>&1 &
-qemu_install=$!
-# Stopped if a check below fails first (after a success it has ended).
-trap 'kill "$qemu_install" 2>/dev/null || true' EXIT
-
-# The firmware builds beside the tests' build and run: each board's build
-# ends in one LTO codegen unit on one core, and the tests' build and run
-# leave a core idle at times.
-echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit), and their clippy; in the background"
-(build_firmware &&
-  cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings &&
-  cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
-    --target thumbv7m-none-eabi -- -D warnings) > target/firmware-build.log 2>&1 &
-firmware_build=$!
-# The fuzz targets' build (nightly, the address sanitizer) from here on,
-# niced: it takes the cycles the tests, the main job and the QEMU runs
-# below leave (they wait on single-unit links and on QEMU much of the
-# time). Started after the main job instead, it ended 155 s after
-# everything else (2026-12-03). The targets run at the end, on idle cores.
-nice -n 19 ./scripts/fuzz.sh --build > target/fuzz-build.log 2>&1 &
-fuzz_build=$!
-trap 'kill "$qemu_install" "$firmware_build" "$fuzz_build" 2>/dev/null || true' EXIT
 
 echo "== tests"
 rm -rf target/tmp/accuracy
