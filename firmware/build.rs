@@ -49,10 +49,25 @@ fn main() {
     let (mut max_w, mut max_line) = (0usize, 0usize);
     for (i, p) in paths.iter().enumerate() {
         println!("cargo:rerun-if-changed={}", p.display());
-        // The scene file's loader refuses more materials, primitives or
-        // lights than the core this firmware links holds (its HILCAM_MAX_*,
-        // set in .cargo/config.toml), naming the list and the limit.
         let r = load(p).unwrap_or_else(|e| panic!("{e}"));
+        // More materials, primitives or lights than the core this firmware
+        // links holds (its HILCAM_MAX_*, which host-sim sets from the
+        // scenes; the host's core, which loaded the scene, holds the most)
+        // is refused, naming the list and the limit.
+        for (var, list, n) in [
+            ("HILCAM_MAX_MATERIALS", "materials", r.desc.materials.len()),
+            ("HILCAM_MAX_PRIMITIVES", "primitives", r.desc.primitives.len()),
+            ("HILCAM_MAX_LIGHTS", "lights", r.desc.lights.len()),
+        ] {
+            println!("cargo:rerun-if-env-changed={var}");
+            let Ok(v) = std::env::var(var) else { continue };
+            let most: usize = v.parse().unwrap_or_else(|_| panic!("{var}={v}: not a number"));
+            assert!(
+                n <= most,
+                "{}: {n} {list}, over the {most} this firmware holds ({var})",
+                p.display()
+            );
+        }
         let c = &r.desc.camera;
         names.push(r.desc.name.clone());
         max_w = max_w.max(c.width as usize);

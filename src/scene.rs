@@ -20,14 +20,33 @@ use fixed::types::I32F32;
 /// Renderer scalar: I32F32 (±2.1·10⁹, resolution 2.3·10⁻¹⁰).
 pub type Q = I32F32;
 
-/// Most materials in a scene: 16, or fewer where the build sets
+/// Most materials in a scene: 16, or fewer where a device's build sets
 /// `HILCAM_MAX_MATERIALS` (1 to 16) — a device holds the scenes it is built
 /// for, and its RAM follows (a scene and a frame reserve each item).
-pub const MAX_MATERIALS: usize = capacity(option_env!("HILCAM_MAX_MATERIALS"), 16);
+pub const MAX_MATERIALS: usize = capacity(built::MATERIALS, 16);
 /// Most primitives in a scene: 16, or `HILCAM_MAX_PRIMITIVES` (1 to 16).
-pub const MAX_PRIMITIVES: usize = capacity(option_env!("HILCAM_MAX_PRIMITIVES"), 16);
+pub const MAX_PRIMITIVES: usize = capacity(built::PRIMITIVES, 16);
 /// Most lights in a scene: 8, or `HILCAM_MAX_LIGHTS` (1 to 8).
-pub const MAX_LIGHTS: usize = capacity(option_env!("HILCAM_MAX_LIGHTS"), 8);
+pub const MAX_LIGHTS: usize = capacity(built::LIGHTS, 8);
+
+/// The `HILCAM_MAX_*` a device (`target_os = "none"`) is built with.
+#[cfg(target_os = "none")]
+mod built {
+    pub(super) const MATERIALS: Option<&str> = option_env!("HILCAM_MAX_MATERIALS");
+    pub(super) const PRIMITIVES: Option<&str> = option_env!("HILCAM_MAX_PRIMITIVES");
+    pub(super) const LIGHTS: Option<&str> = option_env!("HILCAM_MAX_LIGHTS");
+}
+
+/// On the host, the most: a host build, the firmware's build script among
+/// them, does not read `HILCAM_MAX_*`, so cargo does not build it again
+/// when a firmware build sets other values (the build script checks its
+/// scenes against them itself).
+#[cfg(not(target_os = "none"))]
+mod built {
+    pub(super) const MATERIALS: Option<&str> = None;
+    pub(super) const PRIMITIVES: Option<&str> = None;
+    pub(super) const LIGHTS: Option<&str> = None;
+}
 
 /// A capacity set at build time (`value`, decimal), `most` if unset. A
 /// value that is not a number from 1 to `most` stops the build.
