@@ -47,6 +47,15 @@ fn main() {
     let mut resolved = Vec::new();
     let mut blobs = Vec::new();
     let (mut max_w, mut max_line) = (0usize, 0usize);
+    // The capacities of the core this firmware links (checked below).
+    const CAPACITIES: [&str; 3] = [
+        "HILCAM_MAX_MATERIALS",
+        "HILCAM_MAX_PRIMITIVES",
+        "HILCAM_MAX_LIGHTS",
+    ];
+    for var in CAPACITIES {
+        println!("cargo:rerun-if-env-changed={var}");
+    }
     for (i, p) in paths.iter().enumerate() {
         println!("cargo:rerun-if-changed={}", p.display());
         let r = load(p).unwrap_or_else(|e| panic!("{e}"));
@@ -54,12 +63,12 @@ fn main() {
         // links holds (its HILCAM_MAX_*, which host-sim sets from the
         // scenes; the host's core, which loaded the scene, holds the most)
         // is refused, naming the list and the limit.
-        for (var, list, n) in [
-            ("HILCAM_MAX_MATERIALS", "materials", r.desc.materials.len()),
-            ("HILCAM_MAX_PRIMITIVES", "primitives", r.desc.primitives.len()),
-            ("HILCAM_MAX_LIGHTS", "lights", r.desc.lights.len()),
-        ] {
-            println!("cargo:rerun-if-env-changed={var}");
+        let counts = [
+            ("materials", r.desc.materials.len()),
+            ("primitives", r.desc.primitives.len()),
+            ("lights", r.desc.lights.len()),
+        ];
+        for (var, (list, n)) in CAPACITIES.into_iter().zip(counts) {
             let Ok(v) = std::env::var(var) else { continue };
             let most: usize = v.parse().unwrap_or_else(|_| panic!("{var}={v}: not a number"));
             assert!(
