@@ -5,10 +5,7 @@
 use crate::common;
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, FLAG_OUTSIDE_FIELD};
-// The frame against the reference sampled as it is; not the stage errors
-// against converged estimates (16×16 samples a pixel), which no test here
-// asserts and which cost more than the comparison where a frame samples.
-use host_sim::harness::{render_skipping_stage_errors as render, RenderOutput};
+use host_sim::harness::{render_skipping_stage_errors, RenderOutput};
 use host_sim::reference::render::RefScene;
 
 use common::fixture::{
@@ -16,7 +13,7 @@ use common::fixture::{
 };
 
 fn run(r: &host_sim::scene_file::Resolved) -> RenderOutput {
-    render(r, &Budget::default()).expect("renders")
+    render_skipping_stage_errors(r, &Budget::default()).expect("renders")
 }
 
 /// Grazing rays: the camera 5 cm above an infinite checkered floor, looking

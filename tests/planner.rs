@@ -15,10 +15,7 @@ use crate::common;
 use common::Max;
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Arithmetic, ClosedMean, Frame, Override};
-// The frame against the reference sampled as it is; not the stage errors
-// against converged estimates (16×16 samples a pixel), which no test here
-// asserts and which cost more than the comparison where a frame samples.
-use host_sim::harness::render_skipping_stage_errors as render;
+use host_sim::harness::render_skipping_stage_errors;
 use host_sim::reference::lens::ThinLens;
 use host_sim::reference::render::{RefModel, RefScene};
 use host_sim::scene_file::parse;
@@ -225,7 +222,7 @@ fn predicted_bounds_hold_on_random_scenes() {
             o.distortion_eval = c.distortion.unwrap_or(o.distortion_eval);
             prop_assert!(Frame::new(&scene, &o).is_ok(), "fits but does not prepare:\n{t}");
         }
-        let out = render(&r, &budget).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let out = render_skipping_stage_errors(&r, &budget).unwrap_or_else(|e| panic!("{e}:\n{t}"));
         let m = &out.metrics;
         let predicted = p.predicted_lsb;
         let ratio = m.max_abs_lsb_smooth as f64 / (predicted + 1.0);
@@ -410,7 +407,7 @@ fn predicted_bounds_hold_with_parallel_rays_started_in_front() {
     let result = runner.run(&far, |s| {
         let (t, r, scene) = parsed(&s);
         let p = plan(&scene, &budget);
-        let m = render(&r, &budget)
+        let m = render_skipping_stage_errors(&r, &budget)
             .unwrap_or_else(|e| panic!("{e}:\n{t}"))
             .metrics;
         if p.options.arithmetic == Arithmetic::Fast {
@@ -440,7 +437,7 @@ fn a_distant_flat_target_is_planned_fast_with_parallel_rays() {
     let p = plan(&scene, &Budget::default());
     assert_eq!(p.options.arithmetic, Arithmetic::Fast, "{:?}", p.candidates);
     assert!(p.predicted_lsb < 0.5, "predicted {} LSB", p.predicted_lsb);
-    let out = render(&r, &Budget::default()).expect("renders");
+    let out = render_skipping_stage_errors(&r, &Budget::default()).expect("renders");
     assert_eq!(out.metrics.max_abs_lsb_smooth, 0);
     assert!(out.metrics.max_geom_err_px <= p.predicted_geom_err_px * 1.001);
 }
@@ -522,7 +519,7 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
         if p.edges_unpredicted && p.defocus.points == 0 {
             // What the refusal spares: the frame against the reference.
             horizon.set(horizon.get() + 1);
-            let m = render(&r, &budget)
+            let m = render_skipping_stage_errors(&r, &budget)
                 .unwrap_or_else(|e| panic!("{e}:\n{t}"))
                 .metrics;
             horizon_worst.set(horizon_worst.get().max(m.edge_pixels_differing_fraction));
@@ -533,7 +530,7 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
         if checkered_plane {
             checkered_met.set(checkered_met.get() + 1);
         }
-        let m = render(&r, &budget)
+        let m = render_skipping_stage_errors(&r, &budget)
             .unwrap_or_else(|e| panic!("{e}:\n{t}"))
             .metrics;
         match p.options.arithmetic {

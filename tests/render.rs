@@ -5,10 +5,7 @@
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, FrameSink, RenderError, RenderModel, FLAG_OUTSIDE_FIELD};
 use hilcam::scene::PixelFormat;
-// The frame against the reference sampled as it is; not the stage errors
-// against converged estimates (16×16 samples a pixel), which no test here
-// asserts and which cost more than the comparison where a frame samples.
-use host_sim::harness::{render_skipping_stage_errors as render, Metrics};
+use host_sim::harness::{render_skipping_stage_errors, Metrics};
 use host_sim::scene_file::{load, parse, Resolved};
 use std::path::PathBuf;
 
@@ -32,7 +29,9 @@ fn scene(name: &str) -> Resolved {
 }
 
 fn metrics(r: &Resolved) -> Metrics {
-    render(r, &Budget::default()).expect("renders").metrics
+    render_skipping_stage_errors(r, &Budget::default())
+        .expect("renders")
+        .metrics
 }
 
 /// The targets of the rendering issue, on every shipped scene:
@@ -231,7 +230,7 @@ fn pixels_beyond_the_fold_are_flagged() {
         .expect("read")
         .replace("distortion = [0.15, 0.05]", "distortion = [-2.0, 0.0]");
     let r = parse(&text).expect("valid");
-    let out = render(&r, &Budget::default()).expect("renders");
+    let out = render_skipping_stage_errors(&r, &Budget::default()).expect("renders");
     let m = &out.metrics;
     assert!(
         m.outside_field_pixels > 1000,
