@@ -99,11 +99,6 @@ pub enum Unfit {
     /// c5d6afa on shallow-dof 14 pixels differed from the reference, one
     /// by 2 LSB, and the loop was never planned.)
     Defocus,
-    /// A sampled scene with a checkered plane: toward its horizon the cells
-    /// shrink below a pixel, where the estimate of differing edge pixels
-    /// does not hold (a random scene measured 0.23 % against 0.0003 %
-    /// predicted), so the sampled fast loop is not used there.
-    SampledCheckeredPlane,
 }
 
 impl Unfit {
@@ -117,9 +112,6 @@ impl Unfit {
             Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
             Unfit::Defocus => "defocus with a sample grid: the fast aperture loop takes pixel centres only",
-            Unfit::SampledCheckeredPlane => {
-                "sampling a checkered plane: its cells shrink below a pixel toward the horizon"
-            }
         }
     }
 }
@@ -154,7 +146,9 @@ pub struct Candidate {
     /// expected count, not a bound: edge length per pixel area
     /// (`edge_fraction`'s estimate) × 2 × `geom_err_px` × looks per pixel
     /// area (`n²`, with the adaptive rule `+ 5`: a corner decides for four
-    /// pixels, the centre for one).
+    /// pixels, the centre for one); a checkered plane's cells integrated
+    /// over the field instead, with the arithmetic's error in the texture
+    /// coordinate (`Geometry::cells_differing`).
     pub edge_differing: f64,
 }
 
@@ -223,10 +217,6 @@ pub struct Plan {
     pub predicted_sample_factor: f64,
     /// Defocus: the content's blur and the aperture pattern chosen for it.
     pub defocus: Defocus,
-    /// Sampled, a checkered plane's horizon lies within the field: the
-    /// share of differing edge pixels is not predicted (every candidate's
-    /// `edge_differing` is 1), so no candidate meets the budget.
-    pub edges_unpredicted: bool,
 }
 
 /// Defocus as planned (camera-model.md §8, [`crate::defocus`]).
@@ -309,16 +299,16 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         (n, true) => f64::from(n) * f64::from(n) + 5.0,
     };
     let edge_looks = edge_fraction(scene, &g) * core::f64::consts::FRAC_PI_4 * looks;
-    // Sampled, a checkered plane whose horizon lies within the field is
-    // past this estimate in either arithmetic (toward the horizon the
-    // cells shrink below a pixel: docs/sensor.md): not predicted, so not
-    // within the budget.
-    let horizon = samples > 1
-        && scene
-            .primitives
+    // A checkered plane's cell lines, over the field (toward its horizon
+    // they pass a pixel apart): the share of pixels whose looks may see
+    // the other side of one, for the candidate's arithmetic and geometric
+    // error.
+    let cells = |a: Arithmetic, geom: f64| {
+        g.prims
             .iter()
-            .zip(&g.prims)
-            .any(|(p, pg)| p.checker.is_some() && g.horizon_in_field(pg));
+            .map(|p| g.cells_differing(p, a, geom, looks))
+            .sum::<f64>()
+    };
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
         let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
@@ -336,15 +326,6 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         let fits = match arithmetic {
             // (The fast aperture loop takes pixel centres only.)
             Arithmetic::Fast if df.points > 0 && samples > 1 => Err(Unfit::Defocus),
-            Arithmetic::Fast
-                if samples > 1
-                    && scene
-                        .primitives
-                        .iter()
-                        .any(|p| p.checker.is_some() && matches!(p.shape, Shape::Plane { .. })) =>
-            {
-                Err(Unfit::SampledCheckeredPlane)
-            }
             Arithmetic::Fast => g.fast_fits(scene),
             Arithmetic::Wide => Ok(()),
         };
@@ -394,11 +375,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
                 m3_instructions_per_pixel: cost,
                 closed_mean,
                 mean_lsb,
-                edge_differing: if horizon {
-                    1.0
-                } else {
-                    (edge_looks * 2.0 * geom).min(1.0)
-                },
+                edge_differing: (edge_looks * 2.0 * geom + cells(arithmetic, geom)).min(1.0),
             });
         }
     }
@@ -460,7 +437,6 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             .samples
             .factor(c.m3_instructions_per_pixel, &terms),
         defocus: df,
-        edges_unpredicted: horizon,
     }
 }
 
@@ -590,12 +566,90 @@ fn edge_fraction(scene: &Scene, g: &Geometry) -> f64 {
                 PI * r * r
             }
         };
-        if let Some(ch) = &p.checker {
+        if let Some(ch) = p.checker.filter(|_| !g.integrates_cells(pg)) {
             let cell = (ch.cell.f64() * k).max(1e-9);
             length += 2.0 * covered.min(area) / cell;
         }
     }
     (4.0 / PI * length / area).min(1.0)
+}
+
+/// An arithmetic's error in a plane coordinate `u = t (â·d)` of a
+/// perspective ray's hit, `t = dist / (n̂·d)` ([`Geometry::cells_differing`]).
+struct HitError {
+    /// `t`'s relative error.
+    t: f64,
+    /// `n̂·d`'s absolute error.
+    w: f64,
+    /// `â·d`'s absolute error.
+    a: f64,
+    /// The coordinate's absolute error as stored and compared with the
+    /// cells, metres.
+    stored: f64,
+}
+
+impl HitError {
+    /// Fast (`mix32::Ray::plane_t`, `Ray::along`, `MixChecker::cell`):
+    /// `n̂·d` and `â·d` truncated to S24, `1/(n̂·d)` within 2⁻²¹ and `dist`
+    /// in S24 U; `t` floored to S18 U (under two units), times `â·d`, and
+    /// the coordinate truncated to S18 U again: four units of 2⁻¹⁸ U.
+    /// Wide (I32F32, `render::Frame::look`): `n̂·d`, `â·d`, `dist`, `t` and
+    /// the point rounded to 2⁻³², a few each.
+    fn of(a: Arithmetic, unit: f64, dist: f64) -> HitError {
+        match a {
+            Arithmetic::Fast => HitError {
+                t: libm::ldexp(1.0, -21) + libm::ldexp(unit, -24) / dist,
+                w: libm::ldexp(1.0, -24),
+                a: libm::ldexp(1.0, -24),
+                stored: libm::ldexp(4.0 * unit, -18),
+            },
+            Arithmetic::Wide => HitError {
+                t: libm::ldexp(2.0, -32) / dist,
+                w: libm::ldexp(3.0, -32),
+                a: libm::ldexp(3.0, -32),
+                stored: libm::ldexp(4.0, -32),
+            },
+        }
+    }
+}
+
+/// The mean of `φ(w) = min(1, a/w + b/w² + c)` (0 where `w ≤ 0`) over `w`
+/// in `[wc − h, wc + h]`, `a, b, c ≥ 0`: from its antiderivative, `w` up to
+/// `w*` (where `φ = 1`), then `w* + a ln(w/w*) + b (1/w* − 1/w) + c (w −
+/// w*)`.
+fn capped_mean((a, b, c): (f64, f64, f64), wc: f64, h: f64) -> f64 {
+    if c >= 1.0 {
+        return if wc - h >= 0.0 {
+            1.0
+        } else if wc + h <= 0.0 {
+            0.0
+        } else {
+            (wc + h) / (2.0 * h)
+        };
+    }
+    let r = 1.0 - c;
+    let star = (a + libm::sqrt(a * a + 4.0 * b * r)) / (2.0 * r);
+    let phi = |w: f64| {
+        if w <= 0.0 {
+            0.0
+        } else {
+            (a / w + b / (w * w) + c).min(1.0)
+        }
+    };
+    let big = |w: f64| {
+        if w <= 0.0 {
+            0.0
+        } else if w <= star {
+            w
+        } else {
+            star + a * libm::log(w / star) + b * (1.0 / star - 1.0 / w) + c * (w - star)
+        }
+    };
+    if star.is_nan() || star <= 0.0 || h <= 1e-9 * libm::fabs(wc).max(star) {
+        phi(wc)
+    } else {
+        ((big(wc + h) - big(wc - h)) / (2.0 * h)).clamp(0.0, 1.0)
+    }
 }
 
 /// The smallest power-of-two table whose error is within `half` (or the
@@ -637,6 +691,8 @@ struct Geometry {
     f_px: f64,
     /// The focal length along a row (`f_x`), pixels.
     f_row: f64,
+    /// The focal length along a column (`f_y`), pixels.
+    f_col: f64,
     /// Largest `u = r_d²` over the sensor (clipped to the fold).
     u_max: f64,
     /// Largest |distorted slope| at the corners (x, y).
@@ -795,6 +851,8 @@ struct PrimGeom {
     /// No perspective ray meets it: behind the lens plane
     /// ([`crate::render::behind_lens`], [`crate::render::plane_unseen`]).
     unseen: bool,
+    /// A checkered plane's texture axes (camera frame) and cell, metres.
+    cells: Option<([f64; 3], [f64; 3], f64)>,
 }
 
 fn norm3(v: [f64; 3]) -> f64 {
@@ -922,9 +980,13 @@ impl Geometry {
                 }
             };
             take(mat(p.material));
+            let mut cells = None;
             if let Some(k) = &p.checker {
                 take(mat(k.material));
                 smallest = smallest.min(k.cell.f64());
+                if matches!(p.shape, Shape::Plane { .. }) {
+                    cells = Some((cam_dir(k.u_axis), cam_dir(k.v_axis), k.cell.f64()));
+                }
             }
             let unseen = origin_scale.is_none()
                 && match p.shape {
@@ -941,6 +1003,7 @@ impl Geometry {
                 ks,
                 exponent,
                 unseen,
+                cells,
             });
         }
         let mut lights = heapless::Vec::new();
@@ -1100,6 +1163,7 @@ impl Geometry {
         Geometry {
             f_px: fx.max(fy),
             f_row: fx,
+            f_col: fy,
             closed,
             u_max,
             slope_d,
@@ -1142,14 +1206,82 @@ impl Geometry {
         }))
     }
 
-    /// Whether `p` is a plane whose horizon (`w = 0`, [`Geometry::plane_w`])
-    /// crosses the field box: `w` takes both signs over it. Never for
-    /// parallel rays.
-    fn horizon_in_field(&self, p: &PrimGeom) -> bool {
-        matches!(p.shape, Shape::Plane { .. })
-            && !p.unseen
-            && self.origin_scale.is_none()
-            && self.plane_w(p).is_some_and(|(lo, hi)| lo < 0.0 && hi > 0.0)
+    /// Whether the cell lines of `p`, a checkered plane, are estimated
+    /// over the field ([`Geometry::cells_differing`]): perspective rays
+    /// (under parallel rays a plane's cells project at one size).
+    fn integrates_cells(&self, p: &PrimGeom) -> bool {
+        p.cells.is_some() && !p.unseen && self.origin_scale.is_none()
+    }
+
+    /// The expected fraction of pixels at which a look sees the other side
+    /// of one of the checkered plane `p`'s cell lines, for `looks` a pixel
+    /// placed within `geom` pixels by arithmetic `a`: the mean over the
+    /// field box of `min(1, looks Σ 2 δu/c)`, `δu` a family's coordinate
+    /// error where the plane is seen (0 elsewhere; other primitives in
+    /// front ignored), `c` the cell.
+    ///
+    /// With `w = n̂·d / dist` (`d = (x̂, ŷ, 1)`, `n̂·P = dist` the plane:
+    /// seen where `w > 0`, the horizon at `w = 0`), a family's coordinate
+    /// is `u = â·P = t (â·d)`, `t = 1/w`. Its error is the placement's,
+    /// `geom |∇u|` — the slope gradient `∂u/∂x̂ = (â_x w dist − (â·d) n̂_x)
+    /// / (w² dist)` per pixel (`/f_x`, `/f_y`): `|∇u| ≤ α/w + β/w²`, `α =
+    /// |(â_x/f_x, â_y/f_y)|`, `β = |â·d| |(n̂_x/f_x, n̂_y/f_y)| / |dist|` —
+    /// plus the arithmetic's own on `t` (relative `ε_t`, and `ε_w` of `n̂·d`
+    /// absolute), on `â·d` (`ε_a`) and on the stored coordinate (`δ`,
+    /// metres): `δu ≤ (|â·d| ε_t + ε_a)/w + |â·d| ε_w/(|dist| w²) + δ`
+    /// ([`HitError`]). Toward the horizon (`w → 0`) the cells pass a pixel
+    /// apart and the sum passes 1. `w` is linear in the slopes: the box is
+    /// cut into strips across the axis along which `w` changes more, and
+    /// cells along it; in each cell the coefficients are taken at its
+    /// centre and `min(1, A/w + B/w² + C)` is integrated along that axis in
+    /// closed form ([`capped_mean`]).
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
+    fn cells_differing(&self, p: &PrimGeom, a: Arithmetic, geom: f64, looks: f64) -> f64 {
+        const CELLS: usize = 8;
+        const STRIPS: usize = 16;
+        let Some((a_u, a_v, cell)) = p.cells else {
+            return 0.0;
+        };
+        let n = p.n;
+        let dist = dot3(n, p.c);
+        if !self.integrates_cells(p) || libm::fabs(dist) < 1e-12 {
+            return 0.0;
+        }
+        let e = HitError::of(a, self.unit, libm::fabs(dist));
+        let (fx, fy) = (self.f_row.max(1e-300), self.f_col.max(1e-300));
+        let (xs, ys) = self.field;
+        let hyp = |x: f64, y: f64| libm::sqrt(x * x + y * y);
+        // Per look, both families: 2 δu / c.
+        let k = 2.0 * looks / cell;
+        let alpha = geom * (hyp(a_u[0] / fx, a_u[1] / fy) + hyp(a_v[0] / fx, a_v[1] / fy));
+        let beta = (geom * hyp(n[0] / fx, n[1] / fy) + e.w) / libm::fabs(dist);
+        let c = k * 2.0 * e.stored;
+        // `w = w0 + wx x̂ + wy ŷ`; `s` runs along the axis of the larger
+        // change of `w` over the box, `t` across it.
+        let (w0, wx, wy) = (n[2] / dist, n[0] / dist, n[1] / dist);
+        let along_x = libm::fabs(wx) * xs >= libm::fabs(wy) * ys;
+        let ((hs, ws), (ht, wt)) = if along_x {
+            ((xs, wx), (ys, wy))
+        } else {
+            ((ys, wy), (xs, wx))
+        };
+        let seg = 2.0 * hs / CELLS as f64;
+        let mut sum = 0.0;
+        for j in 0..STRIPS {
+            let t = -ht + (j as f64 + 0.5) * 2.0 * ht / STRIPS as f64;
+            for i in 0..CELLS {
+                let s = -hs + (i as f64 + 0.5) * seg;
+                let (x, y) = if along_x { (s, t) } else { (t, s) };
+                let ad = |a: [f64; 3]| libm::fabs(a[0] * x + a[1] * y + a[2]);
+                let ads = ad(a_u) + ad(a_v);
+                let big_a = k * (alpha + ads * e.t + 2.0 * e.a);
+                let big_b = k * ads * beta;
+                let wc = w0 + ws * s + wt * t;
+                sum += capped_mean((big_a, big_b, c), wc, libm::fabs(ws) * seg / 2.0);
+            }
+        }
+        sum / (CELLS * STRIPS) as f64
     }
 
     /// Through the aperture, the largest `|1 − z/Z̃|` over `p`'s depths

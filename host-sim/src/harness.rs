@@ -1017,16 +1017,11 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
         )
     } else {
         format!(
-            "no candidate meets the budget ({} px, {} LSB, {} % differing at edges{}): {} is the most \
+            "no candidate meets the budget ({} px, {} LSB, {} % differing at edges): {} is the most \
              accurate that fits ({:.2e} px, {:.3} LSB before rounding)",
             budget.max_geom_err_px,
             budget.max_lsb,
             100.0 * budget.max_edge_differing,
-            if plan.edges_unpredicted {
-                "; not predicted where a sampled checkered plane's horizon lies within the field"
-            } else {
-                ""
-            },
             c.name(),
             c.geom_err_px,
             plan.predicted_lsb
