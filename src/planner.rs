@@ -1238,8 +1238,8 @@ impl Geometry {
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
     fn cells_differing(&self, p: &PrimGeom, a: Arithmetic, geom: f64, looks: f64) -> f64 {
-        const CELLS: usize = 8;
-        const STRIPS: usize = 16;
+        const CELLS: usize = 4;
+        const STRIPS: usize = 8;
         let Some((a_u, a_v, cell)) = p.cells else {
             return 0.0;
         };
