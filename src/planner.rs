@@ -593,7 +593,7 @@ impl HitError {
     /// `n̂·d` and `â·d` truncated to S24, `1/(n̂·d)` within 2⁻²¹ and `dist`
     /// in S24 U; `t` floored to S18 U (under two units), times `â·d`, and
     /// the coordinate truncated to S18 U again: four units of 2⁻¹⁸ U.
-    /// Wide (I32F32, `render::Frame::look`): `n̂·d`, `â·d`, `dist`, `t` and
+    /// Wide (I32F32, `render::WideFrame::look`): `n̂·d`, `â·d`, `dist`, `t` and
     /// the point rounded to 2⁻³², a few each.
     fn of(a: Arithmetic, unit: f64, dist: f64) -> HitError {
         match a {
@@ -1240,12 +1240,12 @@ impl Geometry {
     fn cells_differing(&self, p: &PrimGeom, a: Arithmetic, geom: f64, looks: f64) -> f64 {
         const CELLS: usize = 4;
         const STRIPS: usize = 8;
-        let Some((a_u, a_v, cell)) = p.cells else {
+        let Some((a_u, a_v, cell)) = p.cells.filter(|_| self.integrates_cells(p)) else {
             return 0.0;
         };
         let n = p.n;
         let dist = dot3(n, p.c);
-        if !self.integrates_cells(p) || libm::fabs(dist) < 1e-12 {
+        if libm::fabs(dist) < 1e-12 {
             return 0.0;
         }
         let e = HitError::of(a, self.unit, libm::fabs(dist));

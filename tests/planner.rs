@@ -581,23 +581,95 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
     );
 }
 
+/// A checkered floor (the plane through the origin with normal `(nx, 1,
+/// nz)`) seen at 160×120 by a camera at height `h` looking toward `(0,
+/// target_y, 2)` from `z = −2`, lit by one directional light.
+#[derive(Clone, Copy, Debug)]
+struct Floor {
+    /// 0 gray8, 1 gray16 (12 bits), 2 rgb565.
+    format: usize,
+    /// Cell, metres, and the texture's `u` axis `(u_x, 0, u_z)`.
+    cell: f64,
+    u: (f64, f64),
+    h: f64,
+    target_y: f64,
+    focal: f64,
+    normal: (f64, f64),
+    distortion: Option<(f64, f64)>,
+    /// `[sampling]`: edge error and adaptive rule.
+    sampling: Option<(f64, bool)>,
+}
+
+impl Floor {
+    fn text(&self) -> String {
+        let format = [
+            "format = \"gray8\"",
+            "format = \"gray16\"\nbits = 12",
+            "format = \"rgb565\"",
+        ][self.format];
+        let (a, b) = if self.format == 2 {
+            ("[0.7, 0.5, 0.3]", "[0.2, 0.3, 0.1]")
+        } else {
+            ("0.7", "0.2")
+        };
+        let mut t = format!(
+            "name = \"floor\"\n[output]\n{format}\nexposure = 300.0\n[camera]\nwidth = 160\nheight = 120\n\
+             focal_length = {}\npitch = 7.2e-6\nf_number = 2.0\nfocus_distance = 3.0\ntolerable_blur = 7.2e-6\n",
+            self.focal
+        );
+        if let Some((k1, k2)) = self.distortion {
+            t += &format!("distortion = [{k1}, {k2}]\n");
+        }
+        t += &format!(
+            "pose = {{ eye = [0.0, {}, -2.0], target = [0.0, {}, 2.0], up = [0.0, 1.0, 0.0] }}\n\
+             [environment]\nambient = 0.1\nbackground = 0.3\n\
+             [[materials]]\nname = \"a\"\nalbedo = {a}\n[[materials]]\nname = \"b\"\nalbedo = {b}\n\
+             [[primitives]]\nkind = \"plane\"\nmaterial = \"b\"\npoint = [0.0, 0.0, 0.0]\nnormal = [{}, 1.0, {}]\n\
+             checker = {{ cell = {}, material = \"a\", u_axis = [{}, 0.0, {}] }}\n\
+             [[lights]]\nkind = \"directional\"\ndirection = [0.3, -1.0, 0.4]\nirradiance = 2.0\n",
+            self.h, self.target_y, self.normal.0, self.normal.1, self.cell, self.u.0, self.u.1,
+        );
+        if let Some((edge, adaptive)) = self.sampling {
+            t += &format!("[sampling]\nedge_error = {edge}\nadaptive = {adaptive}\n");
+        }
+        t
+    }
+}
+
+/// `c`, one of the plan's candidates, rendered as it is (its arithmetic,
+/// distortion evaluation and closed-plane mean) against the reference.
+fn render_candidate(
+    r: &host_sim::scene_file::Resolved,
+    budget: &Budget,
+    c: &hilcam::planner::Candidate,
+) -> Result<host_sim::harness::Metrics, String> {
+    let out = host_sim::harness::render_with(r, budget, host_sim::harness::StageErrors::Skipped, |mut o| {
+        o.arithmetic = c.arithmetic;
+        o.distortion_eval = c.distortion.unwrap_or(o.distortion_eval);
+        o.closed_mean = c.closed_mean;
+        o
+    })?;
+    Ok(out.metrics)
+}
+
 /// A checkered floor seen from a camera at random height and pitch —
 /// looking down on it, level with its horizon across the middle, or up
-/// with the horizon low in the frame — one sample a pixel or, in three
-/// of four, sampled (a 2×2 or 4×4 grid, adaptive or not: the larger grids
-/// take looks in proportion and minutes to render), at 160×120, with random cells, texture axes,
-/// distortion and format. Every candidate the planner says fits (the
-/// polynomial's and the undistorted ones), rendered as it is and compared
-/// with the reference: its geometry and smooth pixels within its own
-/// predictions, and its share of pixels differing at edges within its
-/// predicted share or the budget, whichever is larger — so a candidate
-/// predicted within the budget keeps it, and one predicted over it is not
-/// under-predicted. Toward the horizon the cells pass a pixel apart
-/// (`planner::Geometry::cells_differing`); before the prediction
-/// integrated that over the field, a sampled plan with a horizon in view
-/// was refused and the fast arithmetic was not given sampled checkered
-/// planes (one measured 0.23 % against 0.0003 % predicted); with one
-/// sample a pixel it was, where it can differ at 0.3 % of the pixels.
+/// with the horizon low in the frame — one sample a pixel or, in three of
+/// four, sampled (a 2×2 or 4×4 grid, adaptive or not: the larger grids
+/// take looks in proportion and minutes to render), with random cells,
+/// texture axes, distortion and format ([`Floor`]). Every candidate the
+/// planner says fits (the polynomial's and the undistorted ones), rendered
+/// as it is and compared with the reference: its geometry and smooth
+/// pixels within its own predictions, and its share of pixels differing at
+/// edges within its predicted share or the budget, whichever is larger —
+/// so a candidate predicted within the budget keeps it, and one predicted
+/// over it is not under-predicted. Toward the horizon the cells pass a
+/// pixel apart (`planner::Geometry::cells_differing`); before the
+/// prediction integrated that over the field, a sampled plan with a
+/// horizon in view was refused and the fast arithmetic was not given
+/// sampled checkered planes (one measured 0.23 % against 0.0003 %
+/// predicted); with one sample a pixel it was, where it can differ at
+/// 0.3 % of the pixels.
 #[test]
 fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
     let mut runner = runner(16);
@@ -614,51 +686,36 @@ fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
         (-0.1f64..0.1, -0.1f64..0.1),
         prop::option::of((-0.3f64..0.4, -0.1f64..0.1)),
         prop::option::weighted(0.75, (0usize..2, any::<bool>())),
-    );
-    let result = runner.run(&floor, |((format, cell, theta), (h, dy, focal), (nx, nz), distortion, sampling)| {
-        let format = ["format = \"gray8\"", "format = \"gray16\"\nbits = 12", "format = \"rgb565\""][format];
-        let (a, b) = if format.contains("rgb") {
-            ("[0.7, 0.5, 0.3]", "[0.2, 0.3, 0.1]")
-        } else {
-            ("0.7", "0.2")
-        };
-        let mut t = format!(
-            "name = \"floor\"\n[output]\n{format}\nexposure = 300.0\n[camera]\nwidth = 160\nheight = 120\n\
-             focal_length = {focal}\npitch = 7.2e-6\nf_number = 2.0\nfocus_distance = 3.0\ntolerable_blur = 7.2e-6\n"
+    )
+        .prop_map(
+            |((format, cell, theta), (h, dy, focal), normal, distortion, sampling)| Floor {
+                format,
+                cell,
+                u: (theta.cos(), theta.sin()),
+                h,
+                target_y: h + dy,
+                focal,
+                normal,
+                distortion,
+                sampling: sampling.map(|(e, adaptive)| ([0.25, 0.125][e], adaptive)),
+            },
         );
-        if let Some((k1, k2)) = distortion {
-            t += &format!("distortion = [{k1}, {k2}]\n");
-        }
-        t += &format!(
-            "pose = {{ eye = [0.0, {h}, -2.0], target = [0.0, {}, 2.0], up = [0.0, 1.0, 0.0] }}\n\
-             [environment]\nambient = 0.1\nbackground = 0.3\n\
-             [[materials]]\nname = \"a\"\nalbedo = {a}\n[[materials]]\nname = \"b\"\nalbedo = {b}\n\
-             [[primitives]]\nkind = \"plane\"\nmaterial = \"b\"\npoint = [0.0, 0.0, 0.0]\nnormal = [{nx}, 1.0, {nz}]\n\
-             checker = {{ cell = {cell}, material = \"a\", u_axis = [{}, 0.0, {}] }}\n\
-             [[lights]]\nkind = \"directional\"\ndirection = [0.3, -1.0, 0.4]\nirradiance = 2.0\n",
-            h + dy,
-            theta.cos(),
-            theta.sin(),
-        );
-        if let Some((e, adaptive)) = sampling {
-            t += &format!("[sampling]\nedge_error = {}\nadaptive = {adaptive}\n", [0.25, 0.125][e]);
-        }
+    let result = runner.run(&floor, |f| {
+        let t = f.text();
         let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
         let scene = r.core_scene().unwrap_or_else(|e| panic!("{e}:\n{t}"));
         let p = plan(&scene, &budget);
-        for c in p.candidates.iter().filter(|c| c.fits.is_ok() && c.lut_entries == 0) {
-            let m = host_sim::harness::render_with(&r, &budget, host_sim::harness::StageErrors::Skipped, |mut o| {
-                o.arithmetic = c.arithmetic;
-                o.distortion_eval = c.distortion.unwrap_or(o.distortion_eval);
-                o.closed_mean = c.closed_mean;
-                o
-            })
-            .unwrap_or_else(|e| panic!("{e}:\n{t}"))
-            .metrics;
+        for c in p
+            .candidates
+            .iter()
+            .filter(|c| c.fits.is_ok() && c.lut_entries == 0)
+        {
+            let m = render_candidate(&r, &budget, c).unwrap_or_else(|e| panic!("{e}:\n{t}"));
             rendered.set(rendered.get() + 1);
             let differing = m.edge_pixels_differing_fraction;
             prop_assert!(
-                m.max_abs_lsb_smooth as f64 <= c.lsb.floor() + 1.0 && m.max_geom_err_px <= c.geom_err_px * 1.001 + 1e-9,
+                m.max_abs_lsb_smooth as f64 <= c.lsb.floor() + 1.0
+                    && m.max_geom_err_px <= c.geom_err_px * 1.001 + 1e-9,
                 "{}: smooth pixels {} LSB, geometry {} px, over the predicted {} and {}:\n{t}",
                 c.name(),
                 m.max_abs_lsb_smooth,
@@ -709,60 +766,35 @@ fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
 }
 
 /// A checkered floor level with its horizon across the middle of the
-/// frame, one sample a pixel. The face-on estimate planned it fast within
-/// the budget (0.0003 % predicted at db4ff42) and 0.42 % of its pixels
-/// differed at edges (`host-sim render`). Now no candidate claims the
-/// budget: fast is predicted 0.98 % and wide 0.108 %, and each rendered
-/// measures within its prediction, the fast one over the budget.
+/// frame, one sample a pixel (a case of the test above). The face-on
+/// estimate planned it fast within the budget (0.0003 % predicted at
+/// db4ff42) and 0.42 % of its pixels differed at edges (`host-sim
+/// render`). Now no candidate claims the budget: fast is predicted 0.98 %
+/// and wide 0.108 %, and each rendered measures within its prediction, the
+/// fast one over the budget.
 #[test]
 fn a_level_checkered_floor_is_not_claimed_within_the_budget() {
-    let t = r#"name = "floor"
-[output]
-format = "rgb565"
-exposure = 300.0
-[camera]
-width = 160
-height = 120
-focal_length = 0.002816467629207144
-pitch = 7.2e-6
-f_number = 2.0
-focus_distance = 3.0
-tolerable_blur = 7.2e-6
-pose = { eye = [0.0, 0.7990579403900115, -2.0], target = [0.0, 0.7, 2.0], up = [0.0, 1.0, 0.0] }
-[environment]
-ambient = 0.1
-background = 0.3
-[[materials]]
-name = "a"
-albedo = [0.7, 0.5, 0.3]
-[[materials]]
-name = "b"
-albedo = [0.2, 0.3, 0.1]
-[[primitives]]
-kind = "plane"
-material = "b"
-point = [0.0, 0.0, 0.0]
-normal = [0, 1.0, -0.0814072850070922]
-checker = { cell = 0.11696370728608359, material = "a", u_axis = [-0.9678032128525806, 0.0, 0.25170804753170367] }
-[[lights]]
-kind = "directional"
-direction = [0.3, -1.0, 0.4]
-irradiance = 2.0
-"#;
-    let r = parse(t).expect("parses");
+    let t = Floor {
+        format: 2,
+        cell: 0.11696370728608359,
+        u: (-0.9678032128525806, 0.25170804753170367),
+        h: 0.7990579403900115,
+        target_y: 0.7,
+        focal: 0.002816467629207144,
+        normal: (0.0, -0.0814072850070922),
+        distortion: None,
+        sampling: None,
+    }
+    .text();
+    let r = parse(&t).expect("parses");
     let scene = r.core_scene().expect("core scene");
     let budget = Budget::default();
     let p = plan(&scene, &budget);
     assert!(!p.meets_budget, "{:?}", p.candidates);
     for c in &p.candidates {
-        let m =
-            host_sim::harness::render_with(&r, &budget, host_sim::harness::StageErrors::Skipped, |mut o| {
-                o.arithmetic = c.arithmetic;
-                o
-            })
+        let differing = render_candidate(&r, &budget, c)
             .expect("renders")
-            .metrics;
-        let differing = m.edge_pixels_differing_fraction;
+            .edge_pixels_differing_fraction;
         assert!(
             differing <= c.edge_differing,
             "{}: {differing} against {}",
