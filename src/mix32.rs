@@ -750,14 +750,21 @@ impl Mix32 {
             };
             let checker = match &p.checker {
                 Some(k) => {
-                    let o = k.origin.map(l18);
+                    // The origin in S24 U (within the content's 8 U: below
+                    // 2²⁷), `o·u` S54 → `along`'s format, less half of
+                    // S18 U, so that [`MixChecker::cell`]'s floor to S18
+                    // rounds: an origin in S18 and the floor would move
+                    // the cell lines by up to `(|u|₁ + 1) 2⁻¹⁸ U`, more
+                    // than a hit's own rounding (`planner::HitError`).
+                    let o = k.origin.map(l24);
                     let (u, v) = (u3(k.u), u3(k.v));
                     let cell = div_q(Q::ONE, k.inv_cell).ok_or(bad)?;
+                    let half = 1i64 << (29 - along);
                     Some(MixChecker {
                         u,
                         v,
-                        ou: dot48(o, u) >> along,
-                        ov: dot48(o, v) >> along,
+                        ou: (dot48(o, u) >> (along + 6)) - half,
+                        ov: (dot48(o, v) >> (along + 6)) - half,
                         inv_cell: recip_len(cell, e)
                             .and_then(|(m, sh)| Some((m, (sh + 30).checked_sub(32).filter(|k| *k < 32)?)))
                             .ok_or(bad)?,

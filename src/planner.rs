@@ -298,7 +298,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         (n, false) => f64::from(n) * f64::from(n),
         (n, true) => f64::from(n) * f64::from(n) + 5.0,
     };
-    let edge_looks = edge_fraction(scene, &g) * core::f64::consts::FRAC_PI_4 * looks;
+    let edge_looks = edge_fraction(scene, &g, true) * core::f64::consts::FRAC_PI_4 * looks;
     // A checkered plane's cell lines, over the field (toward its horizon
     // they pass a pixel apart): the share of pixels whose looks may see
     // the other side of one, for the candidate's arithmetic and geometric
@@ -539,11 +539,13 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
 /// face on): a sphere's or disc's outline (`2π f r / |c|`), a rectangle's
 /// (`4 f (h_u + h_v) / |c|`), a plane's horizon (the sensor's width), and a
 /// checker texture's cell boundaries (two families of lines a projected
-/// cell apart over the area the primitive covers); a line crosses `4/π`
-/// pixels per pixel of length on average over its directions.
+/// cell apart over the area the primitive covers; with `integrated`, not
+/// those [`Geometry::cells_differing`] integrates over the field); a line
+/// crosses `4/π` pixels per pixel of length on average over its
+/// directions.
 // Out of line: planning runs once a frame; keeping it small saves flash.
 #[inline(never)]
-fn edge_fraction(scene: &Scene, g: &Geometry) -> f64 {
+fn edge_fraction(scene: &Scene, g: &Geometry, integrated: bool) -> f64 {
     use core::f64::consts::PI;
     let (w, h) = scene.camera.intrinsics.size();
     let area = f64::from(w) * f64::from(h);
@@ -566,7 +568,7 @@ fn edge_fraction(scene: &Scene, g: &Geometry) -> f64 {
                 PI * r * r
             }
         };
-        if let Some(ch) = p.checker.filter(|_| !g.integrates_cells(pg)) {
+        if let Some(ch) = p.checker.filter(|_| !(integrated && g.integrates_cells(pg))) {
             let cell = (ch.cell.f64() * k).max(1e-9);
             length += 2.0 * covered.min(area) / cell;
         }
@@ -575,7 +577,9 @@ fn edge_fraction(scene: &Scene, g: &Geometry) -> f64 {
 }
 
 /// An arithmetic's error in a plane coordinate `u = t (â·d)` of a
-/// perspective ray's hit, `t = dist / (n̂·d)` ([`Geometry::cells_differing`]).
+/// perspective ray's hit, `t = dist / (n̂·d)` ([`Geometry::cells_differing`]):
+/// bounds on each rounding, whose errors are each within the bound and,
+/// truncations or rounding, half of it on average.
 struct HitError {
     /// `t`'s relative error.
     t: f64,
@@ -583,16 +587,20 @@ struct HitError {
     w: f64,
     /// `â·d`'s absolute error.
     a: f64,
-    /// The coordinate's absolute error as stored and compared with the
-    /// cells, metres.
+    /// Where `t` and the coordinate are stored: `t`'s absolute error is
+    /// this, and the stored coordinate's `|â·d| + 1/2 + 2⁻⁵` times this,
+    /// metres.
     stored: f64,
 }
 
 impl HitError {
     /// Fast (`mix32::Ray::plane_t`, `Ray::along`, `MixChecker::cell`):
     /// `n̂·d` and `â·d` truncated to S24, `1/(n̂·d)` within 2⁻²¹ and `dist`
-    /// in S24 U; `t` floored to S18 U (under two units), times `â·d`, and
-    /// the coordinate truncated to S18 U again: four units of 2⁻¹⁸ U.
+    /// in S24 U; `t` floored to S18 U, times `â·d`, less the texture's
+    /// origin (floored to S24 U: within `|â|₁ 2⁻²⁴ U < 2⁻²³ U`), and the
+    /// coordinate rounded to S18 U: `(|â·d| + 1/2 + 2⁻⁵) 2⁻¹⁸ U`
+    /// (`mix32::tests::a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error`
+    /// measures it).
     /// Wide (I32F32, `render::WideFrame::look`): `n̂·d`, `â·d`, `dist`, `t` and
     /// the point rounded to 2⁻³², a few each.
     fn of(a: Arithmetic, unit: f64, dist: f64) -> HitError {
@@ -601,13 +609,13 @@ impl HitError {
                 t: libm::ldexp(1.0, -21) + libm::ldexp(unit, -24) / dist,
                 w: libm::ldexp(1.0, -24),
                 a: libm::ldexp(1.0, -24),
-                stored: libm::ldexp(4.0 * unit, -18),
+                stored: libm::ldexp(unit, -18),
             },
             Arithmetic::Wide => HitError {
                 t: libm::ldexp(2.0, -32) / dist,
                 w: libm::ldexp(3.0, -32),
                 a: libm::ldexp(3.0, -32),
-                stored: libm::ldexp(4.0, -32),
+                stored: libm::ldexp(2.0, -32),
             },
         }
     }
@@ -851,8 +859,44 @@ struct PrimGeom {
     /// No perspective ray meets it: behind the lens plane
     /// ([`crate::render::behind_lens`], [`crate::render::plane_unseen`]).
     unseen: bool,
-    /// A checkered plane's texture axes (camera frame) and cell, metres.
-    cells: Option<([f64; 3], [f64; 3], f64)>,
+    /// A checkered plane's, disc's or rectangle's texture.
+    cells: Option<Cells>,
+}
+
+/// A flat primitive's checker texture, camera frame.
+#[derive(Clone, Copy, Debug)]
+struct Cells {
+    /// Its axes (unit).
+    u: [f64; 3],
+    v: [f64; 3],
+    /// Its cell, metres.
+    cell: f64,
+    /// The box of undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` that holds
+    /// the shape's image (a disc's, its bounding square's), or `None`: any
+    /// slope (a plane; a shape reaching the lens plane).
+    seen: Option<[f64; 4]>,
+}
+
+/// The box of slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` of the rectangle centred
+/// on `c` with half-axes `a u`, `b v` (camera frame, metres): its corners'
+/// (all in front of the lens, the image of the rectangle lies within
+/// their hull); `None` where one is not in front by 10⁻⁶ of its distance.
+fn corner_slopes(c: [f64; 3], u: [f64; 3], v: [f64; 3], a: f64, b: f64) -> Option<[f64; 4]> {
+    let mut bx = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+    for (su, sv) in [(-a, -b), (a, -b), (-a, b), (a, b)] {
+        let at = |k: [f64; 3]| dot3(k, [1.0, su, sv]);
+        let p = [
+            at([c[0], u[0], v[0]]),
+            at([c[1], u[1], v[1]]),
+            at([c[2], u[2], v[2]]),
+        ];
+        if !p.iter().all(|v| v.is_finite()) || p[2] <= 1e-6 * norm3(p) {
+            return None;
+        }
+        let (x, y) = (p[0] / p[2], p[1] / p[2]);
+        bx = [bx[0].min(x), bx[1].max(x), bx[2].min(y), bx[3].max(y)];
+    }
+    Some(bx)
 }
 
 fn norm3(v: [f64; 3]) -> f64 {
@@ -924,6 +968,9 @@ impl Geometry {
             heapless::Vec::new();
         let mat = |i: u8| scene.materials.get(i as usize);
         for p in &scene.primitives {
+            // A disc's or rectangle's centre and in-plane half-axes (a
+            // disc's bounding square, along its checker's axes).
+            let mut flat: Option<([f64; 3], [f64; 3], f64, f64)> = None;
             let (c, n, r, mut smallest, reach) = match p.shape {
                 Shape::Plane { point, normal } => {
                     let c = cam_pt(point);
@@ -960,6 +1007,7 @@ impl Geometry {
                         u[0] * v[1] - u[1] * v[0],
                     ];
                     let r = libm::sqrt(a * a + b * b);
+                    flat = Some((u, v, a, b));
                     (c, n, r, f64::INFINITY, Reach::Around(c, a + b))
                 }
             };
@@ -984,9 +1032,21 @@ impl Geometry {
             if let Some(k) = &p.checker {
                 take(mat(k.material));
                 smallest = smallest.min(k.cell.f64());
-                if matches!(p.shape, Shape::Plane { .. }) {
-                    cells = Some((cam_dir(k.u_axis), cam_dir(k.v_axis), k.cell.f64()));
-                }
+                let (ku, kv) = (cam_dir(k.u_axis), cam_dir(k.v_axis));
+                let seen = match p.shape {
+                    Shape::Plane { .. } => Some(None),
+                    Shape::Disc { .. } => Some(corner_slopes(c, ku, kv, r, r)),
+                    Shape::Rectangle { .. } => {
+                        Some(flat.and_then(|(u, v, a, b)| corner_slopes(c, u, v, a, b)))
+                    }
+                    Shape::Sphere { .. } => None,
+                };
+                cells = seen.map(|seen| Cells {
+                    u: ku,
+                    v: kv,
+                    cell: k.cell.f64(),
+                    seen,
+                });
             }
             let unseen = origin_scale.is_none()
                 && match p.shape {
@@ -1206,18 +1266,21 @@ impl Geometry {
         }))
     }
 
-    /// Whether the cell lines of `p`, a checkered plane, are estimated
-    /// over the field ([`Geometry::cells_differing`]): perspective rays
-    /// (under parallel rays a plane's cells project at one size).
+    /// Whether the cell lines of `p`, a checkered plane, disc or
+    /// rectangle, are estimated over the field
+    /// ([`Geometry::cells_differing`]): perspective rays (under parallel
+    /// rays a plane's cells project at one size).
     fn integrates_cells(&self, p: &PrimGeom) -> bool {
         p.cells.is_some() && !p.unseen && self.origin_scale.is_none()
     }
 
     /// The expected fraction of pixels at which a look sees the other side
-    /// of one of the checkered plane `p`'s cell lines, for `looks` a pixel
-    /// placed within `geom` pixels by arithmetic `a`: the mean over the
-    /// field box of `min(1, looks Σ 2 δu/c)`, `δu` a family's coordinate
-    /// error where the plane is seen (0 elsewhere; other primitives in
+    /// of one of the cell lines of `p` (a checkered plane, disc or
+    /// rectangle), for `looks` a pixel placed within `geom` pixels by
+    /// arithmetic `a`: the mean over the field box of `min(1, looks Σ 2
+    /// δu/c)`, `δu` a family's coordinate error where the plane is seen and
+    /// within the box of a disc's or rectangle's image ([`Cells::seen`],
+    /// counted as covered throughout; 0 elsewhere; other primitives in
     /// front ignored), `c` the cell.
     ///
     /// With `w = n̂·d / dist` (`d = (x̂, ŷ, 1)`, `n̂·P = dist` the plane:
@@ -1227,9 +1290,18 @@ impl Geometry {
     /// / (w² dist)` per pixel (`/f_x`, `/f_y`): `|∇u| ≤ α/w + β/w²`, `α =
     /// |(â_x/f_x, â_y/f_y)|`, `β = |â·d| |(n̂_x/f_x, n̂_y/f_y)| / |dist|` —
     /// plus the arithmetic's own on `t` (relative `ε_t`, and `ε_w` of `n̂·d`
-    /// absolute), on `â·d` (`ε_a`) and on the stored coordinate (`δ`,
-    /// metres): `δu ≤ (|â·d| ε_t + ε_a)/w + |â·d| ε_w/(|dist| w²) + δ`
-    /// ([`HitError`]). Toward the horizon (`w → 0`) the cells pass a pixel
+    /// absolute), on `â·d` (`ε_a`) and where `t` and the coordinate are
+    /// stored (`δ`, metres): `δu ≤ (|â·d| ε_t + ε_a)/w + |â·d| ε_w/(|dist|
+    /// w²) + (|â·d| + 1/2 + 2⁻⁵) δ` ([`HitError`]). The placement's error is a bound
+    /// of either sign: a look within it of a line may cross it, `2 geom
+    /// |∇u| / c` of the looks. The arithmetic's crosses a line at `|δu| /
+    /// c` of them, and its roundings average half their bounds: the
+    /// estimate takes half of `δu` (on random hits the fast arithmetic's
+    /// averaged 0.26 of `δu`, its largest 0.93, in
+    /// `mix32::tests::a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error`;
+    /// taking the whole bound twice over, as the placement's, sent
+    /// calibration-board, predicted 0.31 % of its pixels against a measured
+    /// 0.008 %, to the wide arithmetic). Toward the horizon (`w → 0`) the cells pass a pixel
     /// apart and the sum passes 1. `w` is linear in the slopes: the box is
     /// cut into strips across the axis along which `w` changes more, and
     /// cells along it; in each cell the coefficients are taken at its
@@ -1240,7 +1312,13 @@ impl Geometry {
     fn cells_differing(&self, p: &PrimGeom, a: Arithmetic, geom: f64, looks: f64) -> f64 {
         const CELLS: usize = 4;
         const STRIPS: usize = 8;
-        let Some((a_u, a_v, cell)) = p.cells.filter(|_| self.integrates_cells(p)) else {
+        let Some(Cells {
+            u: a_u,
+            v: a_v,
+            cell,
+            seen,
+        }) = p.cells.filter(|_| self.integrates_cells(p))
+        else {
             return 0.0;
         };
         let n = p.n;
@@ -1248,40 +1326,52 @@ impl Geometry {
         if libm::fabs(dist) < 1e-12 {
             return 0.0;
         }
+        // The field box, or its part where a disc's or rectangle's image
+        // lies.
+        let (xs, ys) = self.field;
+        let [x0, x1, y0, y1] = seen.map_or([-xs, xs, -ys, ys], |[a, b, c, d]| {
+            [a.max(-xs), b.min(xs), c.max(-ys), d.min(ys)]
+        });
+        // (NaN, from no overlap, gives 0.)
+        let share = (x1 - x0).max(0.0) * (y1 - y0).max(0.0) / (4.0 * xs * ys).max(1e-300);
+        if share <= 0.0 {
+            return 0.0;
+        }
         let e = HitError::of(a, self.unit, libm::fabs(dist));
         let (fx, fy) = (self.f_row.max(1e-300), self.f_col.max(1e-300));
-        let (xs, ys) = self.field;
         let hyp = |x: f64, y: f64| libm::sqrt(x * x + y * y);
-        // Per look, both families: 2 δu / c.
-        let k = 2.0 * looks / cell;
-        let alpha = geom * (hyp(a_u[0] / fx, a_u[1] / fy) + hyp(a_v[0] / fx, a_v[1] / fy));
-        let beta = (geom * hyp(n[0] / fx, n[1] / fy) + e.w) / libm::fabs(dist);
-        let c = k * 2.0 * e.stored;
+        // Per look, both families: 2 δu / c for the placement (`geom` a
+        // bound, of either sign), the arithmetic's mean `|δu|` / c (half
+        // its bound) for the hit's.
+        let (k, kh) = (2.0 * looks / cell, 0.5 * looks / cell);
+        let alpha = k * geom * (hyp(a_u[0] / fx, a_u[1] / fy) + hyp(a_v[0] / fx, a_v[1] / fy));
+        let beta = (k * geom * hyp(n[0] / fx, n[1] / fy) + kh * e.w) / libm::fabs(dist);
         // `w = w0 + wx x̂ + wy ŷ`; `s` runs along the axis of the larger
         // change of `w` over the box, `t` across it.
         let (w0, wx, wy) = (n[2] / dist, n[0] / dist, n[1] / dist);
-        let along_x = libm::fabs(wx) * xs >= libm::fabs(wy) * ys;
-        let ((hs, ws), (ht, wt)) = if along_x {
-            ((xs, wx), (ys, wy))
+        let along_x = libm::fabs(wx) * (x1 - x0) >= libm::fabs(wy) * (y1 - y0);
+        let ((s0, s1, ws), (t0, t1, wt)) = if along_x {
+            ((x0, x1, wx), (y0, y1, wy))
         } else {
-            ((ys, wy), (xs, wx))
+            ((y0, y1, wy), (x0, x1, wx))
         };
-        let seg = 2.0 * hs / CELLS as f64;
+        let seg = (s1 - s0) / CELLS as f64;
         let mut sum = 0.0;
         for j in 0..STRIPS {
-            let t = -ht + (j as f64 + 0.5) * 2.0 * ht / STRIPS as f64;
+            let t = t0 + (j as f64 + 0.5) * (t1 - t0) / STRIPS as f64;
             for i in 0..CELLS {
-                let s = -hs + (i as f64 + 0.5) * seg;
+                let s = s0 + (i as f64 + 0.5) * seg;
                 let (x, y) = if along_x { (s, t) } else { (t, s) };
                 let ad = |a: [f64; 3]| libm::fabs(a[0] * x + a[1] * y + a[2]);
                 let ads = ad(a_u) + ad(a_v);
-                let big_a = k * (alpha + ads * e.t + 2.0 * e.a);
-                let big_b = k * ads * beta;
+                let big_a = alpha + kh * (ads * e.t + 2.0 * e.a);
+                let big_b = ads * beta;
+                let c = kh * (ads + 2.0 * (0.5 + 1.0 / 32.0)) * e.stored;
                 let wc = w0 + ws * s + wt * t;
                 sum += capped_mean((big_a, big_b, c), wc, libm::fabs(ws) * seg / 2.0);
             }
         }
-        sum / (CELLS * STRIPS) as f64
+        share * sum / (CELLS * STRIPS) as f64
     }
 
     /// Through the aperture, the largest `|1 − z/Z̃|` over `p`'s depths
@@ -2262,7 +2352,7 @@ impl Samples {
         let (grid, corners) = match (n, adaptive) {
             (0 | 1, _) => (1.0, 0.0),
             (_, false) => (n2, 0.0),
-            (_, true) => (1.0 + n2 * edge_fraction(scene, g), 1.0),
+            (_, true) => (1.0 + n2 * edge_fraction(scene, g, false), 1.0),
         };
         Samples {
             grid,

@@ -582,10 +582,12 @@ fn sampled_plans_meet_the_budget_on_random_scenes() {
 }
 
 /// A checkered floor (the plane through the origin with normal `(nx, 1,
-/// nz)`) seen at 160×120 by a camera at height `h` looking toward `(0,
-/// target_y, 2)` from `z = −2`, lit by one directional light.
+/// nz)`, or a rectangle or disc lying in it) seen at 160×120 by a camera
+/// at height `h` looking toward `(0, target_y, 2)` from `z = −2`, lit by
+/// one directional light.
 #[derive(Clone, Copy, Debug)]
 struct Floor {
+    shape: FloorShape,
     /// 0 gray8, 1 gray16 (12 bits), 2 rgb565.
     format: usize,
     /// Cell, metres, and the texture's `u` axis `(u_x, 0, u_z)`.
@@ -598,6 +600,16 @@ struct Floor {
     distortion: Option<(f64, f64)>,
     /// `[sampling]`: edge error and adaptive rule.
     sampling: Option<(f64, bool)>,
+}
+
+/// What lies in the floor's plane: the plane itself, or a rectangle
+/// (`size`, metres, its `u` edge along `x`) or a disc centred on `(0, y,
+/// z)` in it.
+#[derive(Clone, Copy, Debug)]
+enum FloorShape {
+    Plane,
+    Rectangle { z: f64, size: [f64; 2] },
+    Disc { z: f64, radius: f64 },
 }
 
 impl Floor {
@@ -624,15 +636,40 @@ impl Floor {
             "pose = {{ eye = [0.0, {}, -2.0], target = [0.0, {}, 2.0], up = [0.0, 1.0, 0.0] }}\n\
              [environment]\nambient = 0.1\nbackground = 0.3\n\
              [[materials]]\nname = \"a\"\nalbedo = {a}\n[[materials]]\nname = \"b\"\nalbedo = {b}\n\
-             [[primitives]]\nkind = \"plane\"\nmaterial = \"b\"\npoint = [0.0, 0.0, 0.0]\nnormal = [{}, 1.0, {}]\n\
+             [[primitives]]\nmaterial = \"b\"\nnormal = [{}, 1.0, {}]\n{}\
              checker = {{ cell = {}, material = \"a\", u_axis = [{}, 0.0, {}] }}\n\
              [[lights]]\nkind = \"directional\"\ndirection = [0.3, -1.0, 0.4]\nirradiance = 2.0\n",
-            self.h, self.target_y, self.normal.0, self.normal.1, self.cell, self.u.0, self.u.1,
+            self.h,
+            self.target_y,
+            self.normal.0,
+            self.normal.1,
+            self.shape_text(),
+            self.cell,
+            self.u.0,
+            self.u.1,
         );
         if let Some((edge, adaptive)) = self.sampling {
             t += &format!("[sampling]\nedge_error = {edge}\nadaptive = {adaptive}\n");
         }
         t
+    }
+
+    /// The primitive's kind and where it lies: on the plane `y = −(nx x +
+    /// nz z)`.
+    fn shape_text(&self) -> String {
+        let on_plane = |z: f64| format!("[0.0, {}, {z}]", -self.normal.1 * z);
+        match self.shape {
+            FloorShape::Plane => "kind = \"plane\"\npoint = [0.0, 0.0, 0.0]\n".into(),
+            FloorShape::Rectangle { z, size } => format!(
+                "kind = \"rectangle\"\ncentre = {}\nu_axis = [1.0, 0.0, 0.0]\nsize = [{}, {}]\n",
+                on_plane(z),
+                size[0],
+                size[1]
+            ),
+            FloorShape::Disc { z, radius } => {
+                format!("kind = \"disc\"\ncentre = {}\nradius = {radius}\n", on_plane(z))
+            }
+        }
     }
 }
 
@@ -672,7 +709,43 @@ fn render_candidate(
 /// 0.3 % of the pixels.
 #[test]
 fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
-    let mut runner = runner(16);
+    let (missed, rendered, over) =
+        floors_within_their_predictions("checkered floors", 16, Just(FloorShape::Plane));
+    // Both sides: predicted over the budget and measured over it (the
+    // prediction is needed), and predicted within it.
+    assert!(missed >= 1 && rendered > over, "{over} over, {rendered} rendered");
+}
+
+/// As the floors above, a checkered rectangle or disc lying in the
+/// floor's plane, from 0.5 to 4 m across and 0.5 to 2.5 m ahead of the
+/// origin: seen obliquely, its cells shrink toward its far edge as a
+/// plane's toward the horizon. Before its cell lines were integrated over
+/// the box of its image (`planner::Cells::seen`) with the fast
+/// arithmetic's hit error, they were counted face on at the shape's
+/// centre, and a fast candidate predicted within the budget (0.023 %)
+/// measured 0.057 %.
+#[test]
+fn checkered_rectangles_and_discs_seen_obliquely_differ_at_edges_within_the_prediction() {
+    let shape = prop_oneof![
+        (0.5f64..3.0, 1.0f64..4.0, 3.0f64..8.0)
+            .prop_map(|(z, a, b)| FloorShape::Rectangle { z, size: [a, b] }),
+        (0.5f64..3.0, 1.0f64..4.0).prop_map(|(z, radius)| FloorShape::Disc { z, radius }),
+    ];
+    let (_, rendered, over) = floors_within_their_predictions("checkered rectangles and discs", 16, shape);
+    assert!(rendered > over, "{over} over, {rendered} rendered");
+}
+
+/// Random checkered floors of `shape` ([`Floor`]): every candidate the
+/// planner says fits rendered and held to its predictions (above). Prints
+/// the counts under `label`; returns how many candidates were measured
+/// over the budget where predicted over it, how many were rendered and
+/// how many predicted over.
+fn floors_within_their_predictions(
+    label: &str,
+    cases: u32,
+    shape: impl Strategy<Value = FloorShape>,
+) -> (u32, u32, u32) {
+    let mut runner = runner(cases);
     let budget = Budget::default();
     let (rendered, over, missed) = (Cell::new(0), Cell::new(0), Cell::new(0));
     let (fast_within, ratio) = (Cell::new(0), Cell::new(0.0f64));
@@ -686,9 +759,11 @@ fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
         (-0.1f64..0.1, -0.1f64..0.1),
         prop::option::of((-0.3f64..0.4, -0.1f64..0.1)),
         prop::option::weighted(0.75, (0usize..2, any::<bool>())),
+        shape,
     )
         .prop_map(
-            |((format, cell, theta), (h, dy, focal), normal, distortion, sampling)| Floor {
+            |((format, cell, theta), (h, dy, focal), normal, distortion, sampling, shape)| Floor {
+                shape,
                 format,
                 cell,
                 u: (theta.cos(), theta.sin()),
@@ -737,15 +812,17 @@ fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
             } else if c.arithmetic == Arithmetic::Fast {
                 fast_within.set(fast_within.get() + 1);
             }
-            if c.edge_differing > 0.0 {
+            // The ratio where more than one pixel differs: one pixel
+            // (5.2·10⁻⁵) may differ where a fraction of one is expected.
+            if c.edge_differing > 0.0 && m.edge_pixels_differing > 1 {
                 ratio.set(ratio.get().max(differing / c.edge_differing));
             }
         }
         Ok(())
     });
     eprintln!(
-        "checkered floors: {} candidates rendered, {} predicted over the budget at edges ({} of them measured \
-         over it), fast within it {}; largest measured / predicted share {:.3}",
+        "{label}: {} candidates rendered, {} predicted over the budget at edges ({} of them measured \
+         over it), fast within it {}; largest measured / predicted share where more than one pixel differs {:.3}",
         rendered.get(),
         over.get(),
         missed.get(),
@@ -755,14 +832,7 @@ fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
     if let Err(e) = result {
         panic!("{e}");
     }
-    // Both sides: predicted over the budget and measured over it (the
-    // prediction is needed), and predicted within it.
-    assert!(
-        missed.get() >= 1 && rendered.get() > over.get(),
-        "{} over, {} rendered",
-        over.get(),
-        rendered.get()
-    );
+    (missed.get(), rendered.get(), over.get())
 }
 
 /// A checkered floor level with its horizon across the middle of the
@@ -775,6 +845,7 @@ fn checkered_floors_to_the_horizon_differ_at_edges_within_the_prediction() {
 #[test]
 fn a_level_checkered_floor_is_not_claimed_within_the_budget() {
     let t = Floor {
+        shape: FloorShape::Plane,
         format: 2,
         cell: 0.11696370728608359,
         u: (-0.9678032128525806, 0.25170804753170367),
@@ -803,6 +874,54 @@ fn a_level_checkered_floor_is_not_claimed_within_the_budget() {
         );
         if c.arithmetic == Arithmetic::Fast {
             assert!(differing > budget.max_edge_differing, "fast: {differing}");
+        }
+    }
+}
+
+/// A checkered rectangle lying in the floor's plane, 1 × 3 m, its cells
+/// 3.5 cm, 2×2 samples a pixel: the case the rectangles' and discs' test
+/// above shrank to at 2539682, when their cell lines were counted face on
+/// at the centre: the fast candidate was predicted within the budget
+/// (0.0085 %) and measured 0.052 %. With the texture's origin in S24 U
+/// and the coordinate rounded (`mix32::Mix32::fill`) it measures 0.026 %,
+/// still three times that estimate; each candidate within its
+/// prediction now.
+#[test]
+fn an_oblique_checkered_rectangle_is_not_under_predicted() {
+    let t = Floor {
+        shape: FloorShape::Rectangle {
+            z: 0.5,
+            size: [1.0, 3.0],
+        },
+        format: 0,
+        cell: 0.0354816060311977,
+        u: (1.0, 0.0),
+        h: 1.643994619975205,
+        target_y: -0.3742239512034671,
+        focal: 0.0055398076642448855,
+        normal: (0.08608941272564943, 0.0),
+        distortion: None,
+        sampling: Some((0.25, false)),
+    }
+    .text();
+    let r = parse(&t).expect("parses");
+    let scene = r.core_scene().expect("core scene");
+    let budget = Budget::default();
+    let p = plan(&scene, &budget);
+    for c in p.candidates.iter().filter(|c| c.fits.is_ok()) {
+        let differing = render_candidate(&r, &budget, c)
+            .expect("renders")
+            .edge_pixels_differing_fraction;
+        eprintln!("{}: {differing} against {}", c.name(), c.edge_differing);
+        assert!(
+            differing <= c.edge_differing,
+            "{}: {differing} against {}",
+            c.name(),
+            c.edge_differing
+        );
+        if c.arithmetic == Arithmetic::Fast {
+            // Over the old estimate: the case tells them apart.
+            assert!(differing > 8.5e-5, "fast: {differing}");
         }
     }
 }
