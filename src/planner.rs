@@ -866,15 +866,34 @@ struct PrimGeom {
 /// A flat primitive's checker texture, camera frame.
 #[derive(Clone, Copy, Debug)]
 struct Cells {
-    /// Its axes (unit).
-    u: [f64; 3],
-    v: [f64; 3],
+    /// Its axes (unit). In f32, as `seen`: an estimate needs no more, and
+    /// the driven camera plans with up to 16 primitives on its stack (in
+    /// f64, with `seen` an `Option`, its peak RAM grew by 584 B on the M3
+    /// and 396 B on the M0 in the fresh-clone run of 8853415).
+    u: [f32; 3],
+    v: [f32; 3],
     /// Its cell, metres.
     cell: f64,
     /// The box of undistorted slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` that holds
-    /// the shape's image (a disc's, its bounding square's), or `None`: any
-    /// slope (a plane; a shape reaching the lens plane).
-    seen: Option<[f64; 4]>,
+    /// the shape's image (a disc's, its bounding square's), rounded
+    /// outward, or infinite: any slope (a plane; a shape reaching the lens
+    /// plane).
+    seen: [f32; 4],
+}
+
+impl Cells {
+    fn new(u: [f64; 3], v: [f64; 3], cell: f64, seen: Option<[f64; 4]>) -> Cells {
+        let (down, up) = (|x: f64| (x as f32).next_down(), |x: f64| (x as f32).next_up());
+        Cells {
+            u: u.map(|x| x as f32),
+            v: v.map(|x| x as f32),
+            cell,
+            seen: seen.map_or(
+                [f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY],
+                |[a, b, c, d]| [down(a), up(b), down(c), up(d)],
+            ),
+        }
+    }
 }
 
 /// The box of slopes `[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]` of the rectangle centred
@@ -1041,12 +1060,7 @@ impl Geometry {
                     }
                     Shape::Sphere { .. } => None,
                 };
-                cells = seen.map(|seen| Cells {
-                    u: ku,
-                    v: kv,
-                    cell: k.cell.f64(),
-                    seen,
-                });
+                cells = seen.map(|seen| Cells::new(ku, kv, k.cell.f64(), seen));
             }
             let unseen = origin_scale.is_none()
                 && match p.shape {
@@ -1312,15 +1326,10 @@ impl Geometry {
     fn cells_differing(&self, p: &PrimGeom, a: Arithmetic, geom: f64, looks: f64) -> f64 {
         const CELLS: usize = 4;
         const STRIPS: usize = 8;
-        let Some(Cells {
-            u: a_u,
-            v: a_v,
-            cell,
-            seen,
-        }) = p.cells.filter(|_| self.integrates_cells(p))
-        else {
+        let Some(Cells { u, v, cell, seen }) = p.cells.filter(|_| self.integrates_cells(p)) else {
             return 0.0;
         };
+        let (a_u, a_v) = (u.map(f64::from), v.map(f64::from));
         let n = p.n;
         let dist = dot3(n, p.c);
         if libm::fabs(dist) < 1e-12 {
@@ -1329,9 +1338,8 @@ impl Geometry {
         // The field box, or its part where a disc's or rectangle's image
         // lies.
         let (xs, ys) = self.field;
-        let [x0, x1, y0, y1] = seen.map_or([-xs, xs, -ys, ys], |[a, b, c, d]| {
-            [a.max(-xs), b.min(xs), c.max(-ys), d.min(ys)]
-        });
+        let [lo_x, hi_x, lo_y, hi_y] = seen.map(f64::from);
+        let [x0, x1, y0, y1] = [lo_x.max(-xs), hi_x.min(xs), lo_y.max(-ys), hi_y.min(ys)];
         // (NaN, from no overlap, gives 0.)
         let share = (x1 - x0).max(0.0) * (y1 - y0).max(0.0) / (4.0 * xs * ys).max(1e-300);
         if share <= 0.0 {
