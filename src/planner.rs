@@ -1306,17 +1306,17 @@ impl Geometry {
     /// plus the arithmetic's own on `t` (relative `ε_t`, and `ε_w` of `n̂·d`
     /// absolute), on `â·d` (`ε_a`) and where `t` and the coordinate are
     /// stored (`δ`, metres): `δu ≤ (|â·d| ε_t + ε_a)/w + |â·d| ε_w/(|dist|
-    /// w²) + (|â·d| + 1/2 + 2⁻⁵) δ` ([`HitError`]). The placement's error is a bound
-    /// of either sign: a look within it of a line may cross it, `2 geom
-    /// |∇u| / c` of the looks. The arithmetic's crosses a line at `|δu| /
-    /// c` of them, and its roundings average half their bounds: the
+    /// w²) + (|â·d| + 1/2 + 2⁻⁵) δ` ([`HitError`]). The placement's error
+    /// is a bound of either sign: a look within it of a line may cross it,
+    /// `2 geom |∇u| / c` of the looks. The arithmetic's crosses a line at
+    /// `|δu| / c` of them, and its roundings average half their bounds: the
     /// estimate takes half of `δu` (on random hits the fast arithmetic's
     /// averaged 0.26 of `δu`, its largest 0.93, in
     /// `mix32::tests::a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error`;
     /// taking the whole bound twice over, as the placement's, sent
-    /// calibration-board, predicted 0.31 % of its pixels against a measured
-    /// 0.008 %, to the wide arithmetic). Toward the horizon (`w → 0`) the cells pass a pixel
-    /// apart and the sum passes 1. `w` is linear in the slopes: the box is
+    /// calibration-board, predicted 0.31 % of its pixels against a
+    /// measured 0.008 %, to the wide arithmetic). Toward the horizon (`w →
+    /// 0`) the cells pass a pixel apart and the sum passes 1. `w` is linear in the slopes: the box is
     /// cut into strips across the axis along which `w` changes more, and
     /// cells along it; in each cell the coefficients are taken at its
     /// centre and `min(1, A/w + B/w² + C)` is integrated along that axis in

@@ -1078,10 +1078,12 @@ fn plane_beyond_is_plane_t_s() {
 /// [`MixChecker::cell`] takes it), against the exact coordinate of the
 /// same ray (its S26 slopes) on the exact plane: within the bound the
 /// planner's `HitError` gives the fast arithmetic (`planner.rs`: `(|â·d|
-/// ε_t + ε_a)/w + |â·d| ε_w/(|dist| w²) + (|â·d| + 1/2 + 2⁻⁵) 2⁻¹⁸ U`, `ε_t = 2⁻²¹ +
-/// 2⁻²⁴ U/|dist|`, `ε_w = ε_a = 2⁻²⁴`, `w = n̂·d/dist`) on every ray, and
-/// on average within half of it, which the planner takes as the mean
-/// error. Random rectangles within the content's 8 U, tilted to grazing.
+/// ε_t + ε_a)/w + |â·d| ε_w/(|dist| w²) + (|â·d| + 1/2 + 2⁻⁵) 2⁻¹⁸ U`,
+/// `ε_t = 2⁻²¹ + 2⁻²⁴ U/|dist|`, `ε_w = ε_a = 2⁻²⁴`, `w = n̂·d/dist`) on
+/// every ray, and on average within half of it, which the planner takes
+/// as the mean error. Random rectangles within the content's 8 U, tilted
+/// to grazing. The origin's term is computed here as `Mix32::fill`
+/// computes it (a change there must be made here too).
 #[test]
 fn a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error() {
     let mut s = 0x0b0d_ed00_cafe_f00d;
