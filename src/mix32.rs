@@ -716,12 +716,13 @@ impl Mix32 {
                     }
                 }
                 S::Disc { n, dist, c, r2 } => {
-                    let r = l18(isqrt_q(r2)) as u64;
+                    // r ≤ 8 U: r² below 2⁵⁴ in S48.
+                    let r = l24(isqrt_q(r2)) as u64;
                     MixShape::Disc {
                         n: u3(n),
                         dist: l24(dist),
                         rz: recip_z(u3(n)),
-                        c18: c.map(l18),
+                        c24: c.map(l24),
                         r2: r * r,
                     }
                 }
@@ -734,17 +735,22 @@ impl Mix32 {
                     hu,
                     hv,
                 } => {
-                    let (n, c, u, v) = (u3(n), c.map(l18), u3(u), u3(v));
+                    // The centre and half sizes in S24 U (within the
+                    // content's 8 U), `c·u` S54 → `along`'s format: in S18
+                    // their floors moved the edges by up to `(|u|₁ + 1)
+                    // 2⁻¹⁸ U`, more than the hit's own error
+                    // (`planner::ErrorModel::boundary_m`).
+                    let (n, c, u, v) = (u3(n), c.map(l24), u3(u), u3(v));
                     MixShape::Rect {
                         n,
                         dist: l24(dist),
                         rz: recip_z(n),
                         u,
                         v,
-                        cu: dot48(c, u) >> along,
-                        cv: dot48(c, v) >> along,
-                        hu: (l18(hu) as i64) << (30 - along),
-                        hv: (l18(hv) as i64) << (30 - along),
+                        cu: dot48(c, u) >> (along + 6),
+                        cv: dot48(c, v) >> (along + 6),
+                        hu: (l24(hu) as i64) << (24 - along),
+                        hv: (l24(hv) as i64) << (24 - along),
                     }
                 }
             };

@@ -1480,8 +1480,9 @@ pub struct ErrorModel {
     /// point).
     pub point: f64,
     /// How far a flat shape's boundary test can move, metres (the hit
-    /// point's components as the test reads them).
-    pub boundary: f64,
+    /// point's components as the test reads them): this, or with
+    /// [`Boundary::FastHit`] a bound at each shape ([`ErrorModel::boundary_m`]).
+    pub boundary: Boundary,
     /// Absolute error of `b = d·c` in the sphere test: metres, plus this
     /// much times `|c|`.
     pub b: f64,
@@ -1534,7 +1535,18 @@ impl ErrorModel {
             Arithmetic::Fast => ErrorModel {
                 rel: 3.0 * libm::ldexp(1.0, -19) + libm::ldexp(1.0, -21) + libm::ldexp(1.0, -20) + 1e-8,
                 point: (4.0 + ap) * libm::ldexp(u, -18),
-                boundary: (2.0 + ap) * libm::ldexp(u, -18),
+                // Through the aperture, the bound as it was (the point's
+                // S18 rounding): a flipped aperture ray moves a pixel that
+                // the reference counts as smooth (it classifies by the
+                // chief ray) by a share of the contrast, which a bound in
+                // angle does not cover. With the shape's bound, a target
+                // 6 m off focused at 20 m planned fast and 52 of its
+                // smooth pixels differed by 2–3 LSB (2026-12-04).
+                boundary: if g.aperture.is_some() {
+                    Boundary::Fixed((2.0 + ap) * libm::ldexp(u, -18))
+                } else {
+                    Boundary::FastHit { unit: u }
+                },
                 b: libm::ldexp(u, -21) + ap * libm::ldexp(u, -23),
                 ap_origin: if g.aperture.is_some() {
                     0.71 * libm::ldexp(u, -18)
@@ -1559,7 +1571,7 @@ impl ErrorModel {
             Arithmetic::Wide => ErrorModel {
                 rel: libm::ldexp(1.0, -20),
                 point: (8.0 + 2.0 * g.extent) * q32,
-                boundary: (4.0 + g.extent) * q32,
+                boundary: Boundary::Fixed((4.0 + g.extent) * q32),
                 b: 4.0 * q32,
                 b_per_c: 2.0 * q32,
                 cc: 2.0 * q32,
@@ -1635,7 +1647,7 @@ impl ErrorModel {
                     };
                     let nearest = libm::sqrt(h * h + out * out).max(1e-300);
                     let lateral = g.origin_scale.unwrap_or(nearest);
-                    if (self.boundary + shift) / lateral >= dtheta {
+                    if (self.boundary_m(g, p) + shift) / lateral >= dtheta {
                         return g.dn_max * 2.0;
                     }
                     (self.unit, self.point + shift)
@@ -1670,7 +1682,91 @@ impl ErrorModel {
     }
 }
 
+/// How far an arithmetic's flat-shape boundary test can move
+/// ([`ErrorModel::boundary`]).
+#[derive(Clone, Copy, Debug)]
+pub enum Boundary {
+    /// At most this many metres anywhere.
+    Fixed(f64),
+    /// The fast arithmetic's, whose lengths are in the frame's unit `U`
+    /// (metres): [`fast_boundary_m`] at each shape.
+    FastHit {
+        /// `U`, metres.
+        unit: f64,
+    },
+}
+
+/// How far the fast arithmetic's boundary test of a disc or rectangle
+/// (`mix32::MixShape::nearest`) can move its boundary, metres, for rays
+/// whose direction `d` (a perspective ray's `(x̂, ŷ, 1)`, a parallel
+/// ray's `(0, 0, 1)`) has an in-plane part of at most `s` and a length of
+/// at most `d_len`, hits at `t ≤ t_max` (depth from where the rays start,
+/// metres) with `1/|n̂·d| ≤ k` (a parallel ray's `1/|n_z|`), on a shape of
+/// radius (a rectangle's half-diagonal) `r`, in a frame of unit `u`.
+///
+/// The test reads the hit as `t` (S18 U) times the ray's slopes or axes,
+/// not as a point rounded to S18, against a centre and half sizes in S24
+/// U. `t = dist/(n̂·d)` errs by `δt ≤ t 2⁻²¹` (the reciprocal) `+ 3
+/// 2⁻²⁴ U k` (`dist`; a parallel ray's `n·o`, an aperture ray's `n·A`)
+/// `+ t 2⁻²⁴ k` (`n̂·d`, or
+/// `n_z` in S30) `+ (2 + 2⁻⁵ k) 2⁻¹⁸ U` (`mul_shr_t`'s floors, whose left
+/// shift `l` has `2^l < 2⁻⁵ k`). The hit moves by `δt` along the ray: the
+/// coordinate of a rectangle's axis, or a disc's distance from its centre,
+/// by `s δt`. Then a rectangle's `d·â` is truncated to S24 and its axis
+/// rounded to S30 (`t (2⁻²⁴ + 2⁻³⁰ |d|)`); the centre, the point's
+/// coordinates and the half sizes or radius are floored to S24 (`5 2⁻²⁴
+/// U`); and a disc's distance takes the square of the error vector over
+/// `2 r` (`(|d| δt + 4 2⁻²⁴ U)² / 2r`).
+/// `mix32::tests::a_flat_shape_s_boundary_moves_within_the_planner_s_bound`
+/// measures it.
+pub(crate) fn fast_boundary_m(u: f64, s: f64, d_len: f64, t_max: f64, k: f64, r: f64) -> f64 {
+    let ld = libm::ldexp;
+    let dt = t_max * ld(1.0, -21)
+        + 3.0 * ld(u, -24) * k
+        + t_max * ld(1.0, -24) * k
+        + (2.0 + ld(k, -5)) * ld(u, -18);
+    let e = libm::fabs(d_len) * dt + 4.0 * ld(u, -24);
+    s * dt + t_max * (ld(1.0, -24) + ld(d_len, -30)) + 5.0 * ld(u, -24) + e * e / (2.0 * r).max(1e-300)
+}
+
 impl ErrorModel {
+    /// How far the boundary test of `p` (a disc or rectangle) can move,
+    /// metres ([`ErrorModel::boundary`]). The fast arithmetic's from
+    /// [`fast_boundary_m`] with the largest in-plane part of the rays'
+    /// directions over the field box's corners (where that quadratic form
+    /// is largest), `t` up to the shape's farthest depth, and `1/|n̂·d|`
+    /// up to that over the plane's distance.
+    fn boundary_m(&self, g: &Geometry, p: &PrimGeom) -> f64 {
+        let unit = match self.boundary {
+            Boundary::Fixed(m) => return m,
+            Boundary::FastHit { unit } => unit,
+        };
+        let n = p.n;
+        let t_max = (p.c[2] + p.r).max(0.0);
+        let (s, d_len, k) = match g.origin_scale {
+            Some(_) => {
+                let nz = libm::fabs(n[2]);
+                (libm::sqrt((1.0 - nz * nz).max(0.0)), 1.0, 1.0 / nz.max(1e-300))
+            }
+            None => {
+                let (xs, ys) = g.field;
+                let mut s2: f64 = 0.0;
+                for (x, y) in [(xs, ys), (xs, -ys), (-xs, ys), (-xs, -ys)] {
+                    let d = [x, y, 1.0];
+                    let nd = dot3(n, d);
+                    s2 = s2.max(dot3(d, d) - nd * nd);
+                }
+                let d_len = libm::sqrt(1.0 + xs * xs + ys * ys);
+                (
+                    libm::sqrt(s2),
+                    d_len,
+                    t_max / libm::fabs(dot3(n, p.c)).max(1e-300),
+                )
+            }
+        };
+        fast_boundary_m(unit, s, d_len, t_max, k, p.r)
+    }
+
     /// The error, DN, of the terms of every light on primitive `p`, with
     /// the normal's error `dn` (diffuse), the hit point's `dp` (metres),
     /// and for the lobe the normal's error `lobe_dn` or, with `cap = ν`,

@@ -102,12 +102,16 @@ pub(super) enum MixShape {
         fine: bool,
         inv_r: (u32, u32),
     },
+    /// `|p − c|² ≤ r²` with the hit point and the centre in S24 U
+    /// ([`Ray::point24`]): no coordinate rounded to S18, so the boundary
+    /// moves by the hit's error along the ray times the ray's in-plane
+    /// part, plus units of S24 (`planner::ErrorModel::boundary_m`).
     Disc {
         n: [i32; 3],
         dist: i32,
         rz: (u32, u32),
-        c18: [i32; 3],
-        /// r², S36 U².
+        c24: [i32; 3],
+        /// r², S48 U² (`r` in S24).
         r2: u64,
     },
     Rect {
@@ -276,17 +280,11 @@ impl MixShape {
                 fine,
                 inv_r,
             },
-            MixShape::Disc {
-                n,
-                dist,
-                rz,
-                c18: c,
-                r2,
-            } => MixShape::Disc {
+            MixShape::Disc { n, dist, rz, c24, r2 } => MixShape::Disc {
                 n,
                 dist: dist.saturating_sub(na(&n)),
                 rz,
-                c18: c18(&c),
+                c24: moved_point(c24, a24),
                 r2,
             },
             MixShape::Rect {
@@ -337,12 +335,14 @@ impl MixShape {
                 flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| r.keep(t, index, away));
             }
             MixShape::Sphere { .. } => self.sphere_pass::<PERSP, EXACT>(index, rays),
-            MixShape::Disc { n, dist, rz, c18, r2 } => {
+            MixShape::Disc { n, dist, rz, c24, r2 } => {
                 flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| {
                     if t >= r.t {
                         return;
                     }
-                    let d2: u64 = zip3(r.point::<PERSP>(t), *c18, |p, c| wsq(p.saturating_sub(c)))
+                    // (Each square below 2⁶², the sum below 2⁶⁴; a
+                    // saturated coordinate is 128 U off, outside.)
+                    let d2: u64 = zip3(r.point24::<PERSP>(t), *c24, |p, c| wsq(p.saturating_sub(c)))
                         .iter()
                         .sum();
                     if d2 <= *r2 {

@@ -225,6 +225,19 @@ impl Ray {
         }
     }
 
+    /// The point at `t` (S18 U) along the ray, S24 U, each coordinate
+    /// rounded down from the exact product (a perspective ray's `t x̂`,
+    /// `t ŷ`) and saturated: a disc's test ([`MixShape::nearest`]).
+    #[inline(always)]
+    pub(super) fn point24<const PERSP: bool>(&self, t: i32) -> [i32; 3] {
+        let z = sat32((t as i64) << 6);
+        if PERSP {
+            [mul32::<20>(t, self.x), mul32::<20>(t, self.y), z]
+        } else {
+            [sat32((self.ox as i64) << 6), sat32((self.oy as i64) << 6), z]
+        }
+    }
+
     /// The point of its nearest hit (S18 U), moved by `(a_x, a_y, 0)`
     /// (the aperture loop's rays start there) if `MOVED`.
     #[inline(always)]

@@ -235,7 +235,8 @@ fn random_frame(f: &mut impl FnMut(f64, f64) -> f64) -> [[f64; 3]; 3] {
 fn rect_shape([n, u, v]: [[f64; 3]; 3], c: [f64; 3], [hu, hv]: [f64; 2]) -> (MixShape, [i32; 3], i32) {
     let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
     let (n30, u30, v30) = (s30(n), s30(u), s30(v));
-    let c18 = c.map(|x| (x * (1u64 << 18) as f64).round() as i32);
+    let s24 = |x: f64| (x * (1u64 << 24) as f64).floor() as i32;
+    let c24 = c.map(s24);
     let dist = ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) * (1u64 << 24) as f64).round() as i32;
     let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
     let shape = MixShape::Rect {
@@ -244,10 +245,10 @@ fn rect_shape([n, u, v]: [[f64; 3]; 3], c: [f64; 3], [hu, hv]: [f64; 2]) -> (Mix
         rz: recip_z(n30),
         u: u30,
         v: v30,
-        cu: dot48(c18, u30) >> ALONG_S42,
-        cv: dot48(c18, v30) >> ALONG_S42,
-        hu: ((hu * (1u64 << 18) as f64) as i64) << 24,
-        hv: ((hv * (1u64 << 18) as f64) as i64) << 24,
+        cu: dot48(c24, u30) >> (ALONG_S42 + 6),
+        cv: dot48(c24, v30) >> (ALONG_S42 + 6),
+        hu: (s24(hu) as i64) << 18,
+        hv: (s24(hv) as i64) << 18,
     };
     (shape, n30, dist)
 }
@@ -1148,4 +1149,170 @@ fn a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error() {
     assert!(n_rays > 20_000, "{n_rays}");
     assert!(worst <= 1.0, "{worst}");
     assert!(sum_err <= sum_mean, "{sum_err} against {sum_mean}");
+}
+
+/// A disc's or rectangle's boundary, as the fast test reads it, moves by
+/// at most the planner's bound ([`crate::planner::fast_boundary_m`]): for
+/// each ray, the distance from the disc's centre (`√` of the test's
+/// `|p − c|²`, less its radius) or the rectangle's margins (`|p·a − c_a| −
+/// h`, S42) against the exact ones of the same ray (its S26 slopes, or its
+/// S18 origin) on the exact shape, and the bound with this ray's in-plane
+/// part, `t` and `1/|n̂·d|`. Random shapes within the content's 8 U, half
+/// of them facing the camera to within 0.3 rad (a distant target's case),
+/// the rest at any angle up to grazing; perspective and parallel rays at
+/// points near their boundaries. The shapes are stored as `Mix32::fill`
+/// stores them (a change there must be made here too).
+#[test]
+fn a_flat_shape_s_boundary_moves_within_the_planner_s_bound() {
+    let mut s = 0xb0d7_da7e_5eed_1234;
+    let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
+    let ld = |k: i32| libm::ldexp(1.0, k);
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let s30 = |a: [f64; 3]| a.map(|x| (x * ld(30)).round() as i32);
+    let s24 = |x: f64| (x * ld(24)).floor() as i32;
+    let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
+    let (mut n_rays, mut worst, mut sum_ratio) = (0u32, 0.0f64, 0.0);
+    for case in 0..6000 {
+        let [n, u, v] = if case % 2 == 0 {
+            random_frame(&mut f)
+        } else {
+            let (th, ph) = (f(0.0, 0.3), f(-3.2, 3.2));
+            let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), -th.cos()];
+            let e1 = unit3(cross3(n, [0.0, 1.0, 0.0]));
+            [n, e1, cross3(n, e1)]
+        };
+        let persp = case % 3 != 0;
+        let disc = case % 4 < 2;
+        let c = [f(-2.0, 2.0), f(-2.0, 2.0), f(0.1, 7.5)];
+        let (hu, hv) = (f(-7.0, 0.0).exp2(), f(-7.0, 0.0).exp2());
+        let r = if disc { hu } else { (hu * hu + hv * hv).sqrt() };
+        let lc = dot(c, c).sqrt();
+        if lc + r > 8.0 {
+            continue;
+        }
+        let (n30, u30, v30) = (s30(n), s30(u), s30(v));
+        let dist = dot(n, c);
+        let dist24 = (dist * ld(24)).round() as i32;
+        let c24 = c.map(s24);
+        // `Mix32::fill`'s shapes, `along`'s format S42 (perspective) or S48.
+        let along = if persp { ALONG_S42 } else { 0 };
+        let shape = if disc {
+            let r24 = s24(r) as u64;
+            MixShape::Disc {
+                n: n30,
+                dist: dist24,
+                rz: recip_z(n30),
+                c24,
+                r2: r24 * r24,
+            }
+        } else {
+            MixShape::Rect {
+                n: n30,
+                dist: dist24,
+                rz: recip_z(n30),
+                u: u30,
+                v: v30,
+                cu: dot48(c24, u30) >> (along + 6),
+                cv: dot48(c24, v30) >> (along + 6),
+                hu: (s24(hu) as i64) << (24 - along),
+                hv: (s24(hv) as i64) << (24 - along),
+            }
+        };
+        for _ in 0..20 {
+            // A point near the boundary, within 1 % of it.
+            let (a, b) = if disc {
+                let phi = f(-3.2, 3.2);
+                let rho = r * f(0.99, 1.01);
+                (rho * phi.cos(), rho * phi.sin())
+            } else if f(0.0, 1.0) < 0.5 {
+                (hu * f(0.99, 1.01) * f(-1.0, 1.0).signum(), hv * f(-1.0, 1.0))
+            } else {
+                (hu * f(-1.0, 1.0), hv * f(0.99, 1.01) * f(-1.0, 1.0).signum())
+            };
+            let p = [0, 1, 2].map(|i| c[i] + a * u[i] + b * v[i]);
+            if p[2] <= 0.0 {
+                continue;
+            }
+            // The ray as the core holds it, and its exact direction and
+            // start.
+            let (ray, d, o) = if persp {
+                if (p[0] / p[2]).abs() > 2.0 || (p[1] / p[2]).abs() > 2.0 {
+                    continue;
+                }
+                let s26 = |x: f64| (x * ld(26)) as i32;
+                let (x26, y26) = (s26(p[0] / p[2]), s26(p[1] / p[2]));
+                let d = [x26 as f64 * ld(-26), y26 as f64 * ld(-26), 1.0];
+                (Ray::new::<true>(x26, y26, 0), d, [0.0; 3])
+            } else {
+                let mut ray = Ray::new::<false>(0, 0, 0);
+                (ray.ox, ray.oy) = ((p[0] * ld(18)) as i32, (p[1] * ld(18)) as i32);
+                let o = [ray.ox as f64 * ld(-18), ray.oy as f64 * ld(-18), 0.0];
+                (ray, [0.0, 0.0, 1.0], o)
+            };
+            let hit = if persp {
+                ray.plane_t::<true>(n30, dist24, recip_z(n30))
+            } else {
+                ray.plane_t::<false>(n30, dist24, recip_z(n30))
+            };
+            let Some((t, _)) = hit else {
+                continue;
+            };
+            let nd = dot(n, d);
+            let te = (dist - dot(n, o)) / nd;
+            if te <= 0.0 {
+                continue;
+            }
+            let pe = [0, 1, 2].map(|i| o[i] + te * d[i] - c[i]);
+            // (got, exact) margins: positive outside.
+            let margins: heapless::Vec<(f64, f64), 2> = match shape {
+                MixShape::Disc { c24, r2, .. } => {
+                    let q = if persp {
+                        ray.point24::<true>(t)
+                    } else {
+                        ray.point24::<false>(t)
+                    };
+                    let d2: u64 = zip3(q, c24, |p, c| wsq(p.saturating_sub(c))).iter().sum();
+                    let got = ((d2 as f64).sqrt() - (r2 as f64).sqrt()) * ld(-24);
+                    heapless::Vec::from_slice(&[(got, dot(pe, pe).sqrt() - r)]).unwrap_or_default()
+                }
+                MixShape::Rect {
+                    cu,
+                    cv,
+                    hu: hu42,
+                    hv: hv42,
+                    ..
+                } => {
+                    let unit = ld(-(24 + 24 - along as i32));
+                    let m = |ax: [i32; 3], ca: i64, h: i64, a: [f64; 3], he: f64| {
+                        let w = if persp {
+                            ray.along::<true>(t, ax)
+                        } else {
+                            ray.along::<false>(t, ax)
+                        };
+                        (((w - ca).abs() - h) as f64 * unit, dot(pe, a).abs() - he)
+                    };
+                    heapless::Vec::from_slice(&[m(u30, cu, hu42, u, hu), m(v30, cv, hv42, v, hv)])
+                        .unwrap_or_default()
+                }
+                _ => unreachable!(),
+            };
+            let sd = (dot(d, d) - nd * nd).max(0.0).sqrt();
+            let bound = crate::planner::fast_boundary_m(1.0, sd, dot(d, d).sqrt(), te, 1.0 / nd.abs(), r);
+            for (got, exact) in margins {
+                let ratio = (got - exact).abs() / bound;
+                assert!(
+                    ratio <= 1.0,
+                    "case {case} (disc {disc}, perspective {persp}): margin {got:e} against {exact:e}, bound {bound:e}"
+                );
+                worst = worst.max(ratio);
+                sum_ratio += ratio;
+                n_rays += 1;
+            }
+        }
+    }
+    std::println!(
+        "{n_rays} margins: |error| up to {worst:.3} of the bound, {:.3} on average",
+        sum_ratio / n_rays as f64
+    );
+    assert!(n_rays > 100_000, "{n_rays}");
 }
