@@ -335,21 +335,7 @@ impl MixShape {
                 flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| r.keep(t, index, away));
             }
             MixShape::Sphere { .. } => self.sphere_pass::<PERSP, EXACT>(index, rays),
-            MixShape::Disc { n, dist, rz, c24, r2 } => {
-                flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| {
-                    if t >= r.t {
-                        return;
-                    }
-                    // (Each square below 2⁶², the sum below 2⁶⁴; a
-                    // saturated coordinate is 128 U off, outside.)
-                    let d2: u64 = zip3(r.point24::<PERSP>(t), *c24, |p, c| wsq(p.saturating_sub(c)))
-                        .iter()
-                        .sum();
-                    if d2 <= *r2 {
-                        r.keep(t, index, away);
-                    }
-                });
-            }
+            MixShape::Disc { .. } => self.disc_pass::<PERSP>(index, rays),
             MixShape::Rect {
                 n,
                 dist,
@@ -386,6 +372,28 @@ impl MixShape {
                 });
             }
         }
+    }
+
+    /// [`MixShape::nearest`] of a disc. Out of line: the loops' other
+    /// passes keep their registers.
+    #[inline(never)]
+    pub(super) fn disc_pass<const PERSP: bool>(&self, index: u8, rays: &mut [Ray]) {
+        let MixShape::Disc { n, dist, rz, c24, r2 } = *self else {
+            return;
+        };
+        flat_pass::<PERSP>(n, dist, rz, rays, |r, t, away| {
+            if t >= r.t {
+                return;
+            }
+            // (Each square below 2⁶², the sum below 2⁶⁴; a saturated
+            // coordinate is 128 U off, outside.)
+            let d2: u64 = zip3(r.point24::<PERSP>(t), c24, |p, c| wsq(p.saturating_sub(c)))
+                .iter()
+                .sum();
+            if d2 <= r2 {
+                r.keep(t, index, away);
+            }
+        });
     }
 
     /// [`MixShape::nearest`] of a sphere. Out of line: the loops' other
