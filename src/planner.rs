@@ -1481,7 +1481,7 @@ pub struct ErrorModel {
     pub point: f64,
     /// How far a flat shape's boundary test can move, metres (the hit
     /// point's components as the test reads them): this, or with
-    /// [`Boundary::FastHit`] a bound at each shape ([`ErrorModel::boundary_m`]).
+    /// [`Boundary::FastHit`] a bound at each shape (`ErrorModel::boundary_m`).
     pub boundary: Boundary,
     /// Absolute error of `b = d·c` in the sphere test: metres, plus this
     /// much times `|c|`.
@@ -1689,7 +1689,7 @@ pub enum Boundary {
     /// At most this many metres anywhere.
     Fixed(f64),
     /// The fast arithmetic's, whose lengths are in the frame's unit `U`
-    /// (metres): [`fast_boundary_m`] at each shape.
+    /// (metres): `fast_boundary_m` at each shape.
     FastHit {
         /// `U`, metres.
         unit: f64,
@@ -1708,11 +1708,10 @@ pub enum Boundary {
 /// not as a point rounded to S18, against a centre and half sizes in S24
 /// U. `t = dist/(n̂·d)` errs by `δt ≤ t 2⁻²¹` (the reciprocal) `+ 3
 /// 2⁻²⁴ U k` (`dist`; a parallel ray's `n·o`, an aperture ray's `n·A`)
-/// `+ t 2⁻²⁴ k` (`n̂·d`, or
-/// `n_z` in S30) `+ (2 + 2⁻⁵ k) 2⁻¹⁸ U` (`mul_shr_t`'s floors, whose left
-/// shift `l` has `2^l < 2⁻⁵ k`). The hit moves by `δt` along the ray: the
-/// coordinate of a rectangle's axis, or a disc's distance from its centre,
-/// by `s δt`. Then a rectangle's `d·â` is truncated to S24 and its axis
+/// `+ t 2⁻²⁴ k` (`n̂·d`, or `n_z` in S30) `+ (2 + 2⁻⁵ k) 2⁻¹⁸ U`
+/// (`mul_shr_t`'s floors, whose left shift `l` has `2^l < 2⁻⁵ k`). The hit
+/// moves by `δt` along the ray: the coordinate of a rectangle's axis, or a
+/// disc's distance from its centre, by `s δt`. Then a rectangle's `d·â` is truncated to S24 and its axis
 /// rounded to S30 (`t (2⁻²⁴ + 2⁻³⁰ |d|)`); the centre, the point's
 /// coordinates and the half sizes or radius are floored to S24 (`5 2⁻²⁴
 /// U`); and a disc's distance takes the square of the error vector over
