@@ -95,21 +95,14 @@ fn shipped_frames_match_the_committed_hashes() {
     );
 }
 
-/// Poses about a scene's own whose plans are pinned: half turned by up to
-/// ±1.4° about each axis and moved by up to ±2.5 cm along each, half by
-/// up to ±11° and ±20 cm (a deterministic sequence).
+/// How many poses about each scene's own have their plans pinned
+/// (`host_sim::trajectory::poses_about`).
 const POSES: usize = 40;
 
 /// `scene` → the hash of its plans at its pose and at [`POSES`] poses about it.
 fn current_plans() -> BTreeMap<String, String> {
-    use host_sim::trajectory::{quaternion_of, rotation_of};
-    let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    use host_sim::trajectory::{poses_about, POSES_SEED};
+    let mut state = POSES_SEED;
     let budget = Budget::default();
     let mut out = BTreeMap::new();
     for path in scenes() {
@@ -118,14 +111,9 @@ fn current_plans() -> BTreeMap<String, String> {
         let pose = host_sim::drive_cmd::scene_pose(&r).expect("its pose");
         let mut d = CRC.digest();
         d.update(format!("{:?}", hilcam::planner::plan(&scene, &budget)).as_bytes());
-        let q0 = quaternion_of(&pose.rotation);
-        for k in 0..POSES {
-            let s = if k < POSES / 2 { 0.025 } else { 0.2 };
-            let q = [q0[0], q0[1] + s * next(), q0[2] + s * next(), q0[3] + s * next()];
-            let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let t = pose.translation.map(|v| v + 2.0 * s * next());
+        for (k, at_pose) in poses_about(&pose, POSES, &mut state).iter().enumerate() {
             let mut at = scene.clone();
-            let e = hilcam::extrinsics::Extrinsics::from_matrix(rotation_of(q.map(|v| v / n)), t);
+            let e = hilcam::extrinsics::Extrinsics::from_matrix(at_pose.rotation, at_pose.translation);
             let moved = e.is_ok_and(|e| at.set_pose(e).is_ok());
             assert!(moved, "{}: pose {k}", r.desc.name);
             d.update(format!("{:?}", hilcam::planner::plan(&at, &budget)).as_bytes());

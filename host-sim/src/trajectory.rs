@@ -41,6 +41,37 @@ fn normalize(q: [f64; 4]) -> Option<[f64; 4]> {
     (n.is_finite() && n > 1e-9).then(|| q.map(|v| v / n))
 }
 
+/// `n` poses about `pose`, from the generator state `state` (a 64-bit LCG:
+/// the same poses for the same state): the first half turned by up to ±1.4°
+/// about each axis and moved by up to ±2.5 cm along each, the second half
+/// by up to ±11° and ±20 cm. The pinned plans (`tests/golden.rs`) and
+/// `examples/pose_plans.rs` take them, one state through every shipped
+/// scene in turn.
+pub fn poses_about(pose: &Pose, n: usize, state: &mut u64) -> Vec<Pose> {
+    let mut next = || {
+        *state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let q0 = quaternion_of(&pose.rotation);
+    (0..n)
+        .map(|k| {
+            let s = if k < n / 2 { 0.025 } else { 0.2 };
+            let q = [q0[0], q0[1] + s * next(), q0[2] + s * next(), q0[3] + s * next()];
+            let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let translation = pose.translation.map(|v| v + 2.0 * s * next());
+            Pose {
+                rotation: rotation_of(q.map(|v| v / norm)),
+                translation,
+            }
+        })
+        .collect()
+}
+
+/// The generator state [`poses_about`] starts from for the pinned plans.
+pub const POSES_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
+
 /// `R` (= `Mᵀ`) of a unit quaternion of `M`.
 pub fn rotation_of(q: [f64; 4]) -> [[f64; 3]; 3] {
     let [w, x, y, z] = q;
