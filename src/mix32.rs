@@ -739,7 +739,7 @@ impl Mix32 {
                     // content's 8 U), `c·u` S54 → `along`'s format: in S18
                     // their floors moved the edges by up to `(|u|₁ + 1)
                     // 2⁻¹⁸ U`, more than the hit's own error
-                    // (`planner::ErrorModel::boundary_m`).
+                    // (`planner::fast_boundary_m`).
                     let (n, c, u, v) = (u3(n), c.map(l24), u3(u), u3(v));
                     MixShape::Rect {
                         n,

@@ -8,8 +8,8 @@
 //! makes it render (or stop rendering) shows up here too.
 //!
 //! The planner's results are pinned the same way (`tests/golden/plans.txt`):
-//! each shipped scene's plan at its own pose and at [`POSES`] poses about
-//! it, every prediction to the bit (CRC-64 of their `Debug` text, which
+//! each shipped scene's plan at its own pose and at
+//! `host_sim::trajectory::PINNED_POSES` poses about it, every prediction to the bit (CRC-64 of their `Debug` text, which
 //! gives each `f64` exactly). A change that makes the planner faster
 //! without changing what it decides or predicts passes here unchanged.
 
@@ -95,13 +95,11 @@ fn shipped_frames_match_the_committed_hashes() {
     );
 }
 
-/// How many poses about each scene's own have their plans pinned
+/// `scene` → the hash of its plans at its pose and at
+/// `host_sim::trajectory::PINNED_POSES` poses about it
 /// (`host_sim::trajectory::poses_about`).
-const POSES: usize = 40;
-
-/// `scene` → the hash of its plans at its pose and at [`POSES`] poses about it.
 fn current_plans() -> BTreeMap<String, String> {
-    use host_sim::trajectory::{poses_about, POSES_SEED};
+    use host_sim::trajectory::{poses_about, PINNED_POSES, POSES_SEED};
     let mut state = POSES_SEED;
     let budget = Budget::default();
     let mut out = BTreeMap::new();
@@ -111,7 +109,7 @@ fn current_plans() -> BTreeMap<String, String> {
         let pose = host_sim::drive_cmd::scene_pose(&r).expect("its pose");
         let mut d = CRC.digest();
         d.update(format!("{:?}", hilcam::planner::plan(&scene, &budget)).as_bytes());
-        for (k, at_pose) in poses_about(&pose, POSES, &mut state).iter().enumerate() {
+        for (k, at_pose) in poses_about(&pose, PINNED_POSES, &mut state).iter().enumerate() {
             let mut at = scene.clone();
             let e = hilcam::extrinsics::Extrinsics::from_matrix(at_pose.rotation, at_pose.translation);
             let moved = e.is_ok_and(|e| at.set_pose(e).is_ok());

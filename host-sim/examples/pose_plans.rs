@@ -8,10 +8,8 @@
 //! `cargo run --release -p host-sim --example pose_plans [-- -v]`
 
 use hilcam::planner::{plan, Budget};
-use host_sim::trajectory::{poses_about, POSES_SEED};
+use host_sim::trajectory::{poses_about, PINNED_POSES, POSES_SEED};
 use std::collections::BTreeMap;
-
-const POSES: usize = 40;
 
 fn main() -> Result<(), String> {
     let verbose = std::env::args().any(|a| a == "-v");
@@ -22,7 +20,7 @@ fn main() -> Result<(), String> {
         let scene = r.core_scene()?;
         let pose = host_sim::drive_cmd::scene_pose(&r)?;
         let mut plans = vec![plan(&scene, &budget)];
-        for (k, p) in poses_about(&pose, POSES, &mut state).iter().enumerate() {
+        for (k, p) in poses_about(&pose, PINNED_POSES, &mut state).iter().enumerate() {
             let mut at = scene.clone();
             hilcam::extrinsics::Extrinsics::from_matrix(p.rotation, p.translation)
                 .map_err(|e| format!("{}: pose {k}: {e:?}", r.desc.name))

@@ -72,6 +72,9 @@ pub fn poses_about(pose: &Pose, n: usize, state: &mut u64) -> Vec<Pose> {
 /// The generator state [`poses_about`] starts from for the pinned plans.
 pub const POSES_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
 
+/// How many poses about each shipped scene's own have their plans pinned.
+pub const PINNED_POSES: usize = 40;
+
 /// `R` (= `Mᵀ`) of a unit quaternion of `M`.
 pub fn rotation_of(q: [f64; 4]) -> [[f64; 3]; 3] {
     let [w, x, y, z] = q;

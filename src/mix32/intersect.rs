@@ -105,7 +105,7 @@ pub(super) enum MixShape {
     /// `|p − c|² ≤ r²` with the hit point and the centre in S24 U
     /// ([`Ray::point24`]): no coordinate rounded to S18, so the boundary
     /// moves by the hit's error along the ray times the ray's in-plane
-    /// part, plus units of S24 (`planner::ErrorModel::boundary_m`).
+    /// part, plus units of S24 (`planner::fast_boundary_m`).
     Disc {
         n: [i32; 3],
         dist: i32,

@@ -227,7 +227,7 @@ impl Ray {
 
     /// The point at `t` (S18 U) along the ray, S24 U, each coordinate
     /// rounded down from the exact product (a perspective ray's `t x̂`,
-    /// `t ŷ`) and saturated: a disc's test ([`MixShape::nearest`]).
+    /// `t ŷ`) and saturated: a disc's test ([`MixShape::disc_pass`]).
     #[inline(always)]
     pub(super) fn point24<const PERSP: bool>(&self, t: i32) -> [i32; 3] {
         let z = sat32((t as i64) << 6);
