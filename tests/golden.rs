@@ -10,8 +10,9 @@
 //! The planner's results are pinned the same way (`tests/golden/plans.txt`):
 //! each shipped scene's plan at its own pose and at
 //! `host_sim::trajectory::PINNED_POSES` poses about it, every prediction to
-//! the bit (CRC-64 of their `Debug` text, which gives each `f64` exactly). A change that makes the planner faster
-//! without changing what it decides or predicts passes here unchanged.
+//! the bit (CRC-64 of their `Debug` text, which gives each `f64` exactly).
+//! A change that makes the planner faster without changing what it decides
+//! or predicts passes here unchanged.
 
 use hilcam::planner::{Budget, Plan};
 use hilcam::render::Frame;
