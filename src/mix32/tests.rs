@@ -232,7 +232,18 @@ fn random_frame(f: &mut impl FnMut(f64, f64) -> f64) -> [[f64; 3]; 3] {
 /// The rectangle of centre `c`, axes `u`, `v` and half sizes `h` (U) as
 /// [`Mix32::fill`] stores it for perspective rays (the unit 1 U), with
 /// its normal (S30) and `dist` (S24).
-fn rect_shape([n, u, v]: [[f64; 3]; 3], c: [f64; 3], [hu, hv]: [f64; 2]) -> (MixShape, [i32; 3], i32) {
+fn rect_shape(frame: [[f64; 3]; 3], c: [f64; 3], h: [f64; 2]) -> (MixShape, [i32; 3], i32) {
+    rect_shape_along(frame, c, h, ALONG_S42)
+}
+
+/// [`rect_shape`] for [`Ray::along`]'s format S48 less `along` (`ALONG_S42`
+/// for perspective rays, 0 for parallel ones).
+fn rect_shape_along(
+    [n, u, v]: [[f64; 3]; 3],
+    c: [f64; 3],
+    [hu, hv]: [f64; 2],
+    along: u32,
+) -> (MixShape, [i32; 3], i32) {
     let s30 = |a: [f64; 3]| a.map(|x| (x * (1u64 << 30) as f64).round() as i32);
     let (n30, u30, v30) = (s30(n), s30(u), s30(v));
     let s24 = |x: f64| (x * (1u64 << 24) as f64).floor() as i32;
@@ -245,10 +256,10 @@ fn rect_shape([n, u, v]: [[f64; 3]; 3], c: [f64; 3], [hu, hv]: [f64; 2]) -> (Mix
         rz: recip_z(n30),
         u: u30,
         v: v30,
-        cu: dot48(c24, u30) >> (ALONG_S42 + 6),
-        cv: dot48(c24, v30) >> (ALONG_S42 + 6),
-        hu: (s24(hu) as i64) << 18,
-        hv: (s24(hv) as i64) << 18,
+        cu: dot48(c24, u30) >> (along + 6),
+        cv: dot48(c24, v30) >> (along + 6),
+        hu: (s24(hu) as i64) << (24 - along),
+        hv: (s24(hv) as i64) << (24 - along),
     };
     (shape, n30, dist)
 }
@@ -1170,7 +1181,6 @@ fn a_flat_shape_s_boundary_moves_within_the_planner_s_bound() {
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let s30 = |a: [f64; 3]| a.map(|x| (x * ld(30)).round() as i32);
     let s24 = |x: f64| (x * ld(24)).floor() as i32;
-    let dot48 = |a: [i32; 3], b: [i32; 3]| -> i64 { a.iter().zip(b).map(|(x, y)| wmul(*x, y)).sum() };
     let (mut n_rays, mut worst, mut sum_ratio) = (0u32, 0.0f64, 0.0);
     for case in 0..6000 {
         let [n, u, v] = if case % 2 == 0 {
@@ -1190,33 +1200,22 @@ fn a_flat_shape_s_boundary_moves_within_the_planner_s_bound() {
         if lc + r > 8.0 {
             continue;
         }
-        let (n30, u30, v30) = (s30(n), s30(u), s30(v));
-        let dist = dot(n, c);
-        let dist24 = (dist * ld(24)).round() as i32;
-        let c24 = c.map(s24);
         // `Mix32::fill`'s shapes, `along`'s format S42 (perspective) or S48.
         let along = if persp { ALONG_S42 } else { 0 };
+        let (rect, n30, dist24) = rect_shape_along([n, u, v], c, [hu, hv], along);
+        let (u30, v30) = (s30(u), s30(v));
+        let dist = dot(n, c);
         let shape = if disc {
             let r24 = s24(r) as u64;
             MixShape::Disc {
                 n: n30,
                 dist: dist24,
                 rz: recip_z(n30),
-                c24,
+                c24: c.map(s24),
                 r2: r24 * r24,
             }
         } else {
-            MixShape::Rect {
-                n: n30,
-                dist: dist24,
-                rz: recip_z(n30),
-                u: u30,
-                v: v30,
-                cu: dot48(c24, u30) >> (along + 6),
-                cv: dot48(c24, v30) >> (along + 6),
-                hu: (s24(hu) as i64) << (24 - along),
-                hv: (s24(hv) as i64) << (24 - along),
-            }
+            rect
         };
         for _ in 0..20 {
             // A point near the boundary, within 1 % of it.
