@@ -119,6 +119,8 @@ impl Unfit {
 /// One way of rendering the scene, with its predictions.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Candidate {
+    /// The ray model.
+    pub model: RenderModel,
     /// The arithmetic.
     pub arithmetic: Arithmetic,
     /// How distortion is evaluated (`None`: the lens has none).
@@ -162,8 +164,9 @@ impl Candidate {
             && self.edge_differing <= budget.max_edge_differing
     }
 
-    /// A short name: `fast-poly`, `wide-lut64`, `wide-none`…
-    pub fn name(&self) -> heapless::String<24> {
+    /// A short name: `fast-poly`, `wide-lut64`, `wide`…, with `-weak` for
+    /// weak-perspective rays.
+    pub fn name(&self) -> heapless::String<32> {
         use core::fmt::Write as _;
         let mut s = heapless::String::new();
         let a = match self.arithmetic {
@@ -176,12 +179,22 @@ impl Candidate {
             Some(DistortionEval::Linear) => write!(s, "{a}-lut{}", self.lut_entries),
             Some(DistortionEval::Nearest) => write!(s, "{a}-lut{}-nearest", self.lut_entries),
         };
+        if matches!(self.model, RenderModel::WeakPerspective { .. }) {
+            let _ = s.push_str("-weak");
+        }
         s
     }
 }
 
+/// How much cheaper (a fraction of its cost) weak perspective must be
+/// predicted than perspective rays to be chosen for a perspective camera:
+/// the two differ in the cost model's parallel-ray terms alone, and
+/// shallow-target, predicted 0.1 % apart, measured 0.1 % apart the other
+/// way (M3 197.0 with parallel rays, 196.8 with perspective ones).
+pub const WEAK_MARGIN: f64 = 0.01;
+
 /// Most candidates a plan lists.
-pub const MAX_CANDIDATES: usize = 4;
+pub const MAX_CANDIDATES: usize = 6;
 
 /// The planner's choice and its predictions.
 #[derive(Clone, Debug, PartialEq)]
@@ -238,6 +251,16 @@ pub struct Defocus {
     pub err_px: f64,
 }
 
+impl Defocus {
+    /// No content: nothing blurs, the chief ray alone.
+    pub const NONE: Defocus = Defocus {
+        blur_px: 0.0,
+        outside_dof: false,
+        points: 0,
+        err_px: 0.0,
+    };
+}
+
 fn ray_model_and_bound(scene: &Scene, budget: &Budget) -> (RenderModel, Option<(f64, Len)>) {
     let half = budget.max_geom_err_px / 2.0;
     let wp = weak_perspective_over_scene(scene);
@@ -273,111 +296,53 @@ fn prepares<const T: usize>(
     crate::render::Frame::<crate::scene::Q, T>::empty().prepare(scene, opts)
 }
 
-/// Plans `scene` within `budget`.
+/// Plans `scene` within `budget`: every candidate (ray model, arithmetic,
+/// distortion evaluation) predicted, the cheapest within the budget
+/// chosen. A perspective camera whose content weak perspective holds
+/// within half the geometric budget has both ray models among its
+/// candidates; through the aperture, rays are perspective.
 pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let cam = &scene.camera;
     let half = budget.max_geom_err_px / 2.0;
-    let (mut model, wp) = ray_model_and_bound(scene, budget);
-    let mut g = Geometry::of(scene, model);
+    let (first, wp) = ray_model_and_bound(scene, budget);
+    let both =
+        matches!(first, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
     let edge_budget = scene.sampling.map_or(0.5, |s| s.edge_error_px.f64());
-    let df = defocus(scene, &g, edge_budget);
-    if df.points > 0 && model != RenderModel::Perspective {
-        // Through the aperture, rays are perspective.
-        model = RenderModel::Perspective;
-        g = Geometry::of(scene, model);
-    }
-    if df.points > 0 {
-        g.through_aperture(scene);
-    }
     let (samples, adaptive) = crate::sampling::of_scene(scene);
-    let terms = Samples::of(scene, &g, samples, adaptive, df.points);
-    // Edge length per pixel area times looks per pixel area (see
-    // `Candidate::edge_differing`).
-    let looks = match (samples, adaptive) {
-        (0 | 1, _) => 1.0,
-        (n, false) => f64::from(n) * f64::from(n),
-        (n, true) => f64::from(n) * f64::from(n) + 5.0,
-    };
-    let edge_looks = edge_fraction(scene, &g, true) * core::f64::consts::FRAC_PI_4 * looks;
-    // A checkered plane's cell lines, over the field (toward its horizon
-    // they pass a pixel apart): the share of pixels whose looks may see
-    // the other side of one, for the candidate's arithmetic and geometric
-    // error.
-    let cells = |a: Arithmetic, geom: f64| {
-        g.prims
-            .iter()
-            .map(|p| g.cells_differing(p, a, geom, looks))
-            .sum::<f64>()
-    };
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
-    for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
-        let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
-        if scene.distortion.is_none() {
-            let _ = evals.push((None, 0));
-        } else {
-            let _ = evals.push((Some(DistortionEval::Polynomial), 0));
-            // (Only the wide arithmetic reads a table.)
-            let entries = (arithmetic == Arithmetic::Wide).then(|| table_entries(scene, &g, half));
-            if let Some(entries) = entries.filter(|e| *e <= budget.max_table_entries) {
-                let _ = evals.push((Some(DistortionEval::Linear), entries));
-            }
+    // Each model's sample terms and defocus (a geometry at a time: it is
+    // large, and the M0's planning stack small).
+    let mut per_model: heapless::Vec<(RenderModel, Samples, Defocus), 2> = heapless::Vec::new();
+    for model in [Some(first), both.then_some(RenderModel::Perspective)]
+        .into_iter()
+        .flatten()
+    {
+        let mut model = model;
+        let mut g = Geometry::of(scene, model);
+        let df = defocus(scene, &g, edge_budget);
+        if df.points > 0 && model != RenderModel::Perspective {
+            // Through the aperture, rays are perspective (the second
+            // model, if any, is that one).
+            model = RenderModel::Perspective;
+            g = Geometry::of(scene, model);
         }
-        // What the distortion evaluation does not change, once.
-        let fits = match arithmetic {
-            // (The fast aperture loop takes pixel centres only.)
-            Arithmetic::Fast if df.points > 0 && samples > 1 => Err(Unfit::Defocus),
-            Arithmetic::Fast => g.fast_fits(scene),
-            Arithmetic::Wide => Ok(()),
-        };
-        // (Aperture rays' slopes: the chief ray's, shifted to 1.5·2⁻²⁶.)
-        let shifted = match (arithmetic, g.aperture) {
-            (Arithmetic::Fast, Some(_)) => 1.5 * core::f64::consts::SQRT_2 * g.f_px * libm::ldexp(1.0, -26),
-            _ => 0.0,
-        };
-        let lsb =
-            ErrorModel::of(arithmetic, &g).lsb(scene, &g, g.direct_geom_err(arithmetic, scene) + shifted);
-        // The closed form runs in the fast one-sample loop; the rays
-        // between those it shades take interpolated sums (perspective
-        // rays): over 8 rays where that bound keeps the LSB within budget,
-        // else over 4, else over 2.
-        let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
-        let pair_err = match (closed, model) {
-            (true, RenderModel::Perspective) => closed_mean_err(scene, &g),
-            _ => None,
-        };
-        let mean = [ClosedMean::Octs, ClosedMean::Quads, ClosedMean::Pairs]
-            .into_iter()
-            .find_map(|m| {
-                let e = pair_err? * closed_mean_factor(m);
-                let moved = (noise_moved(scene, &g, lsb + e), noise_moved(scene, &g, e));
-                (moved.0 + noise_draw_lsb(scene, &g) + 0.5 <= budget.max_lsb).then_some((m, moved))
-            });
-        let (closed_mean, (moved, mean_lsb)) =
-            mean.unwrap_or_else(|| (ClosedMean::Off, (noise_moved(scene, &g, lsb), 0.0)));
-        let lsb = moved + noise_draw_lsb(scene, &g);
-        for (distortion, entries) in evals {
-            let geom = match distortion {
-                Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
-                    table_geom_err(scene, &g, entries)
-                }
-                _ => g.direct_geom_err(arithmetic, scene),
-            };
-            let model = CostModel::of(arithmetic);
-            let one = model.predict(&Features::of(scene, &g, distortion, closed, closed_mean));
-            let cost = model.samples.cost(one, &terms);
-            let _ = cands.push(Candidate {
-                arithmetic,
-                distortion,
-                lut_entries: entries,
-                fits,
-                geom_err_px: geom,
-                lsb,
-                m3_instructions_per_pixel: cost,
-                closed_mean,
-                mean_lsb,
-                edge_differing: (edge_looks * 2.0 * geom + cells(arithmetic, geom)).min(1.0),
-            });
+        if per_model.iter().any(|m| m.0 == model) {
+            continue;
         }
+        if df.points > 0 {
+            g.through_aperture(scene);
+        }
+        let terms = Samples::of(scene, &g, samples, adaptive, df.points);
+        let _ = per_model.push((model, terms, df));
+        model_candidates(
+            scene,
+            &g,
+            (model, df, terms),
+            (samples, adaptive),
+            half,
+            budget,
+            &mut cands,
+        );
     }
     let cheapest_within = cands
         .iter()
@@ -400,7 +365,23 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             .map_or(0, |(i, _)| i)
     };
     let chosen = cheapest_within.unwrap_or_else(most_accurate);
+    // Weak perspective approximates the camera (its error takes up to
+    // half the geometric budget): kept only where it is predicted cheaper
+    // than perspective rays by more than `WEAK_MARGIN`.
+    let chosen = match cands.get(chosen) {
+        Some(w) if matches!(w.model, RenderModel::WeakPerspective { .. }) && both => cands
+            .iter()
+            .position(|c| {
+                c.model == RenderModel::Perspective
+                    && (c.arithmetic, c.distortion) == (w.arithmetic, w.distortion)
+                    && c.meets(budget) == w.meets(budget)
+                    && c.m3_instructions_per_pixel <= w.m3_instructions_per_pixel * (1.0 + WEAK_MARGIN)
+            })
+            .unwrap_or(chosen),
+        _ => chosen,
+    };
     let c = cands.get(chosen).copied().unwrap_or(Candidate {
+        model: first,
         arithmetic: Arithmetic::Wide,
         distortion: None,
         lut_entries: 0,
@@ -412,6 +393,11 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         mean_lsb: 0.0,
         edge_differing: 1.0,
     });
+    let model = c.model;
+    let (terms, df) = per_model
+        .iter()
+        .find(|m| m.0 == model)
+        .map_or((Samples::ONE, Defocus::NONE), |m| (m.1, m.2));
     let wp_used =
         matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
     let meets = c.meets(budget) && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
@@ -437,6 +423,109 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
             .samples
             .factor(c.m3_instructions_per_pixel, &terms),
         defocus: df,
+    }
+}
+
+/// The candidates of one ray model (`g` its geometry, `df` and `terms`
+/// its defocus and sample terms): each arithmetic with each distortion
+/// evaluation, pushed to `cands`.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn model_candidates(
+    scene: &Scene,
+    g: &Geometry,
+    (model, df, terms): (RenderModel, Defocus, Samples),
+    (samples, adaptive): (u8, bool),
+    half: f64,
+    budget: &Budget,
+    cands: &mut heapless::Vec<Candidate, MAX_CANDIDATES>,
+) {
+    // Edge length per pixel area times looks per pixel area (see
+    // `Candidate::edge_differing`).
+    let looks = match (samples, adaptive) {
+        (0 | 1, _) => 1.0,
+        (n, false) => f64::from(n) * f64::from(n),
+        (n, true) => f64::from(n) * f64::from(n) + 5.0,
+    };
+    let edge_looks = edge_fraction(scene, g, true) * core::f64::consts::FRAC_PI_4 * looks;
+    // A checkered plane's cell lines, over the field (toward its horizon
+    // they pass a pixel apart): the share of pixels whose looks may see
+    // the other side of one, for the candidate's arithmetic and geometric
+    // error.
+    let cells = |a: Arithmetic, geom: f64| {
+        g.prims
+            .iter()
+            .map(|p| g.cells_differing(p, a, geom, looks))
+            .sum::<f64>()
+    };
+    for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
+        let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
+        if scene.distortion.is_none() {
+            let _ = evals.push((None, 0));
+        } else {
+            let _ = evals.push((Some(DistortionEval::Polynomial), 0));
+            // (Only the wide arithmetic reads a table.)
+            let entries = (arithmetic == Arithmetic::Wide).then(|| table_entries(scene, g, half));
+            if let Some(entries) = entries.filter(|e| *e <= budget.max_table_entries) {
+                let _ = evals.push((Some(DistortionEval::Linear), entries));
+            }
+        }
+        // What the distortion evaluation does not change, once.
+        let fits = match arithmetic {
+            // (The fast aperture loop takes pixel centres only.)
+            Arithmetic::Fast if df.points > 0 && samples > 1 => Err(Unfit::Defocus),
+            Arithmetic::Fast => g.fast_fits(scene),
+            Arithmetic::Wide => Ok(()),
+        };
+        // (Aperture rays' slopes: the chief ray's, shifted to 1.5·2⁻²⁶.)
+        let shifted = match (arithmetic, g.aperture) {
+            (Arithmetic::Fast, Some(_)) => 1.5 * core::f64::consts::SQRT_2 * g.f_px * libm::ldexp(1.0, -26),
+            _ => 0.0,
+        };
+        let lsb = ErrorModel::of(arithmetic, g).lsb(scene, g, g.direct_geom_err(arithmetic, scene) + shifted);
+        // The closed form runs in the fast one-sample loop; the rays
+        // between those it shades take interpolated sums (perspective
+        // rays): over 8 rays where that bound keeps the LSB within budget,
+        // else over 4, else over 2.
+        let closed = arithmetic == Arithmetic::Fast && samples <= 1 && df.points == 0;
+        let pair_err = match (closed, model) {
+            (true, RenderModel::Perspective) => closed_mean_err(scene, g),
+            _ => None,
+        };
+        let mean = [ClosedMean::Octs, ClosedMean::Quads, ClosedMean::Pairs]
+            .into_iter()
+            .find_map(|m| {
+                let e = pair_err? * closed_mean_factor(m);
+                let moved = (noise_moved(scene, g, lsb + e), noise_moved(scene, g, e));
+                (moved.0 + noise_draw_lsb(scene, g) + 0.5 <= budget.max_lsb).then_some((m, moved))
+            });
+        let (closed_mean, (moved, mean_lsb)) =
+            mean.unwrap_or_else(|| (ClosedMean::Off, (noise_moved(scene, g, lsb), 0.0)));
+        let lsb = moved + noise_draw_lsb(scene, g);
+        for (distortion, entries) in evals {
+            let geom = match distortion {
+                Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
+                    table_geom_err(scene, g, entries)
+                }
+                _ => g.direct_geom_err(arithmetic, scene),
+            };
+            let cost_model = CostModel::of(arithmetic);
+            let one = cost_model.predict(&Features::of(scene, g, distortion, closed, closed_mean));
+            let cost = cost_model.samples.cost(one, &terms);
+            let _ = cands.push(Candidate {
+                model,
+                arithmetic,
+                distortion,
+                lut_entries: entries,
+                fits,
+                geom_err_px: geom,
+                lsb,
+                m3_instructions_per_pixel: cost,
+                closed_mean,
+                mean_lsb,
+                edge_differing: (edge_looks * 2.0 * geom + cells(arithmetic, geom)).min(1.0),
+            });
+        }
     }
 }
 
@@ -508,12 +597,7 @@ fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defocus {
         lo = lo.min((1.0 / (c[2] + r)).max(flat_lo));
     }
     if lo > hi {
-        return Defocus {
-            blur_px: 0.0,
-            outside_dof: false,
-            points: 0,
-            err_px: 0.0,
-        };
+        return Defocus::NONE;
     }
     let blur_px = d * g.f_px * libm::fabs(hi - inv_focus).max(libm::fabs(lo - inv_focus));
     let outside_dof = hi > inv_near || lo < inv_far;
@@ -2573,12 +2657,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        89.8, 35.3, 4.9, 7.7, -2.6, 12.8, 179.2, 2.3, 16.2, 0.0, -45.5, 50.2, -1.9, 82.5, 65.4, 27.5, 183.0,
-        -109.0, -82.3, 340.1, -47.6, -44.2,
+        90.4, 36.7, 4.5, 7.0, -3.2, 15.8, 178.6, 2.1, 15.9, 0.0, -48.0, 49.7, -0.0, 77.6, 75.1, -0.2, 183.1,
+        -105.7, -81.8, 346.4, -50.7, -44.2,
     ],
     samples: SampleCost {
-        grid: [811.614, 263.073, 0.972],
-        aperture: [0.936, 0.797],
+        grid: [790.349, 254.211, 0.997],
+        aperture: [0.941, 0.803],
     },
 };
 
@@ -2586,12 +2670,12 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        799.3, 366.1, 42.3, -34.5, -64.1, 116.9, 1499.5, 189.5, 291.3, 346.0, 1666.0, 234.4, -262.6, -3.3,
-        970.6, 111.1, 882.8, 0.0, 0.0, 112.1, -10.6, 0.0,
+        765.1, 362.7, 46.1, -19.2, -54.9, 125.9, 1497.2, 175.9, 298.4, 353.0, 1498.1, 227.1, -245.3, 23.6,
+        1034.5, -167.2, 891.6, 0.0, 0.0, 297.4, -159.2, 0.0,
     ],
     samples: SampleCost {
-        grid: [1209.778, 2084.897, 0.995],
-        aperture: [0.438, 0.876],
+        grid: [941.454, 1966.555, 1.026],
+        aperture: [0.437, 0.874],
     },
 };
 

@@ -621,6 +621,9 @@ pub enum Override {
     /// the odd ones from their neighbours' mean ([`Options::closed_mean`]
     /// off).
     NoMean,
+    /// Perspective rays where the plan has weak-perspective ones (a
+    /// telecentric camera's stay parallel).
+    Perspective,
 }
 
 impl Options {
@@ -662,6 +665,13 @@ impl Options {
             },
             Override::NoMean => Options {
                 closed_mean: ClosedMean::Off,
+                ..self
+            },
+            Override::Perspective => Options {
+                model: match self.model {
+                    RenderModel::WeakPerspective { .. } => RenderModel::Perspective,
+                    m => m,
+                },
                 ..self
             },
         }

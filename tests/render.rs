@@ -111,7 +111,9 @@ fn standard_scene_is_as_specified() {
 
 /// Stages follow the scene: no distortion stage when k1 = k2 = 0, no
 /// specular path when no material has one, no vignetting for orthographic
-/// cameras; the planner picks weak perspective only for the shallow scene.
+/// cameras; weak perspective is a candidate only for the shallow scene,
+/// whose plan keeps perspective rays (parallel ones are predicted cheaper
+/// by less than `planner::WEAK_MARGIN`).
 #[test]
 fn stages_follow_what_the_scene_needs() {
     let names = |n: &str| metrics(&scene(n)).stages;
@@ -124,7 +126,16 @@ fn stages_follow_what_the_scene_needs() {
     assert!(spec.contains(&"shade:specular".to_string()));
     assert!(!spec.contains(&"distortion-lut".to_string()));
     assert!(names("wide-vignetting").contains(&"vignetting:cos4".to_string()));
-    assert!(names("shallow-target").contains(&"rays:weak-perspective".to_string()));
+    let shallow = metrics(&scene("shallow-target"));
+    assert!(shallow.stages.contains(&"rays:perspective".to_string()));
+    assert!(shallow.plan.candidates.iter().any(|c| c.name == "fast-weak"));
+    for n in ["standard", "spheres-specular", "checkerboard-barrel"] {
+        assert!(!metrics(&scene(n))
+            .plan
+            .candidates
+            .iter()
+            .any(|c| c.name.ends_with("-weak")));
+    }
     assert!(names("checkerboard-barrel").contains(&"rays:perspective".to_string()));
     // A telecentric camera: orthographic rays, no cos⁴.
     let text = std::fs::read_to_string(format!(

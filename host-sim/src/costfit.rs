@@ -79,6 +79,14 @@ const GRIDS: [&str; 4] = ["s2", "s4", "s4-adaptive", "s8-adaptive"];
 const APERTURE_SCENES: [&str; 3] = ["cal-base", "cal-sphere4", "cal-nofloor-mix"];
 /// The aperture points they are rendered with.
 const APERTURES: [&str; 2] = ["ap16", "ap64"];
+/// The calibration scenes that weak perspective holds, so that parallel
+/// rays are a candidate of their plan beside perspective ones: measured
+/// with perspective rays (`ARITH-persp`) whatever the plan picks — a
+/// calibration that followed the plan it calibrates could flip with each
+/// fit. (Parallel rays are the orthographic scenes'.)
+const PERSPECTIVE_SCENES: [&str; 2] = ["cal-far-rect", "cal-facing-big-rect"];
+/// The variants those are rendered with (no distortion: no table).
+const PERSPECTIVE_VARIANTS: [&str; 2] = ["mix32-persp", "i32f32-persp"];
 
 /// The names of [`Features::to_array`]'s terms.
 pub const TERMS: [&str; COST_TERMS] = [
@@ -780,9 +788,16 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
     // (mix32-nomean: the closed plane without its mean, beside each scene
     // planned with it, so that its term is told from the plane's.)
     let one = parse(&["mix32-poly", "mix32-nomean", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
-    for (k, batch) in paths.chunks(6).enumerate() {
+    let pinned = |p: &std::path::PathBuf| {
+        p.file_stem()
+            .is_some_and(|s| PERSPECTIVE_SCENES.contains(&s.to_string_lossy().as_ref()))
+    };
+    let free: Vec<_> = paths.iter().filter(|p| !pinned(p)).cloned().collect();
+    for (k, batch) in free.chunks(6).enumerate() {
         measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
     }
+    let persp = parse(&PERSPECTIVE_VARIANTS.map(String::from))?;
+    measure(board, &pick(&PERSPECTIVE_SCENES), &persp, &work.join("perspective"), &mut points)?;
     let grids = parse(&with(&["mix32", "i32f32"], &GRIDS))?;
     measure(board, &pick(&SAMPLED_SCENES), &grids, &work.join("sampled"), &mut points)?;
     let apertures = parse(&with(&["mix32", "i32f32"], &APERTURES))?;

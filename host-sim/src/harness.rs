@@ -1000,10 +1000,17 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
         return "no candidate".into();
     };
     let within = plan.candidates.iter().filter(|c| c.meets(budget)).count();
+    // A weak-perspective candidate predicted cheaper by less than
+    // `planner::WEAK_MARGIN`: perspective rays kept.
+    let weak = plan.candidates.iter().find(|w| {
+        w.meets(budget)
+            && matches!(w.model, hilcam::render::RenderModel::WeakPerspective { .. })
+            && w.m3_instructions_per_pixel < c.m3_instructions_per_pixel
+    });
     if c.meets(budget) {
         format!(
             "{} is the cheapest of {within} candidate(s) within the budget ({:.0} predicted M3 \
-             instructions/pixel; {:.2e} px, {:.3} LSB before rounding{})",
+             instructions/pixel; {:.2e} px, {:.3} LSB before rounding{}){}",
             c.name(),
             c.m3_instructions_per_pixel,
             c.geom_err_px,
@@ -1013,6 +1020,15 @@ pub fn plan_why(plan: &Plan, budget: &Budget) -> String {
                 ClosedMean::Pairs => ", with the closed plane's mean over 2 rays",
                 ClosedMean::Quads => ", with the closed plane's mean over 4 rays",
                 ClosedMean::Octs => ", with the closed plane's mean over 8 rays",
+            },
+            match weak {
+                Some(w) => format!(
+                    "; {}, predicted {:.1} % cheaper, is not: weak perspective must save {} %",
+                    w.name(),
+                    100.0 * (1.0 - w.m3_instructions_per_pixel / c.m3_instructions_per_pixel),
+                    100.0 * hilcam::planner::WEAK_MARGIN
+                ),
+                None => String::new(),
             }
         )
     } else {

@@ -102,7 +102,8 @@ impl Variant {
     /// `ARITH-lutN-nearest`, `ARITH-poly`, `ARITH-all-stages`, `ARITH-sN`
     /// (an N×N sample grid on every pixel), `ARITH-sN-adaptive`, `ARITH-apN`
     /// (the aperture sampled with N points; 0: not at all), `ARITH-nomean`
-    /// (the closed plane without its mean).
+    /// (the closed plane without its mean), `ARITH-persp` (perspective rays
+    /// where the plan has weak-perspective ones).
     pub fn name(&self) -> String {
         let s = self.scalar.name();
         match self.over {
@@ -122,6 +123,7 @@ impl Variant {
             Override::Samples { n, adaptive: true } => format!("{s}-s{n}-adaptive"),
             Override::Aperture { points } => format!("{s}-ap{points}"),
             Override::NoMean => format!("{s}-nomean"),
+            Override::Perspective => format!("{s}-persp"),
         }
     }
 
@@ -131,7 +133,7 @@ impl Variant {
             format!(
                 "variant {name:?}: expected planned, or ARITH-planned, ARITH-lutN-linear, \
                  ARITH-lutN-nearest, ARITH-poly, ARITH-all-stages, ARITH-sN or ARITH-sN-adaptive \
-                 (N 1, 2, 4, 8, 16), ARITH-apN (N 0, 16, 64, 256), ARITH-nomean, ARITH one of planned, mix32, \
+                 (N 1, 2, 4, 8, 16), ARITH-apN (N 0, 16, 64, 256), ARITH-nomean, ARITH-persp, ARITH one of planned, mix32, \
                  i32f32, f32"
             )
         };
@@ -148,6 +150,7 @@ impl Variant {
             "poly" => Override::Polynomial,
             "all-stages" => Override::AllStages,
             "nomean" => Override::NoMean,
+            "persp" => Override::Perspective,
             _ if rest.starts_with("ap") => {
                 let points: u16 = rest[2..].parse().map_err(|_| bad())?;
                 if points != 0 && !hilcam::defocus::is_size(points) {
@@ -218,6 +221,7 @@ impl Variant {
             }
             Override::Aperture { points } => format!("Override::Aperture {{ points: {points} }}"),
             Override::NoMean => "Override::NoMean".into(),
+            Override::Perspective => "Override::Perspective".into(),
         };
         let arith = match self.scalar.arithmetic() {
             Some(a) => format!(".with_arithmetic(hilcam::render::Arithmetic::{a:?})"),
