@@ -313,11 +313,10 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     // Each model's sample terms and defocus (a geometry at a time: it is
     // large, and the M0's planning stack small).
     let mut per_model: heapless::Vec<(RenderModel, Samples, Defocus), 2> = heapless::Vec::new();
-    for model in [Some(first), both.then_some(RenderModel::Perspective)]
+    for mut model in [Some(first), both.then_some(RenderModel::Perspective)]
         .into_iter()
         .flatten()
     {
-        let mut model = model;
         let mut g = Geometry::of(scene, model);
         let df = defocus(scene, &g, edge_budget);
         if df.points > 0 && model != RenderModel::Perspective {

@@ -217,6 +217,15 @@ impl RenderModel {
             RenderModel::Orthographic { .. } => "rays:orthographic",
         }
     }
+
+    /// Perspective rays in place of weak-perspective ones (a telecentric
+    /// camera's stay parallel).
+    pub const fn exact(self) -> RenderModel {
+        match self {
+            RenderModel::WeakPerspective { .. } => RenderModel::Perspective,
+            m => m,
+        }
+    }
 }
 
 /// How `g(u)` (distorted → undistorted, camera-model.md §3) is evaluated per
@@ -641,10 +650,7 @@ impl Options {
                 ..self
             },
             Override::AllStages => Options {
-                model: match self.model {
-                    RenderModel::WeakPerspective { .. } => RenderModel::Perspective,
-                    m => m,
-                },
+                model: self.model.exact(),
                 lut_entries: MAX_LUT,
                 // The fast arithmetic evaluates the polynomial (no table).
                 distortion_eval: match self.arithmetic {
@@ -668,10 +674,7 @@ impl Options {
                 ..self
             },
             Override::Perspective => Options {
-                model: match self.model {
-                    RenderModel::WeakPerspective { .. } => RenderModel::Perspective,
-                    m => m,
-                },
+                model: self.model.exact(),
                 ..self
             },
         }

@@ -788,16 +788,13 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
     // (mix32-nomean: the closed plane without its mean, beside each scene
     // planned with it, so that its term is told from the plane's.)
     let one = parse(&["mix32-poly", "mix32-nomean", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
-    let pinned = |p: &std::path::PathBuf| {
-        p.file_stem()
-            .is_some_and(|s| PERSPECTIVE_SCENES.contains(&s.to_string_lossy().as_ref()))
-    };
-    let free: Vec<_> = paths.iter().filter(|p| !pinned(p)).cloned().collect();
+    let pinned = pick(&PERSPECTIVE_SCENES);
+    let free: Vec<_> = paths.iter().filter(|p| !pinned.contains(p)).cloned().collect();
     for (k, batch) in free.chunks(6).enumerate() {
         measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
     }
     let persp = parse(&PERSPECTIVE_VARIANTS.map(String::from))?;
-    measure(board, &pick(&PERSPECTIVE_SCENES), &persp, &work.join("perspective"), &mut points)?;
+    measure(board, &pinned, &persp, &work.join("perspective"), &mut points)?;
     let grids = parse(&with(&["mix32", "i32f32"], &GRIDS))?;
     measure(board, &pick(&SAMPLED_SCENES), &grids, &work.join("sampled"), &mut points)?;
     let apertures = parse(&with(&["mix32", "i32f32"], &APERTURES))?;
