@@ -386,7 +386,27 @@ impl Aperture {
             z18: len_s(Q::from_bits(z.get() as i64), e, 18),
         })
     }
+
+    /// `A/Z̃` (S26) of an aperture coordinate `a` (S24 U): `a 2⁴⁰/Z̃`
+    /// shifted by 38, rounded, saturated — in 64-bit products (`inv_z40 =
+    /// h 2³² + l`; `a l = m 2³² + k` with `0 ≤ k < 2³²`, so `⌊(a inv +
+    /// 2³⁷) / 2³⁸⌋ = ⌊(a h + m + ⌊(k + 2³⁷) / 2³²⌋) / 2⁶⌋`), not a
+    /// 128-bit one, which is a library call on the M3 (per chunk and
+    /// point: 2 % of shallow-dof's instructions). The same value (`tests`).
+    #[inline(always)]
+    fn slope_off(&self, a: i32) -> i32 {
+        let (h, l) = (self.inv_z40 >> 32, self.inv_z40 & 0xFFFF_FFFF);
+        // |a h| < 2⁶², |a l| ≤ 2⁶³ − 2³¹: both within i64.
+        let al = i64::from(a) * l;
+        let m = i64::from(a) * h + (al >> 32) + (((al & 0xFFFF_FFFF) + (1 << 37)) >> 32);
+        (m >> 6).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    }
 }
+
+/// A rectangle's [`Ray::plane_t`] for every ray of an aperture point, if
+/// it faces the camera (`n_x = n_y = 0`: `n·d` is `n_z` whatever the ray);
+/// `None` if it does not.
+type Facing = Option<Option<(i32, bool)>>;
 
 /// The per-frame state of the `mix32` path.
 #[derive(Clone, Debug)]
@@ -1921,6 +1941,9 @@ impl Mix32 {
         let yd2 = wmul(yd, yd);
         let mut acc = self.x0;
         let mut k = KCache::EMPTY;
+        // A facing rectangle's two materials' sums, each under its key
+        // (`Ray::hit`, material): the single loop below.
+        let mut two = [((0u8, usize::MAX), [0u64; 3]); 2];
         let dn_max = [0, 1, 2].map(|c| self.format.dn_max(c) as u64);
         let noise = self.noise.as_ref();
         let ChunkBufs {
@@ -1998,10 +2021,7 @@ impl Mix32 {
                 // (S24 U · S40 / U → S26), rounded.
                 let a24 = u.map(|v| sat32(((i64::from(v) << ap.up) * ap.r24 as i64 + (1 << 14)) >> 15));
                 let a = a24.map(|v| sat32((v as i64 + 32) >> 6));
-                let off = a24.map(|a| {
-                    let v = (a as i128 * ap.inv_z40 as i128 + (1 << 37)) >> 38;
-                    v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
-                });
+                let off = a24.map(|a| ap.slope_off(a));
                 for (r, q) in rays.iter_mut().zip(todo) {
                     if let Some(c) = chief.get(q as usize) {
                         // (Without `1/a`: a sphere's pass takes it for the
@@ -2027,7 +2047,12 @@ impl Mix32 {
                 // against it alone (the frame moved to `A` once a point),
                 // without its edges (every ray meets it within them, and
                 // nothing nearer): the hits the passes find.
-                let mut moved: Option<(u8, MixShape)> = None;
+                // A rectangle facing the camera (`n_x = n_y = 0`) has one
+                // `t` for every ray of the point: `plane_t` reads nothing of
+                // the ray then (`n·d` is `n_z`), so it is taken once with
+                // the moved shape, as `flat_pass` takes it once a chunk —
+                // the same `t`. Otherwise `None`, and each ray takes its own.
+                let mut moved: Option<(u8, MixShape, Facing)> = None;
                 for &(q, i) in single.iter().take(singles) {
                     let (Some(c), Some(s), Some(p)) = (
                         chief.get(q as usize),
@@ -2036,18 +2061,44 @@ impl Mix32 {
                     ) else {
                         continue;
                     };
-                    let shape = match moved {
-                        Some((j, shape)) if j == i => shape,
+                    let mut r = Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
+                    let (shape, facing) = match moved {
+                        Some((j, shape, facing)) if j == i => (shape, facing),
                         _ => {
                             let shape = p.shape.moved(a, a24);
-                            moved = Some((i, shape));
-                            shape
+                            let facing = match shape {
+                                MixShape::Rect { n, dist, rz, .. } if n[0] == 0 && n[1] == 0 => {
+                                    Some(r.plane_t::<true>(n, dist, rz))
+                                }
+                                _ => None,
+                            };
+                            moved = Some((i, shape, facing));
+                            (shape, facing)
                         }
                     };
-                    let mut r = Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
                     if let MixShape::Rect { n, dist, rz, .. } = shape {
-                        if let Some((t, away)) = r.plane_t::<true>(n, dist, rz) {
+                        if let Some((t, away)) = facing.unwrap_or_else(|| r.plane_t::<true>(n, dist, rz)) {
                             (r.t, r.hit) = (t, i | if away { AWAY } else { 0 });
+                        }
+                    }
+                    // On a facing rectangle whose sums are its side's and
+                    // material's alone (`flat_sum`), the sum of each of its
+                    // two materials kept: a checker's rays alternate
+                    // between them, which `shade_flat`'s one sum does not
+                    // keep. The material as `hit_from` takes it. (None
+                    // kept in a `compact` build: `flat_sum`.)
+                    if !cfg!(feature = "compact") && facing.is_some() && r.t != NO_HIT {
+                        let m = Self::material_at::<true, true>(p, &r, [0; 3], a, None);
+                        if let Some(kept) = two.get_mut(usize::from(m != p.material as usize)) {
+                            if kept.0 != (r.hit, m) && self.flat_sum::<L, C>(p.flat, m) {
+                                *kept = ((r.hit, m), self.aperture_sum::<L, C>(&r, [a, a24], &mut k));
+                            }
+                            if kept.0 == (r.hit, m) {
+                                for (s, l) in s.iter_mut().zip(kept.1).take(self.chans::<C>()) {
+                                    *s += l;
+                                }
+                                continue;
+                            }
                         }
                     }
                     self.add_aperture_ray::<L, C>(&r, [a, a24], s, &mut k);
@@ -2089,12 +2140,18 @@ impl Mix32 {
         sum: &mut [u64; 3],
         k: &mut KCache,
     ) {
-        let l = match self.hit_from::<L, C, true, true>(r, a, None) {
-            Some(h) => self.shade_flat::<L, C, true>(r, &h, k),
-            None => self.bg,
-        };
+        let l = self.aperture_sum::<L, C>(r, a, k);
         for (s, l) in sum.iter_mut().zip(l).take(self.chans::<C>()) {
             *s += l;
+        }
+    }
+
+    /// What [`Mix32::add_aperture_ray`] adds.
+    #[inline(always)]
+    fn aperture_sum<L: Lines, const C: usize>(&self, r: &Ray, a: [[i32; 2]; 2], k: &mut KCache) -> [u64; 3] {
+        match self.hit_from::<L, C, true, true>(r, a, None) {
+            Some(h) => self.shade_flat::<L, C, true>(r, &h, k),
+            None => self.bg,
         }
     }
 
@@ -2470,6 +2527,42 @@ impl Mix32 {
         Some(acc.map(|a| Q::from_bits(a >> (2 * log_n))))
     }
 
+    /// The material ray `r` sees at its hit on `p` (its point `pt`, `[0;
+    /// 3]` where [`Mix32::hit_from`] takes none; the frame moved to `a` if
+    /// `MOVED`): `p`'s, or its checker's on the odd cells (from `key`
+    /// where the caller knows the cell).
+    #[inline(always)]
+    fn material_at<const PERSP: bool, const MOVED: bool>(
+        p: &MixPrim,
+        r: &Ray,
+        pt: [i32; 3],
+        a: [i32; 2],
+        key: Option<Key>,
+    ) -> usize {
+        let mut m = p.material as usize;
+        if let Some(k) = &p.checker {
+            let odd = match key {
+                Some(key) => key.odd(),
+                None => {
+                    // (The aperture loop's rays start off the axis.)
+                    let bounded = p.shape.bounded();
+                    let (cu, cv) = match (PERSP, MOVED) {
+                        (true, false) => k.cells_of::<PERSP>(r, bounded),
+                        (true, true) => k.cells::<PERSP>(r.hit_point::<PERSP, MOVED>(a), bounded),
+                        // (A parallel ray's point is its origin and `t`.)
+                        (false, _) => k.cells::<PERSP>(pt, bounded),
+                    };
+                    // The parity of cu + cv.
+                    (cu ^ cv) & 1 != 0
+                }
+            };
+            if odd {
+                m = k.material as usize;
+            }
+        }
+        m
+    }
+
     /// The nearest hit of a ray after every primitive's pass; if `MOVED`,
     /// for a ray traced in the frame moved to
     /// `(a_x, a_y, 0)` (`a` in S18 U, `a24` in S24 U, as
@@ -2531,27 +2624,7 @@ impl Mix32 {
                 sar64_low_lt32(smul_u(p.wrapping_sub(c), inv_r.0), inv_r.1)
             }),
         };
-        let mut m = p.material as usize;
-        if let Some(k) = &p.checker {
-            let odd = match key {
-                Some(key) => key.odd(),
-                None => {
-                    // (The aperture loop's rays start off the axis.)
-                    let bounded = p.shape.bounded();
-                    let (cu, cv) = match (PERSP, MOVED) {
-                        (true, false) => k.cells_of::<PERSP>(r, bounded),
-                        (true, true) => k.cells::<PERSP>(r.hit_point::<PERSP, MOVED>(a), bounded),
-                        // (A parallel ray's point is its origin and `t`.)
-                        (false, _) => k.cells::<PERSP>(pt, bounded),
-                    };
-                    // The parity of cu + cv.
-                    (cu ^ cv) & 1 != 0
-                }
-            };
-            if odd {
-                m = k.material as usize;
-            }
-        }
+        let m = Self::material_at::<PERSP, MOVED>(p, r, pt, a, key);
         Some(Hit {
             m,
             pt,
@@ -2583,6 +2656,18 @@ impl Mix32 {
         ]
     }
 
+    /// Whether a hit's sum depends on its primitive, side and material
+    /// alone ([`Mix32::shade_flat`] keeps it): a flat primitive's
+    /// ([`MixPrim::flat`]) whose material `m` has no lobe rendered. Not
+    /// in a `compact` build (the driven camera's): there the copies of
+    /// `shade` this takes cost 21 KB of flash on the M3, and the M0's no
+    /// longer fit 256 KiB.
+    #[inline(always)]
+    fn flat_sum<L: Lines, const C: usize>(&self, flat: bool, m: usize) -> bool {
+        let lobe = lobe_built::<L, C>() && self.lobe.get(m).is_none_or(Option::is_some);
+        !cfg!(feature = "compact") && flat && !lobe
+    }
+
     /// [`Mix32::shade`], kept for the next hit where it cannot change: on a
     /// [`MixPrim::flat`] primitive (a constant normal, every light
     /// directional), of a material without a rendered lobe, the sum depends
@@ -2595,11 +2680,7 @@ impl Mix32 {
         h: &Hit,
         k: &mut KCache,
     ) -> [u64; 3] {
-        let lobe = lobe_built::<L, C>() && self.lobe.get(h.m).is_none_or(Option::is_some);
-        // Not in a `compact` build (the driven camera's): there its copies
-        // of `shade` cost 21 KB of flash on the M3, and the M0's no longer
-        // fit 256 KiB.
-        if cfg!(feature = "compact") || !h.flat || lobe {
+        if !self.flat_sum::<L, C>(h.flat, h.m) {
             return self.shade::<L, C, PERSP>(r, h, k);
         }
         if k.flat != (r.hit, h.m) {

@@ -1315,3 +1315,46 @@ fn a_flat_shape_s_boundary_moves_within_the_planner_s_bound() {
     );
     assert!(n_rays > 100_000, "{n_rays}");
 }
+
+/// `Aperture::slope_off` in 64-bit products is the 128-bit expression it
+/// replaced, at the ends of both ranges and on random values.
+#[test]
+fn aperture_slope_offsets_are_the_128_bit_ones() {
+    let exact = |a: i32, inv: i64| {
+        let v = (a as i128 * inv as i128 + (1 << 37)) >> 38;
+        v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
+    };
+    let ends_a = [i32::MIN, i32::MIN + 1, -1, 0, 1, i32::MAX - 1, i32::MAX];
+    let ends_inv = [
+        0,
+        1,
+        (1 << 32) - 1,
+        1 << 32,
+        (1 << 38) - 1,
+        1 << 40,
+        i64::MAX - 1,
+        i64::MAX,
+    ];
+    let mut seed = 7;
+    let mut cases: heapless::Vec<(i32, i64), 4096> = heapless::Vec::new();
+    for a in ends_a {
+        for inv in ends_inv {
+            let _ = cases.push((a, inv));
+        }
+    }
+    while !cases.is_full() {
+        let (x, y) = (rng(&mut seed), rng(&mut seed));
+        // Random magnitudes: inv below 2^(y mod 64).
+        let _ = cases.push((x as i32 >> (x >> 59), (y >> 1 >> (y >> 58)) as i64));
+    }
+    for (a, inv) in cases {
+        let ap = Aperture {
+            m: 64,
+            up: 0,
+            r24: 0,
+            inv_z40: inv,
+            z18: 0,
+        };
+        assert_eq!(ap.slope_off(a), exact(a, inv), "a {a}, inv {inv}");
+    }
+}
