@@ -2661,7 +2661,7 @@ pub const FAST_COST: CostModel = CostModel {
     ],
     samples: SampleCost {
         grid: [790.349, 254.211, 0.997],
-        aperture: [0.941, 0.803],
+        aperture: [0.927, 0.769],
     },
 };
 
@@ -2674,7 +2674,7 @@ pub const WIDE_COST: CostModel = CostModel {
     ],
     samples: SampleCost {
         grid: [941.454, 1966.555, 1.026],
-        aperture: [0.437, 0.874],
+        aperture: [0.436, 0.874],
     },
 };
 
