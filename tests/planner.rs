@@ -434,7 +434,7 @@ fn predicted_bounds_hold_with_parallel_rays_started_in_front() {
 /// [`hilcam::planner::WEAK_MARGIN`] (measured on the M3, 197.0 against
 /// 196.8 instructions a pixel); its frame is within its predictions too.
 #[test]
-fn a_distant_flat_target_is_planned_fast_with_parallel_rays() {
+fn a_distant_flat_target_is_fast_with_either_ray_model() {
     use hilcam::render::RenderModel;
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/shallow-target.toml");
     let r = parse(&std::fs::read_to_string(path).expect("shipped scene")).expect("parses");
