@@ -2014,6 +2014,38 @@ impl Mix32 {
             let Some(rays) = rays.first(count) else {
                 return;
             };
+            // Runs of `single` (in its order, so of `x̂` not increasing) on
+            // one rectangle and one chief `ŷ`: `run_end[g]`, the run's last.
+            // Along a run, an aperture point's hit on a facing rectangle
+            // (one `t`) is monotone in `x̂`, and so is each of its texture
+            // cells (every step from the slope to the cell rounds down or
+            // saturates): two rays of the run in the same cells have every
+            // ray between in them. (Without distortion a row's `ŷ` is one;
+            // with it, rays of one `ŷ` are rare: no run.)
+            let mut run_end = [0u8; CHUNK];
+            let mut g = singles;
+            while g > 0 {
+                g -= 1;
+                let joined = !cfg!(feature = "compact")
+                    && match (single.get(g), single.get(g + 1).filter(|_| g + 1 < singles)) {
+                        (Some(&(qa, ia)), Some(&(qb, ib))) => {
+                            ia == ib
+                                && chief
+                                    .get(qa as usize)
+                                    .zip(chief.get(qb as usize))
+                                    .is_some_and(|(ca, cb)| ca.y == cb.y && cb.x <= ca.x)
+                        }
+                        _ => false,
+                    };
+                let e = if joined {
+                    run_end.get(g + 1).copied().unwrap_or(g as u8)
+                } else {
+                    g as u8
+                };
+                if let Some(r) = run_end.get_mut(g) {
+                    *r = e;
+                }
+            }
             for u in crate::defocus::SPIRAL
                 .iter()
                 .take(if count + singles > 0 { ap.m as usize } else { 0 })
@@ -2054,22 +2086,29 @@ impl Mix32 {
                 // the moved shape, as `flat_pass` takes it once a chunk —
                 // the same `t`. Otherwise `None`, and each ray takes its own.
                 let mut moved: Option<(u8, MixShape, Facing)> = None;
-                for &(q, i) in single.iter().take(singles) {
-                    let (Some(c), Some(s), Some(p)) = (
-                        chief.get(q as usize),
-                        sums.get_mut(q as usize),
-                        self.prims.get(i as usize),
-                    ) else {
-                        continue;
+                // This point's ray of the pixel `single[h]`.
+                let ray_at = |h: usize| {
+                    let &(q, _) = single.get(h)?;
+                    let c = chief.get(q as usize)?;
+                    Some((
+                        q,
+                        Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1])),
+                    ))
+                };
+                let mut g = 0;
+                while let (true, Some(&(_, i)), Some(&end), Some((_, r0))) =
+                    (g < singles, single.get(g), run_end.get(g), ray_at(g))
+                {
+                    let Some(p) = self.prims.get(i as usize) else {
+                        break;
                     };
-                    let mut r = Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
                     let (shape, facing) = match moved {
                         Some((j, shape, facing)) if j == i => (shape, facing),
                         _ => {
                             let shape = p.shape.moved(a, a24);
                             let facing = match shape {
                                 MixShape::Rect { n, dist, rz, .. } if n[0] == 0 && n[1] == 0 => {
-                                    Some(r.plane_t::<true>(n, dist, rz))
+                                    Some(r0.plane_t::<true>(n, dist, rz))
                                 }
                                 _ => None,
                             };
@@ -2077,32 +2116,93 @@ impl Mix32 {
                             (shape, facing)
                         }
                     };
-                    if let MixShape::Rect { n, dist, rz, .. } = shape {
-                        if let Some((t, away)) = facing.unwrap_or_else(|| r.plane_t::<true>(n, dist, rz)) {
-                            (r.t, r.hit) = (t, i | if away { AWAY } else { 0 });
+                    // A facing rectangle's hit, the same for every ray of
+                    // the point; then the run `g..=end` is taken in
+                    // segments of one texture cell (each found from its
+                    // ends: `run_end`), each ray of a segment with its
+                    // material. Otherwise the one ray `g`.
+                    let hit = match facing {
+                        Some(Some((t, away))) if !cfg!(feature = "compact") && t != NO_HIT => {
+                            Some((t, i | if away { AWAY } else { 0 }))
                         }
-                    }
-                    // On a facing rectangle whose sums are its side's and
-                    // material's alone (`flat_sum`), the sum of each of its
-                    // two materials kept: a checker's rays alternate
-                    // between them, which `shade_flat`'s one sum does not
-                    // keep. The material as `hit_from` takes it. (None
-                    // kept in a `compact` build: `flat_sum`.)
-                    if !cfg!(feature = "compact") && facing.is_some() && r.t != NO_HIT {
-                        let m = Self::material_at::<true, true>(p, &r, [0; 3], a, None);
-                        if let Some(kept) = two.get_mut(usize::from(m != p.material as usize)) {
-                            if kept.0 != (r.hit, m) && self.flat_sum::<L, C>(p.flat, m) {
-                                *kept = ((r.hit, m), self.aperture_sum::<L, C>(&r, [a, a24], &mut k));
+                        _ => None,
+                    };
+                    let end = if hit.is_some() { usize::from(end).max(g) } else { g };
+                    let cells = |h: usize| {
+                        let ((t, hit), k) = hit.zip(p.checker.as_ref())?;
+                        let (_, mut r) = ray_at(h)?;
+                        (r.t, r.hit) = (t, hit);
+                        Some(k.cells::<true>(r.hit_point::<true, true>(a), p.shape.bounded()))
+                    };
+                    let mut lo = g;
+                    let mut first = if end > g { Some(cells(g)) } else { None };
+                    while lo <= end {
+                        // The segment's last ray: every ray between two of
+                        // the same cells has them (`run_end`), so by
+                        // bisection, with the next segment's first cells.
+                        let mut last = end;
+                        if let Some(c_lo) = first {
+                            let c_end = cells(end);
+                            if c_end != c_lo {
+                                let (mut x, mut y, mut c_y) = (lo, end, c_end);
+                                while y - x > 1 {
+                                    let mid = x + (y - x) / 2;
+                                    let c_mid = cells(mid);
+                                    if c_mid == c_lo {
+                                        x = mid;
+                                    } else {
+                                        (y, c_y) = (mid, c_mid);
+                                    }
+                                }
+                                (last, first) = (x, Some(c_y));
                             }
-                            if kept.0 == (r.hit, m) {
-                                for (s, l) in s.iter_mut().zip(kept.1).take(self.chans::<C>()) {
+                        }
+                        // On a facing rectangle whose sums are its side's
+                        // and material's alone (`flat_sum`), the sum of
+                        // each of its two materials kept: a checker's rays
+                        // alternate between them, which `shade_flat`'s one
+                        // sum does not keep. The material as `hit_from`
+                        // takes it, once a segment (its cells are one);
+                        // every ray of the segment adds the kept sum.
+                        // (None kept in a `compact` build: `hit`.)
+                        let kept = hit.and_then(|(t, hit)| {
+                            let (_, mut r) = ray_at(lo)?;
+                            (r.t, r.hit) = (t, hit);
+                            let m = Self::material_at::<true, true>(p, &r, [0; 3], a, None);
+                            let kept = two.get_mut(usize::from(m != p.material as usize))?;
+                            if kept.0 != (hit, m) && self.flat_sum::<L, C>(p.flat, m) {
+                                *kept = ((hit, m), self.aperture_sum::<L, C>(&r, [a, a24], &mut k));
+                            }
+                            (kept.0 == (hit, m)).then_some(kept.1)
+                        });
+                        for h in lo..=last {
+                            let Some(&(q, _)) = single.get(h) else {
+                                continue;
+                            };
+                            let Some(s) = sums.get_mut(q as usize) else {
+                                continue;
+                            };
+                            if let Some(kept) = kept {
+                                for (s, l) in s.iter_mut().zip(kept).take(self.chans::<C>()) {
                                     *s += l;
                                 }
                                 continue;
                             }
+                            let Some((_, mut r)) = ray_at(h) else {
+                                continue;
+                            };
+                            if let MixShape::Rect { n, dist, rz, .. } = shape {
+                                if let Some((t, away)) =
+                                    facing.unwrap_or_else(|| r.plane_t::<true>(n, dist, rz))
+                                {
+                                    (r.t, r.hit) = (t, i | if away { AWAY } else { 0 });
+                                }
+                            }
+                            self.add_aperture_ray::<L, C>(&r, [a, a24], s, &mut k);
                         }
+                        lo = last + 1;
                     }
-                    self.add_aperture_ray::<L, C>(&r, [a, a24], s, &mut k);
+                    g = end + 1;
                 }
             }
             for (((c, s), out), flag) in chief
