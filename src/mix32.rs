@@ -2055,26 +2055,17 @@ impl Mix32 {
                 let a24 = u.map(|v| sat32(((i64::from(v) << ap.up) * ap.r24 as i64 + (1 << 14)) >> 15));
                 let a = a24.map(|v| sat32((v as i64 + 32) >> 6));
                 let off = a24.map(|a| ap.slope_off(a));
-                for (r, q) in rays.iter_mut().zip(todo) {
-                    if let Some(c) = chief.get(q as usize) {
-                        // (Without `1/a`: a sphere's pass takes it for the
-                        // rays that meet the sphere, `MixShape::nearest`.)
-                        *r = Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
-                    }
-                }
-                for (i, p) in self.prims.iter().enumerate() {
-                    if p.bounds.is_some_and(|b| !meets(&b, [x0, x1, y0, y1])) {
-                        continue;
-                    }
-                    p.shape
-                        .moved(a, a24)
-                        .nearest::<true, true>(i as u8, rays, (None, [0; 4]));
-                }
-                for (r, q) in rays.iter().zip(todo) {
-                    let Some(s) = sums.get_mut(q as usize) else {
-                        continue;
-                    };
-                    self.add_aperture_ray::<L, C>(r, [a, a24], s, &mut k);
+                // The traced rays (out of line: one body whatever the
+                // single pixels' code around it, which moved its code).
+                if count > 0 {
+                    self.traced_at::<L, C>(
+                        (rays, &todo),
+                        chief,
+                        sums,
+                        ([a, a24], off),
+                        [x0, x1, y0, y1],
+                        &mut k,
+                    );
                 }
                 // The pixels one rectangle alone meets: each ray tested
                 // against it alone (the frame moved to `A` once a point),
@@ -2140,7 +2131,7 @@ impl Mix32 {
                         // The segment's last ray: every ray between two of
                         // the same cells has them (`run_end`), so by
                         // bisection, with the next segment's first cells.
-                        let mut last = end;
+                        let (mut last, c_seg) = (end, first);
                         if let Some(c_lo) = first {
                             let c_end = cells(end);
                             if c_end != c_lo {
@@ -2168,7 +2159,13 @@ impl Mix32 {
                         let kept = hit.and_then(|(t, hit)| {
                             let (_, mut r) = ray_at(lo)?;
                             (r.t, r.hit) = (t, hit);
-                            let m = Self::material_at::<true, true>(p, &r, [0; 3], a, None);
+                            // (From the segment's cells where the run found
+                            // them: `material_at`'s parity.)
+                            let m = match (c_seg, &p.checker) {
+                                (Some(Some((cu, cv))), Some(k)) if (cu ^ cv) & 1 != 0 => k.material as usize,
+                                (Some(Some(_)), _) => p.material as usize,
+                                _ => Self::material_at::<true, true>(p, &r, [0; 3], a, None),
+                            };
                             let kept = two.get_mut(usize::from(m != p.material as usize))?;
                             if kept.0 != (hit, m) && self.flat_sum::<L, C>(p.flat, m) {
                                 *kept = ((hit, m), self.aperture_sum::<L, C>(&r, [a, a24], &mut k));
@@ -2227,6 +2224,44 @@ impl Mix32 {
                 index = index.wrapping_add(1);
             }
             put(words, false, b, pixels);
+        }
+    }
+
+    /// [`Mix32::line_d`]'s traced rays for the aperture point `a` (S18 U,
+    /// S24 U; `off` its slope offset): the rays of the pixels `todo` (their
+    /// chief rays in `chief`, their box of slopes `bounds`), every
+    /// primitive's pass, and each hit's shading added to its pixel's sum.
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    fn traced_at<L: Lines, const C: usize>(
+        &self,
+        (rays, todo): (&mut [Ray], &[u8; CHUNK]),
+        chief: &[Ray],
+        sums: &mut [[u64; 3]],
+        ([a, a24], off): ([[i32; 2]; 2], [i32; 2]),
+        [x0, x1, y0, y1]: [i32; 4],
+        k: &mut KCache,
+    ) {
+        for (r, q) in rays.iter_mut().zip(todo.iter().copied()) {
+            if let Some(c) = chief.get(q as usize) {
+                // (Without `1/a`: a sphere's pass takes it for the
+                // rays that meet the sphere, `MixShape::nearest`.)
+                *r = Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1]));
+            }
+        }
+        for (i, p) in self.prims.iter().enumerate() {
+            if p.bounds.is_some_and(|b| !meets(&b, [x0, x1, y0, y1])) {
+                continue;
+            }
+            p.shape
+                .moved(a, a24)
+                .nearest::<true, true>(i as u8, rays, (None, [0; 4]));
+        }
+        for (r, q) in rays.iter().zip(todo.iter().copied()) {
+            let Some(s) = sums.get_mut(q as usize) else {
+                continue;
+            };
+            self.add_aperture_ray::<L, C>(r, [a, a24], s, k);
         }
     }
 
