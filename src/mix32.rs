@@ -2081,13 +2081,10 @@ impl Mix32 {
                 let ray_at = |h: usize| {
                     let &(q, _) = single.get(h)?;
                     let c = chief.get(q as usize)?;
-                    Some((
-                        q,
-                        Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1])),
-                    ))
+                    Some(Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1])))
                 };
                 let mut g = 0;
-                while let (true, Some(&(_, i)), Some(&end), Some((_, r0))) =
+                while let (true, Some(&(_, i)), Some(&end), Some(r0)) =
                     (g < singles, single.get(g), run_end.get(g), ray_at(g))
                 {
                     let Some(p) = self.prims.get(i as usize) else {
@@ -2121,7 +2118,7 @@ impl Mix32 {
                     let end = if hit.is_some() { usize::from(end).max(g) } else { g };
                     let cells = |h: usize| {
                         let ((t, hit), k) = hit.zip(p.checker.as_ref())?;
-                        let (_, mut r) = ray_at(h)?;
+                        let mut r = ray_at(h)?;
                         (r.t, r.hit) = (t, hit);
                         Some(k.cells::<true>(r.hit_point::<true, true>(a), p.shape.bounded()))
                     };
@@ -2157,7 +2154,7 @@ impl Mix32 {
                         // every ray of the segment adds the kept sum.
                         // (None kept in a `compact` build: `hit`.)
                         let kept = hit.and_then(|(t, hit)| {
-                            let (_, mut r) = ray_at(lo)?;
+                            let mut r = ray_at(lo)?;
                             (r.t, r.hit) = (t, hit);
                             // (From the segment's cells where the run found
                             // them: `material_at`'s parity.)
@@ -2185,7 +2182,7 @@ impl Mix32 {
                                 }
                                 continue;
                             }
-                            let Some((_, mut r)) = ray_at(h) else {
+                            let Some(mut r) = ray_at(h) else {
                                 continue;
                             };
                             if let MixShape::Rect { n, dist, rz, .. } = shape {
