@@ -2226,8 +2226,9 @@ impl Mix32 {
 
     /// [`Mix32::line_d`]'s traced rays for the aperture point `a` (S18 U,
     /// S24 U; `off` its slope offset): the rays of the pixels `todo` (their
-    /// chief rays in `chief`, their box of slopes `bounds`), every
-    /// primitive's pass, and each hit's shading added to its pixel's sum.
+    /// chief rays in `chief`, the box of their slopes `[x̂_lo, x̂_hi, ŷ_lo,
+    /// ŷ_hi]`), every primitive's pass, and each hit's shading added to its
+    /// pixel's sum.
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn traced_at<L: Lines, const C: usize>(
