@@ -164,6 +164,22 @@ enum Through {
     Only(u8),
 }
 
+/// Pixels of a defocused frame by how the fast aperture loop takes them
+/// ([`Mix32::aperture_classes`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ApertureClasses {
+    /// Pixels looked at.
+    pub pixels: u32,
+    /// Of those, in the lens field (the others are flagged).
+    pub field: u32,
+    /// Of those, traced through every primitive at every aperture point.
+    pub traced: u32,
+    /// Of those, tested against one rectangle alone at every aperture
+    /// point (its cells found along a run: `Through::Only`). The rest of
+    /// the field take their chief ray's sum, or the background's.
+    pub only: u32,
+}
+
 /// [`MixPrim::spread`] and [`MixPrim::depth`] of primitive `p` through an
 /// aperture of radius `r` focused at `Z̃` (metres), for a frame of unit `U
 /// = 2^e`. The aperture ray from `A` (`|A| ≤ r`, `A_z = 0`) through the
@@ -2374,31 +2390,37 @@ impl Mix32 {
         }
     }
 
-    /// The pixels of the frame whose aperture rays `Mix32::line_d`
-    /// traces (the others' are one sum: `Mix32::uniform`), of those in
-    /// the field; `None` without defocus. (Every one where the rule is
-    /// off: [`Mix32::trace_every_aperture_ray`].)
-    pub fn aperture_traced(&self, height: u16) -> Option<(u32, u32)> {
+    /// How `Mix32::line_d` takes the pixels of every `stride`-th row and
+    /// column (1: every pixel): [`ApertureClasses`]; `None` without
+    /// defocus. (Every one traced where the rule is off:
+    /// [`Mix32::trace_every_aperture_ray`].)
+    pub fn aperture_classes(&self, height: u16, stride: u16) -> Option<ApertureClasses> {
         let ap = self.aperture.as_ref()?;
-        let on = self.uniform_on;
-        let (mut traced, mut field) = (0, 0);
-        for j in 0..height {
+        let stride = stride.max(1);
+        let mut n = ApertureClasses::default();
+        for j in (0..height).step_by(stride as usize) {
             let (yd, mut acc) = (self.yd(j), self.x0);
-            for _ in 0..self.width {
+            for i in 0..self.width {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
+                if i % stride != 0 {
+                    continue;
+                }
+                n.pixels += 1;
                 if let Some((x, y)) = self.undistort(xd, yd, wmul(yd, yd)) {
-                    field += 1;
-                    let through = if on {
-                        self.uniform(ap, &Ray::new::<true>(x, y, 0))
-                    } else {
-                        Through::Traced
-                    };
-                    traced += u32::from(matches!(through, Through::Traced | Through::Only(_)));
+                    n.field += 1;
+                    match self
+                        .uniform_on
+                        .then(|| self.uniform(ap, &Ray::new::<true>(x, y, 0)))
+                    {
+                        Some(Through::Background | Through::One(_)) => {}
+                        Some(Through::Only(_)) => n.only += 1,
+                        Some(Through::Traced) | None => n.traced += 1,
+                    }
                 }
             }
         }
-        Some((traced, field))
+        Some(n)
     }
 
     /// [`Mix32::radiance`] out of line: one copy of the shading serves the

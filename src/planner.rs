@@ -302,6 +302,76 @@ fn prepares<const T: usize>(
 /// within half the geometric budget has both ray models among its
 /// candidates; through the aperture, rays are perspective.
 pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
+    let p = plan_with(scene, budget, Shares::TRACED);
+    // Through the aperture, the fast loop traces only some pixels' rays:
+    // the shares of its frame's pixels, then the candidates again with
+    // them (the first plan's options are that frame's). Not in a `compact`
+    // build (the driven camera: its planning stack and flash, 0.7 KB and
+    // 8 KB on the M0), which predicts every pixel traced: the same
+    // choice, at a higher predicted cost.
+    #[cfg(all(feature = "mix32", not(feature = "compact")))]
+    if p.options.aperture > 0
+        && p.candidates
+            .iter()
+            .any(|c| c.arithmetic == Arithmetic::Fast && c.fits.is_ok())
+    {
+        if let Some(shares) = aperture_shares(scene, &p.options) {
+            return plan_with(scene, budget, shares);
+        }
+    }
+    p
+}
+
+/// Through the aperture, the shares of the frame's pixels whose aperture
+/// rays the fast loop traces through every primitive and tests against
+/// one rectangle alone ([`Samples::traced`], [`Samples::only`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Shares {
+    traced: f64,
+    only: f64,
+}
+
+impl Shares {
+    /// Every pixel's rays traced: the wide arithmetic's loop, and the
+    /// pinhole's.
+    const TRACED: Shares = Shares {
+        traced: 1.0,
+        only: 0.0,
+    };
+}
+
+/// Every `APERTURE_STRIDE`-th row and column of a defocused frame is
+/// classified for [`Shares`] (a 160×120 frame: 1 200 pixels).
+pub const APERTURE_STRIDE: u16 = 4;
+
+/// [`Shares`] of `scene` rendered with `opts` in the fast arithmetic (its
+/// polynomial distortion: the table is not the frame's to choose here),
+/// from the frame's own rule (`mix32::Mix32::aperture_classes`) on every
+/// [`APERTURE_STRIDE`]-th row and column; `None` where that frame does
+/// not prepare or has no aperture. Out of line: the frame is not on the
+/// stack while the planner's geometry is.
+#[cfg(all(feature = "mix32", not(feature = "compact")))]
+#[inline(never)]
+fn aperture_shares(scene: &Scene, opts: &Options) -> Option<Shares> {
+    let opts = Options {
+        arithmetic: Arithmetic::Fast,
+        distortion_eval: DistortionEval::Polynomial,
+        lut_entries: 2,
+        ..*opts
+    };
+    let mut frame = crate::render::Frame::<crate::scene::Q, 2>::empty();
+    frame.prepare(scene, &opts).ok()?;
+    let c = frame.aperture_classes(APERTURE_STRIDE)?;
+    let n = f64::from(c.pixels.max(1));
+    Some(Shares {
+        traced: f64::from(c.traced) / n,
+        only: f64::from(c.only) / n,
+    })
+}
+
+/// [`plan`] with the fast arithmetic's aperture `shares`.
+#[inline(never)]
+fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan {
     let cam = &scene.camera;
     let half = budget.max_geom_err_px / 2.0;
     let (first, wp) = ray_model_and_bound(scene, budget);
@@ -336,7 +406,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
         model_candidates(
             scene,
             &g,
-            (model, df, terms),
+            (model, df, terms, shares),
             (samples, adaptive),
             half,
             budget,
@@ -396,7 +466,9 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let (terms, df) = per_model
         .iter()
         .find(|m| m.0 == model)
-        .map_or((Samples::ONE, Defocus::NONE), |m| (m.1, m.2));
+        .map_or((Samples::ONE, Defocus::NONE), |m| {
+            (m.1.with(c.arithmetic, shares), m.2)
+        });
     let wp_used =
         matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
     let meets = c.meets(budget) && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
@@ -433,7 +505,7 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
 fn model_candidates(
     scene: &Scene,
     g: &Geometry,
-    (model, df, terms): (RenderModel, Defocus, Samples),
+    (model, df, terms, shares): (RenderModel, Defocus, Samples, Shares),
     (samples, adaptive): (u8, bool),
     half: f64,
     budget: &Budget,
@@ -510,7 +582,7 @@ fn model_candidates(
             };
             let cost_model = CostModel::of(arithmetic);
             let one = cost_model.predict(&Features::of(scene, g, distortion, closed, closed_mean));
-            let cost = cost_model.samples.cost(one, &terms);
+            let cost = cost_model.samples.cost(one, &terms.with(arithmetic, shares));
             let _ = cands.push(Candidate {
                 model,
                 arithmetic,
@@ -2511,6 +2583,19 @@ pub struct Samples {
     pub corners: f64,
     /// Aperture points each sample is lit through (0: the chief ray).
     pub aperture: f64,
+    /// Through the aperture, the share of the pixels whose rays are traced
+    /// through every primitive at every point (1 in the wide arithmetic;
+    /// in the fast one, from its frame: `mix32::Mix32::aperture_classes`)...
+    #[serde(default = "all")]
+    pub traced: f64,
+    /// ... and of those tested against one rectangle alone (the fast
+    /// loop's). The rest take their chief ray's sum.
+    #[serde(default)]
+    pub only: f64,
+}
+
+fn all() -> f64 {
+    1.0
 }
 
 impl Samples {
@@ -2519,18 +2604,42 @@ impl Samples {
         grid: 1.0,
         corners: 0.0,
         aperture: 0.0,
+        traced: 1.0,
+        only: 0.0,
     };
+
+    /// These terms for `arithmetic`, with the fast loop's aperture
+    /// `shares` (the wide loop traces every ray).
+    fn with(self, arithmetic: Arithmetic, shares: Shares) -> Samples {
+        let s = match arithmetic {
+            Arithmetic::Fast if self.aperture > 0.0 => shares,
+            _ => Shares::TRACED,
+        };
+        Samples {
+            traced: s.traced,
+            only: s.only,
+            ..self
+        }
+    }
 
     /// The terms of `scene` rendered with `opts` (what `host-sim costfit`
     /// records with each measurement).
     pub fn of_options(scene: &Scene, opts: &Options) -> Samples {
-        Samples::of(
+        let s = Samples::of(
             scene,
             &Geometry::of(scene, opts.model),
             opts.samples,
             opts.adaptive,
             opts.aperture,
-        )
+        );
+        #[cfg(all(feature = "mix32", not(feature = "compact")))]
+        let shares = match opts.arithmetic {
+            Arithmetic::Fast if opts.aperture > 0 => aperture_shares(scene, opts).unwrap_or(Shares::TRACED),
+            _ => Shares::TRACED,
+        };
+        #[cfg(not(all(feature = "mix32", not(feature = "compact"))))]
+        let shares = Shares::TRACED;
+        s.with(opts.arithmetic, shares)
     }
 
     fn of(scene: &Scene, g: &Geometry, n: u8, adaptive: bool, aperture: u16) -> Samples {
@@ -2544,16 +2653,19 @@ impl Samples {
             grid,
             corners,
             aperture: f64::from(aperture),
+            ..Samples::ONE
         }
     }
 
     /// As arrays, in [`SampleCost`]'s order: the grid's terms (1 on every
-    /// pixel, 1 with the adaptive rule, samples) and the aperture's (1,
-    /// points).
-    pub fn terms(&self) -> ([f64; 3], [f64; 2]) {
+    /// pixel, 1 with the adaptive rule, samples) and the aperture's (1 and
+    /// points times the share traced, which multiply the grid's cost;
+    /// points times the share tested against one rectangle, and points).
+    pub fn terms(&self) -> ([f64; 3], [f64; 4]) {
+        let m = self.aperture;
         (
             [1.0 - self.corners, self.corners, self.grid],
-            [1.0, self.aperture],
+            [1.0, m * self.traced, m * self.only, m],
         )
     }
 }
@@ -2565,16 +2677,23 @@ impl Samples {
 /// loop's own work a pixel and the corner looks, much the same whatever
 /// the scene; per sample, the scene's cost in a loop that neither mirrors
 /// rays nor shades a plane in closed form), times the aperture's
-/// `aperture[0] + aperture[1] · points`; `one` for one sample through the
-/// pinhole. Fitted per arithmetic by `host-sim costfit` to QEMU counts of
+/// `aperture[0] + aperture[1] · points · traced`, plus `points ·
+/// (aperture[2] · only + aperture[3])` instructions a sample (`traced`,
+/// `only`: the shares of the pixels whose rays are traced through every
+/// primitive, and tested against one rectangle alone, [`Samples`]; a
+/// traced ray costs as the scene's content, a ray against one rectangle
+/// and a point's own work the same whatever the scene); `one` for one
+/// sample through the pinhole. Fitted per arithmetic by `host-sim costfit` to QEMU counts of
 /// calibration scenes rendered with sample grids and aperture points.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleCost {
     /// The grid's constant on every pixel and with the adaptive rule (M3
     /// instructions a pixel), and its cost per sample (times one sample's).
     pub grid: [f64; 3],
-    /// The aperture's constant and per point (times the grid's cost).
-    pub aperture: [f64; 2],
+    /// The aperture's constant and per point of a pixel traced (times the
+    /// grid's cost); per point of a pixel tested against one rectangle,
+    /// and per point of every pixel (M3 instructions a sample).
+    pub aperture: [f64; 4],
 }
 
 impl SampleCost {
@@ -2583,7 +2702,7 @@ impl SampleCost {
     /// costfit`'s first step, which predicts one sample only).
     pub const ONE: SampleCost = SampleCost {
         grid: [0.0, 0.0, 1.0],
-        aperture: [1.0, 0.0],
+        aperture: [1.0, 0.0, 0.0, 0.0],
     };
 
     /// The cost of `s`, M3 instructions a pixel, for one sample's `one`.
@@ -2615,12 +2734,12 @@ impl SampleCost {
         } else {
             (dot(&self.grid, &[g[0], g[1]]), self.grid[2] * g[2])
         };
-        let aperture = if s.aperture == 0.0 {
-            1.0
-        } else {
-            dot(&self.aperture, &a)
-        };
-        (fixed * aperture, per_one * aperture)
+        if s.aperture == 0.0 {
+            return (fixed, per_one);
+        }
+        let [a0, a1, a2, a3] = self.aperture;
+        let k = a0 * a[0] + a1 * a[1];
+        (fixed * k + (a2 * a[2] + a3 * a[3]) * s.grid, per_one * k)
     }
 }
 
@@ -2661,7 +2780,7 @@ pub const FAST_COST: CostModel = CostModel {
     ],
     samples: SampleCost {
         grid: [790.349, 254.211, 0.997],
-        aperture: [0.927, 0.769],
+        aperture: [1.954, 0.626, 75.821, 72.322],
     },
 };
 
@@ -2674,7 +2793,7 @@ pub const WIDE_COST: CostModel = CostModel {
     ],
     samples: SampleCost {
         grid: [941.454, 1966.555, 1.026],
-        aperture: [0.436, 0.874],
+        aperture: [0.483, 0.890, 0.000, 0.000],
     },
 };
 

@@ -1225,14 +1225,14 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         }
     }
 
-    /// Defocus in the fast arithmetic: the pixels in the lens field whose
-    /// aperture rays are traced, and the pixels in the field (the others
-    /// take their chief ray's sum); `None` otherwise.
-    pub fn aperture_traced(&self) -> Option<(u32, u32)> {
+    /// Defocus in the fast arithmetic: how its loop takes the pixels of
+    /// every `stride`-th row and column (traced, tested against one
+    /// rectangle, or one sum); `None` otherwise.
+    #[cfg(feature = "mix32")]
+    pub fn aperture_classes(&self, stride: u16) -> Option<crate::mix32::ApertureClasses> {
         match &self.path {
             Path::Wide(_) => None,
-            #[cfg(feature = "mix32")]
-            Path::Fast(m) => m.aperture_traced(self.height),
+            Path::Fast(m) => m.aperture_classes(self.height, stride),
         }
     }
 

@@ -943,7 +943,8 @@ fn an_oblique_checkered_rectangle_is_not_under_predicted() {
 
 /// `SampleCost::factor` recovers what `SampleCost::cost` made of one
 /// sample's cost (the plan reports it): for every committed model, grids
-/// on every pixel and adaptive, with and without the aperture.
+/// on every pixel and adaptive, with and without the aperture (its pixels
+/// all traced, and by kind).
 #[test]
 fn sample_factor_inverts_sample_cost() {
     use hilcam::planner::{Samples, FAST_COST, WIDE_COST};
@@ -953,21 +954,32 @@ fn sample_factor_inverts_sample_cost() {
             grid: 16.0,
             corners: 0.0,
             aperture: 0.0,
+            ..Samples::ONE
         },
         Samples {
             grid: 2.09,
             corners: 1.0,
             aperture: 0.0,
+            ..Samples::ONE
         },
         Samples {
             grid: 1.0,
             corners: 0.0,
             aperture: 64.0,
+            ..Samples::ONE
         },
         Samples {
             grid: 3.5,
             corners: 1.0,
             aperture: 16.0,
+            ..Samples::ONE
+        },
+        // Through the aperture, the fast loop's pixels by kind.
+        Samples {
+            aperture: 64.0,
+            traced: 0.12,
+            only: 0.37,
+            ..Samples::ONE
         },
     ];
     for model in [FAST_COST, WIDE_COST] {

@@ -76,7 +76,20 @@ const SAMPLED_SCENES: [&str; 6] = [
 const GRIDS: [&str; 4] = ["s2", "s4", "s4-adaptive", "s8-adaptive"];
 /// The calibration scenes rendered again through the aperture (perspective
 /// rays: defocus is the thin lens's).
-const APERTURE_SCENES: [&str; 3] = ["cal-base", "cal-sphere4", "cal-nofloor-mix"];
+const APERTURE_SCENES: [&str; 5] = [
+    "cal-base",
+    "cal-sphere4",
+    "cal-nofloor-mix",
+    "cal-dof-checker",
+    "cal-dof-target",
+];
+/// The calibration scenes measured through the aperture alone (the others
+/// take one sample too): facing checkered rectangles under a directional
+/// light, whose pixels the fast aperture loop takes as one sum or tests
+/// against one rectangle ([`Samples::traced`], [`Samples::only`]) — a
+/// rectangle behind the focus with cells about its blur, and one near the
+/// focus with a small sphere before it.
+const DOF_SCENES: [&str; 2] = ["cal-dof-checker", "cal-dof-target"];
 /// The aperture points they are rendered with.
 const APERTURES: [&str; 2] = ["ap16", "ap64"];
 /// The calibration scenes that weak perspective holds, so that parallel
@@ -410,7 +423,41 @@ pub fn calibration_scenes() -> Vec<(String, String)> {
     spec_list()
         .into_iter()
         .map(|(name, s)| (format!("cal-{name}"), scene_text(&format!("cal-{name}"), &s)))
+        .chain(DOF_SCENES.iter().map(|n| (n.to_string(), dof_text(n))))
         .collect()
+}
+
+/// A [`DOF_SCENES`] scene: shallow-dof's camera (16 mm at f/1.4 on 10 µm
+/// pixels, focused at 1 m), a directional light, and facing checkered
+/// rectangles — at 1.6 m with 8 mm cells (a blur of 3.4 mm on it), or at
+/// 1.05 m with 20 mm cells and a sphere at 0.8 m.
+fn dof_text(name: &str) -> String {
+    let mut t = format!(
+        "name = \"{name}\"\n\n[output]\nformat = \"gray8\"\nexposure = 250.0\n\n[camera]\nwidth = 160\nheight = 120\n\
+         focal_length = 16e-3\npitch = 10e-6\nf_number = 1.4\nfocus_distance = 1.0\ntolerable_blur = 10e-6\n\
+         pose = {{ eye = [0.0, 0.0, -1.0], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0] }}\n\n\
+         [environment]\nambient = 0.1\nbackground = 0.05\n\n[[materials]]\nname = \"white\"\nalbedo = 0.9\n\n\
+         [[materials]]\nname = \"dark\"\nalbedo = 0.15\n\n[[lights]]\nkind = \"directional\"\n\
+         direction = [0.3, 0.4, -1.0]\nirradiance = 5.0\n\n"
+    );
+    let (z, size, cell) = if name.ends_with("checker") {
+        (0.6, [0.3, 0.25], 0.008)
+    } else {
+        (0.05, [0.2, 0.15], 0.02)
+    };
+    let _ = writeln!(
+        t,
+        "[[primitives]]\nkind = \"rectangle\"\nmaterial = \"white\"\ncentre = [0.0, 0.0, {z:.2}]\n\
+         normal = [0.0, 0.0, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [{:.2}, {:.2}]\n\
+         checker = {{ cell = {cell:.3}, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }}\n",
+        size[0], size[1]
+    );
+    if !name.ends_with("checker") {
+        t.push_str(
+            "[[primitives]]\nkind = \"sphere\"\nmaterial = \"white\"\ncentre = [0.01, -0.01, -0.2]\nradius = 0.012\n",
+        );
+    }
+    t
 }
 
 fn scene_text(name: &str, s: &Spec) -> String {
@@ -600,9 +647,8 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
         coef,
         samples: SampleCost::ONE,
     };
-    // A sampled point's one-sample prediction, and its measured cost over it.
+    // A point's one-sample prediction.
     let one = |p: &Point| base.predict_terms(&p.features);
-    let ratio = |p: &Point| p.measured / one(p);
     // The grid's terms (its constants, its samples times one sample's
     // prediction), in relative error as the features.
     let grid_rows: Vec<([f64; 3], f64)> = ours()
@@ -613,16 +659,31 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
         })
         .collect();
     let grid = least_squares(&grid_rows, &[0, 1, 2], &GRID_TERMS).map_err(|e| format!("{arithmetic} sample grid: {e}"))?;
-    let ap_rows: Vec<([f64; 2], f64)> = ours()
+    // The aperture's terms, the first two times one sample's prediction,
+    // in relative error as the features.
+    let ap_rows: Vec<([f64; 4], f64)> = ours()
         .filter(|p| p.samples.aperture > 0.0 && p.samples.grid == 1.0 && p.samples.corners == 0.0)
-        .map(|p| (p.samples.terms().1, ratio(p)))
+        .map(|p| {
+            let [c, t, o, m] = p.samples.terms().1;
+            ([c * one(p), t * one(p), o, m].map(|x| x / p.measured), 1.0)
+        })
         .collect();
-    let aperture = least_squares(&ap_rows, &[0, 1], &APERTURE_TERMS).map_err(|e| format!("{arithmetic} aperture: {e}"))?;
+    // The terms in instructions where some point tests one rectangle
+    // alone: the wide loop traces every pixel, whose cost is the
+    // content's (its points' own work scales with it too), and those
+    // stay 0.
+    let singles = ap_rows.iter().any(|(t, _)| t[2] != 0.0);
+    let ap_used: Vec<usize> = if singles { vec![0, 1, 2, 3] } else { vec![0, 1] };
+    let solved = least_squares(&ap_rows, &ap_used, &APERTURE_TERMS).map_err(|e| format!("{arithmetic} aperture: {e}"))?;
+    let mut aperture = [0.0; 4];
+    for (&i, c) in ap_used.iter().zip(solved) {
+        aperture[i] = c;
+    }
     Ok(CostModel {
         coef,
         samples: SampleCost {
             grid: [grid[0], grid[1], grid[2]],
-            aperture: [aperture[0], aperture[1]],
+            aperture,
         },
     })
 }
@@ -661,7 +722,12 @@ pub const GRID_TERMS: [&str; 3] = [
     "grid, per sample (x one sample)",
 ];
 /// The names of [`SampleCost::aperture`]'s terms.
-pub const APERTURE_TERMS: [&str; 2] = ["aperture constant", "aperture points"];
+pub const APERTURE_TERMS: [&str; 4] = [
+    "aperture constant (x one sample)",
+    "aperture points, traced pixels (x one sample)",
+    "aperture points, pixels of one rectangle (instructions)",
+    "aperture points, every pixel (instructions)",
+];
 
 /// The least-squares coefficients of the columns `used` of `rows` (terms,
 /// measured; `names` names the columns), by the normal equations, solved
@@ -760,7 +826,11 @@ pub fn rust_const(name: &str, m: &CostModel) -> String {
 
 /// Runs the calibration on `board`, fits, checks the fit against the
 /// shipped scenes' default path, and writes costfit.json and costfit.md.
-pub fn run(board: Board, out: &Path) -> Result<String, String> {
+///
+/// With `keep` (a calibration file, `docs/cost-calibration.json`), only
+/// the points through the aperture are measured; the others are that
+/// file's.
+pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, String> {
     let mut outputs = crate::output::Outputs::prepare(out)?;
     let work = out.join("work");
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
@@ -785,18 +855,29 @@ pub fn run(board: Board, out: &Path) -> Result<String, String> {
             .collect()
     };
     let mut points = Vec::new();
-    // (mix32-nomean: the closed plane without its mean, beside each scene
-    // planned with it, so that its term is told from the plane's.)
-    let one = parse(&["mix32-poly", "mix32-nomean", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
-    let pinned = pick(&PERSPECTIVE_SCENES);
-    let free: Vec<_> = paths.iter().filter(|p| !pinned.contains(p)).cloned().collect();
-    for (k, batch) in free.chunks(6).enumerate() {
-        measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
+    if let Some(keep) = keep {
+        points = load_calibration(keep)?.points;
+        points.retain(|p| p.samples.aperture == 0.0);
+    } else {
+        // (mix32-nomean: the closed plane without its mean, beside each
+        // scene planned with it, so that its term is told from the
+        // plane's.)
+        let one = parse(&["mix32-poly", "mix32-nomean", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
+        let pinned = pick(&PERSPECTIVE_SCENES);
+        let aperture_only = pick(&DOF_SCENES);
+        let free: Vec<_> = paths
+            .iter()
+            .filter(|p| !pinned.contains(p) && !aperture_only.contains(p))
+            .cloned()
+            .collect();
+        for (k, batch) in free.chunks(6).enumerate() {
+            measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
+        }
+        let persp = parse(&PERSPECTIVE_VARIANTS.map(String::from))?;
+        measure(board, &pinned, &persp, &work.join("perspective"), &mut points)?;
+        let grids = parse(&with(&["mix32", "i32f32"], &GRIDS))?;
+        measure(board, &pick(&SAMPLED_SCENES), &grids, &work.join("sampled"), &mut points)?;
     }
-    let persp = parse(&PERSPECTIVE_VARIANTS.map(String::from))?;
-    measure(board, &pinned, &persp, &work.join("perspective"), &mut points)?;
-    let grids = parse(&with(&["mix32", "i32f32"], &GRIDS))?;
-    measure(board, &pick(&SAMPLED_SCENES), &grids, &work.join("sampled"), &mut points)?;
     let apertures = parse(&with(&["mix32", "i32f32"], &APERTURES))?;
     measure(board, &pick(&APERTURE_SCENES), &apertures, &work.join("aperture"), &mut points)?;
     let cal = Calibration {

@@ -112,9 +112,15 @@ pub struct PlanReport {
     pub aperture_points: u16,
     /// Through the aperture, the share of the pixels in the field whose
     /// aperture rays the fast loop does not trace (their sums are one: the
-    /// chief ray's; `Frame::aperture_traced`). `None` without defocus or
-    /// in the wide arithmetic. The cost model does not count it.
+    /// chief ray's; `Frame::aperture_classes`, every pixel). `None`
+    /// without defocus or in the wide arithmetic.
     pub aperture_spared: Option<f64>,
+    /// Through the aperture, the planner's shares of the pixels whose rays
+    /// the loop traces through every primitive, and tests against one
+    /// rectangle alone (`planner::Samples::traced`, `only`: the frame's rule
+    /// on every `planner::APERTURE_STRIDE`-th row and column), which the
+    /// predicted cost counts; `None` without defocus.
+    pub aperture_shares: Option<[f64; 2]>,
     /// Rays from one the closed plane shades to the next: 2 or 4 where
     /// those between take interpolated sums (`Options::closed_mean`; its
     /// bound is in `predicted_lsb`), 1 without.
@@ -793,8 +799,9 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         predicted_sample_factor: plan.predicted_sample_factor,
         aperture_points: stages.aperture,
         aperture_spared: frame
-            .aperture_traced()
-            .map(|(n, all)| 1.0 - f64::from(n) / f64::from(all.max(1))),
+            .aperture_classes(1)
+            .map(|n| 1.0 - f64::from(n.traced + n.only) / f64::from(n.field.max(1))),
+        aperture_shares: (stages.aperture > 0).then_some([plan.samples.traced, plan.samples.only]),
         closed_mean: plan.options.closed_mean.span(),
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,

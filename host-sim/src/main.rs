@@ -257,6 +257,10 @@ enum Cmd {
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
+        /// Measure only the points through the aperture, and keep the
+        /// others of this calibration file (docs/cost-calibration.json).
+        #[arg(long)]
+        keep: Option<std::path::PathBuf>,
     },
     /// Where a frame's instructions go on a board, by pipeline stage: the
     /// firmware holding the scenes runs in QEMU with its executed blocks
@@ -623,8 +627,9 @@ fn main() -> ExitCode {
             };
             host_sim::tradeoff::run(&cfg, &out)
         })()),
-        Cmd::Costfit { out } => finish(
-            host_sim::hil_cmd::Board::parse("lm3s6965evb").and_then(|b| host_sim::costfit::run(b, &out)),
+        Cmd::Costfit { out, keep } => finish(
+            host_sim::hil_cmd::Board::parse("lm3s6965evb")
+                .and_then(|b| host_sim::costfit::run(b, &out, keep.as_deref())),
         ),
         Cmd::Throughput { scene, frames } => finish((|| {
             if !(1..=10_000).contains(&frames) {

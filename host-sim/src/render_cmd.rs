@@ -104,9 +104,17 @@ pub fn plan_text(p: &PlanReport) -> String {
         ));
         if let Some(spared) = p.aperture_spared {
             s.push_str(&format!(
-                "  pixels whose aperture rays are not traced (one sum, the chief ray's): {:.1} % \
-                 (not in the predicted cost)\n",
+                "  pixels whose aperture rays are not traced (one sum, the chief ray's): {:.1} %\n",
                 100.0 * spared
+            ));
+        }
+        if let Some([traced, only]) = p.aperture_shares {
+            s.push_str(&format!(
+                "  predicted cost's shares: {:.1} % of the pixels traced, {:.1} % tested against one rectangle \
+                 (every {}th row and column)\n",
+                100.0 * traced,
+                100.0 * only,
+                hilcam::planner::APERTURE_STRIDE
             ));
         }
     } else {

@@ -554,9 +554,10 @@ fn spared_pixels_are_the_traced_ones(
         }) else {
             return Ok(());
         };
-        let Some((n, all)) = f.aperture_traced() else {
+        let Some(c) = f.aperture_classes(1) else {
             return Ok(());
         };
+        let (n, all) = (c.traced + c.only, c.field);
         let mut every = f.clone();
         every.trace_every_aperture_ray();
         let (a, b) = (collect(&f).expect("renders"), collect(&every).expect("renders"));
