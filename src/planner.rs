@@ -341,7 +341,8 @@ impl Shares {
 }
 
 /// Every `APERTURE_STRIDE`-th row and column of a defocused frame is
-/// classified for [`Shares`] (a 160×120 frame: 1 200 pixels).
+/// classified for [`Samples::traced`] and [`Samples::only`] (a 160×120
+/// frame: 1 200 pixels).
 pub const APERTURE_STRIDE: u16 = 4;
 
 /// [`Shares`] of `scene` rendered with `opts` in the fast arithmetic (its

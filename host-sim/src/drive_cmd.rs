@@ -5,7 +5,7 @@
 //! the host's render of the same pose, and its truth against the pose sent.
 
 use crate::harness::planned_frame;
-use crate::hil_cmd::{build_firmware_as, spawn_qemu, Board};
+use crate::hil_cmd::{build_firmware_as, spawn_qemu, wait_qemu, Board};
 use crate::link::decoder::{Decoder, Frame, Reply, Stats};
 use crate::scene_file::{load, Resolved};
 use crate::trajectory::{Pose, Trajectory};
@@ -390,6 +390,9 @@ pub struct Probe {
     flash_bytes: u64,
     panic_symbols: Vec<String>,
     seen: std::sync::Arc<(std::sync::atomic::AtomicUsize, std::sync::atomic::AtomicU64)>,
+    /// The firmware's last lines that are not status lines (`firmware
+    /// error: …`, `firmware panic at …`), and whether its output ended.
+    said: std::sync::Arc<std::sync::Mutex<(Vec<String>, bool)>>,
 }
 
 impl Probe {
@@ -401,6 +404,7 @@ impl Probe {
             flash_bytes,
             panic_symbols: crate::hil_cmd::elf_panic_symbols(elf)?,
             seen: Default::default(),
+            said: Default::default(),
         })
     }
 
@@ -408,7 +412,7 @@ impl Probe {
     pub fn spawn(self, stdout: impl Read + Send + 'static) -> Probe {
         use std::io::BufRead;
         use std::sync::atomic::Ordering;
-        let s = self.seen.clone();
+        let (s, said) = (self.seen.clone(), self.said.clone());
         std::thread::spawn(move || {
             for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
                 if let Some(n) = line
@@ -417,10 +421,33 @@ impl Probe {
                 {
                     s.1.fetch_max(n, Ordering::Relaxed);
                     s.0.fetch_add(1, Ordering::Relaxed);
+                } else if line.starts_with("firmware ") {
+                    if let Ok(mut said) = said.lock() {
+                        if said.0.len() == 4 {
+                            said.0.remove(0);
+                        }
+                        said.0.push(line);
+                    }
                 }
+            }
+            if let Ok(mut said) = said.lock() {
+                said.1 = true;
             }
         });
         self
+    }
+
+    /// The firmware's last error or panic lines, once its output has ended
+    /// (1 s at most): what a camera that closed the link said.
+    pub fn last_words(&self) -> Vec<String> {
+        let t = Instant::now();
+        loop {
+            match self.said.lock() {
+                Ok(s) if s.1 || t.elapsed() >= Duration::from_secs(1) => return s.0.clone(),
+                Err(_) => return Vec::new(),
+                _ => std::thread::sleep(Duration::from_millis(10)),
+            }
+        }
     }
 
     /// The deepest stack use once `frames` status lines have arrived (or
@@ -719,10 +746,33 @@ pub fn drive_target(
                 let reader = stream.try_clone().map_err(|e| e.to_string())?;
                 run(Box::new(reader), Box::new(stream), board.machine(), Some(128.0), probe.as_ref())
             });
+            // A camera that closed the link: what it said (a panic, an
+            // error), once QEMU has exited.
+            let status = result.is_err().then(|| wait_qemu(&mut child, Duration::from_secs(2)));
             let _ = child.kill();
             let _ = child.wait();
+            let mut stderr = String::new();
+            if let (Some(Ok(_)), Some(mut e)) = (&status, child.stderr.take()) {
+                let _ = e.read_to_string(&mut stderr);
+            }
             let _ = std::fs::remove_dir_all(&dir);
-            result
+            result.map_err(|e| {
+                let words = probe.as_ref().map(Probe::last_words).unwrap_or_default();
+                let exit = match status {
+                    // (Its message first: a fatal error's register dump
+                    // follows it.)
+                    Some(Ok(s)) => match stderr.lines().find(|l| !l.trim().is_empty() && !l.contains("info:")) {
+                        Some(l) => format!("; QEMU exited: {s} ({})", l.trim()),
+                        None => format!("; QEMU exited: {s}"),
+                    },
+                    _ => String::new(),
+                };
+                if words.is_empty() {
+                    format!("{e}{exit}")
+                } else {
+                    format!("{e}{exit}; the firmware said: {}", words.join(" / "))
+                }
+            })
         }
     }
 }
