@@ -73,7 +73,7 @@ impl<'a> Carry<'a> {
         Carry {
             corners: Corners::new(keys),
             #[cfg(feature = "mix32")]
-            chunk: Default::default(),
+            chunk: crate::mix32::ChunkBufs::EMPTY,
         }
     }
 }
