@@ -1340,7 +1340,7 @@ impl Mix32 {
                             xd
                         },
                         (yd, yd2),
-                        true,
+                        (true, true),
                     ),
                 };
             }
@@ -1396,7 +1396,7 @@ impl Mix32 {
         x: i64,
         step: i64,
         (yd, yd2): (i32, i64),
-        keep_c4: bool,
+        (keep_c4, ra): (bool, bool),
     ) {
         let mut acc = x;
         let xd = || {
@@ -1404,21 +1404,23 @@ impl Mix32 {
             acc -= step;
             xd
         };
-        let (ys, outside) = self.rays::<PERSP>(rays, xd, (yd, yd2), keep_c4);
+        let (ys, outside) = self.rays::<PERSP>(rays, xd, (yd, yd2), (keep_c4, ra));
         let _ = self.passes::<PERSP, false>(rays, ys, outside, None);
     }
 
     /// [`fill_rays`] of a row of slopes (`ŷ_d` fixed) with this frame's
     /// undistortion (a frame without distortion has a loop without its
     /// test). With `keep_c4`, each ray's `cos⁴α` ([`Ray::c4`], for
-    /// [`Mix32::c4`]).
+    /// [`Mix32::c4`]); without `ra`, on the M0, perspective rays without
+    /// their `1/a` ([`Ray::flat`]: rays that are not shaded, in a frame
+    /// without a sphere).
     #[inline(always)]
     fn rays<const PERSP: bool>(
         &self,
         rays: &mut [Ray],
         xd: impl FnMut() -> i32,
         row: (i32, i64),
-        keep_c4: bool,
+        (keep_c4, ra): (bool, bool),
     ) -> ([i32; 2], bool) {
         let korigin = self.parallel.unwrap_or(0);
         let vignette = keep_c4 && self.vignetting;
@@ -1433,7 +1435,7 @@ impl Mix32 {
                 xd,
                 row,
                 |xd, yd, yd2| undistort_k(k, self.limit, xd, yd, yd2),
-                (vignette, mono && k[0] >= 0 && k[1] >= 0, || {
+                (vignette, ra, mono && k[0] >= 0 && k[1] >= 0, || {
                     undistort_k(k, self.limit, 0, row.0, row.1).map(|(_, y)| y)
                 }),
             ),
@@ -1443,7 +1445,7 @@ impl Mix32 {
                 xd,
                 row,
                 |xd, yd, _| Some((xd, yd)),
-                (vignette, mono, || Some(row.0)),
+                (vignette, ra, mono, || Some(row.0)),
             ),
         }
     }
@@ -2501,6 +2503,13 @@ impl Mix32 {
             (false, None)
         };
         let stored = keys.is_some();
+        // The corners' rays are not shaded: on the M0, their `1/a` only
+        // where a sphere's pass reads it ([`fill_rays`]).
+        let ra = !crate::num::ARMV6M
+            || self
+                .prims
+                .iter()
+                .any(|p| matches!(p.shape, MixShape::Sphere { .. }));
         // Column 0's key, and the chunks' right columns (as many as pixels,
         // chunked as they are).
         let (key0, mut key_chunks) = match keys {
@@ -2524,11 +2533,11 @@ impl Mix32 {
                 let t = match (carried, key0.as_deref()) {
                     (true, Some(k)) => Key(*k),
                     _ => {
-                        self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top, false);
+                        self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, top, (false, ra));
                         r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r))
                     }
                 };
-                self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, bottom, false);
+                self.trace_row::<PERSP>(r, self.x0 + hx, self.dx, bottom, (false, ra));
                 let b = r.first().map_or(Key::OUTSIDE, |r| self.key::<PERSP>(r));
                 if let Some(k) = key0 {
                     *k = b.0;
@@ -2554,12 +2563,12 @@ impl Mix32 {
                 // M3 instructions a pixel.)
                 let read = carried && chunk_keys.is_some();
                 if !read {
-                    self.trace_row::<PERSP>(rays, x - hx, self.dx, top, false);
+                    self.trace_row::<PERSP>(rays, x - hx, self.dx, top, (false, ra));
                     for (c, r) in corners.iter_mut().zip(rays.iter()) {
                         *c = self.key::<PERSP>(r);
                     }
                 }
-                self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom, false);
+                self.trace_row::<PERSP>(rays, x - hx, self.dx, bottom, (false, ra));
                 // (Two loops, not one storing where it has a buffer: a test a
                 // ray cost calibration-board 10 M3 instructions a pixel.)
                 // A pixel's corners agree if its top and bottom right ones
@@ -2588,7 +2597,7 @@ impl Mix32 {
                     }
                 }
                 // Centres: their own sample where the corners agree with it.
-                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), KEEP_C4_SAMPLED);
+                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), (KEEP_C4_SAMPLED, true));
                 for (q, ((r, c), (out, flag))) in rays
                     .iter()
                     .zip(&corners)
@@ -2669,7 +2678,13 @@ impl Mix32 {
         let step = self.dx >> log_n;
         for b in 0..n {
             let yd = ((yc - off_y(b)) >> 38) as i32;
-            self.trace_row::<PERSP>(row, xc - off_x(0), step, (yd, wmul(yd, yd)), KEEP_C4_SAMPLED);
+            self.trace_row::<PERSP>(
+                row,
+                xc - off_x(0),
+                step,
+                (yd, wmul(yd, yd)),
+                (KEEP_C4_SAMPLED, true),
+            );
             for r in row.iter() {
                 if r.t == 0 {
                     return None;

@@ -471,7 +471,9 @@ pub(super) fn undistort_k([k1, k2]: [i32; 2], limit: i32, xd: i32, yd: i32, yd2:
 /// Fills `rays` with the rays of a row's distorted slopes `(x̂_d, ŷ_d)`,
 /// `x̂_d = xd()` for each ray in turn and `(ŷ_d, ŷ_d²)` fixed (S26, S26,
 /// S52), undistorted by `undistort` (`korigin`: [`Ray::new`]'s `k`; with
-/// `vignette`, each ray's [`Ray::c4`]): the rays' `[ŷ_lo, ŷ_hi]` (rays
+/// `vignette`, each ray's [`Ray::c4`]; without `ra`, on the M0,
+/// perspective rays without their `1/a`, [`Ray::flat`]): the rays'
+/// `[ŷ_lo, ŷ_hi]` (rays
 /// outside the field count as 0) and whether any is outside the field.
 /// ([`Mix32::passes`] takes `x̂`'s range from the chunk's ends.)
 ///
@@ -488,11 +490,17 @@ pub(super) fn fill_rays<const PERSP: bool>(
     mut xd: impl FnMut() -> i32,
     (yd, yd2): (i32, i64),
     undistort: impl Fn(i32, i32, i64) -> Option<(i32, i32)>,
-    (vignette, mono, centre): (bool, bool, impl FnOnce() -> Option<i32>),
+    (vignette, ra, mono, centre): (bool, bool, bool, impl FnOnce() -> Option<i32>),
 ) -> ([i32; 2], bool) {
     let mut outside = false;
+    let _ = ra;
     for r in rays.iter_mut() {
         *r = match undistort(xd(), yd, yd2) {
+            // (Without `1/a`: rays no sphere's pass and no `cos⁴α` reads.
+            // On the M0 alone: elsewhere the arm, though never taken, moved
+            // the loops' layout, `Mix32::trace_row`.)
+            #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+            Some((x, y)) if PERSP && !ra => Ray::flat(x, y),
             Some((x, y)) => Ray::new::<PERSP>(x, y, korigin).with_c4(vignette),
             None => {
                 outside = true;

@@ -595,7 +595,7 @@ fn ray_lanes_are_fill_rays() {
                     xd,
                     (yd, yd2),
                     |x, y, y2| undistort_k(k, limit, x, y, y2),
-                    (vignette, mono, || {
+                    (vignette, true, mono, || {
                         undistort_k(k, limit, 0, yd, yd2).map(|(_, y)| y)
                     }),
                 ),
@@ -605,7 +605,7 @@ fn ray_lanes_are_fill_rays() {
                     xd,
                     (yd, yd2),
                     |x, y, _| Some((x, y)),
-                    (vignette, mono, || Some(yd)),
+                    (vignette, true, mono, || Some(yd)),
                 ),
             };
             if !mono {
