@@ -427,18 +427,50 @@ pub fn calibration_scenes() -> Vec<(String, String)> {
         .collect()
 }
 
+/// A target scene's camera: focal length, pixel pitch (metres), f-number,
+/// focus distance (metres; the camera there, looking along the world's z
+/// axis at the origin).
+struct Lens {
+    f: f64,
+    pitch: f64,
+    n: f64,
+    focus: f64,
+}
+
+/// A target scene's text up to its primitives: gray8 at `exposure`, 160×120
+/// through `lens` (a pixel's blur tolerated), `ambient` and a background
+/// of 0.05, a white material (0.9) and a dark one (`dark`), and one
+/// directional light of 5 W/m² along `light`.
+fn facing_head(name: &str, exposure: f64, lens: Lens, (ambient, dark): (f64, f64), light: [f64; 3]) -> String {
+    let Lens { f, pitch, n, focus } = lens;
+    let [lx, ly, lz] = light;
+    format!(
+        "name = \"{name}\"\n\n[output]\nformat = \"gray8\"\nexposure = {exposure:?}\n\n[camera]\nwidth = 160\n\
+         height = 120\nfocal_length = {f:?}\npitch = {pitch:?}\nf_number = {n:?}\nfocus_distance = {focus:?}\n\
+         tolerable_blur = {pitch:?}\npose = {{ eye = [0.0, 0.0, {:?}], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0] }}\n\n\
+         [environment]\nambient = {ambient:?}\nbackground = 0.05\n\n[[materials]]\nname = \"white\"\nalbedo = 0.9\n\n\
+         [[materials]]\nname = \"dark\"\nalbedo = {dark:?}\n\n[[lights]]\nkind = \"directional\"\n\
+         direction = [{lx:?}, {ly:?}, {lz:?}]\nirradiance = 5.0\n\n",
+        -focus
+    )
+}
+
 /// A [`DOF_SCENES`] scene: shallow-dof's camera (16 mm at f/1.4 on 10 µm
 /// pixels, focused at 1 m), a directional light, and facing checkered
 /// rectangles — at 1.6 m with 8 mm cells (a blur of 3.4 mm on it), or at
 /// 1.05 m with 20 mm cells and a sphere at 0.8 m.
 fn dof_text(name: &str) -> String {
-    let mut t = format!(
-        "name = \"{name}\"\n\n[output]\nformat = \"gray8\"\nexposure = 250.0\n\n[camera]\nwidth = 160\nheight = 120\n\
-         focal_length = 16e-3\npitch = 10e-6\nf_number = 1.4\nfocus_distance = 1.0\ntolerable_blur = 10e-6\n\
-         pose = {{ eye = [0.0, 0.0, -1.0], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0] }}\n\n\
-         [environment]\nambient = 0.1\nbackground = 0.05\n\n[[materials]]\nname = \"white\"\nalbedo = 0.9\n\n\
-         [[materials]]\nname = \"dark\"\nalbedo = 0.15\n\n[[lights]]\nkind = \"directional\"\n\
-         direction = [0.3, 0.4, -1.0]\nirradiance = 5.0\n\n"
+    let mut t = facing_head(
+        name,
+        250.0,
+        Lens {
+            f: 16e-3,
+            pitch: 10e-6,
+            n: 1.4,
+            focus: 1.0,
+        },
+        (0.1, 0.15),
+        [0.3, 0.4, -1.0],
     );
     let (z, size, cell) = if name.ends_with("checker") {
         (0.6, [0.3, 0.25], 0.008)
@@ -589,15 +621,22 @@ fn scene_text(name: &str, s: &Spec) -> String {
 }
 
 fn far_text(name: &str, discs: usize, spheres: usize) -> String {
-    let mut t = format!(
-        "name = \"{name}\"\n\n[output]\nformat = \"gray8\"\nexposure = 2000.0\n\n[camera]\nwidth = 160\nheight = 120\n\
-         focal_length = 25e-3\npitch = 8e-6\nf_number = 4.0\nfocus_distance = 20.0\ntolerable_blur = 8e-6\n\
-         pose = {{ eye = [0.0, 0.0, -20.0], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0] }}\n\n\
-         [environment]\nambient = 0.05\nbackground = 0.05\n\n[[materials]]\nname = \"white\"\nalbedo = 0.9\n\n\
-         [[materials]]\nname = \"dark\"\nalbedo = 0.1\n\n[[lights]]\nkind = \"directional\"\n\
-         direction = [0.2, 0.1, -1.0]\nirradiance = 5.0\n\n[[primitives]]\nkind = \"rectangle\"\nmaterial = \"white\"\n\
-         centre = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [0.8, 0.6]\n\
-         checker = {{ cell = 0.1, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }}\n\n"
+    let mut t = facing_head(
+        name,
+        2000.0,
+        Lens {
+            f: 25e-3,
+            pitch: 8e-6,
+            n: 4.0,
+            focus: 20.0,
+        },
+        (0.05, 0.1),
+        [0.2, 0.1, -1.0],
+    );
+    t.push_str(
+        "[[primitives]]\nkind = \"rectangle\"\nmaterial = \"white\"\ncentre = [0.0, 0.0, 0.0]\n\
+         normal = [0.0, 0.0, -1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [0.8, 0.6]\n\
+         checker = { cell = 0.1, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }\n\n",
     );
     for k in 0..discs {
         let _ = writeln!(
