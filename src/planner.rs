@@ -306,9 +306,10 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     // Through the aperture, the fast loop traces only some pixels' rays:
     // the shares of its frame's pixels, then the candidates again with
     // them (the first plan's options are that frame's). Not in a `compact`
-    // build (the driven camera: its planning stack and flash, 0.7 KB and
-    // 8 KB on the M0), which predicts every pixel traced: the same
-    // choice, at a higher predicted cost.
+    // build (the driven camera: on the M0 it took 548 B more of its
+    // planning stack and 7 872 B of flash, a second frame type), which
+    // predicts every pixel traced: the same choice, at a higher predicted
+    // cost.
     #[cfg(all(feature = "mix32", not(feature = "compact")))]
     if p.options.aperture > 0
         && p.candidates
@@ -2595,6 +2596,8 @@ pub struct Samples {
     pub only: f64,
 }
 
+/// [`Samples::traced`] where a calibration file has none (written before
+/// it): every pixel traced.
 fn all() -> f64 {
     1.0
 }
@@ -2684,8 +2687,9 @@ impl Samples {
 /// primitive, and tested against one rectangle alone, [`Samples`]; a
 /// traced ray costs as the scene's content, a ray against one rectangle
 /// and a point's own work the same whatever the scene); `one` for one
-/// sample through the pinhole. Fitted per arithmetic by `host-sim costfit` to QEMU counts of
-/// calibration scenes rendered with sample grids and aperture points.
+/// sample through the pinhole. Fitted per arithmetic by `host-sim
+/// costfit` to QEMU counts of calibration scenes rendered with sample
+/// grids and aperture points.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleCost {
     /// The grid's constant on every pixel and with the adaptive rule (M3

@@ -324,6 +324,22 @@ fn the_fast_aperture_loop_on_the_shallow_scene() {
     let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |o| o).expect("prepares");
     assert_eq!(f.line_loop(), LineLoop::FastGrayAperture);
     assert_eq!(plan.options.arithmetic, Arithmetic::Fast);
+    // The predicted cost counts the loop's pixels by kind: the plan's
+    // shares are its frame's, every `APERTURE_STRIDE`-th row and column
+    // (about half of the scene's pixels are one sum).
+    let k = f
+        .aperture_classes(hilcam::planner::APERTURE_STRIDE)
+        .expect("defocused");
+    let n = f64::from(k.pixels);
+    assert_eq!(
+        (plan.samples.traced, plan.samples.only),
+        (f64::from(k.traced) / n, f64::from(k.only) / n)
+    );
+    assert!(
+        plan.samples.traced + plan.samples.only < 0.6,
+        "{:?}",
+        plan.samples
+    );
     let c = plan.candidates.get(plan.chosen).expect("the chosen candidate");
     let out = host_sim::harness::render(&r, &Budget::default()).expect("renders");
     let m = &out.metrics;
