@@ -380,10 +380,11 @@ pub struct ChunkBufs {
 }
 
 impl ChunkBufs {
-    /// All zero, as one constant: built in place (zeroed where it lies),
-    /// where `Default`'s field by field built the rays, then the buffers,
-    /// then the carry each in a temporary of its own and copied them on
-    /// (4.8 KB of `render_carried`'s stack for its 1.8 KB).
+    /// All zero, as one constant: zeroed where it lies. Built field by
+    /// field (`#[derive(Default)]`), the rays, then the buffers, then the
+    /// carry each took a temporary of their own and were copied on: in the
+    /// M0 camera's build (`compact`, opt-level "z") `render_carried`'s
+    /// frame was 4 996 B for these 1.8 KB (now 1 976 B).
     pub const EMPTY: ChunkBufs = ChunkBufs {
         rays: Rays::EMPTY,
         words: [0; CHUNK],
