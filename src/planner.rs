@@ -305,22 +305,35 @@ pub fn plan(scene: &Scene, budget: &Budget) -> Plan {
     let p = plan_with(scene, budget, Shares::TRACED);
     // Through the aperture, the fast loop traces only some pixels' rays:
     // the shares of its frame's pixels, then the candidates again with
-    // them (the first plan's options are that frame's). Not in a `compact`
-    // build (the driven camera: on the M0 it took 548 B more of its
-    // planning stack and 7 872 B of flash, a second frame type), which
-    // predicts every pixel traced: the same choice, at a higher predicted
-    // cost.
-    #[cfg(all(feature = "mix32", not(feature = "compact")))]
-    if p.options.aperture > 0
-        && p.candidates
-            .iter()
-            .any(|c| c.arithmetic == Arithmetic::Fast && c.fits.is_ok())
+    // them (the first plan's options are that frame's).
+    if p.candidates
+        .iter()
+        .any(|c| c.arithmetic == Arithmetic::Fast && c.fits.is_ok())
     {
-        if let Some(shares) = aperture_shares(scene, &p.options) {
+        let shares = fast_shares(scene, &p.options);
+        if shares != Shares::TRACED {
             return plan_with(scene, budget, shares);
         }
     }
     p
+}
+
+/// The [`Shares`] of `scene` through `opts`' aperture in the fast
+/// arithmetic ([`aperture_shares`]); every pixel traced without an
+/// aperture, where that frame does not prepare, and in a `compact` build
+/// (the driven camera: on the M0 the classification took 548 B more of its
+/// planning stack and 7 872 B of flash, a second frame type; it predicts
+/// every pixel traced, the same choice at a higher predicted cost).
+#[inline]
+fn fast_shares(scene: &Scene, opts: &Options) -> Shares {
+    #[cfg(all(feature = "mix32", not(feature = "compact")))]
+    if opts.aperture > 0 {
+        if let Some(s) = aperture_shares(scene, opts) {
+            return s;
+        }
+    }
+    let _ = (scene, opts);
+    Shares::TRACED
 }
 
 /// Through the aperture, the shares of the frame's pixels whose aperture
@@ -2636,13 +2649,10 @@ impl Samples {
             opts.adaptive,
             opts.aperture,
         );
-        #[cfg(all(feature = "mix32", not(feature = "compact")))]
         let shares = match opts.arithmetic {
-            Arithmetic::Fast if opts.aperture > 0 => aperture_shares(scene, opts).unwrap_or(Shares::TRACED),
-            _ => Shares::TRACED,
+            Arithmetic::Fast => fast_shares(scene, opts),
+            Arithmetic::Wide => Shares::TRACED,
         };
-        #[cfg(not(all(feature = "mix32", not(feature = "compact"))))]
-        let shares = Shares::TRACED;
         s.with(opts.arithmetic, shares)
     }
 

@@ -460,6 +460,8 @@ fn facing_head(name: &str, exposure: f64, lens: Lens, (ambient, dark): (f64, f64
 /// rectangles — at 1.6 m with 8 mm cells (a blur of 3.4 mm on it), or at
 /// 1.05 m with 20 mm cells and a sphere at 0.8 m.
 fn dof_text(name: &str) -> String {
+    // (`cal-dof-checker`: the rectangle behind the focus, alone.)
+    let behind = name.ends_with("checker");
     let mut t = facing_head(
         name,
         250.0,
@@ -472,7 +474,7 @@ fn dof_text(name: &str) -> String {
         (0.1, 0.15),
         [0.3, 0.4, -1.0],
     );
-    let (z, size, cell) = if name.ends_with("checker") {
+    let (z, size, cell) = if behind {
         (0.6, [0.3, 0.25], 0.008)
     } else {
         (0.05, [0.2, 0.15], 0.02)
@@ -484,7 +486,7 @@ fn dof_text(name: &str) -> String {
          checker = {{ cell = {cell:.3}, material = \"dark\", u_axis = [1.0, 0.0, 0.0] }}\n",
         size[0], size[1]
     );
-    if !name.ends_with("checker") {
+    if !behind {
         t.push_str(
             "[[primitives]]\nkind = \"sphere\"\nmaterial = \"white\"\ncentre = [0.01, -0.01, -0.2]\nradius = 0.012\n",
         );
