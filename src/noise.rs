@@ -64,14 +64,27 @@ pub fn normal_of_hash(h: u64) -> i32 {
         let lz = crate::num::clz64(v);
         (lz, ((v << lz) >> 32) as u32)
     };
-    let seg = (2 * lz.saturating_sub(1) + ((n >> 30) & 1)) as usize;
     // s in [0, 1) in units of 2^-16 (the 16 bits below the half's), and
-    // the cubic in it by Horner.
+    // the cubic in it by Horner; |z| < 9.1 in S27 → S16, rounded.
     let s = (n >> 14) as u16;
-    let [c0, c1, c2, c3] = HALF_NORMAL.get(seg).copied().unwrap_or([0; 4]);
-    let z27 = c0 + mul_frac(c1 + mul_frac(c2 + mul_frac(c3, s), s), s);
-    // |z| < 9.1 in S27 → S16, rounded.
-    let z = (z27 + (1 << 10)) >> 11;
+    let half = (n >> 30) & 1;
+    let z = if crate::num::ARMV6M {
+        let seg = (2 * lz.saturating_sub(1) + half) as usize;
+        let [c0, c1, c2, c3] = HALF_NORMAL.get(seg).copied().unwrap_or([0; 4]);
+        (c0 + mul_frac(c1 + mul_frac(c2 + mul_frac(c3, s), s), s) + (1 << 10)) >> 11
+    } else {
+        // The same value with each product the high word of one SMULL:
+        // ⌊a s / 2^16⌋ = ⌊2a · 2^15 s / 2^32⌋, `a` carried doubled (every
+        // Horner term is within ±2^27); the row's index masked, in bounds
+        // without a test (lz is 1 to 63).
+        let [c0, c1, c2, c3] = HALF_NORMAL_X2
+            .get(((2 * lz + half) & 127) as usize)
+            .copied()
+            .unwrap_or([0; 4]);
+        let s15 = i32::from(s) << 15;
+        let hi = |a2: i32| ((i64::from(a2) * i64::from(s15)) >> 32) as i32;
+        (c0 + hi(c1 + (hi(c2 + (hi(c3) << 1)) << 1))) >> 11
+    };
     if h >> 63 == 0 {
         z
     } else {
@@ -79,18 +92,28 @@ pub fn normal_of_hash(h: u64) -> i32 {
     }
 }
 
-/// `⌊a s / 2¹⁶⌋` for a fraction `s / 2¹⁶`: on the M0 (no 32 × 32 → 64-bit
-/// product) from `a`'s two 16-bit halves, the same value.
+/// [`HALF_NORMAL`] for the products of [`normal_of_hash`] on the M3 and
+/// M4F: `c1`, `c2`, `c3` doubled, `c0` with the rounding's `2¹⁰`, row `2e
+/// + j` at `2(e + 1) + j` (rows 0, 1 unused).
+const HALF_NORMAL_X2: [[i32; 4]; 128] = {
+    let mut t = [[0i32; 4]; 128];
+    let mut i = 0;
+    while i < HALF_NORMAL.len() {
+        let [c0, c1, c2, c3] = HALF_NORMAL[i];
+        t[i + 2] = [c0 + (1 << 10), 2 * c1, 2 * c2, 2 * c3];
+        i += 1;
+    }
+    t
+};
+
+/// `⌊a s / 2¹⁶⌋` for a fraction `s / 2¹⁶` on the M0 (no 32 × 32 → 64-bit
+/// product): from `a`'s two 16-bit halves, the same value.
 #[inline(always)]
 fn mul_frac(a: i32, s: u16) -> i32 {
-    if crate::num::ARMV6M {
-        // a = hi 2^16 + lo, lo in [0, 2^16): ⌊a s / 2^16⌋ = hi s + ⌊lo s /
-        // 2^16⌋ (hi s 2^16 is a multiple of 2^16).
-        let (hi, lo) = (a >> 16, (a & 0xffff) as u32);
-        hi * i32::from(s) + ((lo * u32::from(s)) >> 16) as i32
-    } else {
-        ((i64::from(a) * i64::from(s)) >> 16) as i32
-    }
+    // a = hi 2^16 + lo, lo in [0, 2^16): ⌊a s / 2^16⌋ = hi s + ⌊lo s /
+    // 2^16⌋ (hi s 2^16 is a multiple of 2^16).
+    let (hi, lo) = (a >> 16, (a & 0xffff) as u32);
+    hi * i32::from(s) + ((lo * u32::from(s)) >> 16) as i32
 }
 
 /// Largest `|z|` error of [`normal_q16`] against the exact `√2 erfc⁻¹(t)`:
@@ -397,6 +420,39 @@ mod tests {
         // Expected 5 400 (σ 73) and 127 (σ 11).
         assert!((5_100..5_700).contains(&beyond3), "beyond 3σ: {beyond3}");
         assert!((90..165).contains(&beyond4), "beyond 4σ: {beyond4}");
+    }
+
+    /// [`normal_of_hash`]'s doubled table and SMULL high words give the
+    /// value of the cubic's definition (`HALF_NORMAL`, Horner with exact
+    /// floors), on every octave and both halves and on hashes of pixels.
+    #[test]
+    fn the_doubled_table_gives_the_cubics_value() {
+        let floor16 = |a: i32, s: u16| ((i64::from(a) * i64::from(s)) >> 16) as i32;
+        let by_definition = |h: u64| {
+            let v = (h & (u64::MAX >> 1)) | 1;
+            let lz = v.leading_zeros();
+            let n = ((v << lz) >> 32) as u32;
+            let [c0, c1, c2, c3] = HALF_NORMAL[(2 * (lz - 1) + ((n >> 30) & 1)) as usize];
+            let s = (n >> 14) as u16;
+            let z = (c0 + floor16(c1 + floor16(c2 + floor16(c3, s), s), s) + (1 << 10)) >> 11;
+            if h >> 63 == 0 {
+                z
+            } else {
+                -z
+            }
+        };
+        let key = frame_key(3, 9);
+        let mut checked = 0;
+        for p in 0..200_000u32 {
+            let h = mix(key ^ (u64::from(p) << 4));
+            // The same fraction bits in every octave, and both signs.
+            for e in [0u32, 1, 7, 14, 15, 16, 30, 31, 32, 47, 48, 62] {
+                let g = (h >> (e + 1)) | (h & (1 << 63)) | ((p as u64 & 1) << 63);
+                assert_eq!(normal_of_hash(g), by_definition(g), "hash {g:#x}");
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 2_400_000);
     }
 
     #[test]

@@ -111,7 +111,9 @@ fn clz32_table(x: u32) -> u32 {
     } else {
         (x, 24)
     };
-    n + CLZ8.get(byte as usize).copied().unwrap_or(0) as u32
+    // (Masked: an index in bounds without a test, which the three lower
+    // bytes' took on the M0.)
+    n + CLZ8.get((byte & 0xFF) as usize).copied().unwrap_or(0) as u32
 }
 
 /// [`clz64`] from [`clz32_table`].

@@ -153,8 +153,9 @@ pub(super) const RECIP_SEED: [u16; 1024] = {
 pub fn recip(d: NonZeroU32) -> (u32, u32) {
     let z = clz32(d.get());
     let dn = d.get() << z; // v = dn / 2^32 in [½, 1)
-                           // dn >> 21 is in [1024, 2048): its low ten bits index the seed.
-    let idx = (dn >> 21) as usize & 1023;
+                           // dn >> 21 is in [1024, 2048): its low ten bits index the seed
+                           // (taken as (dn << 1) >> 22: no mask, a constant on the M0).
+    let idx = ((dn << 1) >> 22) as usize;
     // r = seed 2^16: both products are by the 16-bit seed.
     let seed = RECIP_SEED.get(idx).copied().unwrap_or(1 << 15);
     // r (2 − v r), Q2.30.
@@ -164,8 +165,22 @@ pub fn recip(d: NonZeroU32) -> (u32, u32) {
         // The product's high word: no shift on the M3.
         ((dn as u64 * ((seed as u64) << 16)) >> 32) as u32
     };
-    let r = (umul_h((1u32 << 31).wrapping_sub(vr), seed) >> 14) as u32;
+    let f = (1u32 << 31).wrapping_sub(vr);
+    let r = if ARMV6M {
+        mul_h_words::<14>(f, seed)
+    } else {
+        (umul_h(f, seed) >> 14) as u32
+    };
     (r, z)
+}
+
+/// `⌊a b / 2^S⌋` (`S ≤ 16`) for a result below 2³², in 32-bit words on
+/// the M0: `a = a_h 2¹⁶ + a_l` gives `a_h b 2^(16−S) + ⌊a_l b / 2^S⌋`
+/// (the first term an integer), two 16 × 16-bit products and no 64-bit
+/// sum (`umul_h`'s took 4 instructions more in `recip`).
+#[inline(always)]
+pub(super) fn mul_h_words<const S: u32>(a: u32, b: u16) -> u32 {
+    (((a >> 16) * b as u32) << (16 - S)) + (((a & 0xFFFF) * b as u32) >> S)
 }
 
 /// `(v · r) · 2^-sh` for `r` ≤ 2³¹ and `|v| ≤ T_MAX`, a plane's `t`
@@ -213,6 +228,20 @@ pub(super) const SEED: [u16; 768] = {
     t
 };
 
+/// [`SEED`] indexed by `m >> 22` itself (`m < 2³⁰`, never given: `2¹⁴`),
+/// on the M3 and M4F: an index in bounds without a test (1.5 KB of flash
+/// for a table of 2 KB).
+#[allow(clippy::indexing_slicing)]
+const SEED_BY_TOP: [u16; 1024] = {
+    let mut t = [1u16 << 14; 1024];
+    let mut i = 0;
+    while i < 768 {
+        t[i + 256] = SEED[i];
+        i += 1;
+    }
+    t
+};
+
 /// For `x ≠ 0`: `(m, y, z)` with `m` the top word of `x << z` in `[2³⁰,
 /// 2³²)`, `z` even, and `y ≈ 1/√(m/2³²)` in Q2.30 (in `(1, 2]`; relative
 /// error < 2⁻¹⁹): one Newton step from a 768-entry seed, three products.
@@ -226,28 +255,36 @@ pub(super) fn rsqrt_norm(x: u64) -> (u32, u32, u32) {
 /// [`rsqrt_norm`]'s `y` for its `m` (in `[2³⁰, 2³²)`).
 #[inline(always)]
 pub(super) fn rsqrt_top(m32: u32) -> u32 {
-    // (m32 < 2^30, never given, reads past the table, the fallback, or
-    // entry 0 on the M0: its saturating form measured 3 instructions a
-    // pixel fewer there on the standard scene, 1.4 more on the M3.)
+    // (m32 < 2^30, never given, reads `SEED_BY_TOP`'s filler, or entry 0
+    // on the M0: there its saturating form measured 3 instructions a pixel
+    // fewer on the standard scene.) y = seed 2^16: y² and the last product
+    // are by the 16-bit seed.
     let top = (m32 >> 22) as usize;
-    let idx = if ARMV6M {
-        top.saturating_sub(256)
-    } else {
-        top.wrapping_sub(256)
-    };
-    // y = seed 2^16: y² and the last product are by the 16-bit seed.
-    let seed = SEED.get(idx).copied().unwrap_or(1 << 14);
+    // (In bounds: no test.)
+    let seed = SEED_BY_TOP.get(top & 1023).copied().unwrap_or(1 << 14);
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
-    let y2 = (seed as u32 * seed as u32) << 1;
-    let my2 = (umul_px(m32, y2) >> 31) as u32;
     // (m y² < 3·2^30 for every m and its seed: `tests`. The M0 keeps the
     // saturating form, as the index's.)
-    let f = if ARMV6M {
-        (3u32 << 30).saturating_sub(my2)
+    if ARMV6M {
+        newton_words(m32, seed)
     } else {
-        (3u32 << 30).wrapping_sub(my2)
-    };
-    (umul_h(f, seed) >> 15) as u32
+        // The same values from the products' high words: m y² = ⌊m · 4
+        // seed² / 2^32⌋ (every seed is below 2^15 − 32: 4 seed² fits a
+        // word), and ⌊f seed / 2^15⌋ = ⌊f · 2^17 seed / 2^32⌋.
+        let hi = |a: u32, b: u32| (umul(a, b) >> 32) as u32;
+        let my2 = hi(m32, (seed as u32 * seed as u32) << 2);
+        hi((3u32 << 30).wrapping_sub(my2), (seed as u32) << 17)
+    }
+}
+
+/// [`rsqrt_top`]'s Newton step on the M0, in 32-bit words: `m y²` the
+/// high word of the product by `4 seed²` ([`umul16_words`]'s), and `⌊f
+/// seed / 2¹⁵⌋` by [`mul_h_words`]: the M3's values (`tests`).
+#[inline(always)]
+pub(super) fn newton_words(m32: u32, seed: u16) -> u32 {
+    let seed = seed as u32;
+    let my2 = (umul16_words(m32, (seed * seed) << 2) >> 32) as u32;
+    mul_h_words::<15>((3u32 << 30).saturating_sub(my2), seed as u16)
 }
 
 /// [`rsqrt_norm`] refined by a second Newton step in 64-bit arithmetic:

@@ -79,7 +79,11 @@ pub(super) fn round_c4_exact(lo: u32, c4: u32) -> u32 {
 /// [`vignette_dn`] rounds.
 #[inline(always)]
 pub(super) fn vignette_q(sum: u64, c4: u32) -> Q {
-    // sum 2^-15 · c4 2^-31 = (hi c4 2^32 + lo c4) 2^-46, in units of 2^-32.
+    // sum 2^-15 · c4 2^-31 = (hi c4 2^32 + lo c4) 2^-46, in units of 2^-32;
+    // a sum below 2^32 (any pixel not saturated) is `lo` alone.
+    if let Ok(lo) = u32::try_from(sum) {
+        return Q::from_bits((umul(lo, c4) >> 14) as i64);
+    }
     let (hi, lo) = ((sum >> 32) as u32, sum as u32);
     let a = umul(hi, c4);
     let bits = if a >= 1 << 44 {

@@ -820,6 +820,60 @@ fn rsqrt_tops_newton_factor_never_wraps() {
     }
 }
 
+/// [`mul_h_words`] is `⌊a b / 2^S⌋` where `recip` (`S` 14, `a < 2³¹`)
+/// and `rsqrt_top` (`S` 15, `a < 3·2³⁰`) take it, for their seeds (every
+/// 7th and the last), at the ends of `a` and on every 65 521st between.
+#[test]
+fn products_in_words_are_the_floors() {
+    let a_all = |top: u32| {
+        [0, 1, 0xFFFF, 0x1_0000, top - 1, top]
+            .into_iter()
+            .chain((0..top).step_by(65_521))
+    };
+    for &b in RECIP_SEED.iter().step_by(7).chain(RECIP_SEED.last()) {
+        for a in a_all((1 << 31) - 1) {
+            assert_eq!(
+                mul_h_words::<14>(a, b) as u64,
+                (a as u64 * b as u64) >> 14,
+                "{a} {b}"
+            );
+        }
+    }
+    for &b in SEED.iter().step_by(7).chain(SEED.last()) {
+        for a in a_all(3 << 30) {
+            assert_eq!(
+                mul_h_words::<15>(a, b) as u64,
+                (a as u64 * b as u64) >> 15,
+                "{a} {b}"
+            );
+        }
+    }
+}
+
+/// [`rsqrt_top`] from the products' high words (and `SEED_BY_TOP`) on the
+/// M3 and M4F, and [`newton_words`] on the M0, are the Newton step as written: `y² m` over 2³¹ and `f y`
+/// over 2¹⁵ (every seed's `4 y²` fits a word), at both ends of each
+/// seed's range of `m` and on every 4 099th `m` between.
+#[test]
+fn rsqrt_top_is_the_newton_step() {
+    let step = |m: u32| {
+        let seed = SEED[((m >> 22) - 256) as usize] as u64;
+        let my2 = (m as u64 * (seed * seed * 2)) >> 31;
+        ((((3u64 << 30) - my2) * seed) >> 15) as u32
+    };
+    assert!(SEED.iter().all(|&y| 4 * (y as u64).pow(2) < 1 << 32));
+    let ends = (256..1024u32).flat_map(|t| [t << 22, (t << 22) | ((1 << 22) - 1)]);
+    for m in ends.chain(((1u32 << 30)..=u32::MAX).step_by(4099)) {
+        assert_eq!(rsqrt_top(m), step(m), "m {m:#x}");
+        // The M0's form.
+        assert_eq!(
+            newton_words(m, SEED[((m >> 22) - 256) as usize]),
+            step(m),
+            "m {m:#x}"
+        );
+    }
+}
+
 /// [`sigma_z16`]'s `σ` taken from the top word of `m y` is the 64-bit
 /// shift's (with its saturation) it replaced: `m y < 2⁶²` on every `m`
 /// near `2³²` (where the Newton step's truncations could carry it
