@@ -609,5 +609,13 @@ pub(super) fn fill_lanes(
 #[inline(always)]
 pub(super) fn cos4((r, z): (u32, u32)) -> u32 {
     let inv = r >> (11u32.saturating_sub(z));
-    (umul(inv, inv) >> 31) as u32
+    if ARMV6M {
+        // (A square: three 16 × 16-bit products, where the form below
+        // takes four, 7.5 instructions a pixel more on the standard scene.)
+        (umul(inv, inv) >> 31) as u32
+    } else {
+        // inv < 2^31 (`1/a` below 1 for every `a` of 2^20 and more:
+        // `tests`), so inv² / 2^31 is the high word of inv · 2 inv.
+        (umul(inv, inv << 1) >> 32) as u32
+    }
 }

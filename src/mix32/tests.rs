@@ -1022,6 +1022,24 @@ fn reciprocal_within_2_pow_minus_21() {
     assert!(worst < 2f64.powi(-21), "relative error {worst:e}");
 }
 
+/// [`cos4`]'s `1/a` lies below 2³¹ in its S31 form for every `a` of
+/// 2²⁰ (S20: 1) and more, so its square over 2³¹ is one product's high
+/// word: exhaustively where the shift is 0 (`a` below 2²¹), and the value
+/// is the square's.
+#[test]
+fn cos4_takes_a_high_word() {
+    for a in (1u32 << 20)..1 << 21 {
+        let (r, z) = recip(NonZeroU32::new(a).unwrap());
+        assert!(z == 11 && r < 1 << 31, "a {a}: r {r} z {z}");
+        assert_eq!(cos4((r, z)) as u64, (r as u64 * r as u64) >> 31, "a {a}");
+    }
+    for a in [(1u32 << 21), 3 << 21, 1 << 28, (513 << 20) - 1] {
+        let (r, z) = recip(NonZeroU32::new(a).unwrap());
+        let inv = (r >> (11 - z)) as u64;
+        assert_eq!(cos4((r, z)) as u64, (inv * inv) >> 31, "a {a}");
+    }
+}
+
 /// The product `plane_t` took before [`mul_shr_t`]: saturated to the
 /// i32 limits.
 fn mul_shr_var(v: i32, r: u32, sh: u32) -> i32 {
