@@ -23,11 +23,22 @@
 use crate::scalar::Scalar;
 use crate::scene::{Noise, PixelFormat, Q};
 
+/// The SplitMix64 finaliser's multipliers.
+const MIX: [u64; 2] = [0xbf58_476d_1ce4_e5b9, 0x94d0_49bb_1331_11eb];
+
 /// The SplitMix64 finaliser.
 #[inline]
-pub const fn mix(mut z: u64) -> u64 {
-    z = crate::num::wrapping_mul64(z ^ (z >> 30), 0xbf58_476d_1ce4_e5b9);
-    z = crate::num::wrapping_mul64(z ^ (z >> 27), 0x94d0_49bb_1331_11eb);
+pub const fn mix(z: u64) -> u64 {
+    mix_by(z, MIX)
+}
+
+/// [`mix`] with its multipliers `k` given ([`MIX`]): on the M3 and M4F read
+/// from a [`Stage`] (two `LDRD`s, where the constants' four `MOVW`/`MOVT`
+/// pairs took low-light 7 instructions a pixel more).
+#[inline(always)]
+const fn mix_by(mut z: u64, k: [u64; 2]) -> u64 {
+    z = crate::num::wrapping_mul64(z ^ (z >> 30), k[0]);
+    z = crate::num::wrapping_mul64(z ^ (z >> 27), k[1]);
     z ^ (z >> 31)
 }
 
@@ -41,9 +52,14 @@ pub const fn frame_key(seed: u64, frame_id: u32) -> u64 {
 /// value (`|z| ≤ 9.08`).
 #[inline]
 pub fn normal_q16(key: u64, pixel: u32, channel: u8) -> i32 {
-    normal_of_hash(mix(
-        key ^ ((u64::from(pixel) << 4) | (u64::from(channel & 3) << 2))
-    ))
+    normal_of_hash(mix(input(key, pixel, channel)))
+}
+
+/// The finaliser's input for channel `c` of pixel `p`: `key ^ (p << 4 |
+/// c << 2)`.
+#[inline(always)]
+fn input(key: u64, pixel: u32, channel: u8) -> u64 {
+    key ^ ((u64::from(pixel) << 4) | (u64::from(channel & 3) << 2))
 }
 
 /// [`normal_q16`]'s `65 536 z` of the hash `h`.
@@ -136,6 +152,10 @@ pub struct Stage<S> {
     /// `μ_y,dark` per channel plus ½ (the rounding), DN.
     offset: [S; 3],
     key: u64,
+    /// [`MIX`], read from memory on every draw ([`mix_by`]); not on the
+    /// M0 (its layout there cost low-light 4 instructions a pixel).
+    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+    mix: [u64; 2],
 }
 
 impl<S: Scalar> Stage<S> {
@@ -148,6 +168,8 @@ impl<S: Scalar> Stage<S> {
             dark_var: [S::ZERO; 3],
             offset: [S::HALF; 3],
             key: frame_key(noise.seed, frame_id),
+            #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+            mix: MIX,
         };
         for c in 0..3 {
             let [k, var, off] = channel_constants(noise, format.dn_max(c), format.dn_max(0));
@@ -189,8 +211,20 @@ impl<S: Scalar> Stage<S> {
             ksys: self.ksys.get(c).copied().unwrap_or(S::ZERO),
             dark_var: self.dark_var.get(c).copied().unwrap_or(S::ZERO),
             offset: self.offset.get(c).copied().unwrap_or(S::HALF),
-            z: normal_q16(self.key, pixel, c as u8),
+            z: self.normal(pixel, c as u8),
         }
+    }
+
+    /// [`normal_q16`] of this frame's key: on the M3 and M4F with the
+    /// multipliers read from memory ([`mix_by`]); the M0 splits their
+    /// halves at compile time (read from memory they cost it 17
+    /// instructions a draw).
+    #[inline(always)]
+    fn normal(&self, pixel: u32, channel: u8) -> i32 {
+        #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+        return normal_of_hash(mix_by(input(self.key, pixel, channel), self.mix));
+        #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+        return normal_q16(self.key, pixel, channel);
     }
 
     /// [`Stage::apply`] with `mul` giving `K_sys μ_y` (both ≥ 0) as

@@ -133,9 +133,18 @@ pub(super) fn noisy_dn(d: crate::noise::Draw<Q>, mu: Q, dn_max: u16) -> u32 {
     }
     // σ² = K_sys μ + (K_sys σ_d)², both ≥ 0: their u64 sum saturated at
     // i64::MAX as the scalar sum is.
-    let var = (mul_nonneg(d.ksys, Q::from_bits(mu)).to_bits() as u64)
-        .saturating_add(d.dark_var.to_bits().max(0) as u64)
-        .min(i64::MAX as u64);
+    // (`K_sys` and `(K_sys σ_d)²` are non-negative: `Stage::new`.) Where
+    // both factors' integer parts lie below 2^15 and `(K_sys σ_d)²` below
+    // 2^61, the sum is below 2^63: neither saturates. (Not on the M0: its
+    // registers took low-light 29 instructions a pixel more.)
+    let (k, dark) = (d.ksys.to_bits() as u64, d.dark_var.to_bits() as u64);
+    let var = if !ARMV6M && ((k | mu as u64) >> 47) | (dark >> 61) == 0 {
+        mul_small_bits(k, mu as u64) + dark
+    } else {
+        mul_nonneg_bits(k, mu as u64)
+            .saturating_add(dark)
+            .min(i64::MAX as u64)
+    };
     let v = mu + sigma_z16(var, d.z) + off;
     (v >> 32).clamp(0, dn_max as i64) as u32
 }
@@ -146,22 +155,32 @@ pub(super) fn noisy_dn(d: crate::noise::Draw<Q>, mu: Q, dn_max: u16) -> u32 {
 /// pixel more).
 #[inline(always)]
 pub fn mul_nonneg(a: Q, b: Q) -> Q {
-    let (x, y) = (a.to_bits().max(0) as u64, b.to_bits().max(0) as u64);
+    Q::from_bits(mul_nonneg_bits(a.to_bits().max(0) as u64, b.to_bits().max(0) as u64) as i64)
+}
+
+/// [`mul_nonneg`] of the raw values `x, y` (below 2⁶³): at most
+/// `i64::MAX`.
+#[inline(always)]
+fn mul_nonneg_bits(x: u64, y: u64) -> u64 {
     let (xh, xl, yh, yl) = ((x >> 32) as u32, x as u32, (y >> 32) as u32, y as u32);
     // a b 2^32 / 2^64 = xh yh 2^32 + xh yl + xl yh + ⌊xl yl / 2^32⌋ (the
     // fraction below dropped: rounded down).
-    let low = umul(xl, yl) >> 32;
-    if (xh | yh) >> 16 == 0 {
-        // Both below 2^16 (the noise's K_sys and μ_y, DN): hh < 2^32 and
-        // the rest below 2^50, in 64 bits (saturated: the sum is then
-        // above i64::MAX either way).
-        let rest = umul(xh, yl) + umul(xl, yh) + low;
-        let sum = (u64::from(xh * yh) << 32).saturating_add(rest);
-        return Q::from_bits(sum.min(i64::MAX as u64) as i64);
+    if (xh | yh) >> 15 == 0 {
+        return mul_small_bits(x, y);
     }
+    let low = umul(xl, yl) >> 32;
     let hh = umul(xh, yh);
     let sum = (umul(xh, yl) as u128) + (umul(xl, yh) as u128) + low as u128 + ((hh as u128) << 32);
-    Q::from_bits(sum.min(i64::MAX as u128) as i64)
+    sum.min(i64::MAX as u128) as u64
+}
+
+/// [`mul_nonneg_bits`] where both integer parts lie below 2¹⁵ (the
+/// noise's `K_sys` and `μ_y`, DN): `hh < 2³⁰` and the rest below 2⁴⁹, so
+/// the sum lies below `2⁶² + 2³²`, exact.
+#[inline(always)]
+fn mul_small_bits(x: u64, y: u64) -> u64 {
+    let (xh, xl, yh, yl) = ((x >> 32) as u32, x as u32, (y >> 32) as u32, y as u32);
+    (u64::from(xh * yh) << 32) + umul(xh, yl) + umul(xl, yh) + (umul(xl, yl) >> 32)
 }
 
 /// `σ z` (I32F32 DN) from `σ²` (I32F32 DN²; 0 below 0) and the draw `z`
