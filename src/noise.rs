@@ -111,6 +111,8 @@ pub fn normal_of_hash(h: u64) -> i32 {
 /// [`HALF_NORMAL`] for the products of [`normal_of_hash`] on the M3 and
 /// M4F: `c1`, `c2`, `c3` doubled, `c0` with the rounding's `2¹⁰`, row `2e
 /// + j` at `2(e + 1) + j` (rows 0, 1 unused).
+// Indexing in a constant: an index out of range fails the build.
+#[allow(clippy::indexing_slicing)]
 const HALF_NORMAL_X2: [[i32; 4]; 128] = {
     let mut t = [[0i32; 4]; 128];
     let mut i = 0;
