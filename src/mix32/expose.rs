@@ -21,10 +21,19 @@ pub const SUM_CAP: u64 = 1 << 47;
 pub(super) fn vignette_dn(sum: u64, c4: u32, max: u32) -> u32 {
     // ⌊(lo c4 + 2^45) / 2^46⌋ = (⌊lo c4 / 2^32⌋ + 2^13) >> 14 (2^45 is a
     // multiple of 2^32); ⌊lo c4 / 2^32⌋ < 2^31 (c4 ≤ 2^31).
-    let dn = match u32::try_from(sum) {
-        Ok(lo) if ARMV6M => round_c4_words(lo, c4),
-        Ok(lo) => ((umul(lo, c4) >> 32) as u32 + (1 << 13)) >> 14,
-        Err(_) => vignette_dn_high(sum, c4),
+    match u32::try_from(sum) {
+        Ok(lo) => vignette_dn_lo(lo, c4, max),
+        Err(_) => vignette_dn_high(sum, c4).min(max),
+    }
+}
+
+/// [`vignette_dn`] of a sum below 2³² (`lo`).
+#[inline(always)]
+pub(super) fn vignette_dn_lo(lo: u32, c4: u32, max: u32) -> u32 {
+    let dn = if ARMV6M {
+        round_c4_words(lo, c4)
+    } else {
+        ((umul(lo, c4) >> 32) as u32 + (1 << 13)) >> 14
     };
     dn.min(max)
 }
