@@ -154,8 +154,16 @@ pub(super) fn noisy_dn(d: crate::noise::Draw<Q>, mu: Q, dn_max: u16) -> u32 {
             .saturating_add(dark)
             .min(i64::MAX as u64)
     };
-    let v = mu + sigma_z16(var, d.z) + off;
-    (v >> 32).clamp(0, dn_max as i64) as u32
+    let v = (mu + sigma_z16(var, d.z) + off) >> 32;
+    if ARMV6M {
+        v.clamp(0, dn_max as i64) as u32
+    } else {
+        // |v| < 2^30 (μ and the offset below 2^61, σ z within ±2^52, over
+        // 2^32): a word, clamped at 0 by a mask (low-light 4 M3
+        // instructions a pixel fewer; 6 more on the M0), then at dn_max.
+        let v = v as i32 & !(v as i32 >> 31);
+        (v as u32).min(dn_max as u32)
+    }
 }
 
 /// `a · b` for `a, b ≥ 0` (I32F32), equal to [`crate::scalar::Scalar::mul`]'s
