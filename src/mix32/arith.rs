@@ -147,7 +147,7 @@ pub(super) const RECIP_SEED: [u16; 1024] = {
 };
 
 /// `1/d` for `d > 0` as `(r, z)` with `1/d ≈ r · 2^(z − 62)`, `r` in
-/// `(2³⁰, 2³¹]`, relative error < 2⁻²¹: one Newton step from a 1 024-entry
+/// `(2³⁰, 2³¹)` (below 2³¹: `tests`), relative error < 2⁻²¹: one Newton step from a 1 024-entry
 /// seed, two 32 × 32 products, no division.
 #[inline(always)]
 pub fn recip(d: NonZeroU32) -> (u32, u32) {
@@ -183,7 +183,7 @@ pub(super) fn mul_h_words<const S: u32>(a: u32, b: u16) -> u32 {
     (((a >> 16) * b as u32) << (16 - S)) + (((a & 0xFFFF) * b as u32) >> S)
 }
 
-/// `(v · r) · 2^-sh` for `r` ≤ 2³¹ and `|v| ≤ T_MAX`, a plane's `t`
+/// `(v · r) · 2^-sh` for `r` < 2³¹ (a [`recip`] value) and `|v| ≤ T_MAX`, a plane's `t`
 /// ([`Ray::plane_t`](super::Ray::plane_t)): the product over 2³¹ (below `|v|`) shifted right,
 /// or left with saturation to `±T_MAX`, so that negating it is exact and
 /// leaves it within `T_MAX` (a plane's `dist`, S24, lies within 8 U of the
@@ -196,7 +196,7 @@ pub(super) fn mul_shr_t(v: i32, r: u32, sh: u32) -> i32 {
         return mul_shr_right(v, r, sh);
     }
     // |v r| < 2^59: the quotient by 2^31, below |v|, fits.
-    let q = (smul_u(v, r) >> 31) as i32;
+    let q = (smul_r(v, r) >> 31) as i32;
     // Left by 31 − sh ≥ 1: below 2^31 − 1 in magnitude, or saturated.
     let l = 31 - sh;
     if clz32(q.unsigned_abs()) > l {
@@ -207,11 +207,24 @@ pub(super) fn mul_shr_t(v: i32, r: u32, sh: u32) -> i32 {
     }
 }
 
-/// `(v · r) · 2^-sh` for `r` ≤ 2³¹ and `sh ≥ 31`: the product over 2³¹
-/// (below `|v|` in magnitude), then a 32-bit right shift.
+/// `(v · r) · 2^-sh` for `r` < 2³¹ (a [`recip`] value) and `sh ≥ 31`:
+/// the product over 2³¹ (below `|v|` in magnitude), then a 32-bit right
+/// shift.
 #[inline(always)]
 pub(super) fn mul_shr_right(v: i32, r: u32, sh: u32) -> i32 {
-    ((smul_u(v, r) >> 31) as i32) >> sh.saturating_sub(31).min(31)
+    ((smul_r(v, r) >> 31) as i32) >> sh.saturating_sub(31).min(31)
+}
+
+/// `v · r` for `r` < 2³¹ (every [`recip`] value: `tests`), exact: on the
+/// M3 and M4F one signed product (`smul_u`'s i32 × u32 took two more
+/// instructions), on the M0 [`smul_u`]'s.
+#[inline(always)]
+pub(super) fn smul_r(v: i32, r: u32) -> i64 {
+    if ARMV6M {
+        smul_u(v, r)
+    } else {
+        v as i64 * (r as i32) as i64
+    }
 }
 
 /// Seeds for [`rsqrt_norm`]: `1/√((i + ½)/1024)` in Q2.14 for `i` in

@@ -1016,6 +1016,8 @@ fn reciprocal_within_2_pow_minus_21() {
             (rng(&mut s) >> (rng(&mut s) % 64)) as u32 | 1
         };
         let (r, z) = recip(NonZeroU32::new(d).unwrap());
+        // (Below 2^31: `smul_r` takes it as an i32.)
+        assert!(r > 1 << 30 && r < 1 << 31, "d {d}: r {r}");
         let got = r as f64 * 2f64.powi(z as i32 - 62);
         worst = worst.max((got * d as f64 - 1.0).abs());
     }
@@ -1068,11 +1070,11 @@ fn plane_t_negation_is_the_saturating_one() {
     let mut saturated = 0;
     for i in 0..400_000u32 {
         // |v| below 1.5 2^30 (a parallel ray's numerator; |dist| ≤
-        // 2^28), r in (2^30, 2^31], the shift 44 − z or 38 − z for z
+        // 2^28), r in (2^30, 2^31) (`recip`'s), the shift 44 − z or 38 − z for z
         // in 0..=31.
         let v =
             ((rng(&mut s) >> (33 + rng(&mut s) % 31)) % (3 << 29)) as i32 * if i % 2 == 0 { 1 } else { -1 };
-        let r = (1u32 << 30) + 1 + (rng(&mut s) % (1 << 30)) as u32;
+        let r = (1u32 << 30) + 1 + (rng(&mut s) % ((1 << 30) - 1)) as u32;
         let sh = 7 + (rng(&mut s) % 38) as u32;
         for den_neg in [false, true] {
             let old = mul_shr_var(v, r, sh);
