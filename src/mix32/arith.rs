@@ -241,9 +241,10 @@ pub(super) const SEED: [u16; 768] = {
     t
 };
 
-/// [`SEED`] indexed by `m >> 22` itself (`m < 2³⁰`, never given: `2¹⁴`),
-/// on the M3 and M4F: an index in bounds without a test (1.5 KB of flash
-/// for a table of 2 KB).
+/// [`SEED`] indexed by `m >> 22` itself (`m < 2³⁰`, never given: `2¹⁴`):
+/// an index in bounds without a test (a table of 2 KB for 1.5 KB; the
+/// M3's standard scene and the M0's each a few instructions a pixel
+/// fewer).
 #[allow(clippy::indexing_slicing)]
 const SEED_BY_TOP: [u16; 1024] = {
     let mut t = [1u16 << 14; 1024];
@@ -268,16 +269,14 @@ pub(super) fn rsqrt_norm(x: u64) -> (u32, u32, u32) {
 /// [`rsqrt_norm`]'s `y` for its `m` (in `[2³⁰, 2³²)`).
 #[inline(always)]
 pub(super) fn rsqrt_top(m32: u32) -> u32 {
-    // (m32 < 2^30, never given, reads `SEED_BY_TOP`'s filler, or entry 0
-    // on the M0: there its saturating form measured 3 instructions a pixel
-    // fewer on the standard scene.) y = seed 2^16: y² and the last product
-    // are by the 16-bit seed.
+    // (m32 < 2^30, never given, reads `SEED_BY_TOP`'s filler.) y = seed
+    // 2^16: y² and the last product are by the 16-bit seed.
     let top = (m32 >> 22) as usize;
     // (In bounds: no test.)
     let seed = SEED_BY_TOP.get(top & 1023).copied().unwrap_or(1 << 14);
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
     // (m y² < 3·2^30 for every m and its seed: `tests`. The M0 keeps the
-    // saturating form, as the index's.)
+    // saturating form, which measured 3 instructions a pixel fewer there.)
     if ARMV6M {
         newton_words(m32, seed)
     } else {
