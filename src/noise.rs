@@ -155,7 +155,7 @@ pub struct Stage<S> {
     offset: [S; 3],
     key: u64,
     /// [`MIX`], read from memory on every draw ([`mix_by`]); not on the
-    /// M0 (its layout there cost low-light 4 instructions a pixel).
+    /// M0, whose draws take [`MIX`] at compile time ([`Stage::normal`]).
     #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
     mix: [u64; 2],
 }

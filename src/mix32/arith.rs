@@ -242,9 +242,9 @@ pub(super) const SEED: [u16; 768] = {
 };
 
 /// [`SEED`] indexed by `m >> 22` itself (`m < 2³⁰`, never given: `2¹⁴`):
-/// an index in bounds without a test (a table of 2 KB for 1.5 KB; the
-/// M3's standard scene and the M0's each a few instructions a pixel
-/// fewer).
+/// an index in bounds without a test (a table of 2 KB for 1.5 KB;
+/// low-light 6.6 M3 instructions a pixel fewer, the M0's standard scene
+/// 3.4).
 #[allow(clippy::indexing_slicing)]
 const SEED_BY_TOP: [u16; 1024] = {
     let mut t = [1u16 << 14; 1024];
