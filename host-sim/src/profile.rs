@@ -656,9 +656,33 @@ fn source_of(file: &str, root: &Path) -> String {
 }
 
 /// A symbol's path, demangled without its hash (`rustc_demangle`'s
-/// alternate form; a name that is not mangled stays as it is).
+/// alternate form; a name that is not mangled stays as it is), an inherent
+/// impl's method by its type's path (`a::b::<impl T>::f` as `T::f`), so
+/// that a method is named the same whichever module its `impl` block is in.
 fn name_of(raw: &str) -> String {
-    format!("{:#}", rustc_demangle::demangle(raw))
+    let mut name = format!("{:#}", rustc_demangle::demangle(raw));
+    while let Some(at) = name.find("::<impl ") {
+        let open = at + "::<impl ".len();
+        // The `>` that closes `<impl`, past the type's own generics.
+        let mut depth = 1usize;
+        let close = name[open..].char_indices().find_map(|(i, c)| {
+            match c {
+                '<' => depth += 1,
+                '>' => depth -= 1,
+                _ => {}
+            }
+            (depth == 0).then_some(open + i)
+        });
+        let Some(close) = close else { break };
+        let ty = &name[open..close];
+        // A trait's impl (`<impl Trait for T>`) keeps its path.
+        if ty.contains(" for ") {
+            break;
+        }
+        let start = name[..at].rfind(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':')).map_or(0, |i| i + 1);
+        name = format!("{}{ty}{}", &name[..start], &name[close + 1..]);
+    }
+    name
 }
 
 /// Where the firmware's frames start and end: the entries of its
@@ -1131,6 +1155,20 @@ mod tests {
         assert_eq!(name_of("hilcam::mix32::recip"), "hilcam::mix32::recip");
         assert_eq!(name_of("a::hb::c"), "a::hb::c");
         assert_eq!(name_of("__clzsi2"), "__clzsi2");
+        // A method by its type's path, wherever its impl block is.
+        assert_eq!(
+            name_of("hilcam::mix32::closed::<impl hilcam::mix32::Mix32>::closed_run::{{closure}}"),
+            "hilcam::mix32::Mix32::closed_run::{{closure}}"
+        );
+        assert_eq!(
+            name_of("hilcam::render::x::<impl hilcam::render::Frame<S, P>>::line"),
+            "hilcam::render::Frame<S, P>::line"
+        );
+        assert_eq!(
+            name_of("core::ptr::drop_in_place<hilcam::m::<impl hilcam::M>::f>"),
+            "core::ptr::drop_in_place<hilcam::M::f>"
+        );
+        assert_eq!(name_of("a::<impl a::T for a::U>::f"), "a::<impl a::T for a::U>::f");
     }
 
     #[test]
