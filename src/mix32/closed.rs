@@ -114,7 +114,7 @@ impl Mix32 {
     #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     #[cfg_attr(target_arch = "x86_64", inline(always))]
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn closed_run<const LANES: bool, const C: usize>(
+    pub(super) fn closed_run<const C: usize>(
         &self,
         c: &Closed,
         (rays, ys, met): (&mut [Ray], [i32; 2], bool),
@@ -123,16 +123,6 @@ impl Mix32 {
         dn_max: [u64; 3],
         (noise, index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
     ) -> u32 {
-        // The x86-64-v3/v4 host's common case in lanes: one channel, one
-        // point light, no noise (`closed_lanes`; in the baseline build,
-        // SSE2's lanes without a signed 32 × 32-bit product, they cost
-        // more than the scalar loop: 1080p standard 42 against 56 frames/s).
-        #[cfg(target_arch = "x86_64")]
-        if let (true, [l], 1, None, false) = (LANES, c.lights.as_slice(), C, noise, cfg!(feature = "compact"))
-        {
-            let (bg, max) = (self.bg[0], dn_max[0]);
-            return closed_lanes(c, l, (bg, max), rays, words, fl);
-        }
         let n = c.n;
         let nch = self.nch();
         let mut left = 0;
@@ -149,7 +139,7 @@ impl Mix32 {
         // terms (with `Quads`, those of every fourth and of the last even
         // ray, and the other even rays' sums the mean of theirs 2 apart),
         // and its odd rays' sums the mean of their neighbours' (the last
-        // ray, if odd, its own). The same words as `closed_lanes`.
+        // ray, if odd, its own).
         if let (true, [l]) = (c.mean.on(), c.lights.as_slice()) {
             let len = rays.len().min(words.len()).min(fl.len());
             // Every ray unhit, and every ray's `w` ahead: so are those of

@@ -524,8 +524,10 @@ pub(super) fn fill_rays<const PERSP: bool>(
     ([y0, y1], outside)
 }
 
-/// [`fill_rays`] of perspective rays along a row, on the x86-64 host in
-/// vector lanes as [`closed_lanes`]: ray `q` at `x̂_d = acc − q·dx` (S58;
+/// [`fill_rays`] of perspective rays along a row, on the x86-64-v3 and v4
+/// hosts in vector lanes (each step a loop over the chunk's 32 rays that
+/// the compiler vectorizes, with the scalar loop's integer operations):
+/// ray `q` at `x̂_d = acc − q·dx` (S58;
 /// `acc` is moved past the chunk) and `(ŷ_d, ŷ_d²)`, undistorted by `(k,
 /// limit)` if `k` ([`undistort_k`]), with [`Ray::new`]'s `a` and `1/a`
 /// ([`recip`]) and, if `vignette`, its `cos⁴α` ([`cos4`]); the same bits
