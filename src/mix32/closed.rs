@@ -187,10 +187,10 @@ impl Mix32 {
         // ray's sum is `flat`.
         // (On the M0 the test inline and the words out of line: its
         // standard scene, which has a point light, measured 587.93 against
-        // 586.69 with the test out of line — past 3× the M3's 195.88 —
-        // where the M3's measured 196.35 against 195.88 and the x86-64
-        // host's 1080p standard 65.0–69.4 frames/s against 70.6–73.2 with
-        // it inline.)
+        // 586.69 with the test out of line — past 3× the M3's 195.88.
+        // Elsewhere out of line: inline, the M3's measured 196.35, and the
+        // x86-64 host's 1080p standard 65.0–69.4 frames/s where the build
+        // before `closed_flat` ran 69.8–72.3, interleaved.)
         if ARMV6M {
             if c.lights.is_empty() && (!met || unhit(rays)) && all_ahead(c, n, rays, ys) {
                 self.flat_words(c, rgb, rays, words, dn_max, (noise, index, step));
@@ -251,8 +251,8 @@ impl Mix32 {
     /// [`Mix32::closed_run`]'s chunk, in a frame without a point light on
     /// the plane's side: if its rays all see the plane ([`all_ahead`]),
     /// each ray's word from the plane's constant sum `flat`, no `w` a ray
-    /// (wide-vignetting, a wall under a directional light: M3 102.9 → 76.9
-    /// instructions a pixel, M0 215.0 → 130.2), and `true`; else nothing.
+    /// (wide-vignetting, a wall under a directional light: M3 102.9 → 83.4
+    /// instructions a pixel, M0 215.0 → 136.8), and `true`; else nothing.
     /// Out of line, the test with it: the run's loops keep their
     /// registers and size ([`Mix32::closed_run`] says what each form
     /// measured; the M0 tests the chunk in the run).
@@ -449,7 +449,8 @@ impl Mix32 {
 /// [`Closed`] plane ahead: so do those of the box of slopes around them
 /// (`x̂` from the chunk's end rays, monotone along a row within the field,
 /// as [`Mix32::passes`] takes it; `ŷ` from `ys`) where its corners' do
-/// (`w` is the floor of a linear form), else each ray's is tested.
+/// (`w` is the floor of a linear form), else each ray's is tested. (`n`
+/// is `c.n`, as the run holds it.)
 #[inline(always)]
 fn all_ahead(c: &Closed, n: [i32; 3], rays: &[Ray], ys: [i32; 2]) -> bool {
     let (xa, xb) = (rays.first().map_or(0, |r| r.x), rays.last().map_or(0, |r| r.x));
