@@ -85,9 +85,7 @@ pub fn normal_of_hash(h: u64) -> i32 {
     let s = (n >> 14) as u16;
     let half = (n >> 30) & 1;
     let z = if crate::num::ARMV6M {
-        let seg = (2 * lz.saturating_sub(1) + half) as usize;
-        let [c0, c1, c2, c3] = HALF_NORMAL.get(seg).copied().unwrap_or([0; 4]);
-        (c0 + mul_frac(c1 + mul_frac(c2 + mul_frac(c3, s), s), s) + (1 << 10)) >> 11
+        cubic_words(lz, half, s)
     } else {
         // The same value with each product the high word of one SMULL:
         // ⌊a s / 2^16⌋ = ⌊2a · 2^15 s / 2^32⌋, `a` carried doubled (every
@@ -123,6 +121,17 @@ const HALF_NORMAL_X2: [[i32; 4]; 128] = {
     }
     t
 };
+
+/// [`normal_of_hash`]'s `65 536 |z|` on the M0 (no 32 × 32 → 64-bit
+/// product) from `v`'s leading zeros `lz` (1 to 63), the half `half` and
+/// the fraction `s`: [`HALF_NORMAL`]'s cubic by Horner with [`mul_frac`].
+/// Compiled everywhere, so that the tests check it against the M3's form.
+#[inline(always)]
+fn cubic_words(lz: u32, half: u32, s: u16) -> i32 {
+    let seg = (2 * lz.saturating_sub(1) + half) as usize;
+    let [c0, c1, c2, c3] = HALF_NORMAL.get(seg).copied().unwrap_or([0; 4]);
+    (c0 + mul_frac(c1 + mul_frac(c2 + mul_frac(c3, s), s), s) + (1 << 10)) >> 11
+}
 
 /// `⌊a s / 2¹⁶⌋` for a fraction `s / 2¹⁶` on the M0 (no 32 × 32 → 64-bit
 /// product): from `a`'s two 16-bit halves, the same value.
@@ -458,9 +467,10 @@ mod tests {
         assert!((90..165).contains(&beyond4), "beyond 4σ: {beyond4}");
     }
 
-    /// [`normal_of_hash`]'s doubled table and SMULL high words give the
-    /// value of the cubic's definition (`HALF_NORMAL`, Horner with exact
-    /// floors), on every octave and both halves and on hashes of pixels.
+    /// [`normal_of_hash`]'s doubled table and SMULL high words, and the
+    /// M0's 16-bit products ([`cubic_words`]), give the value of the
+    /// cubic's definition (`HALF_NORMAL`, Horner with exact floors), on
+    /// every octave and both halves and on hashes of pixels.
     #[test]
     fn the_doubled_table_gives_the_cubics_value() {
         let floor16 = |a: i32, s: u16| ((i64::from(a) * i64::from(s)) >> 16) as i32;
@@ -471,6 +481,8 @@ mod tests {
             let [c0, c1, c2, c3] = HALF_NORMAL[(2 * (lz - 1) + ((n >> 30) & 1)) as usize];
             let s = (n >> 14) as u16;
             let z = (c0 + floor16(c1 + floor16(c2 + floor16(c3, s), s), s) + (1 << 10)) >> 11;
+            // The M0's form (its 16-bit products) gives the same value.
+            assert_eq!(cubic_words(lz, (n >> 30) & 1, s), z, "hash {h:#x}");
             if h >> 63 == 0 {
                 z
             } else {

@@ -148,7 +148,7 @@ impl Mix32 {
             // third of them).
             let mut lit = len >= 3 && (!met || unhit(rays));
             if lit {
-                lit = all_ahead(c, n, rays, ys);
+                lit = all_ahead(c, rays, ys);
             }
             if lit {
                 // Without noise, a copy of the loops without its test (a
@@ -192,7 +192,7 @@ impl Mix32 {
         // x86-64 host's 1080p standard 65.0–69.4 frames/s where the build
         // before `closed_flat` ran 69.8–72.3, interleaved.)
         if ARMV6M {
-            if c.lights.is_empty() && (!met || unhit(rays)) && all_ahead(c, n, rays, ys) {
+            if c.lights.is_empty() && (!met || unhit(rays)) && all_ahead(c, rays, ys) {
                 self.flat_words(c, rgb, rays, words, dn_max, (noise, index, step));
                 fl.iter_mut().for_each(|f| *f = 0);
                 return 0;
@@ -266,7 +266,7 @@ impl Mix32 {
         dn_max: [u64; 3],
         (noise, index, step): (Option<&crate::noise::Stage<Q>>, u32, u32),
     ) -> bool {
-        if !((!met || unhit(rays)) && all_ahead(c, c.n, rays, ys)) {
+        if !((!met || unhit(rays)) && all_ahead(c, rays, ys)) {
             return false;
         }
         self.flat_words(c, rgb, rays, words, dn_max, (noise, index, step));
@@ -449,10 +449,10 @@ impl Mix32 {
 /// [`Closed`] plane ahead: so do those of the box of slopes around them
 /// (`x̂` from the chunk's end rays, monotone along a row within the field,
 /// as [`Mix32::passes`] takes it; `ŷ` from `ys`) where its corners' do
-/// (`w` is the floor of a linear form), else each ray's is tested. (`n`
-/// is `c.n`, as the run holds it.)
+/// (`w` is the floor of a linear form), else each ray's is tested.
 #[inline(always)]
-fn all_ahead(c: &Closed, n: [i32; 3], rays: &[Ray], ys: [i32; 2]) -> bool {
+fn all_ahead(c: &Closed, rays: &[Ray], ys: [i32; 2]) -> bool {
+    let n = c.n;
     let (xa, xb) = (rays.first().map_or(0, |r| r.x), rays.last().map_or(0, |r| r.x));
     // (`w` of a ray at a corner's slopes.)
     let ahead = |x: i32, y: i32| c.ahead(closed_w(n, &Ray { x, y, ..Ray::OUTSIDE }));
