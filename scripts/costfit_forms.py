@@ -6,7 +6,9 @@ time. Usage: python3 scripts/costfit_forms.py [docs/cost-calibration.json]
 (needs numpy). The one-sample coefficients are fitted as host-sim costfit
 fits them (least squares in relative error); `p` below is a sampled
 point's one-sample prediction, `n` its samples, `c` 1 with the adaptive
-rule (corner looks), else 0.
+rule (corner looks), else 0, `k` the primitives some ray can meet
+(`Samples::prims`). The committed form is the last: with `g3` in the fast
+arithmetic alone (`host-sim costfit` fits the wide one without it).
 """
 import json
 import sys
@@ -14,10 +16,13 @@ import sys
 import numpy as np
 
 FORMS = {
-    "factors p (g0 (1-c) + g1 c + g2 n)  [before 092def4]": lambda p, n, c: [p * (1 - c), p * c, p * n],
-    "g0 (1-c) + g1 c + g2 n p            [committed]": lambda p, n, c: [1 - c, c, n * p],
-    "g0 (1-c) + g1 c + p (g2 n + g3 c)": lambda p, n, c: [1 - c, c, n * p, c * p],
-    "g0 (1-c) + g1 c + p (g2 n + g3 c) + g4 n": lambda p, n, c: [1 - c, c, n * p, c * p, n],
+    "factors p (g0 (1-c) + g1 c + g2 n)  [before 092def4]": lambda p, n, c, k: [p * (1 - c), p * c, p * n],
+    "g0 (1-c) + g1 c + g2 n p            [before 2026-12-05]": lambda p, n, c, k: [1 - c, c, n * p],
+    "g0 (1-c) + g1 c + p (g2 n + g3 c)": lambda p, n, c, k: [1 - c, c, n * p, c * p],
+    "g0 (1-c) + g1 c + p (g2 n + g3 c) + g4 n": lambda p, n, c, k: [1 - c, c, n * p, c * p, n],
+    "g0 (1-c) + g1 c + n (g2 p + g3)": lambda p, n, c, k: [1 - c, c, n * p, n],
+    "g0 (1-c) + g1 c + n (g2 p + g4 k)": lambda p, n, c, k: [1 - c, c, n * p, n * k],
+    "g0 (1-c) + g1 c + n (g2 p + g3 + g4 k)": lambda p, n, c, k: [1 - c, c, n * p, n, n * k],
 }
 
 
@@ -65,7 +70,10 @@ def main():
         scene = np.array([p["scene"] for p in sampled])
         for name, form in FORMS.items():
             m = np.array(
-                [form(pv, p["samples"]["grid"], p["samples"]["corners"]) for pv, p in zip(pred, sampled)]
+                [
+                    form(pv, p["samples"]["grid"], p["samples"]["corners"], p["samples"].get("prims", 0.0))
+                    for pv, p in zip(pred, sampled)
+                ]
             )
             g = fit_rel(m, meas)
             e = (m @ g - meas) / meas

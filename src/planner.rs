@@ -923,6 +923,14 @@ struct Geometry {
     facing_area: f64,
     /// ... and that plane's, if it faces the camera.
     closed_facing_area: f64,
+    /// Fraction of the sensor whose rays first meet a flat primitive (a
+    /// plane, disc or rectangle) without a lobe in a scene lit by
+    /// directional lights alone: its shading is kept from hit to hit
+    /// (`Mix32::shade_flat`), the plane in closed form (`closed_area`'s)
+    /// left out...
+    flat_area: f64,
+    /// ... and that plane's.
+    closed_flat_area: f64,
     /// That plane's index among the primitives.
     closed: Option<usize>,
 }
@@ -1329,6 +1337,10 @@ impl Geometry {
         let (gx, gy) = COVERAGE_GRID;
         let (mut hits, mut bounded, mut closed_hits, mut lobe_hits) = (0u32, 0u32, 0u32, 0u32);
         let (mut facing_hits, mut closed_facing_hits) = (0u32, 0u32);
+        let (mut flat_hits, mut closed_flat_hits) = (0u32, 0u32);
+        // Directional lights alone: a flat primitive's shading is one sum
+        // (`mix32::Mix32::shade_flat`).
+        let directional = lights.iter().all(Option::is_none);
         // Facing: the fast arithmetic's S30 normal has n_x = n_y = 0 (to
         // within these f64 components' rounding, which need not be the
         // fixed-point frame's: half an S30 unit either way). Once a
@@ -1402,6 +1414,15 @@ impl Geometry {
                 hits += any as u32;
                 closed_hits += (any && !others) as u32;
                 lobe_hits += nearest.is_some_and(|(_, p)| p.ks > 0.0) as u32;
+                if directional
+                    && nearest.is_some_and(|(_, p)| p.ks == 0.0 && !matches!(p.shape, Shape::Sphere { .. }))
+                {
+                    if any && !others {
+                        closed_flat_hits += 1;
+                    } else {
+                        flat_hits += 1;
+                    }
+                }
             }
         }
         Geometry {
@@ -1430,7 +1451,22 @@ impl Geometry {
             lobe_area: lobe_hits as f64 / (gx * gy) as f64,
             facing_area: facing_hits as f64 / (gx * gy) as f64,
             closed_facing_area: closed_facing_hits as f64 / (gx * gy) as f64,
+            flat_area: flat_hits as f64 / (gx * gy) as f64,
+            closed_flat_area: closed_flat_hits as f64 / (gx * gy) as f64,
         }
+    }
+
+    /// The point lights on the side of the plane in closed form
+    /// ([`Geometry::closed`]) that the camera, at the origin, sees: those
+    /// whose terms `mix32::Closed` keeps. 0 without such a plane.
+    fn closed_lights(&self) -> usize {
+        let Some(p) = self.closed.and_then(|i| self.prims.get(i)) else {
+            return 0;
+        };
+        // The camera's side: the sign of `n·(0 − c)`.
+        let camera = -dot3(p.c, p.n);
+        let lit = |l: &[f64; 3]| dot3(sub3(*l, p.c), p.n) * camera > 0.0;
+        self.lights.iter().flatten().filter(|l| lit(l)).count()
     }
 
     /// A plane's inverse depths over the field box (the pixel centres'
@@ -2461,8 +2497,12 @@ pub struct Features {
     pub noise_channels: f64,
     /// Fraction of the sensor shaded in closed form (the fast arithmetic's
     /// one-sample loop: a plane's pixels that see nothing else; a sampled
-    /// estimate), alone and times the point lights.
+    /// estimate), alone and times [`Features::closed_lights`].
     pub closed: f64,
+    /// Point lights on the side of that plane the camera sees: the closed
+    /// form's terms (`mix32::Closed`'s lights; with none, its sum is one
+    /// constant, `Mix32::closed_flat`). 0 without such a plane.
+    pub closed_lights: f64,
     /// Sum over the flat primitives facing the camera of the fraction of
     /// the sensor whose rays hit each (sampled): their rays take one plane
     /// `t` a chunk (`mix32::flat_pass`), not a reciprocal each — but the
@@ -2470,9 +2510,16 @@ pub struct Features {
     pub facing_area: f64,
     /// [`Features::closed`] times the share of its light terms the
     /// interpolation (`Options::closed_mean`) leaves out, in units of the
-    /// pairs' share ([`closed_mean_skipped`]): 0 without it, 1 with
-    /// `Pairs`, 22/15 with `Quads`, 25/15 with `Octs`.
+    /// pairs' share ([`closed_mean_skipped`]): 0 without it (or without
+    /// exactly one light on the plane's side, [`Features::closed_lights`],
+    /// the only case it runs), 1 with `Pairs`, 22/15 with `Quads`, 25/15
+    /// with `Octs`.
     pub closed_mean: f64,
+    /// Fraction of the sensor whose rays first meet a flat primitive
+    /// without a lobe, in a scene lit by directional lights alone (sampled):
+    /// its shading is kept from hit to hit (`Mix32::shade_flat`) — but
+    /// the plane shaded in closed form where [`Features::closed`] counts.
+    pub flat_area: f64,
 }
 
 impl Features {
@@ -2537,9 +2584,17 @@ impl Features {
             0.0
         };
         f.closed = if closed { g.closed_area } else { 0.0 };
-        f.closed_mean = f.closed * closed_mean_skipped(mean);
+        f.closed_lights = g.closed_lights() as f64;
+        // The mean is taken under one light on the plane's side alone
+        // (`Mix32::closed_run`).
+        f.closed_mean = if f.closed_lights == 1.0 {
+            f.closed * closed_mean_skipped(mean)
+        } else {
+            0.0
+        };
         // The plane shaded in closed form takes no `t` where it is.
         f.facing_area = g.facing_area + if closed { 0.0 } else { g.closed_facing_area };
+        f.flat_area = g.flat_area + if closed { 0.0 } else { g.closed_flat_area };
         f
     }
 
@@ -2565,16 +2620,17 @@ impl Features {
             self.bounded_area * self.parallel,
             self.noise_channels,
             self.closed,
-            self.closed * self.point_lights,
+            self.closed * self.closed_lights,
             self.lobe_area,
             self.facing_area,
             self.closed_mean,
+            self.flat_area,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 22;
+pub const COST_TERMS: usize = 23;
 
 /// M3 instructions a pixel as a linear function of [`Features`] (one
 /// sample a pixel), times what the pixel's samples cost ([`SampleCost`]).
@@ -2607,6 +2663,10 @@ pub struct Samples {
     /// loop's). The rest take their chief ray's sum.
     #[serde(default)]
     pub only: f64,
+    /// The primitives some ray can meet (those [`Features`] counts) where
+    /// a pixel takes more than one sample: what a sample may test.
+    #[serde(default)]
+    pub prims: f64,
 }
 
 /// [`Samples::traced`] where a calibration file has none (written before
@@ -2623,6 +2683,7 @@ impl Samples {
         aperture: 0.0,
         traced: 1.0,
         only: 0.0,
+        prims: 0.0,
     };
 
     /// These terms for `arithmetic`, with the fast loop's aperture
@@ -2663,22 +2724,37 @@ impl Samples {
             (_, false) => (n2, 0.0),
             (_, true) => (1.0 + n2 * edge_fraction(scene, g, false), 1.0),
         };
+        // (Not for one sample through the pinhole, whose cost is the
+        // features' alone.)
+        let prims = if grid == 1.0 && corners == 0.0 && aperture == 0 {
+            0.0
+        } else {
+            g.prims.iter().filter(|p| !p.unseen).count() as f64
+        };
         Samples {
             grid,
             corners,
             aperture: f64::from(aperture),
+            prims,
             ..Samples::ONE
         }
     }
 
     /// As arrays, in [`SampleCost`]'s order: the grid's terms (1 on every
-    /// pixel, 1 with the adaptive rule, samples) and the aperture's (1 and
+    /// pixel, 1 with the adaptive rule, samples — times one sample's cost
+    /// —, samples, and samples times primitives) and the aperture's (1 and
     /// points times the share traced, which multiply the grid's cost;
     /// points times the share tested against one rectangle, and points).
-    pub fn terms(&self) -> ([f64; 3], [f64; 4]) {
+    pub fn terms(&self) -> ([f64; 5], [f64; 4]) {
         let m = self.aperture;
         (
-            [1.0 - self.corners, self.corners, self.grid],
+            [
+                1.0 - self.corners,
+                self.corners,
+                self.grid,
+                self.grid,
+                self.grid * self.prims,
+            ],
             [1.0, m * self.traced, m * self.only, m],
         )
     }
@@ -2686,11 +2762,13 @@ impl Samples {
 
 /// What a pixel's [`Samples`] cost, given one sample's cost `one`
 /// ([`CostModel::predict`] of the scene's features): a grid on every pixel
-/// `grid[0] + grid[2] · samples · one`, with the adaptive rule `grid[1] +
-/// grid[2] · samples · one` (the constants, in instructions: the sampled
-/// loop's own work a pixel and the corner looks, much the same whatever
-/// the scene; per sample, the scene's cost in a loop that neither mirrors
-/// rays nor shades a plane in closed form), times the aperture's
+/// `grid[0] + samples · (grid[2] · one + grid[3] + grid[4] · prims)`, with
+/// the adaptive rule `grid[1] + samples · (…)` (the constants, in
+/// instructions: the sampled loop's own work a pixel and the corner looks,
+/// much the same whatever the scene; per sample, the scene's cost in a
+/// loop that neither mirrors rays nor shades a plane in closed form, a
+/// sample's own work, and its tests of the primitives, which a background
+/// sample makes too), times the aperture's
 /// `aperture[0] + aperture[1] · points · traced`, plus `points ·
 /// (aperture[2] · only + aperture[3])` instructions a sample (`traced`,
 /// `only`: the shares of the pixels whose rays are traced through every
@@ -2703,8 +2781,9 @@ impl Samples {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleCost {
     /// The grid's constant on every pixel and with the adaptive rule (M3
-    /// instructions a pixel), and its cost per sample (times one sample's).
-    pub grid: [f64; 3],
+    /// instructions a pixel), and its cost per sample: times one sample's,
+    /// in instructions, and in instructions a primitive.
+    pub grid: [f64; 5],
     /// The aperture's constant and per point of a pixel traced (times the
     /// grid's cost); per point of a pixel tested against one rectangle,
     /// and per point of every pixel (M3 instructions a sample).
@@ -2716,7 +2795,7 @@ impl SampleCost {
     /// free: the stand-in of a model of the features alone (`host-sim
     /// costfit`'s first step, which predicts one sample only).
     pub const ONE: SampleCost = SampleCost {
-        grid: [0.0, 0.0, 1.0],
+        grid: [0.0, 0.0, 1.0, 0.0, 0.0],
         aperture: [1.0, 0.0, 0.0, 0.0],
     };
 
@@ -2747,7 +2826,8 @@ impl SampleCost {
         let (fixed, per_one) = if s.grid == 1.0 && s.corners == 0.0 {
             (0.0, 1.0)
         } else {
-            (dot(&self.grid, &[g[0], g[1]]), self.grid[2] * g[2])
+            let [c0, c1, c2, c3, c4] = self.grid;
+            (c0 * g[0] + c1 * g[1] + c3 * g[3] + c4 * g[4], c2 * g[2])
         };
         if s.aperture == 0.0 {
             return (fixed, per_one);
@@ -2790,12 +2870,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        90.4, 36.7, 4.5, 7.0, -3.2, 15.8, 178.6, 2.1, 15.9, 0.0, -48.0, 49.7, -0.0, 77.6, 75.1, -0.2, 183.1,
-        -105.7, -81.8, 346.4, -50.7, -44.2,
+        85.4, 24.1, 3.9, 7.2, -1.9, 9.9, 9.1, 3.5, 20.0, 0.0, 97.8, 37.5, 10.2, 289.3, 20.8, -9.0, 144.4,
+        -323.1, 94.6, 130.9, -62.4, -45.4, -151.2,
     ],
     samples: SampleCost {
-        grid: [790.349, 254.211, 0.997],
-        aperture: [1.954, 0.626, 75.821, 72.322],
+        grid: [564.819, 171.123, 0.679, 115.659, 5.388],
+        aperture: [1.909, 0.575, 75.790, 74.074],
     },
 };
 
@@ -2803,12 +2883,12 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        765.1, 362.7, 46.1, -19.2, -54.9, 125.9, 1497.2, 175.9, 298.4, 353.0, 1498.1, 227.1, -245.3, 23.6,
-        1034.5, -167.2, 891.6, 0.0, 0.0, 297.4, -159.2, 0.0,
+        798.2, 348.8, 42.6, -25.6, -77.1, 119.2, 1437.1, 159.3, 297.8, 352.5, 1674.9, 234.3, -249.6, 80.8,
+        1025.7, -155.9, 866.8, 0.0, 0.0, 108.7, -216.6, 0.0, 55.9,
     ],
     samples: SampleCost {
-        grid: [941.454, 1966.555, 1.026],
-        aperture: [0.483, 0.890, 0.000, 0.000],
+        grid: [382.481, 1817.122, 0.984, 0.000, 69.852],
+        aperture: [0.485, 0.882, 0.000, 0.000],
     },
 };
 
