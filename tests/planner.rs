@@ -422,9 +422,9 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
             );
         }
         // The grid's cost predicts a calibration scene it was not fitted to
-        // (10.0 % RMS fast, 8.8 % wide with a sample's own work and its
+        // (10.2 % RMS fast, 8.9 % wide with a sample's own work and its
         // primitive tests, on the counts of 2026-12-05; the form before
-        // it, on the same counts, 14.7 % and 10.1 %).
+        // it, on the same counts, 12.3 % and 10.0 %).
         let (rms, max) = host_sim::costfit::left_out_grid_error(&cal.points, arithmetic).expect("left out");
         println!(
             "{arithmetic}: sampled points left out of the fit, {:.1} % RMS, {:.1} % at most",

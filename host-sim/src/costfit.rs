@@ -62,15 +62,20 @@ impl Point {
 }
 
 /// The calibration scenes rendered again with sample grids (every
-/// arithmetic): a plain floor, spheres, rectangles, distortion, no floor,
-/// and parallel rays with checkered rectangles.
-const SAMPLED_SCENES: [&str; 6] = [
+/// arithmetic): a plain floor, spheres, rectangles, distortion, two
+/// without a floor (mostly background: a sample's own work and its tests
+/// are told from its content's cost by these), parallel rays with
+/// checkered rectangles, and checkered rectangles over a floor under a
+/// directional light.
+const SAMPLED_SCENES: [&str; 8] = [
     "cal-base",
     "cal-sphere4",
     "cal-rect3",
     "cal-distortion",
     "cal-nofloor-mix",
+    "cal-nofloor-rect",
     "cal-big-rect-ortho",
+    "cal-dir-only-rects",
 ];
 /// The grids they are rendered with.
 const GRIDS: [&str; 4] = ["s2", "s4", "s4-adaptive", "s8-adaptive"];
