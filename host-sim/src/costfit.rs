@@ -600,15 +600,16 @@ fn scene_text(name: &str, s: &Spec) -> String {
     t.push_str(
         "\n[[materials]]\nname = \"matte\"\nalbedo = 0.8\n\n[[materials]]\nname = \"dark\"\nalbedo = 0.3\n\n",
     );
-    match s.base_light {
-        Some("none") => {}
-        below => {
-            let y = if below.is_some() { -3.0 } else { 3.0 };
-            let _ = writeln!(
-                t,
-                "[[lights]]\nkind = \"point\"\nposition = [2.0, {y:.1}, -2.0]\nintensity = 50.0\n"
-            );
-        }
+    let base_y = match s.base_light {
+        None => Some(3.0),
+        Some("below") => Some(-3.0),
+        Some(_) => None,
+    };
+    if let Some(y) = base_y {
+        let _ = writeln!(
+            t,
+            "[[lights]]\nkind = \"point\"\nposition = [2.0, {y:.1}, -2.0]\nintensity = 50.0\n"
+        );
     }
     for k in 0..s.point_lights {
         let _ = writeln!(
@@ -775,7 +776,7 @@ pub fn fit(points: &[Point], arithmetic: &str) -> Result<CostModel, String> {
         .collect();
     // A sample's own work in instructions in the fast arithmetic alone:
     // the wide loop's scales with its content (fitted, it came out
-    // negative, and predicted left-out scenes worse: docs/cost-model.md).
+    // negative, −168 instructions a sample: docs/cost-model.md).
     let grid_used: &[usize] = if arithmetic == "fast" { &[0, 1, 2, 3, 4] } else { &[0, 1, 2, 4] };
     let solved =
         least_squares(&grid_rows, grid_used, &GRID_TERMS).map_err(|e| format!("{arithmetic} sample grid: {e}"))?;
