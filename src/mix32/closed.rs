@@ -191,13 +191,7 @@ impl Mix32 {
         // Elsewhere out of line: inline, the M3's measured 196.35, and the
         // x86-64 host's 1080p standard 65.0–69.4 frames/s where the build
         // before `closed_flat` ran 69.8–72.3, interleaved.)
-        if ARMV6M {
-            if c.lights.is_empty() && (!met || unhit(rays)) && all_ahead(c, rays, ys) {
-                self.flat_words(c, rgb, rays, words, dn_max, (noise, index, step));
-                fl.iter_mut().for_each(|f| *f = 0);
-                return 0;
-            }
-        } else if c.lights.is_empty()
+        if c.lights.is_empty()
             && self.closed_flat(c, rgb, (rays, ys, met), (words, fl), dn_max, (noise, index, step))
         {
             return 0;
@@ -255,8 +249,9 @@ impl Mix32 {
     /// instructions a pixel, M0 215.0 → 136.8), and `true`; else nothing.
     /// Out of line, the test with it: the run's loops keep their
     /// registers and size ([`Mix32::closed_run`] says what each form
-    /// measured; the M0 tests the chunk in the run).
-    #[inline(never)]
+    /// measured); on the M0 inlined, its words out of line.
+    #[cfg_attr(all(target_arch = "arm", not(target_has_atomic = "32")), inline(always))]
+    #[cfg_attr(not(all(target_arch = "arm", not(target_has_atomic = "32"))), inline(never))]
     fn closed_flat(
         &self,
         c: &Closed,
@@ -275,8 +270,9 @@ impl Mix32 {
     }
 
     /// [`Mix32::closed_flat`]'s words: each ray's from the plane's
-    /// constant sum `flat`. Out of line on the M0 (whose run tests the
-    /// chunk itself), inlined in `closed_flat` elsewhere.
+    /// constant sum `flat`. Out of line on the M0 (where `closed_flat`,
+    /// the chunk's test, is inlined in the run), inlined in `closed_flat`
+    /// elsewhere.
     #[cfg_attr(all(target_arch = "arm", not(target_has_atomic = "32")), inline(never))]
     #[cfg_attr(not(all(target_arch = "arm", not(target_has_atomic = "32"))), inline(always))]
     fn flat_words(
