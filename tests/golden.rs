@@ -12,7 +12,11 @@
 //! `host_sim::trajectory::PINNED_POSES` poses about it, every prediction to
 //! the bit (CRC-64 of their `Debug` text, which gives each `f64` exactly).
 //! A change that makes the planner faster without changing what it decides
-//! or predicts passes here unchanged.
+//! or predicts passes here unchanged. What it decides alone (each plan's
+//! `options`, what the renderer is told) is pinned in
+//! `tests/golden/plan-options.txt`: a refit of the cost model rewrites
+//! `plans.txt` (its predictions move) and, if `git diff` shows
+//! `plan-options.txt` unchanged, has moved no decision.
 
 use hilcam::planner::{Budget, Plan};
 use hilcam::render::Frame;
@@ -49,6 +53,13 @@ fn golden_path() -> PathBuf {
 
 fn plans_path() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/plans.txt"))
+}
+
+fn options_path() -> PathBuf {
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/golden/plan-options.txt"
+    ))
 }
 
 fn scenes() -> Vec<PathBuf> {
@@ -99,32 +110,44 @@ fn shipped_frames_match_the_committed_hashes() {
 /// `scene` → the hash of its plans at its pose and at
 /// `host_sim::trajectory::PINNED_POSES` poses about it
 /// (`host_sim::trajectory::poses_about`).
-fn current_plans() -> BTreeMap<String, String> {
+/// Each shipped scene's plans, at its pose and at `PINNED_POSES` poses
+/// about it, hashed whole (`plans.txt`: predictions too, which move with
+/// every refit of the cost model) and by what the renderer is told alone
+/// (`plan-options.txt`: the decisions, which a refit must not move
+/// unannounced — they choose the frames).
+fn current_plans() -> (BTreeMap<String, String>, BTreeMap<String, String>) {
     use host_sim::trajectory::{poses_about, PINNED_POSES, POSES_SEED};
     let mut state = POSES_SEED;
     let budget = Budget::default();
-    let mut out = BTreeMap::new();
+    let (mut whole, mut decided) = (BTreeMap::new(), BTreeMap::new());
     for path in scenes() {
         let r = load(&path).expect("a shipped scene loads");
         let scene = r.core_scene().expect("a shipped scene builds");
         let pose = host_sim::drive_cmd::scene_pose(&r).expect("its pose");
-        let mut d = CRC.digest();
-        d.update(format!("{:?}", hilcam::planner::plan(&scene, &budget)).as_bytes());
+        let (mut d, mut o) = (CRC.digest(), CRC.digest());
+        let mut add = |plan: hilcam::planner::Plan| {
+            d.update(format!("{plan:?}").as_bytes());
+            o.update(format!("{:?}", plan.options).as_bytes());
+        };
+        add(hilcam::planner::plan(&scene, &budget));
         for (k, at_pose) in poses_about(&pose, PINNED_POSES, &mut state).iter().enumerate() {
             let mut at = scene.clone();
             let e = hilcam::extrinsics::Extrinsics::from_matrix(at_pose.rotation, at_pose.translation);
             let moved = e.is_ok_and(|e| at.set_pose(e).is_ok());
             assert!(moved, "{}: pose {k}", r.desc.name);
-            d.update(format!("{:?}", hilcam::planner::plan(&at, &budget)).as_bytes());
+            add(hilcam::planner::plan(&at, &budget));
         }
-        out.insert(r.desc.name.clone(), format!("{:016x}", d.finalize()));
+        whole.insert(r.desc.name.clone(), format!("{:016x}", d.finalize()));
+        decided.insert(r.desc.name.clone(), format!("{:016x}", o.finalize()));
     }
-    out
+    (whole, decided)
 }
 
 #[test]
 fn shipped_plans_match_the_committed_hashes() {
-    check(current_plans(), &plans_path(), scenes().len());
+    let (whole, decided) = current_plans();
+    check(decided, &options_path(), scenes().len());
+    check(whole, &plans_path(), scenes().len());
 }
 
 /// Compares `now` with the committed file at `path` (rewrites it with
