@@ -137,7 +137,7 @@ fn main() {
         for v in &variants {
             let budget = hilcam::planner::Budget::default();
             if let Ok((_, _, f)) =
-                host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |o| v.options(o))
+                host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |p| v.options(p))
             {
                 table = table.max(f.stages().distortion_lut.unwrap_or(0));
                 lines.insert(f.line_loop());
@@ -183,21 +183,26 @@ fn main() {
         code,
         "/// Most distortion-table entries any scene's variant renders with.\npub const TABLE: usize = {table};"
     );
-    // Each scene's plan (the core's planner, run here on the host with the
-    // default budget, as host-sim plans the frames it compares): the
-    // firmware renders it and holds no planner.
-    let plans: Vec<String> = resolved
+    // Each scene's options for each variant, from its plan (the core's
+    // planner, run here on the host with the default budget, as host-sim
+    // plans the frames it compares): the firmware renders them and holds
+    // no planner.
+    let options: Vec<String> = resolved
         .iter()
         .map(|r| {
             let scene = r.core_scene().unwrap_or_else(|e| panic!("{}: {e}", r.desc.name));
-            options_literal(&hilcam::planner::plan(&scene, &hilcam::planner::Budget::default()).options)
+            let plan = hilcam::planner::plan(&scene, &hilcam::planner::Budget::default());
+            let each: Vec<String> = variants.iter().map(|v| options_literal(&v.options(&plan))).collect();
+            format!("[{}]", each.join(", "))
         })
         .collect();
     let _ = writeln!(
         code,
-        "/// Each scene's plan (the core's planner, run at build time), in scene-id order.\npub const PLANS: [Options; {}] = [\n    {}\n];",
-        plans.len(),
-        plans.join(",\n    ")
+        "/// Each scene's options for each variant (the core's planner, run at build time, and the variant's \
+         departure from its plan), in scene-id order.\npub const OPTIONS: [[Options; {}]; {}] = [\n    {}\n];",
+        variants.len(),
+        options.len(),
+        options.join(",\n    ")
     );
     let names: Vec<String> = variants.iter().map(Variant::name).collect();
     let _ = writeln!(
@@ -208,15 +213,10 @@ fn main() {
     );
     let _ = writeln!(
         code,
-        "/// Renders with variant `v`.\npub fn render_variant<R: super::Runner>(v: usize, planned: &Options, r: &mut R) -> Result<u64, &'static str> {{\n    match v {{"
+        "/// Renders with variant `v`'s number type and `opts`.\npub fn render_variant<R: super::Runner>(v: usize, opts: &Options, r: &mut R) -> Result<u64, &'static str> {{\n    match v {{"
     );
     for (i, v) in variants.iter().enumerate() {
-        let _ = writeln!(
-            code,
-            "        {i} => r.run::<{}>(&{}),",
-            v.scalar.type_path(),
-            v.options_expr("planned")
-        );
+        let _ = writeln!(code, "        {i} => r.run::<{}>(opts),", v.scalar.type_path());
     }
     let _ = writeln!(code, "        _ => Err(\"no such variant\"),\n    }}\n}}");
     std::fs::write(out.join("scenes.rs"), code).expect("scenes.rs");

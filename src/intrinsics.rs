@@ -123,6 +123,12 @@ impl Intrinsics {
     pub fn size(&self) -> (u16, u16) {
         (self.width, self.height)
     }
+    /// True if the principal point is the sensor's centre across,
+    /// `o_x = (W − 1)/2` exactly: column `W − 1 − i` then sees the mirror
+    /// image of column `i`'s slopes (the fast loop mirrors a line's rays).
+    pub fn is_centred_x(&self) -> bool {
+        i64::from(self.ox.to_bits()) * 2 == (i64::from(self.width) - 1) << Px::FRAC_NBITS
+    }
     /// Focal length in pixels `(f/s_x, f/s_y)`.
     pub fn focal_px(&self) -> (Gain, Gain) {
         (self.fx, self.fy)

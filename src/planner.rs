@@ -2520,6 +2520,15 @@ pub struct Features {
     /// its shading is kept from hit to hit (`Mix32::shade_flat`) — but
     /// the plane shaded in closed form where [`Features::closed`] counts.
     pub flat_area: f64,
+    /// 1 where the fast one-sample loop makes every ray of a line: the
+    /// principal point is off the sensor's centre across
+    /// ([`crate::intrinsics::Intrinsics::is_centred_x`]), so no column's
+    /// rays are another's mirrored (the right half's rays, distorted, are
+    /// otherwise the left half's). Alone and times [`Features::poly`].
+    pub unmirrored: f64,
+    /// 1 for an orthographic camera: parallel rays without the `cos⁴α`
+    /// stage (weak perspective keeps it).
+    pub orthographic: f64,
 }
 
 impl Features {
@@ -2595,6 +2604,18 @@ impl Features {
         // The plane shaded in closed form takes no `t` where it is.
         f.facing_area = g.facing_area + if closed { 0.0 } else { g.closed_facing_area };
         f.flat_area = g.flat_area + if closed { 0.0 } else { g.closed_flat_area };
+        // (The loop that mirrors is the one that shades the plane in
+        // closed form: `closed`.)
+        f.unmirrored = if closed && !scene.camera.intrinsics.is_centred_x() {
+            1.0
+        } else {
+            0.0
+        };
+        f.orthographic = if matches!(scene.camera.model, Model::Orthographic { .. }) {
+            1.0
+        } else {
+            0.0
+        };
         f
     }
 
@@ -2625,12 +2646,15 @@ impl Features {
             self.facing_area,
             self.closed_mean,
             self.flat_area,
+            self.unmirrored,
+            self.unmirrored * self.poly,
+            self.orthographic,
         ]
     }
 }
 
 /// Terms of the cost model.
-pub const COST_TERMS: usize = 23;
+pub const COST_TERMS: usize = 26;
 
 /// M3 instructions a pixel as a linear function of [`Features`] (one
 /// sample a pixel), times what the pixel's samples cost ([`SampleCost`]).
@@ -2870,12 +2894,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        85.4, 24.1, 3.9, 7.2, -1.9, 9.9, 9.1, 3.5, 20.0, 0.0, 97.8, 37.5, 10.2, 289.3, 20.8, -9.0, 144.4,
-        -323.1, 94.6, 130.9, -62.4, -45.4, -151.2,
+        85.6, 21.4, 3.8, 7.0, -2.3, 11.0, 8.9, 3.1, 19.0, 0.0, 109.7, 37.0, 29.6, 297.3, 12.9, -2.1, 144.3,
+        -328.0, 95.0, 114.2, -51.5, -45.4, -164.0, 9.5, 16.9, -25.9,
     ],
     samples: SampleCost {
-        grid: [576.536, 191.744, 0.758, 72.264, 6.011],
-        aperture: [1.909, 0.575, 75.790, 74.074],
+        grid: [571.802, 189.730, 0.749, 73.489, 6.725],
+        aperture: [1.900, 0.567, 75.469, 74.526],
     },
 };
 
@@ -2883,11 +2907,11 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        798.2, 348.8, 42.6, -25.6, -77.1, 119.2, 1437.1, 159.3, 297.8, 352.5, 1674.9, 234.3, -249.6, 80.8,
-        1025.7, -155.9, 866.8, 0.0, 0.0, 108.7, -216.6, 0.0, 55.9,
+        790.2, 346.6, 44.5, -26.4, -75.3, 126.4, 1437.5, 175.5, 274.3, 329.8, 1714.9, 252.5, 4.2, 88.3,
+        1010.5, -134.2, 862.0, 0.0, 0.0, 71.1, -195.5, 0.0, 24.0, 0.0, 0.0, -277.3,
     ],
     samples: SampleCost {
-        grid: [199.448, 1545.995, 1.011, 0.000, 56.871],
+        grid: [220.041, 1553.018, 1.014, 0.000, 54.376],
         aperture: [0.485, 0.882, 0.000, 0.000],
     },
 };

@@ -633,6 +633,13 @@ pub enum Override {
     /// Perspective rays where the plan has weak-perspective ones (a
     /// telecentric camera's stay parallel).
     Perspective,
+    /// Weak-perspective rays at mean depth `mean_depth` (metres) where the
+    /// plan has perspective ones (the planner's weak-perspective candidate
+    /// gives it; a telecentric camera's rays are unchanged).
+    Weak {
+        /// `Z̄`, metres.
+        mean_depth: Len,
+    },
 }
 
 impl Options {
@@ -675,6 +682,13 @@ impl Options {
             },
             Override::Perspective => Options {
                 model: self.model.exact(),
+                ..self
+            },
+            Override::Weak { mean_depth } => Options {
+                model: match self.model {
+                    RenderModel::Perspective => RenderModel::WeakPerspective { mean_depth },
+                    m => m,
+                },
                 ..self
             },
         }
@@ -1710,8 +1724,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 adaptive: self.stages.adaptive,
                 aperture: opts.aperture,
                 closed_mean: opts.closed_mean,
-                centred: i64::from(scene.camera.intrinsics.principal_point().0.to_bits()) * 2
-                    == (i64::from(self.width) - 1) << crate::num::Px::FRAC_NBITS,
+                centred: scene.camera.intrinsics.is_centred_x(),
             }));
         }
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {

@@ -7,9 +7,9 @@
 use crate::common;
 
 use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, POINT_LIGHT, TANGENT_SPHERE};
-use hilcam::planner::Budget;
+use hilcam::planner::{Budget, Plan};
+use hilcam::render::Override;
 use hilcam::render::FLAG_OUTSIDE_FIELD;
-use hilcam::render::{Options, Override};
 use hilcam::scalar::I32F32;
 use hilcam::scene::PixelFormat;
 use host_sim::harness::{collect, prepare, Collect, Metrics};
@@ -31,7 +31,7 @@ fn mix(r: &Resolved) -> Result<(Metrics, Collect), String> {
 fn rendered_as(r: &Resolved, variant: &str) -> Result<(Metrics, Collect), String> {
     let v = Variant::parse(variant).expect("variant");
     let budget = Budget::default();
-    let pinhole = |o: Options| v.options(o).with(Override::Aperture { points: 0 });
+    let pinhole = |p: &Plan| v.options(p).with(Override::Aperture { points: 0 });
     let (_, plan, frame) = prepare::<I32F32>(r, &budget, pinhole)?;
     let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
     let rs = RefScene::new(r);
@@ -363,8 +363,8 @@ fn mirrored_undistorted_columns() {
         )],
     );
     let v = Variant::parse("mix32-poly").expect("variant");
-    let (_, _, frame) = prepare::<I32F32>(&r, &Budget::default(), |o| {
-        v.options(o).with(Override::Aperture { points: 0 })
+    let (_, _, frame) = prepare::<I32F32>(&r, &Budget::default(), |p| {
+        v.options(p).with(Override::Aperture { points: 0 })
     })
     .expect("prepares");
     for j in [0, 31, 63] {
@@ -557,7 +557,7 @@ fn a_point_lit_plane_in_closed_form_within_the_prediction() {
         let r = host_sim::scene_file::parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
         let v = Variant::parse("mix32-poly").expect("variant");
         let budget = Budget::default();
-        let (_, plan, frame) = prepare::<I32F32>(&r, &budget, |o| v.options(o)).map_err(TestCaseError::fail)?;
+        let (_, plan, frame) = prepare::<I32F32>(&r, &budget, |p| v.options(p)).map_err(TestCaseError::fail)?;
         prop_assert_eq!(frame.closed_plane(), Some(0), "not in closed form:\n{}", t);
         let fast = plan
             .candidates
@@ -617,8 +617,8 @@ fn a_light_at_the_plane_leaves_the_closed_form() {
             &[],
         );
         let v = Variant::parse("mix32-poly").expect("variant");
-        let (_, _, frame) = prepare::<I32F32>(&r, &Budget::default(), |o| {
-            v.options(o).with(Override::Aperture { points: 0 })
+        let (_, _, frame) = prepare::<I32F32>(&r, &Budget::default(), |p| {
+            v.options(p).with(Override::Aperture { points: 0 })
         })
         .expect("prepares");
         assert_eq!(frame.closed_plane(), closed, "light {height} m above the floor");

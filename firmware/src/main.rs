@@ -302,7 +302,7 @@ fn sweep(enc: &mut Enc, flags: &mut [u8], keys: &mut [u64]) -> ! {
         let Ok(scene) = &loaded else {
             fail("scene data");
         };
-        let Some(&opts) = scenes::PLANS.get(id) else {
+        let Some(opts) = scenes::OPTIONS.get(id) else {
             fail("plan");
         };
         // Names only in status lines (a build without them holds none).
@@ -316,7 +316,10 @@ fn sweep(enc: &mut Enc, flags: &mut [u8], keys: &mut [u64]) -> ! {
                 scene_id: id as u32,
                 command: None,
             };
-            let ins = scenes::render_variant(v, &opts, &mut run).unwrap_or_else(|e| fail(e));
+            let Some(opts) = opts.get(v) else {
+                fail("plan");
+            };
+            let ins = scenes::render_variant(v, opts, &mut run).unwrap_or_else(|e| fail(e));
             #[cfg(feature = "status")]
             Line::frame(
                 id,
@@ -439,7 +442,7 @@ mod camera {
 /// The planner's choice for a scene the camera was sent, with the default
 /// budget within the frame's table. Out of line: the planner's working
 /// state is not held while the frame renders. (The sweep's scenes are
-/// planned at build time: `scenes::PLANS`.)
+/// planned at build time: `scenes::OPTIONS`.)
 #[cfg(feature = "camera")]
 #[inline(never)]
 fn options(scene: &Scene) -> Options {

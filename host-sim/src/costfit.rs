@@ -97,14 +97,37 @@ const APERTURE_SCENES: [&str; 5] = [
 const DOF_SCENES: [&str; 2] = ["cal-dof-checker", "cal-dof-target"];
 /// The aperture points they are rendered with.
 const APERTURES: [&str; 2] = ["ap16", "ap64"];
-/// The calibration scenes that weak perspective holds, so that parallel
-/// rays are a candidate of their plan beside perspective ones: measured
-/// with perspective rays (`ARITH-persp`) whatever the plan picks — a
-/// calibration that followed the plan it calibrates could flip with each
-/// fit. (Parallel rays are the orthographic scenes'.)
-const PERSPECTIVE_SCENES: [&str; 2] = ["cal-far-rect", "cal-facing-big-rect"];
-/// The variants those are rendered with (no distortion: no table).
-const PERSPECTIVE_VARIANTS: [&str; 2] = ["mix32-persp", "i32f32-persp"];
+/// The variants the calibration scenes that weak perspective holds are
+/// rendered with (perspective and parallel rays are candidates of their
+/// plan): both ray models whatever the plan picks — a calibration that
+/// followed the plan it calibrates could flip with each fit, and the
+/// parallel-ray terms would otherwise come from orthographic cameras
+/// alone (no `cos⁴α` stage). No distortion: no table.
+/// (Each ray model in a firmware of its own: the perspective one is the
+/// firmware these scenes were measured in before weak perspective was, and
+/// a scene's count moves by a few percent with the loops built beside it.)
+const WEAK_VARIANTS: [[&str; 2]; 2] = [["mix32-persp", "i32f32-persp"], ["mix32-weak", "i32f32-weak"]];
+/// The calibration scenes with the principal point off the sensor's
+/// centre, measured in a firmware of their own (added to the others'
+/// batches, they would move those scenes' counts: the loops built beside a
+/// scene's change its own by up to 14 %, as measured on cal-ortho).
+const OFF_CENTRE_SCENES: [&str; 4] = [
+    "cal-off-centre",
+    "cal-off-centre-distortion",
+    "cal-off-centre-mix",
+    "cal-off-centre-ortho",
+];
+
+/// Whether weak perspective holds for the calibration scene at `path`
+/// (its plan lists a weak-perspective candidate).
+fn weak_holds(path: &Path) -> Result<bool, String> {
+    let scene = load(path)?.core_scene()?;
+    let plan = planner::plan(&scene, &Budget::default());
+    Ok(plan
+        .candidates
+        .iter()
+        .any(|c| matches!(c.model, hilcam::render::RenderModel::WeakPerspective { .. })))
+}
 
 /// The names of [`Features::to_array`]'s terms.
 pub const TERMS: [&str; COST_TERMS] = [
@@ -131,6 +154,9 @@ pub const TERMS: [&str; COST_TERMS] = [
     "facing_area",
     "closed_mean",
     "flat_area",
+    "unmirrored",
+    "unmirrored_poly",
+    "orthographic",
 ];
 
 /// What one calibration scene holds beyond the base (a floor plane, one
@@ -165,6 +191,10 @@ struct Spec {
     /// (`"below"`, lighting the side the camera does not see): the floor's
     /// closed form then has no light term ([`Features::closed_lights`]).
     base_light: Option<&'static str>,
+    /// The principal point off the sensor's centre (`[83.3, 61.7]`, as a
+    /// calibrated camera's is): the fast loop mirrors no ray
+    /// ([`Features::unmirrored`]).
+    off_centre: bool,
 }
 
 fn spec_list() -> Vec<(&'static str, Spec)> {
@@ -482,6 +512,44 @@ fn spec_list() -> Vec<(&'static str, Spec)> {
                 ..d()
             },
         ),
+        (
+            "off-centre",
+            Spec {
+                off_centre: true,
+                ..d()
+            },
+        ),
+        (
+            "off-centre-distortion",
+            Spec {
+                off_centre: true,
+                distortion: true,
+                ..d()
+            },
+        ),
+        (
+            "off-centre-mix",
+            Spec {
+                off_centre: true,
+                spheres: 2,
+                rects: 1,
+                checker_floor: true,
+                distortion: true,
+                rgb: true,
+                ..d()
+            },
+        ),
+        (
+            "off-centre-ortho",
+            Spec {
+                off_centre: true,
+                no_floor: true,
+                rects: 1,
+                discs: 1,
+                ortho: true,
+                ..d()
+            },
+        ),
     ]
 }
 
@@ -574,6 +642,9 @@ fn scene_text(name: &str, s: &Spec) -> String {
     );
     t.push_str("[camera]\nwidth = 160\nheight = 120\nfocal_length = 2.4e-3\npitch = 12e-6\n");
     t.push_str("f_number = 2.0\nfocus_distance = 3.0\ntolerable_blur = 12e-6\n");
+    if s.off_centre {
+        t.push_str("principal_point = [83.3, 61.7]\n");
+    }
     if s.distortion {
         t.push_str("distortion = [0.15, 0.05]\n");
     }
@@ -734,7 +805,7 @@ fn far_text(name: &str, discs: usize, spheres: usize) -> String {
 /// The options `variant` renders `scene` with (the default plan's, as the
 /// variant changes them): its arithmetic, and the features measured.
 fn variant_options(scene: &hilcam::scene::Scene, variant: &Variant) -> hilcam::render::Options {
-    variant.options(planner::plan(scene, &Budget::default()).options)
+    variant.options(&planner::plan(scene, &Budget::default()))
 }
 
 /// Least squares per arithmetic: the coefficients of every feature term
@@ -990,18 +1061,27 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
         // scene planned with it, so that its term is told from the
         // plane's.)
         let one = parse(&["mix32-poly", "mix32-nomean", "i32f32-poly", "i32f32-lut64-linear"].map(String::from))?;
-        let pinned = pick(&PERSPECTIVE_SCENES);
+        let mut pinned = Vec::new();
+        for p in &paths {
+            if weak_holds(p)? {
+                pinned.push(p.clone());
+            }
+        }
         let aperture_only = pick(&DOF_SCENES);
+        let off_centre = pick(&OFF_CENTRE_SCENES);
         let free: Vec<_> = paths
             .iter()
-            .filter(|p| !pinned.contains(p) && !aperture_only.contains(p))
+            .filter(|p| !pinned.contains(p) && !aperture_only.contains(p) && !off_centre.contains(p))
             .cloned()
             .collect();
         for (k, batch) in free.chunks(6).enumerate() {
             measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
         }
-        let persp = parse(&PERSPECTIVE_VARIANTS.map(String::from))?;
-        measure(board, &pinned, &persp, &work.join("perspective"), &mut points)?;
+        measure(board, &off_centre, &one, &work.join("off-centre"), &mut points)?;
+        for (rays, variants) in ["perspective", "weak"].into_iter().zip(WEAK_VARIANTS) {
+            let v = parse(&variants.map(String::from))?;
+            measure(board, &pinned, &v, &work.join(rays), &mut points)?;
+        }
         let grids = parse(&with(&["mix32", "i32f32"], &GRIDS))?;
         measure(board, &pick(&SAMPLED_SCENES), &grids, &work.join("sampled"), &mut points)?;
     }

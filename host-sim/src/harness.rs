@@ -269,12 +269,12 @@ pub fn decode_all(format: PixelFormat, bytes: &[u8]) -> Vec<[u32; 3]> {
 }
 
 /// The core's scene, its plan for `budget`, and the frame prepared with
-/// the plan's options as `options` changes them (a variant's; `|o| o` for
-/// the default path).
+/// the options `options` takes from the plan (a variant's; `|p| p.options`
+/// for the default path).
 pub fn prepare<S: Scalar>(
     r: &Resolved,
     budget: &Budget,
-    options: impl FnOnce(Options) -> Options,
+    options: impl FnOnce(&Plan) -> Options,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame<S>), String> {
     let scene = r.core_scene()?;
     let (plan, frame) = prepare_scene(&scene, &r.desc.name, budget, options)?;
@@ -286,11 +286,11 @@ pub fn prepare_scene<S: Scalar>(
     scene: &hilcam::scene::Scene,
     name: &str,
     budget: &Budget,
-    options: impl FnOnce(Options) -> Options,
+    options: impl FnOnce(&Plan) -> Options,
 ) -> Result<(Plan, Frame<S>), String> {
     let plan = planner::plan(scene, budget);
-    let frame = Frame::<S>::build(scene, &options(plan.options))
-        .map_err(|e| format!("{name}: cannot render: {e:?}"))?;
+    let frame =
+        Frame::<S>::build(scene, &options(&plan)).map_err(|e| format!("{name}: cannot render: {e:?}"))?;
     Ok((plan, frame))
 }
 
@@ -303,7 +303,7 @@ pub fn planned_frame(
     budget: &Budget,
     frame_id: u32,
 ) -> Result<(Collect, hilcam::render::Stages), String> {
-    let (_, mut frame) = prepare_scene::<hilcam::scalar::I32F32>(scene, name, budget, |o| o)?;
+    let (_, mut frame) = prepare_scene::<hilcam::scalar::I32F32>(scene, name, budget, |p| p.options)?;
     frame.set_frame_id(frame_id);
     let core = collect(&frame).map_err(|e| format!("{name}: {e}"))?;
     Ok((core, frame.stages()))
@@ -315,7 +315,7 @@ pub fn core_render(
     r: &Resolved,
     budget: &Budget,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame, Collect), String> {
-    let (scene, plan, frame) = prepare(r, budget, |o| o)?;
+    let (scene, plan, frame) = prepare(r, budget, |p| p.options)?;
     let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
     Ok((scene, plan, frame, core))
 }
@@ -967,7 +967,7 @@ pub fn render_with(
     stage_errors: StageErrors,
     options: impl FnOnce(Options) -> Options,
 ) -> Result<RenderOutput, String> {
-    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, options)?;
+    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, |p| options(p.options))?;
     let rs = RefScene::new(r);
     let (w, h) = frame.size();
     let mut core = Collect {

@@ -7,7 +7,7 @@
 use crate::harness::{collect, Collect};
 use crate::scene_file::Resolved;
 use hilcam::planner::{Budget, Plan};
-use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override};
+use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override, RenderModel};
 use hilcam::scalar::{Scalar, I32F32};
 
 /// The per-pixel arithmetic of a variant. (I16F16 and I12F20, measured in
@@ -103,7 +103,9 @@ impl Variant {
     /// (an N×N sample grid on every pixel), `ARITH-sN-adaptive`, `ARITH-apN`
     /// (the aperture sampled with N points; 0: not at all), `ARITH-nomean`
     /// (the closed plane without its mean), `ARITH-persp` (perspective rays
-    /// where the plan has weak-perspective ones).
+    /// where the plan has weak-perspective ones), `ARITH-weak`
+    /// (weak-perspective rays, at the planner's mean depth, where the plan
+    /// has perspective ones and weak perspective holds).
     pub fn name(&self) -> String {
         let s = self.scalar.name();
         match self.over {
@@ -124,6 +126,7 @@ impl Variant {
             Override::Aperture { points } => format!("{s}-ap{points}"),
             Override::NoMean => format!("{s}-nomean"),
             Override::Perspective => format!("{s}-persp"),
+            Override::Weak { .. } => format!("{s}-weak"),
         }
     }
 
@@ -133,7 +136,7 @@ impl Variant {
             format!(
                 "variant {name:?}: expected planned, or ARITH-planned, ARITH-lutN-linear, \
                  ARITH-lutN-nearest, ARITH-poly, ARITH-all-stages, ARITH-sN or ARITH-sN-adaptive \
-                 (N 1, 2, 4, 8, 16), ARITH-apN (N 0, 16, 64, 256), ARITH-nomean, ARITH-persp, ARITH one of planned, mix32, \
+                 (N 1, 2, 4, 8, 16), ARITH-apN (N 0, 16, 64, 256), ARITH-nomean, ARITH-persp, ARITH-weak, ARITH one of planned, mix32, \
                  i32f32, f32"
             )
         };
@@ -151,6 +154,10 @@ impl Variant {
             "all-stages" => Override::AllStages,
             "nomean" => Override::NoMean,
             "persp" => Override::Perspective,
+            // (The mean depth is the plan's: `Variant::options`.)
+            "weak" => Override::Weak {
+                mean_depth: hilcam::num::Len::ZERO,
+            },
             _ if rest.starts_with("ap") => {
                 let points: u16 = rest[2..].parse().map_err(|_| bad())?;
                 if points != 0 && !hilcam::defocus::is_size(points) {
@@ -197,37 +204,27 @@ impl Variant {
         Ok(Variant { scalar, over })
     }
 
-    /// The options this variant renders with, from the planned ones.
-    pub fn options(&self, planned: Options) -> Options {
-        let o = planned.with(self.over);
+    /// The options this variant renders with, from `plan`'s. `ARITH-weak`
+    /// takes the mean depth of the plan's weak-perspective candidate, and
+    /// keeps the plan's rays where it has none (weak perspective does not
+    /// hold, or the camera is telecentric).
+    pub fn options(&self, plan: &Plan) -> Options {
+        let over = match self.over {
+            Override::Weak { .. } => plan
+                .candidates
+                .iter()
+                .find_map(|c| match c.model {
+                    RenderModel::WeakPerspective { mean_depth } => Some(Override::Weak { mean_depth }),
+                    _ => None,
+                })
+                .unwrap_or(Override::Planned),
+            o => o,
+        };
+        let o = plan.options.with(over);
         match self.scalar.arithmetic() {
             Some(a) => o.with_arithmetic(a),
             None => o,
         }
-    }
-
-    /// [`Variant::options`] as a Rust expression of `planned` (for
-    /// generated firmware code).
-    pub fn options_expr(&self, planned: &str) -> String {
-        let over = match self.over {
-            Override::Planned => "Override::Planned".into(),
-            Override::Polynomial => "Override::Polynomial".into(),
-            Override::AllStages => "Override::AllStages".into(),
-            Override::Table { entries, eval } => {
-                format!("Override::Table {{ entries: {entries}, eval: DistortionEval::{eval:?} }}")
-            }
-            Override::Samples { n, adaptive } => {
-                format!("Override::Samples {{ n: {n}, adaptive: {adaptive} }}")
-            }
-            Override::Aperture { points } => format!("Override::Aperture {{ points: {points} }}"),
-            Override::NoMean => "Override::NoMean".into(),
-            Override::Perspective => "Override::Perspective".into(),
-        };
-        let arith = match self.scalar.arithmetic() {
-            Some(a) => format!(".with_arithmetic(hilcam::render::Arithmetic::{a:?})"),
-            None => String::new(),
-        };
-        format!("{planned}.with({over}){arith}")
     }
 
     /// Renders `r` on the host with this variant: the frame's bytes and
@@ -255,7 +252,7 @@ impl Variant {
             type Out = Result<W::Out, String>;
             fn run<S: Scalar>(self) -> Self::Out {
                 let (_, plan, mut frame) =
-                    crate::harness::prepare::<S>(self.r, self.budget, |o| self.variant.options(o))?;
+                    crate::harness::prepare::<S>(self.r, self.budget, |p| self.variant.options(p))?;
                 frame.set_frame_id(self.frame_id);
                 let core = collect(&frame).map_err(|e| format!("{}: {e}", self.r.desc.name))?;
                 Ok(self.user.use_frame(&plan, &frame, core))
@@ -301,7 +298,7 @@ pub fn core_render_variant<S: Scalar>(
     budget: &Budget,
     variant: &Variant,
 ) -> Result<(hilcam::scene::Scene, Plan, Frame<S>, Collect), String> {
-    let (scene, plan, frame) = crate::harness::prepare::<S>(r, budget, |o| variant.options(o))?;
+    let (scene, plan, frame) = crate::harness::prepare::<S>(r, budget, |p| variant.options(p))?;
     let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
     Ok((scene, plan, frame, core))
 }
@@ -323,6 +320,8 @@ mod tests {
             "planned-poly",
             "i32f32-ap64",
             "i32f32-ap0",
+            "mix32-weak",
+            "i32f32-persp",
         ] {
             assert_eq!(Variant::parse(n).map(|v| v.name()), Ok(n.to_string()));
         }

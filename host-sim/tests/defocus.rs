@@ -81,9 +81,9 @@ size = [{}, {}]
 /// placement error, px.
 fn render(text: &str, points: Option<u16>) -> (Vec<f64>, u16, f64) {
     let r = parse(text).expect("scene");
-    let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |o| match points {
-        Some(points) => o.with(Override::Aperture { points }),
-        None => o,
+    let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |p| match points {
+        Some(points) => p.options.with(Override::Aperture { points }),
+        None => p.options,
     })
     .expect("prepares");
     let c = collect(&f).expect("renders");
@@ -280,7 +280,7 @@ fn content_within_the_depth_of_field_pays_nothing() {
     ] {
         let path = format!("{}/../scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
         let r = host_sim::scene_file::load(std::path::Path::new(&path)).expect("scene");
-        let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |o| o).expect("prepares");
+        let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |p| p.options).expect("prepares");
         assert!(!plan.defocus.outside_dof, "{name}");
         assert_eq!(f.stages().aperture, 0, "{name}");
     }
@@ -321,7 +321,7 @@ fn the_fast_aperture_loop_on_the_shallow_scene() {
     use hilcam::render::{Arithmetic, LineLoop};
     let path = format!("{}/../scenes/shallow-dof.toml", env!("CARGO_MANIFEST_DIR"));
     let r = host_sim::scene_file::load(std::path::Path::new(&path)).expect("scene");
-    let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |o| o).expect("prepares");
+    let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |p| p.options).expect("prepares");
     assert_eq!(f.line_loop(), LineLoop::FastGrayAperture);
     assert_eq!(plan.options.arithmetic, Arithmetic::Fast);
     // The predicted cost counts the loop's pixels by kind: the plan's
@@ -561,12 +561,12 @@ fn spared_pixels_are_the_traced_ones(
     let result = runner.run(&spec, |(cam, prims, point)| {
         let t = random_defocused(cam, &prims, point);
         let r = parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
-        let Ok((_, _, f)) = prepare::<I32F32>(&r, &Budget::default(), |o| hilcam::render::Options {
+        let Ok((_, _, f)) = prepare::<I32F32>(&r, &Budget::default(), |p| hilcam::render::Options {
             arithmetic: Arithmetic::Fast,
             samples: 1,
             adaptive: false,
             aperture: 64,
-            ..o
+            ..p.options
         }) else {
             return Ok(());
         };

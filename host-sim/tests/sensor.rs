@@ -58,7 +58,7 @@ normal = [0.0, 0.0, -1.0]
 /// Frame `id` of a scene, as 16-bit values.
 fn frame(text: &str, id: u32) -> Vec<f64> {
     let r = parse(text).expect("scene");
-    let (_, _, mut f) = prepare::<I32F32>(&r, &Budget::default(), |o| o).expect("prepares");
+    let (_, _, mut f) = prepare::<I32F32>(&r, &Budget::default(), |p| p.options).expect("prepares");
     f.set_frame_id(id);
     let c = collect(&f).expect("renders");
     c.pixels

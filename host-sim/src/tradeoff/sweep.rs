@@ -159,7 +159,7 @@ fn host_ns_per_pixel(v: &Variant, r: &Resolved, repeats: usize) -> Result<f64, S
         }
     }
     let scene = r.core_scene()?;
-    let opts = v.options(plan(&scene, &Budget::default()).options);
+    let opts = v.options(&plan(&scene, &Budget::default()));
     v.scalar.dispatch(Time {
         scene: &scene,
         opts,
