@@ -1217,22 +1217,108 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
     // The shipped scenes, default path: the planner's prediction (the
     // committed model) against QEMU.
     let shipped = shipped_scenes()?;
-    let r = hil_variants(
-        board,
-        None,
-        &shipped,
-        &[Variant::PLANNED],
-        &out.join("work/shipped"),
-    )?;
+    let _ = writeln!(s, "## Shipped scenes, default path\n");
+    let terms = shipped_table(&mut s, board, &shipped, &out.join("work/shipped"), [&fast, &wide])?;
+    // Where each prediction comes from: the terms of one sample (before
+    // the sample grid's or the aperture's factor), this fit's.
+    let _ = write!(s, "\nThe shipped scenes' one-sample terms by this fit (coefficient × feature, instructions a pixel; 0 left blank):\n\n| term |");
+    for (scene, _) in &terms {
+        let _ = write!(s, " {scene} |");
+    }
+    let _ = write!(s, "\n|---|{}\n", "---|".repeat(terms.len()));
+    for (k, name) in TERMS.iter().enumerate() {
+        let _ = write!(s, "| {name} |");
+        for (_, t) in &terms {
+            match t.get(k) {
+                Some(v) if *v != 0.0 => {
+                    let _ = write!(s, " {v:.1} |");
+                }
+                _ => s.push_str(" |"),
+            }
+        }
+        s.push('\n');
+    }
+    // And with the principal point off the centre, as a calibrated
+    // camera's is (the fast loop then mirrors no ray).
+    let dir = out.join("work/shipped-off-centre");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut moved = Vec::new();
+    for p in &shipped {
+        moved.extend(off_centre_copy(p, &dir)?);
+    }
     let _ = writeln!(
         s,
-        "## Shipped scenes, default path\n\n| scene | chosen | predicted (committed model) | predicted (this fit) | measured | error (committed) |\n|---|---|---|---|---|---|"
+        "\n## Shipped scenes with the principal point off the centre\n\nEach shipped scene with `principal_point` \
+         moved by ({}, {}) px from the sensor's centre, default path:\n",
+        OFF_CENTRE[0],
+        OFF_CENTRE[1]
     );
-    // Each scene's one-sample terms under this fit (coefficient times
-    // feature), for the table after this one.
+    shipped_table(&mut s, board, &moved, &dir, [&fast, &wide])?;
+    Ok(s)
+}
+
+/// How far [`off_centre_copy`] moves the principal point from the
+/// sensor's centre, pixels (x, y).
+const OFF_CENTRE: [f64; 2] = [3.8, 2.2];
+
+/// A copy of the scene at `path` in `dir` (named `NAME-off-centre`) with
+/// its principal point [`OFF_CENTRE`] from the sensor's centre; `None` if
+/// the scene sets its principal point already.
+fn off_centre_copy(path: &Path, dir: &Path) -> Result<Option<std::path::PathBuf>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    if text.contains("principal_point") {
+        return Ok(None);
+    }
+    let r = load(path)?;
+    let (w, h) = r.core_scene()?.camera.intrinsics.size();
+    let name = format!("{}-off-centre", r.desc.name);
+    let (cx, cy) = (
+        (f64::from(w) - 1.0) / 2.0 + OFF_CENTRE[0],
+        (f64::from(h) - 1.0) / 2.0 + OFF_CENTRE[1],
+    );
+    let mut out = String::new();
+    // (The scene's name is the `name` before any table.)
+    let mut top = true;
+    for line in text.lines() {
+        top &= !line.trim_start().starts_with('[');
+        if top && line.starts_with("name = ") {
+            let _ = writeln!(out, "name = {name:?}");
+            continue;
+        }
+        let _ = writeln!(out, "{line}");
+        if line.trim() == "[camera]" {
+            let _ = writeln!(out, "principal_point = [{cx:?}, {cy:?}]");
+        }
+    }
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, out).map_err(|e| format!("{}: {e}", p.display()))?;
+    // (It must load as the scene it copies, moved.)
+    let moved = load(&p)?;
+    if moved.desc.name != name || moved.core_scene()?.camera.intrinsics.is_centred_x() {
+        return Err(format!("{}: the off-centre copy did not take", p.display()));
+    }
+    Ok(Some(p))
+}
+
+/// Renders the scenes at `paths` on `board` (default path, one firmware in
+/// `dir`) and writes a table of their predicted (committed model, and the
+/// `models` of this fit: fast, wide) against measured cost; returns each
+/// scene's one-sample terms under this fit (coefficient × feature).
+fn shipped_table(
+    s: &mut String,
+    board: Board,
+    paths: &[std::path::PathBuf],
+    dir: &Path,
+    [fast, wide]: [&CostModel; 2],
+) -> Result<Vec<(String, [f64; COST_TERMS])>, String> {
+    let r = hil_variants(board, None, paths, &[Variant::PLANNED], dir)?;
+    let _ = writeln!(
+        s,
+        "| scene | chosen | predicted (committed model) | predicted (this fit) | measured | error (committed) |\n|---|---|---|---|---|---|"
+    );
     let mut terms: Vec<(String, [f64; COST_TERMS])> = Vec::new();
     for f in &r.frames {
-        let path = shipped
+        let path = paths
             .iter()
             .find(|p| p.file_stem().is_some_and(|s| s.to_string_lossy() == f.scene))
             .ok_or("shipped scene")?;
@@ -1240,8 +1326,8 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
         let plan = planner::plan(&scene, &Budget::default());
         let chosen = plan.candidates.get(plan.chosen).ok_or("no candidate")?;
         let model = match chosen.arithmetic {
-            Arithmetic::Fast => &fast,
-            Arithmetic::Wide => &wide,
+            Arithmetic::Fast => fast,
+            Arithmetic::Wide => wide,
         };
         // A pixel's samples (pixel-area grid, aperture points) as the
         // planner costs them, by this fit's SampleCost.
@@ -1264,24 +1350,5 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
             100.0 * (chosen.m3_instructions_per_pixel - measured) / measured
         );
     }
-    // Where each prediction comes from: the terms of one sample (before
-    // the sample grid's or the aperture's factor), this fit's.
-    let _ = write!(s, "\nThe shipped scenes' one-sample terms by this fit (coefficient × feature, instructions a pixel; 0 left blank):\n\n| term |");
-    for (scene, _) in &terms {
-        let _ = write!(s, " {scene} |");
-    }
-    let _ = write!(s, "\n|---|{}\n", "---|".repeat(terms.len()));
-    for (k, name) in TERMS.iter().enumerate() {
-        let _ = write!(s, "| {name} |");
-        for (_, t) in &terms {
-            match t.get(k) {
-                Some(v) if *v != 0.0 => {
-                    let _ = write!(s, " {v:.1} |");
-                }
-                _ => s.push_str(" |"),
-            }
-        }
-        s.push('\n');
-    }
-    Ok(s)
+    Ok(terms)
 }
