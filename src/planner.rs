@@ -188,9 +188,10 @@ impl Candidate {
 
 /// How much cheaper (a fraction of its cost) weak perspective must be
 /// predicted than perspective rays to be chosen for a perspective camera:
-/// the two differ in the cost model's parallel-ray terms alone, and
-/// shallow-target, predicted 0.1 % apart, measured 0.1 % apart the other
-/// way (M3 197.0 with parallel rays, 196.8 with perspective ones).
+/// the two differ in the cost model's parallel-ray terms alone. (Until
+/// the calibration measured weak perspective itself, those terms came from
+/// orthographic cameras, and shallow-target's two were predicted 0.1 %
+/// apart; now 218 and 190, measured 201 and 195: `docs/cost-model.md`.)
 pub const WEAK_MARGIN: f64 = 0.01;
 
 /// Most candidates a plan lists.
