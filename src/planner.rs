@@ -597,7 +597,8 @@ fn model_candidates(
                 _ => g.direct_geom_err(arithmetic, scene),
             };
             let cost_model = CostModel::of(arithmetic);
-            let one = cost_model.predict(&Features::of(scene, g, distortion, closed, closed_mean));
+            let fast = arithmetic == Arithmetic::Fast;
+            let one = cost_model.predict(&Features::of(scene, g, distortion, fast, closed, closed_mean));
             let cost = cost_model.samples.cost(one, &terms.with(arithmetic, shares));
             let _ = cands.push(Candidate {
                 model,
@@ -2521,11 +2522,14 @@ pub struct Features {
     /// its shading is kept from hit to hit (`Mix32::shade_flat`) — but
     /// the plane shaded in closed form where [`Features::closed`] counts.
     pub flat_area: f64,
-    /// 1 where the fast one-sample loop makes every ray of a line: the
-    /// principal point is off the sensor's centre across
+    /// 1 where a fast loop makes every ray of a line: the sampled and
+    /// aperture loops always, the one-sample loop where the principal
+    /// point is off the sensor's centre across
     /// ([`crate::intrinsics::Intrinsics::is_centred_x`]), so no column's
     /// rays are another's mirrored (the right half's rays, distorted, are
-    /// otherwise the left half's). Alone and times [`Features::poly`].
+    /// otherwise the left half's). Alone and times [`Features::poly`]: a
+    /// sample's cost is one sample's ([`SampleCost`]) as the loop that
+    /// mirrors nothing pays it.
     pub unmirrored: f64,
     /// 1 for an orthographic camera: parallel rays without the `cos⁴α`
     /// stage (weak perspective keeps it).
@@ -2541,17 +2545,26 @@ impl Features {
         let closed = opts.arithmetic == Arithmetic::Fast && opts.samples <= 1 && opts.aperture == 0;
         let g = Geometry::of(scene, opts.model);
         let mean = if closed { opts.closed_mean } else { ClosedMean::Off };
-        Features::of(scene, &g, distortion, closed, mean)
+        Features::of(
+            scene,
+            &g,
+            distortion,
+            opts.arithmetic == Arithmetic::Fast,
+            closed,
+            mean,
+        )
     }
 
     /// The features of `scene` rendered with `distortion` and `g`'s rays,
-    /// the plane in `closed` form (with its `mean`).
+    /// in the `fast` arithmetic or not, the plane in `closed` form (with
+    /// its `mean`: the fast one-sample loop).
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
     fn of(
         scene: &Scene,
         g: &Geometry,
         distortion: Option<DistortionEval>,
+        fast: bool,
         closed: bool,
         mean: ClosedMean,
     ) -> Features {
@@ -2606,8 +2619,9 @@ impl Features {
         f.facing_area = g.facing_area + if closed { 0.0 } else { g.closed_facing_area };
         f.flat_area = g.flat_area + if closed { 0.0 } else { g.closed_flat_area };
         // (The loop that mirrors is the one that shades the plane in
-        // closed form: `closed`.)
-        f.unmirrored = if closed && !scene.camera.intrinsics.is_centred_x() {
+        // closed form, `closed`; the fast sampled and aperture loops make
+        // every ray.)
+        f.unmirrored = if fast && !(closed && scene.camera.intrinsics.is_centred_x()) {
             1.0
         } else {
             0.0
@@ -2899,8 +2913,8 @@ pub const FAST_COST: CostModel = CostModel {
         -328.0, 95.0, 114.2, -51.5, -45.4, -164.0, 9.5, 16.9, -25.9,
     ],
     samples: SampleCost {
-        grid: [571.802, 189.730, 0.749, 73.489, 6.725],
-        aperture: [1.900, 0.567, 75.469, 74.526],
+        grid: [568.162, 188.218, 0.740, 66.429, 7.478],
+        aperture: [1.836, 0.558, 76.247, 73.601],
     },
 };
 

@@ -362,10 +362,9 @@ fn closed_lights_and_flat_area_follow_the_renderers_cases() {
 
 /// The features of the mirrored rays and of the orthographic camera follow
 /// the renderer's cases: the fast one-sample loop mirrors a line's rays
-/// about a centred principal point alone (`Intrinsics::is_centred_x`), a
-/// sampled frame mirrors none either way (so an off-centre one pays
-/// nothing more), and an orthographic camera's frame has no `cos⁴α` stage
-/// where weak perspective's has.
+/// about a centred principal point alone (`Intrinsics::is_centred_x`), the
+/// fast sampled and aperture loops mirror none, and an orthographic
+/// camera's frame has no `cos⁴α` stage where weak perspective's has.
 #[test]
 fn unmirrored_and_orthographic_follow_the_renderers_cases() {
     use hilcam::planner::Features;
@@ -381,14 +380,20 @@ fn unmirrored_and_orthographic_follow_the_renderers_cases() {
     let f = |s: &hilcam::scene::Scene, o| Features::of_options(s, &o);
     assert_eq!(f(&base, planned(&base)).unmirrored, 0.0);
     assert_eq!(f(&off, planned(&off)).unmirrored, 1.0);
-    // Sampled or wide: no loop mirrors.
-    let grid = planned(&off).with(Override::Samples {
-        n: 2,
-        adaptive: false,
-    });
-    assert_eq!(f(&off, grid).unmirrored, 0.0);
-    let wide = planned(&off).with_arithmetic(Arithmetic::Wide);
-    assert_eq!(f(&off, wide).unmirrored, 0.0);
+    // The fast sampled and aperture loops mirror no ray, centred or not
+    // (a sample costs what the loop that mirrors nothing pays); the wide
+    // arithmetic mirrors none either, and its fit has no such term.
+    for scene in [&base, &off] {
+        let grid = planned(scene).with(Override::Samples {
+            n: 2,
+            adaptive: false,
+        });
+        assert_eq!(f(scene, grid).unmirrored, 1.0);
+        let aperture = planned(scene).with(Override::Aperture { points: 16 });
+        assert_eq!(f(scene, aperture).unmirrored, 1.0);
+        let wide = planned(scene).with_arithmetic(Arithmetic::Wide);
+        assert_eq!(f(scene, wide).unmirrored, 0.0);
+    }
     // Orthographic: parallel rays and no cos⁴α; weak perspective: parallel
     // rays and cos⁴α.
     let ortho = load("cal-ortho");
@@ -467,9 +472,9 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
             );
         }
         // The grid's cost predicts a calibration scene it was not fitted to
-        // (10.1 % RMS fast, 8.9 % wide with a sample's own work and its
-        // primitive tests, on the counts of 2026-12-05 and the off-centre
-        // and weak-perspective terms; 10.2 % and 8.9 % before those; the
+        // (10.0 % RMS fast, 8.9 % wide with a sample's own work and its
+        // primitive tests, on the counts of 2026-12-05 and a sample's
+        // one-sample cost unmirrored; 10.2 % and 8.9 % before that; the
         // grid's form before, on the same counts, 12.3 % and 10.0 %).
         let (rms, max) = host_sim::costfit::left_out_grid_error(&cal.points, arithmetic).expect("left out");
         println!(
