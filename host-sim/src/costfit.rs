@@ -107,15 +107,23 @@ const APERTURES: [&str; 2] = ["ap16", "ap64"];
 /// firmware these scenes were measured in before weak perspective was, and
 /// a scene's count moves by a few percent with the loops built beside it.)
 const WEAK_VARIANTS: [[&str; 2]; 2] = [["mix32-persp", "i32f32-persp"], ["mix32-weak", "i32f32-weak"]];
-/// The calibration scenes with the principal point off the sensor's
-/// centre, measured in a firmware of their own (added to the others'
-/// batches, they would move those scenes' counts: the loops built beside a
-/// scene's change its own by up to 14 %, as measured on cal-ortho).
-const OFF_CENTRE_SCENES: [&str; 4] = [
-    "cal-off-centre",
-    "cal-off-centre-distortion",
-    "cal-off-centre-mix",
-    "cal-off-centre-ortho",
+/// Calibration scenes added after the others, each set measured in a
+/// firmware of its own (added to the others' batches, they would move
+/// those scenes' counts: the loops built beside a scene change its own by
+/// up to 14 %, as measured on cal-ortho). The scenes with the principal
+/// point off the sensor's centre.
+/// The same for the scenes whose spheres alone have a lobe (the floor
+/// matte), so that the lobe's code in the loop is told from the pixels
+/// that evaluate it: every other specular calibration scene has a glossy
+/// floor.
+const LATER_BATCHES: [&[&str]; 2] = [
+    &[
+        "cal-off-centre",
+        "cal-off-centre-distortion",
+        "cal-off-centre-mix",
+        "cal-off-centre-ortho",
+    ],
+    &["cal-gloss-spheres", "cal-gloss-spheres-rgb"],
 ];
 
 /// Whether weak perspective holds for the calibration scene at `path`
@@ -195,6 +203,9 @@ struct Spec {
     /// calibrated camera's is): the fast loop mirrors no ray
     /// ([`Features::unmirrored`]).
     off_centre: bool,
+    /// Of the spheres, how many have a glossy material (a lobe; the
+    /// others matte).
+    gloss_spheres: usize,
 }
 
 fn spec_list() -> Vec<(&'static str, Spec)> {
@@ -550,6 +561,23 @@ fn spec_list() -> Vec<(&'static str, Spec)> {
                 ..d()
             },
         ),
+        (
+            "gloss-spheres",
+            Spec {
+                spheres: 3,
+                gloss_spheres: 2,
+                ..d()
+            },
+        ),
+        (
+            "gloss-spheres-rgb",
+            Spec {
+                spheres: 3,
+                gloss_spheres: 1,
+                rgb: true,
+                ..d()
+            },
+        ),
     ]
 }
 
@@ -671,6 +699,9 @@ fn scene_text(name: &str, s: &Spec) -> String {
     t.push_str(
         "\n[[materials]]\nname = \"matte\"\nalbedo = 0.8\n\n[[materials]]\nname = \"dark\"\nalbedo = 0.3\n\n",
     );
+    if s.gloss_spheres > 0 {
+        t.push_str("[[materials]]\nname = \"gloss\"\nalbedo = 0.5\nspecular = 0.8\nmix = 0.4\nexponent = 40\n\n");
+    }
     let base_y = match s.base_light {
         None => Some(3.0),
         Some("below") => Some(-3.0),
@@ -741,7 +772,8 @@ fn scene_text(name: &str, s: &Spec) -> String {
         let (x, z) = (-1.05 + 0.7 * (k % 4) as f64, -0.3 + 0.8 * (k / 4) as f64);
         let _ = writeln!(
             t,
-            "[[primitives]]\nkind = \"sphere\"\nmaterial = \"matte\"\ncentre = [{x:.2}, 0.25, {z:.2}]\nradius = 0.25\n"
+            "[[primitives]]\nkind = \"sphere\"\nmaterial = \"{}\"\ncentre = [{x:.2}, 0.25, {z:.2}]\nradius = 0.25\n",
+            if k < s.gloss_spheres { "gloss" } else { "matte" }
         );
     }
     for k in 0..s.discs {
@@ -1068,16 +1100,18 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
             }
         }
         let aperture_only = pick(&DOF_SCENES);
-        let off_centre = pick(&OFF_CENTRE_SCENES);
+        let later: Vec<_> = LATER_BATCHES.iter().map(|names| pick(names)).collect();
         let free: Vec<_> = paths
             .iter()
-            .filter(|p| !pinned.contains(p) && !aperture_only.contains(p) && !off_centre.contains(p))
+            .filter(|p| !pinned.contains(p) && !aperture_only.contains(p) && !later.iter().any(|l| l.contains(p)))
             .cloned()
             .collect();
         for (k, batch) in free.chunks(6).enumerate() {
             measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
         }
-        measure(board, &off_centre, &one, &work.join("off-centre"), &mut points)?;
+        for (k, batch) in later.iter().enumerate() {
+            measure(board, batch, &one, &work.join(format!("later{k}")), &mut points)?;
+        }
         for (rays, variants) in ["perspective", "weak"].into_iter().zip(WEAK_VARIANTS) {
             let v = parse(&variants.map(String::from))?;
             measure(board, &pinned, &v, &work.join(rays), &mut points)?;
