@@ -472,10 +472,11 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
             );
         }
         // The grid's cost predicts a calibration scene it was not fitted to
-        // (10.0 % RMS fast, 8.9 % wide with a sample's own work and its
-        // primitive tests, on the counts of 2026-12-05 and a sample's
-        // one-sample cost unmirrored; 10.2 % and 8.9 % before that; the
-        // grid's form before, on the same counts, 12.3 % and 10.0 %).
+        // (9.8 % RMS fast, 8.8 % wide with a sample's own work and its
+        // primitive tests, on the counts of 2026-12-05, a sample's
+        // one-sample cost unmirrored and the features on 12 × 9 points;
+        // 10.2 % and 8.9 % before those; the grid's form before, on the
+        // same counts, 12.3 % and 10.0 %).
         let (rms, max) = host_sim::costfit::left_out_grid_error(&cal.points, arithmetic).expect("left out");
         println!(
             "{arithmetic}: sampled points left out of the fit, {:.1} % RMS, {:.1} % at most",
