@@ -191,7 +191,7 @@ impl Candidate {
 /// the two differ in the cost model's parallel-ray terms alone. (Until
 /// the calibration measured weak perspective itself, those terms came from
 /// orthographic cameras, and shallow-target's two were predicted 0.1 %
-/// apart; now 218 and 190, measured 201 and 195: `docs/cost-model.md`.)
+/// apart; now 220 and 187, measured 201 and 195: `docs/cost-model.md`.)
 pub const WEAK_MARGIN: f64 = 0.01;
 
 /// Most candidates a plan lists.
