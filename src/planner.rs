@@ -233,6 +233,18 @@ pub struct Plan {
     pub defocus: Defocus,
 }
 
+impl Plan {
+    /// The mean depth `Z̄` of the plan's weak-perspective candidates, metres
+    /// (`None`: weak perspective does not hold, or the camera's own model
+    /// is not perspective).
+    pub fn weak_mean_depth(&self) -> Option<Len> {
+        self.candidates.iter().find_map(|c| match c.model {
+            RenderModel::WeakPerspective { mean_depth } => Some(mean_depth),
+            _ => None,
+        })
+    }
+}
+
 /// Defocus as planned (camera-model.md §8, [`crate::defocus`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Defocus {
@@ -2549,17 +2561,11 @@ impl Features {
     pub fn of_options(scene: &Scene, opts: &Options) -> Features {
         let distortion =
             (!scene.distortion.is_none() || opts.keep_all_stages).then_some(opts.distortion_eval);
-        let closed = opts.arithmetic == Arithmetic::Fast && opts.samples <= 1 && opts.aperture == 0;
+        let fast = opts.arithmetic == Arithmetic::Fast;
+        let closed = fast && opts.samples <= 1 && opts.aperture == 0;
         let g = Geometry::of(scene, opts.model);
         let mean = if closed { opts.closed_mean } else { ClosedMean::Off };
-        Features::of(
-            scene,
-            &g,
-            distortion,
-            opts.arithmetic == Arithmetic::Fast,
-            closed,
-            mean,
-        )
+        Features::of(scene, &g, distortion, fast, closed, mean)
     }
 
     /// The features of `scene` rendered with `distortion` and `g`'s rays,

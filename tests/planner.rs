@@ -368,7 +368,6 @@ fn closed_lights_and_flat_area_follow_the_renderers_cases() {
 #[test]
 fn unmirrored_and_orthographic_follow_the_renderers_cases() {
     use hilcam::planner::Features;
-    use hilcam::render::RenderModel;
     let scenes = host_sim::costfit::calibration_scenes();
     let load = |name: &str| {
         let (_, t) = scenes.iter().find(|(n, _)| n == name).expect(name);
@@ -401,11 +400,7 @@ fn unmirrored_and_orthographic_follow_the_renderers_cases() {
     assert_eq!((o.parallel, o.orthographic), (1.0, 1.0));
     let far = load("cal-far-rect");
     let p = plan(&far, &Budget::default());
-    let weak = p.candidates.iter().find_map(|c| match c.model {
-        RenderModel::WeakPerspective { mean_depth } => Some(mean_depth),
-        _ => None,
-    });
-    let mean_depth = weak.expect("cal-far-rect: weak perspective holds");
+    let mean_depth = p.weak_mean_depth().expect("cal-far-rect: weak perspective holds");
     let w = f(&far, p.options.with(Override::Weak { mean_depth }));
     assert_eq!((w.parallel, w.orthographic), (1.0, 0.0));
 }

@@ -110,12 +110,11 @@ const WEAK_VARIANTS: [[&str; 2]; 2] = [["mix32-persp", "i32f32-persp"], ["mix32-
 /// Calibration scenes added after the others, each set measured in a
 /// firmware of its own (added to the others' batches, they would move
 /// those scenes' counts: the loops built beside a scene change its own by
-/// up to 14 %, as measured on cal-ortho). The scenes with the principal
-/// point off the sensor's centre.
-/// The same for the scenes whose spheres alone have a lobe (the floor
-/// matte), so that the lobe's code in the loop is told from the pixels
-/// that evaluate it: every other specular calibration scene has a glossy
-/// floor.
+/// up to 14 %, as measured on cal-ortho): the scenes with the principal
+/// point off the sensor's centre, and those whose spheres alone have a
+/// lobe (the floor matte; every other specular calibration scene has a
+/// glossy floor), which tell the lobe's code in the loop from the pixels
+/// that evaluate it.
 const LATER_BATCHES: [&[&str]; 2] = [
     &[
         "cal-off-centre",
@@ -130,11 +129,7 @@ const LATER_BATCHES: [&[&str]; 2] = [
 /// (its plan lists a weak-perspective candidate).
 fn weak_holds(path: &Path) -> Result<bool, String> {
     let scene = load(path)?.core_scene()?;
-    let plan = planner::plan(&scene, &Budget::default());
-    Ok(plan
-        .candidates
-        .iter()
-        .any(|c| matches!(c.model, hilcam::render::RenderModel::WeakPerspective { .. })))
+    Ok(planner::plan(&scene, &Budget::default()).weak_mean_depth().is_some())
 }
 
 /// The names of [`Features::to_array`]'s terms.

@@ -7,7 +7,7 @@
 use crate::harness::{collect, Collect};
 use crate::scene_file::Resolved;
 use hilcam::planner::{Budget, Plan};
-use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override, RenderModel};
+use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override};
 use hilcam::scalar::{Scalar, I32F32};
 
 /// The per-pixel arithmetic of a variant. (I16F16 and I12F20, measured in
@@ -211,13 +211,8 @@ impl Variant {
     pub fn options(&self, plan: &Plan) -> Options {
         let over = match self.over {
             Override::Weak { .. } => plan
-                .candidates
-                .iter()
-                .find_map(|c| match c.model {
-                    RenderModel::WeakPerspective { mean_depth } => Some(Override::Weak { mean_depth }),
-                    _ => None,
-                })
-                .unwrap_or(Override::Planned),
+                .weak_mean_depth()
+                .map_or(Override::Planned, |mean_depth| Override::Weak { mean_depth }),
             o => o,
         };
         let o = plan.options.with(over);
