@@ -8,6 +8,14 @@ cd "$(dirname "$0")/.."
 echo "== toolchain: the thumb targets and components (scripts/lib.sh ensure_toolchain)"
 ensure_toolchain
 rustc --version
+# A run fills about 3 GB here (target/: the workspace, the three firmware
+# builds, the fuzz targets); a full disk shows up later as a compiler's
+# "No space left on device" (CI on 2026-12-05, a disk others had filled).
+free_kb=$(df -Pk . | awk 'NR == 2 { print $4 }')
+echo "== disk: $((free_kb / 1048576)) GiB free in $(pwd) (a run writes about 3 GB)"
+if [ "$free_kb" -lt 3500000 ]; then
+  echo "warning: under 3.5 GB free; the builds below may fail for want of disk" >&2
+fi
 
 # QEMU where it is missing, in the background while the checks below run.
 mkdir -p target
