@@ -191,7 +191,7 @@ impl Candidate {
 /// the two differ in the cost model's parallel-ray terms alone. (Until
 /// the calibration measured weak perspective itself, those terms came from
 /// orthographic cameras, and shallow-target's two were predicted 0.1 %
-/// apart; now 220 and 187, measured 201 and 195: `docs/cost-model.md`.)
+/// apart; now 218 and 190, measured 201 and 195: `docs/cost-model.md`.)
 pub const WEAK_MARGIN: f64 = 0.01;
 
 /// Most candidates a plan lists.
@@ -2922,12 +2922,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        87.5, 17.0, 5.2, 10.1, 0.6, 10.4, 6.7, 3.2, 20.0, 0.0, 23.3, 37.0, 24.4, 302.0, 7.3, 9.2, 144.4,
-        -330.8, 97.4, 204.2, -56.3, -45.8, -163.3, 14.9, 15.3, -29.1,
+        89.9, 17.9, 5.1, 10.1, -1.0, 12.8, 2.3, 1.8, 18.9, 0.0, 22.7, 36.4, 29.4, 310.6, 15.5, -0.9, 145.0,
+        -338.5, 99.2, 197.8, -57.7, -46.0, -178.0, 17.0, 14.8, -37.3,
     ],
     samples: SampleCost {
-        grid: [572.021, 189.896, 0.734, 65.133, 6.121],
-        aperture: [1.788, 0.551, 77.298, 72.660],
+        grid: [568.265, 188.272, 0.724, 65.522, 5.951],
+        aperture: [1.742, 0.540, 77.648, 72.367],
     },
 };
 
@@ -2935,12 +2935,12 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        857.9, 330.1, 45.2, -28.7, -69.9, 127.6, 1402.4, 156.7, 346.5, 401.9, 1310.7, 262.7, -51.7, 84.3,
-        980.0, -71.6, 839.1, 0.0, 0.0, 503.0, -159.6, 0.0, 8.1, 0.0, 0.0, -267.4,
+        842.6, 371.8, 47.6, -26.0, -69.0, 130.6, 1405.1, 153.6, 320.2, 375.7, 1288.3, 243.6, -1.3, 79.7,
+        1007.8, -90.5, 825.3, 0.0, 0.0, 475.8, -164.9, 0.0, 17.6, 0.0, 0.0, -308.2,
     ],
     samples: SampleCost {
-        grid: [192.799, 1543.748, 1.003, 0.000, 59.512],
-        aperture: [0.480, 0.873, 0.000, 0.000],
+        grid: [264.957, 1566.710, 0.996, 0.000, 55.384],
+        aperture: [0.475, 0.867, 0.000, 0.000],
     },
 };
 

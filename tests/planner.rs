@@ -436,6 +436,24 @@ fn cost_model_is_the_fit_of_the_committed_calibration() {
             p.samples
         );
     }
+    // Each one-sample point is the mean of its counts in every firmware
+    // layout (`costfit::LAYOUTS`).
+    for p in cal
+        .points
+        .iter()
+        .filter(|p| p.samples == hilcam::planner::Samples::ONE)
+    {
+        let n = p.layouts.len();
+        let mean = p.layouts.iter().sum::<f64>() / n as f64;
+        assert!(
+            n == host_sim::costfit::LAYOUTS && (mean - p.measured).abs() <= 1e-9 * p.measured,
+            "{} {}: measured {} over layouts {:?}",
+            p.scene,
+            p.variant,
+            p.measured,
+            p.layouts
+        );
+    }
     let sampled = |a: &str| {
         cal.points
             .iter()

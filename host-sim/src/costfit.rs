@@ -41,8 +41,14 @@ pub struct Point {
     /// aperture points); one sample through the pinhole where absent.
     #[serde(default = "one_sample")]
     pub samples: Samples,
-    /// Measured M3 instructions a pixel.
+    /// Measured M3 instructions a pixel: the mean of [`Point::layouts`]
+    /// where it has them.
     pub measured: f64,
+    /// The count in each firmware layout the point was measured in (the
+    /// loops and scenes built beside it move it: [`LAYOUTS`]); empty for a
+    /// point measured in one.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub layouts: Vec<f64>,
 }
 
 fn one_sample() -> Samples {
@@ -124,6 +130,19 @@ const LATER_BATCHES: [&[&str]; 2] = [
     ],
     &["cal-gloss-spheres", "cal-gloss-spheres-rgb"],
 ];
+
+/// Firmware layouts each one-sample calibration scene is measured in, its
+/// points the mean of their counts: a scene's count moves by up to 14 %
+/// with the scenes and loops built beside it (the compiler's inlining and
+/// layout of the loops they share), so one layout's count is one draw of
+/// that spread. The first layout is the batches above (the free scenes six
+/// to a firmware in order, [`LATER_BATCHES`], each ray model of
+/// [`WEAK_VARIANTS`] apart); the second deals every one-sample scene round
+/// the same number of firmwares (scene `i` to firmware `i mod n`, so no
+/// two scenes of a first-layout batch share one) and builds both ray
+/// models of the weak-perspective scenes together. The sampled and
+/// aperture points are measured in one layout.
+pub const LAYOUTS: usize = 2;
 
 /// Whether weak perspective holds for the calibration scene at `path`
 /// (its plan lists a weak-perspective candidate).
@@ -1111,6 +1130,17 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
             let v = parse(&variants.map(String::from))?;
             measure(board, &pinned, &v, &work.join(rays), &mut points)?;
         }
+        // The second layout ([`LAYOUTS`]).
+        let mut second = Vec::new();
+        let dealt: Vec<_> = free.iter().chain(later.iter().flatten()).cloned().collect();
+        let n = dealt.len().div_ceil(6);
+        for k in 0..n {
+            let batch: Vec<_> = dealt.iter().skip(k).step_by(n).cloned().collect();
+            measure(board, &batch, &one, &work.join(format!("dealt{k}")), &mut second)?;
+        }
+        let both = parse(&WEAK_VARIANTS.concat().into_iter().map(String::from).collect::<Vec<_>>())?;
+        measure(board, &pinned, &both, &work.join("both-rays"), &mut second)?;
+        merge_layouts(&mut points, &second)?;
         let grids = parse(&with(&["mix32", "i32f32"], &GRIDS))?;
         measure(board, &pick(&SAMPLED_SCENES), &grids, &work.join("sampled"), &mut points)?;
     }
@@ -1128,6 +1158,65 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
     outputs.write("costfit.md", report.as_bytes())?;
     outputs.commit()?;
     Ok(report)
+}
+
+/// How far the second layout's counts are from the first's
+/// ([`layout_spread`]), relative to the first's.
+pub struct LayoutSpread {
+    /// Points measured in both.
+    pub points: usize,
+    /// Root mean square of the relative differences.
+    pub rms: f64,
+    /// Their mean.
+    pub mean: f64,
+    /// The largest in size, signed, and its scene and variant.
+    pub max: f64,
+    /// Where [`LayoutSpread::max`] is.
+    pub max_at: (String, String),
+}
+
+/// The spread between the layouts of `arithmetic`'s points measured in
+/// both; `None` where none was.
+pub fn layout_spread(points: &[Point], arithmetic: &str) -> Option<LayoutSpread> {
+    let d: Vec<(f64, &Point)> = points
+        .iter()
+        .filter(|p| p.arithmetic == arithmetic)
+        .filter_map(|p| match p.layouts[..] {
+            [a, b, ..] => Some(((b - a) / a, p)),
+            _ => None,
+        })
+        .collect();
+    let (max, at) = d.iter().copied().max_by(|x, y| x.0.abs().total_cmp(&y.0.abs()))?;
+    let n = d.len() as f64;
+    Some(LayoutSpread {
+        points: d.len(),
+        rms: (d.iter().map(|x| x.0 * x.0).sum::<f64>() / n).sqrt(),
+        mean: d.iter().map(|x| x.0).sum::<f64>() / n,
+        max,
+        max_at: (at.scene.clone(), at.variant.clone()),
+    })
+}
+
+/// Makes each of `points` the mean of its count and `second`'s for the
+/// same scene and variant (both kept in [`Point::layouts`]); every point
+/// must be in both.
+fn merge_layouts(points: &mut [Point], second: &[Point]) -> Result<(), String> {
+    if second.len() != points.len() {
+        return Err(format!(
+            "second layout: {} points, the first {}",
+            second.len(),
+            points.len()
+        ));
+    }
+    for p in points.iter_mut() {
+        let q = second
+            .iter()
+            .find(|q| q.scene == p.scene && q.variant == p.variant)
+            .ok_or_else(|| format!("{} {}: not in the second layout", p.scene, p.variant))?;
+        p.layouts = vec![p.measured, q.measured];
+        p.measured = (p.measured + q.measured) / 2.0;
+    }
+    Ok(())
 }
 
 /// Renders `scenes` with `variants` on `board` (one firmware) and records
@@ -1166,6 +1255,7 @@ fn measure(
             features: Features::of_options(&scene, &opts).to_array().to_vec(),
             samples: Samples::of_options(&scene, &opts),
             measured: f.instructions_per_pixel.ok_or("no instruction count")?,
+            layouts: Vec::new(),
         });
     }
     Ok(())
@@ -1207,7 +1297,7 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
     );
     let _ = writeln!(
         s,
-        "## Calibration scenes\n\n| scene | variant | measured | fitted | error |\n|---|---|---|---|---|"
+        "## Calibration scenes\n\n| scene | variant | measured | each layout | fitted | error |\n|---|---|---|---|---|---|"
     );
     // The largest error of the one-sample points, and of the others.
     let mut worst = [0.0f64; 2];
@@ -1217,15 +1307,31 @@ fn report(cal: &Calibration, board: Board, out: &Path) -> Result<String, String>
         let e = (pred - p.measured) / p.measured;
         let w = &mut worst[usize::from(!p.is_one_sample())];
         *w = w.max(e.abs());
+        let each: Vec<String> = p.layouts.iter().map(|c| format!("{c:.0}")).collect();
         let _ = writeln!(
             s,
-            "| {} | {} | {:.0} | {:.0} | {:+.1} % |",
+            "| {} | {} | {:.0} | {} | {:.0} | {:+.1} % |",
             p.scene,
             p.variant,
             p.measured,
+            each.join(" / "),
             pred,
             100.0 * e
         );
+    }
+    for arithmetic in ["fast", "wide"] {
+        if let Some(l) = layout_spread(&cal.points, arithmetic) {
+            let _ = writeln!(
+                s,
+                "\nThe layouts' counts, {arithmetic}: the second's against the first's over {} points, {:.1} % RMS, {:+.1} % at most ({} {}); mean {:+.1} %.",
+                l.points,
+                100.0 * l.rms,
+                100.0 * l.max,
+                l.max_at.0,
+                l.max_at.1,
+                100.0 * l.mean
+            );
+        }
     }
     let _ = writeln!(
         s,
@@ -1380,4 +1486,39 @@ fn shipped_table(
         );
     }
     Ok(terms)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(scene: &str, measured: f64) -> Point {
+        Point {
+            scene: scene.into(),
+            variant: "mix32-poly".into(),
+            arithmetic: "fast".into(),
+            features: vec![1.0],
+            samples: Samples::ONE,
+            measured,
+            layouts: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn layouts_merge_into_their_mean_and_spread() {
+        let mut first = vec![point("a", 100.0), point("b", 200.0)];
+        let second = vec![point("b", 150.0), point("a", 110.0)];
+        merge_layouts(&mut first, &second).expect("merge");
+        assert_eq!(first[0].layouts, [100.0, 110.0]);
+        assert_eq!((first[0].measured, first[1].measured), (105.0, 175.0));
+        let l = layout_spread(&first, "fast").expect("spread");
+        assert_eq!((l.points, l.max, l.max_at.0.as_str()), (2, -0.25, "b"));
+        assert!((l.mean - (-0.075)).abs() < 1e-12 && (l.rms - (0.03625f64).sqrt()).abs() < 1e-12);
+        assert!(layout_spread(&first, "wide").is_none());
+        // A point missing from either layout is an error, not a mean of one.
+        let mut first = vec![point("a", 100.0), point("b", 200.0)];
+        let err = merge_layouts(&mut first, &[point("a", 1.0), point("c", 1.0)]).expect_err("c is not b");
+        assert!(err.contains("b mix32-poly"), "{err}");
+        assert!(merge_layouts(&mut first, &[point("a", 1.0)]).is_err());
+    }
 }
