@@ -362,6 +362,11 @@ pub struct DriveReport {
     /// frame (`DriveFrame::pose_to_trigger_camera_ns` in instructions, where
     /// the camera's time counts them): mean and largest.
     pub pose_to_trigger_instructions: Option<[f64; 2]>,
+    /// What a frame cost the camera, instructions a pixel (QEMU `-icount`,
+    /// the frames that carry a count): mean and largest. The camera's build
+    /// (every loop, its `compact` copies) renders a scene at a cost of its
+    /// own, not the default firmware's.
+    pub instructions_per_pixel: Option<[f64; 2]>,
     /// Wall time of the whole drive, s.
     pub seconds: f64,
     /// The decoder's counts.
@@ -653,6 +658,11 @@ pub fn drive<W: Write>(
                     .collect(),
             )
         }),
+        instructions_per_pixel: {
+            let px = f64::from(w) * f64::from(h);
+            let v: Vec<f64> = frames.iter().filter_map(|f| f.instructions).map(|n| n as f64 / px).collect();
+            (!v.is_empty()).then(|| stat(v))
+        },
         seconds: t_all.elapsed().as_secs_f64(),
         link: driver.stats(),
         ram_bytes: probe.map(|p| p.static_bytes),

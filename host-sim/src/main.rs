@@ -741,6 +741,12 @@ fn main() -> ExitCode {
                 r.round_trip_wall_ms[1],
                 r.seconds
             );
+            let s = match r.instructions_per_pixel {
+                Some([mean, max]) => {
+                    format!("{s}; a frame mean {mean:.1} / max {max:.1} instructions a pixel")
+                }
+                None => s,
+            };
             let s = match r.pose_to_trigger_instructions {
                 Some([mean, max]) => {
                     format!("{s}; pose to its trigger's answer (the plan) mean {mean:.0} / max {max:.0} instructions")
