@@ -191,7 +191,7 @@ impl Candidate {
 /// the two differ in the cost model's parallel-ray terms alone. (Until
 /// the calibration measured weak perspective itself, those terms came from
 /// orthographic cameras, and shallow-target's two were predicted 0.1 %
-/// apart; now 218 and 190, measured 201 and 195: `docs/cost-model.md`.)
+/// apart; now 221 and 183, measured 201 and 195: `docs/cost-model.md`.)
 pub const WEAK_MARGIN: f64 = 0.01;
 
 /// Most candidates a plan lists.
@@ -2922,12 +2922,12 @@ impl CostModel {
 /// (`docs/cost-calibration.json`; `tests/planner.rs` refits it).
 pub const FAST_COST: CostModel = CostModel {
     coef: [
-        89.9, 17.9, 5.1, 10.1, -1.0, 12.8, 2.3, 1.8, 18.9, 0.0, 22.7, 36.4, 29.4, 310.6, 15.5, -0.9, 145.0,
-        -338.5, 99.2, 197.8, -57.7, -46.0, -178.0, 17.0, 14.8, -37.3,
+        89.5, 24.5, 5.1, 9.8, -1.1, 14.3, 9.2, 2.4, 19.9, 0.0, 20.4, 37.7, 20.8, 269.6, 34.2, 20.0, 144.5,
+        -305.2, 93.3, 227.0, -70.8, -45.9, -151.8, 17.4, 13.6, -31.3,
     ],
     samples: SampleCost {
-        grid: [568.265, 188.272, 0.724, 65.522, 5.951],
-        aperture: [1.742, 0.540, 77.648, 72.367],
+        grid: [589.799, 197.760, 0.773, 53.436, 6.137],
+        aperture: [1.817, 0.577, 78.880, 71.081],
     },
 };
 
@@ -2935,12 +2935,12 @@ pub const FAST_COST: CostModel = CostModel {
 /// fitted with [`FAST_COST`].
 pub const WIDE_COST: CostModel = CostModel {
     coef: [
-        842.6, 371.8, 47.6, -26.0, -69.0, 130.6, 1405.1, 153.6, 320.2, 375.7, 1288.3, 243.6, -1.3, 79.7,
-        1007.8, -90.5, 825.3, 0.0, 0.0, 475.8, -164.9, 0.0, 17.6, 0.0, 0.0, -308.2,
+        825.4, 340.5, 48.6, -27.9, -74.8, 121.7, 1403.9, 158.1, 324.8, 380.0, 1379.3, 230.1, -7.6, 108.2,
+        956.4, -59.1, 801.6, 0.0, 0.0, 455.5, -121.9, 0.0, -0.4, 0.0, 0.0, -278.3,
     ],
     samples: SampleCost {
-        grid: [264.957, 1566.710, 0.996, 0.000, 55.384],
-        aperture: [0.475, 0.867, 0.000, 0.000],
+        grid: [280.017, 1573.432, 0.996, 0.000, 66.700],
+        aperture: [0.480, 0.877, 0.000, 0.000],
     },
 };
 

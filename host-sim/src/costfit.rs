@@ -140,9 +140,23 @@ const LATER_BATCHES: [&[&str]; 2] = [
 /// [`WEAK_VARIANTS`] apart); the second deals every one-sample scene round
 /// the same number of firmwares (scene `i` to firmware `i mod n`, so no
 /// two scenes of a first-layout batch share one) and builds both ray
-/// models of the weak-perspective scenes together. The sampled and
-/// aperture points are measured in one layout.
+/// models of the weak-perspective scenes together. In both, the scenes
+/// with a lobe are measured apart from those without ([`has_lobe`]). The
+/// sampled and aperture points are measured in one layout.
 pub const LAYOUTS: usize = 2;
+
+/// Whether the calibration scene at `path` renders a specular lobe (its
+/// plan's [`Features::specular`]). A firmware that holds one builds the
+/// lobe into its loop for that many channels, and every frame of that loop
+/// pays for it, lobe or not (cal-ortho 368 beside a scene with a lobe, 289
+/// in a firmware without: `docs/cost-model.md`); the default firmware
+/// builds it only where a shipped scene has one, so the calibration
+/// measures the scenes with a lobe in firmwares of their own.
+fn has_lobe(path: &Path) -> Result<bool, String> {
+    let scene = load(path)?.core_scene()?;
+    let opts = variant_options(&scene, &Variant::PLANNED);
+    Ok(Features::of_options(&scene, &opts).specular != 0.0)
+}
 
 /// Whether weak perspective holds for the calibration scene at `path`
 /// (its plan lists a weak-perspective candidate).
@@ -1120,7 +1134,17 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
             .filter(|p| !pinned.contains(p) && !aperture_only.contains(p) && !later.iter().any(|l| l.contains(p)))
             .cloned()
             .collect();
-        for (k, batch) in free.chunks(6).enumerate() {
+        // The scenes with a lobe apart from those without, in both layouts
+        // ([`LAYOUTS`]).
+        let (mut plain, mut lobed) = (Vec::new(), Vec::new());
+        for p in &free {
+            if has_lobe(p)? {
+                lobed.push(p.clone());
+            } else {
+                plain.push(p.clone());
+            }
+        }
+        for (k, batch) in plain.chunks(6).chain(lobed.chunks(6)).enumerate() {
             measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
         }
         for (k, batch) in later.iter().enumerate() {
@@ -1132,11 +1156,20 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
         }
         // The second layout ([`LAYOUTS`]).
         let mut second = Vec::new();
-        let dealt: Vec<_> = free.iter().chain(later.iter().flatten()).cloned().collect();
-        let n = dealt.len().div_ceil(6);
-        for k in 0..n {
-            let batch: Vec<_> = dealt.iter().skip(k).step_by(n).cloned().collect();
-            measure(board, &batch, &one, &work.join(format!("dealt{k}")), &mut second)?;
+        let mut k = 0;
+        for lobe in [false, true] {
+            let mut dealt = Vec::new();
+            for p in free.iter().chain(later.iter().flatten()) {
+                if has_lobe(p)? == lobe {
+                    dealt.push(p.clone());
+                }
+            }
+            let n = dealt.len().div_ceil(6);
+            for j in 0..n {
+                let batch: Vec<_> = dealt.iter().skip(j).step_by(n).cloned().collect();
+                measure(board, &batch, &one, &work.join(format!("dealt{k}")), &mut second)?;
+                k += 1;
+            }
         }
         let both = parse(&WEAK_VARIANTS.concat().into_iter().map(String::from).collect::<Vec<_>>())?;
         measure(board, &pinned, &both, &work.join("both-rays"), &mut second)?;
