@@ -132,10 +132,11 @@ const LATER_BATCHES: [&[&str]; 2] = [
 ];
 
 /// Firmware layouts each one-sample calibration scene is measured in, its
-/// points the mean of their counts: a scene's count moves by up to 14 %
-/// with the scenes and loops built beside it (the compiler's inlining and
-/// layout of the loops they share), so one layout's count is one draw of
-/// that spread. The first layout is the batches above (the free scenes six
+/// points the mean of their counts: a scene's count moves with the scenes
+/// and loops built beside it (by up to a fifth where one of them builds a
+/// lobe into its loop, [`has_lobe`]; by up to 15 % otherwise: the
+/// compiler's inlining and layout of the loops they share), so one
+/// layout's count is one draw of that spread. The first layout is the batches above (the free scenes six
 /// to a firmware in order, [`LATER_BATCHES`], each ray model of
 /// [`WEAK_VARIANTS`] apart); the second deals every one-sample scene round
 /// the same number of firmwares (scene `i` to firmware `i mod n`, so no
@@ -1156,14 +1157,15 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
         }
         // The second layout ([`LAYOUTS`]).
         let mut second = Vec::new();
-        let mut k = 0;
-        for lobe in [false, true] {
-            let mut dealt = Vec::new();
-            for p in free.iter().chain(later.iter().flatten()) {
-                if has_lobe(p)? == lobe {
-                    dealt.push(p.clone());
-                }
+        for p in later.iter().flatten() {
+            if has_lobe(p)? {
+                lobed.push(p.clone());
+            } else {
+                plain.push(p.clone());
             }
+        }
+        let mut k = 0;
+        for dealt in [plain, lobed] {
             let n = dealt.len().div_ceil(6);
             for j in 0..n {
                 let batch: Vec<_> = dealt.iter().skip(j).step_by(n).cloned().collect();
