@@ -159,6 +159,20 @@ fn has_lobe(path: &Path) -> Result<bool, String> {
     Ok(Features::of_options(&scene, &opts).specular != 0.0)
 }
 
+/// `paths` split by [`has_lobe`], each part in their order: without a
+/// lobe, with one.
+fn by_lobe(paths: &[std::path::PathBuf]) -> Result<(Vec<std::path::PathBuf>, Vec<std::path::PathBuf>), String> {
+    let (mut plain, mut lobed) = (Vec::new(), Vec::new());
+    for p in paths {
+        if has_lobe(p)? {
+            lobed.push(p.clone());
+        } else {
+            plain.push(p.clone());
+        }
+    }
+    Ok((plain, lobed))
+}
+
 /// Whether weak perspective holds for the calibration scene at `path`
 /// (its plan lists a weak-perspective candidate).
 fn weak_holds(path: &Path) -> Result<bool, String> {
@@ -1137,14 +1151,7 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
             .collect();
         // The scenes with a lobe apart from those without, in both layouts
         // ([`LAYOUTS`]).
-        let (mut plain, mut lobed) = (Vec::new(), Vec::new());
-        for p in &free {
-            if has_lobe(p)? {
-                lobed.push(p.clone());
-            } else {
-                plain.push(p.clone());
-            }
-        }
+        let (plain, lobed) = by_lobe(&free)?;
         for (k, batch) in plain.chunks(6).chain(lobed.chunks(6)).enumerate() {
             measure(board, batch, &one, &work.join(format!("batch{k}")), &mut points)?;
         }
@@ -1157,15 +1164,9 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
         }
         // The second layout ([`LAYOUTS`]).
         let mut second = Vec::new();
-        for p in later.iter().flatten() {
-            if has_lobe(p)? {
-                lobed.push(p.clone());
-            } else {
-                plain.push(p.clone());
-            }
-        }
+        let (later_plain, later_lobed) = by_lobe(&later.concat())?;
         let mut k = 0;
-        for dealt in [plain, lobed] {
+        for dealt in [[plain, later_plain].concat(), [lobed, later_lobed].concat()] {
             let n = dealt.len().div_ceil(6);
             for j in 0..n {
                 let batch: Vec<_> = dealt.iter().skip(j).step_by(n).cloned().collect();
