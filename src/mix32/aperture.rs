@@ -181,7 +181,7 @@ impl Mix32 {
                 let one = match through {
                     Through::Background => Some(self.bg),
                     Through::One(r) => (self.hit_from::<L, C, true, false>(&r, [[0; 2]; 2], None))
-                        .map(|h| self.shade_flat::<L, C, true>(&r, &h, &mut k)),
+                        .map(|h| self.shade_flat_ap::<L, C>(&r, &h, &mut k)),
                     Through::Only(i) => {
                         if let Some(o) = single.get_mut(singles) {
                             (*o, singles) = ((q as u8, i), singles + 1);
@@ -219,17 +219,16 @@ impl Mix32 {
             let mut g = singles;
             while g > 0 {
                 g -= 1;
-                let joined = !cfg!(feature = "compact")
-                    && match (single.get(g), single.get(g + 1).filter(|_| g + 1 < singles)) {
-                        (Some(&(qa, ia)), Some(&(qb, ib))) => {
-                            ia == ib
-                                && chief
-                                    .get(qa as usize)
-                                    .zip(chief.get(qb as usize))
-                                    .is_some_and(|(ca, cb)| ca.y == cb.y && cb.x <= ca.x)
-                        }
-                        _ => false,
-                    };
+                let joined = match (single.get(g), single.get(g + 1).filter(|_| g + 1 < singles)) {
+                    (Some(&(qa, ia)), Some(&(qb, ib))) => {
+                        ia == ib
+                            && chief
+                                .get(qa as usize)
+                                .zip(chief.get(qb as usize))
+                                .is_some_and(|(ca, cb)| ca.y == cb.y && cb.x <= ca.x)
+                    }
+                    _ => false,
+                };
                 let e = if joined {
                     run_end.get(g + 1).copied().unwrap_or(g as u8)
                 } else {
@@ -303,9 +302,7 @@ impl Mix32 {
                     // ends: `run_end`), each ray of a segment with its
                     // material. Otherwise the one ray `g`.
                     let hit = match facing {
-                        Some(Some((t, away))) if !cfg!(feature = "compact") && t != NO_HIT => {
-                            Some((t, i | if away { AWAY } else { 0 }))
-                        }
+                        Some(Some((t, away))) if t != NO_HIT => Some((t, i | if away { AWAY } else { 0 })),
                         _ => None,
                     };
                     let end = if hit.is_some() { usize::from(end).max(g) } else { g };
@@ -345,7 +342,6 @@ impl Mix32 {
                         // sum does not keep. The material as `hit_from`
                         // takes it, once a segment (its cells are one);
                         // every ray of the segment adds the kept sum.
-                        // (None kept in a `compact` build: `hit`.)
                         let kept = hit.and_then(|(t, hit)| {
                             let mut r = ray_at(lo)?;
                             (r.t, r.hit) = (t, hit);
@@ -473,11 +469,21 @@ impl Mix32 {
         }
     }
 
+    /// [`Mix32::shade_flat`] of an aperture ray. Out of line in a
+    /// `compact` build: one copy for the aperture loop's three call sites
+    /// (inlined there, the M3 camera's flash was 258 820 B with its runs
+    /// still left out, 248 844 B so with them).
+    #[cfg_attr(feature = "compact", inline(never))]
+    #[cfg_attr(not(feature = "compact"), inline(always))]
+    fn shade_flat_ap<L: Lines, const C: usize>(&self, r: &Ray, h: &Hit, k: &mut KCache) -> [u64; 3] {
+        self.shade_flat::<L, C, true>(r, h, k)
+    }
+
     /// What [`Mix32::add_aperture_ray`] adds.
     #[inline(always)]
     fn aperture_sum<L: Lines, const C: usize>(&self, r: &Ray, a: [[i32; 2]; 2], k: &mut KCache) -> [u64; 3] {
         match self.hit_from::<L, C, true, true>(r, a, None) {
-            Some(h) => self.shade_flat::<L, C, true>(r, &h, k),
+            Some(h) => self.shade_flat_ap::<L, C>(r, &h, k),
             None => self.bg,
         }
     }
