@@ -422,14 +422,13 @@ pub(super) fn zip3<A: Copy, B: Copy, R>(a: [A; 3], b: [B; 3], f: impl Fn(A, B) -
 }
 
 /// `a.map(f)` written out: in a pixel's code `array::map` was a loop
-/// through the stack (five M3 instructions a component).
+/// through the stack (five M3 instructions a component; in the `compact`
+/// build too, where the camera's spheres-specular measured 425.4 against
+/// 409.0 on the M3, 1 652.3 against 1 642.7 on the M0, whose flash it
+/// took 260 B less).
 #[inline(always)]
 pub(super) fn map3<A: Copy, R>(a: [A; 3], f: impl Fn(A) -> R) -> [R; 3] {
-    if cfg!(feature = "compact") {
-        a.map(f)
-    } else {
-        [f(a[0]), f(a[1]), f(a[2])]
-    }
+    [f(a[0]), f(a[1]), f(a[2])]
 }
 
 // Products and bit counts. Cortex-M0 (ARMv6-M, the Arm target without

@@ -266,13 +266,14 @@ pub(super) fn put(words: &[u16], reversed: bool, bytes_per_pixel: usize, out: &m
 /// `out[i] = src[i] as u8`, or of `src` read last first if `reversed`:
 /// four bytes a step, a word each (a byte a step: the M3's
 /// spheres-specular 469.4 against 461.1 instructions a pixel, standard
-/// 229.4 against 228.1) — except on the M0 (no unaligned word store: there
-/// it took the standard scene 4 more) and in a `compact` build (flash),
-/// which take a byte a step.
+/// 229.4 against 228.1; the M3 camera's, a `compact` build, 228.9
+/// against 226.7 for 304 B of flash) — except on the M0 (no unaligned
+/// word store: there it took the standard scene 4 more), which takes a
+/// byte a step.
 #[inline(always)]
 pub(super) fn quads<T: Copy + Into<u32>>(src: &[T], reversed: bool, out: &mut [u8]) {
     let b = |v: T| v.into() & 0xff;
-    if ARMV6M || cfg!(feature = "compact") {
+    if ARMV6M {
         if reversed {
             out.iter_mut()
                 .zip(src.iter().rev())
