@@ -1207,7 +1207,7 @@ impl Mix32 {
                 let key = index.wrapping_add(q.wrapping_mul(step));
                 let q = q as usize;
                 if let (Some(r), Some(word), Some(flag)) = (rays.get(q), words.get_mut(q), fl.get_mut(q)) {
-                    *word = self.pixel::<L, C, PERSP>(r, dn_max, flag, &mut k, (noise, key));
+                    *word = self.pixel::<L, C, PERSP>(r, copy3!(dn_max), flag, &mut k, (noise, key));
                 }
             }
             store(words, fl, mirrored, b, out, flags);
@@ -1413,7 +1413,7 @@ impl Mix32 {
         let c4 = self.c4::<KEPT>(r);
         let sum = match self.hit_from::<L, C, PERSP, false>(r, [[0; 2]; 2], key) {
             Some(h) => self.shade_flat::<L, C, PERSP>(r, &h, k),
-            None => self.bg,
+            None => copy3!(self.bg),
         };
         (sum, c4)
     }
@@ -1610,7 +1610,7 @@ impl Mix32 {
             k.flat_sum = self.shade::<L, C, PERSP>(r, h, k);
             k.flat = (r.hit, h.m);
         }
-        k.flat_sum
+        copy3!(k.flat_sum)
     }
 
     /// The ambient, Lambertian and (for a material with a lobe) specular
@@ -1669,7 +1669,7 @@ impl Mix32 {
         // with one is refused by a build without: `Frame::line_built`).
         let lobe = if lobe_built::<L, C>() { k.lobe } else { None };
         let view = lobe.map(|_| kept.unwrap_or_else(|| Self::view::<PERSP>(r)));
-        let mut sum = k.ka;
+        let mut sum = copy3!(k.ka);
         for (((l, kl), (ksl, top)), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
             let (w, ldir) = match l {
                 MixLight::Point { p, .. } => {
@@ -1728,6 +1728,6 @@ impl Mix32 {
                 });
             }
         }
-        sum
+        copy3!(sum)
     }
 }

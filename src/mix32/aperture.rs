@@ -464,7 +464,7 @@ impl Mix32 {
         k: &mut KCache,
     ) {
         let l = self.aperture_sum::<L, C>(r, a, k);
-        for (s, l) in sum.iter_mut().zip(l).take(self.chans::<C>()) {
+        for (s, l) in sum.iter_mut().zip(copy3!(l)).take(self.chans::<C>()) {
             *s += l;
         }
     }
@@ -484,7 +484,7 @@ impl Mix32 {
     fn aperture_sum<L: Lines, const C: usize>(&self, r: &Ray, a: [[i32; 2]; 2], k: &mut KCache) -> [u64; 3] {
         match self.hit_from::<L, C, true, true>(r, a, None) {
             Some(h) => self.shade_flat_ap::<L, C>(r, &h, k),
-            None => self.bg,
+            None => copy3!(self.bg),
         }
     }
 

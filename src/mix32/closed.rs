@@ -219,7 +219,7 @@ impl Mix32 {
                 *flag = 0;
                 let w = closed_w(n, r);
                 let sum = if c.ahead(w) {
-                    let mut sum = c.flat;
+                    let mut sum = copy3!(c.flat);
                     // One light (the common case) without the loop's overhead.
                     match c.lights.as_slice() {
                         [l] => closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum),
@@ -231,7 +231,7 @@ impl Mix32 {
                 } else {
                     self.bg
                 };
-                *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                *word = self.closed_word(rgb, copy3!(sum), r, copy3!(dn_max), (noise, k));
             }
             left
         };
@@ -336,7 +336,7 @@ impl Mix32 {
                 break;
             };
             let w = closed_w(n, r);
-            let mut sum = c.flat;
+            let mut sum = copy3!(c.flat);
             closed_term::<C>(nch, c, l, r, w, (keep, store), &mut sum);
             if let (0, Some(e)) = (q & 1, even.get_mut(q >> 1)) {
                 // (The frame's channels: a `compact` build's gray
@@ -349,7 +349,7 @@ impl Mix32 {
             }
             // The pixel's noise key (computed where the noise draws).
             let k = index.wrapping_add((q as u32).wrapping_mul(step));
-            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+            *word = self.closed_word(rgb, copy3!(sum), r, copy3!(dn_max), (noise, k));
         }
         // The even rays between, level by level: with `Octs` the rays
         // ≡ 4 (mod 8) from the shaded ones 4 apart (a ray whose ray 4
@@ -368,7 +368,7 @@ impl Mix32 {
             ) {
                 let sum = mean_into::<C>(nch, a, b, m);
                 let k = index.wrapping_add((q as u32).wrapping_mul(step));
-                *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                *word = self.closed_word(rgb, copy3!(sum), r, copy3!(dn_max), (noise, k));
             }
             q += 8;
         }
@@ -380,7 +380,7 @@ impl Mix32 {
                 if let Some([a, m, b]) = even.get_mut(2 * i..2 * i + 3) {
                     let sum = mean_into::<C>(nch, a, b, m);
                     let k = index.wrapping_add((4 * i as u32 + 2).wrapping_mul(step));
-                    *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+                    *word = self.closed_word(rgb, copy3!(sum), r, copy3!(dn_max), (noise, k));
                 }
             }
         }
@@ -400,7 +400,7 @@ impl Mix32 {
                 }
             });
             let k = index.wrapping_add((2 * i as u32 + 1).wrapping_mul(step));
-            *word = self.closed_word(rgb, sum, r, dn_max, (noise, k));
+            *word = self.closed_word(rgb, copy3!(sum), r, copy3!(dn_max), (noise, k));
         }
     }
 

@@ -228,8 +228,13 @@ impl Mix32 {
                     if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
                         // In the field: its corners are.
                         let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, &mut k, Some(*c));
-                        *out =
-                            Self::dn_word::<C>(nch, sum, c4, dn_max, (noise, index.wrapping_add(q as u32)));
+                        *out = Self::dn_word::<C>(
+                            nch,
+                            copy3!(sum),
+                            c4,
+                            copy3!(dn_max),
+                            (noise, index.wrapping_add(q as u32)),
+                        );
                         *flag = 0;
                         grid &= !(1 << q);
                     }
@@ -246,8 +251,12 @@ impl Mix32 {
                 let (dn, f) = match value {
                     Some(v) => {
                         let mut dn = [0u32; 3];
-                        for (c, ((d, v), max)) in
-                            dn.iter_mut().zip(v).zip(dn_max).take(chans::<C>(nch)).enumerate()
+                        for (c, ((d, v), max)) in dn
+                            .iter_mut()
+                            .zip(v)
+                            .zip(copy3!(dn_max))
+                            .take(chans::<C>(nch))
+                            .enumerate()
                         {
                             *d = match noise {
                                 Some(z) => noisy_dn(z.draw(index.wrapping_add(q as u32), c), v, max as u16),
@@ -311,7 +320,7 @@ impl Mix32 {
                     return None;
                 }
                 let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, k, None);
-                for (a, s) in acc.iter_mut().zip(sum).take(self.chans::<C>()) {
+                for (a, s) in acc.iter_mut().zip(copy3!(sum)).take(self.chans::<C>()) {
                     *a = a.saturating_add(vignette_q(s, c4).to_bits());
                 }
             }
