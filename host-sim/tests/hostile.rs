@@ -833,14 +833,21 @@ fn sigterm_while_rendering_leaves_nothing() {
         .stderr(std::fs::File::create(dir.join("stderr")).expect("file"))
         .spawn()
         .expect("spawns");
-    // Wait until the PNGs are being written, then stop it.
+    // Wait until the PNGs are being written (the frame's staged file: not
+    // the directory's probe, `Outputs::prepare`'s, which is staged and
+    // removed before the render starts — seen, then gone, it failed this
+    // test once), then stop it.
     let t = Instant::now();
-    while !entries(&out).iter().any(|e| e.contains(".partial-")) && t.elapsed() < Duration::from_secs(60) {
+    let writing = || entries(&out).iter().any(|e| e.starts_with(".frame.png.partial-"));
+    let mut started = writing();
+    while !started && t.elapsed() < Duration::from_secs(60) {
         std::thread::sleep(Duration::from_millis(2));
+        started = writing();
     }
     assert!(
-        entries(&out).iter().any(|e| e.contains(".partial-")),
-        "never started writing"
+        started,
+        "never started writing: {}",
+        std::fs::read_to_string(dir.join("stderr")).unwrap_or_default()
     );
     // SAFETY: kill(2) on our own child's pid.
     unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
