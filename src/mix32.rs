@@ -146,6 +146,11 @@ const fn chans<const C: usize>(n: usize) -> usize {
     }
 }
 
+/// The M0's driven camera (a `compact` build for ARMv6-M, at opt-level
+/// "z"): where its flash, not speed, decides a form (the rays' y-range,
+/// the inner region's pass, `copy3!`, the exposure's channels).
+const M0_COMPACT: bool = ARMV6M && cfg!(feature = "compact");
+
 /// `f(c)` for each of the [`chans`] channels, written out: a loop over them
 /// is not unrolled at opt-level "s" (the firmware's), which cost the RGB565
 /// scene 28 M3 instructions a pixel. (A form taking the sums by reference
@@ -1238,7 +1243,7 @@ impl Mix32 {
         // (Not in the M0's `compact` build: flash, 1.7 KB of its camera's
         // for standard 885.4 → 877.2; the M3 camera's 226.7 → 221.7 for
         // 1 KB.)
-        let mono = !(ARMV6M && cfg!(feature = "compact"));
+        let mono = !M0_COMPACT;
         match self.k {
             // `ŷ = ŷ_d g(u)` is monotone in `u` (so in `|x̂_d|`) where `g` is,
             // as each of its floors is: `k1`, `k2 ≥ 0` (u ≥ 0).
@@ -1364,7 +1369,7 @@ impl Mix32 {
             // (A `compact` build's loop for three channels serves one-channel
             // frames too: their channel alone. The others leave the
             // compiler to drop what `word` does not pack.)
-            None if cfg!(feature = "compact") && !ARMV6M => {
+            None if cfg!(feature = "compact") && !M0_COMPACT => {
                 let mut dn = [0u32; 3];
                 each::<C>(n, |c| {
                     if let (Some(d), Some(&s), Some(&max)) = (dn.get_mut(c), sum.get(c), dn_max.get(c)) {
@@ -1379,7 +1384,7 @@ impl Mix32 {
             // two `memcpy`s of 24 B (wide-vignetting 338.2 against 193.7
             // instructions a pixel, standard 884.8 against 810.3; this form
             // measured the M3 camera's standard 231.8 against 221.1).
-            None if cfg!(feature = "compact") => {
+            None if M0_COMPACT => {
                 let ([s0, s1, s2], [m0, m1, m2]) = (sum, dn_max);
                 let v = |s: u64, max: u64| vignette_dn(s, c4, max as u32);
                 let d0 = v(s0, m0);

@@ -440,7 +440,7 @@ pub(super) fn map3<A: Copy, R>(a: [A; 3], f: impl Fn(A) -> R) -> [R; 3] {
 /// pixel).
 macro_rules! copy3 {
     ($a:expr) => {
-        if ARMV6M && cfg!(feature = "compact") {
+        if M0_COMPACT {
             let a: &[u64; 3] = &$a;
             [a[0], a[1], a[2]]
         } else {

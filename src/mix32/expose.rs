@@ -131,7 +131,7 @@ pub(super) fn noisy<const C: usize>(
     // 75.9, spheres-specular 378.3 → 384.7. One helper for these two forms
     // and `Mix32::dn_word`'s, the value a closure argument, measured the
     // M3 camera's standard 217.0 → 222.3, low-light 335.2 → 348.4.)
-    if cfg!(feature = "compact") && !ARMV6M {
+    if cfg!(feature = "compact") && !M0_COMPACT {
         let mut dn = [0u32; 3];
         super::each::<C>(n, |c| {
             if let (Some(d), Some(&s), Some(&max)) = (dn.get_mut(c), sum.get(c), dn_max.get(c)) {
@@ -140,7 +140,7 @@ pub(super) fn noisy<const C: usize>(
         });
         return word::<C>(n, dn);
     }
-    if cfg!(feature = "compact") {
+    if M0_COMPACT {
         let ([s0, s1, s2], [m0, m1, m2]) = (sum, dn_max);
         let v = |c: usize, s: u64, max: u64| noisy_dn(z.draw(index, c), vignette_q(s, c4), max as u16);
         let d0 = v(0, s0, m0);

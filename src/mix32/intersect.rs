@@ -356,7 +356,7 @@ impl MixShape {
                 // checkerboard-barrel 1 057.4 → 1 052.3; the M3 camera's
                 // 265.8 → 261.9 for 776 B).
                 let within = PERSP && inner.is_some_and(|q| q.index == index && q.covers(slopes));
-                if within && !(ARMV6M && cfg!(feature = "compact")) {
+                if within && !M0_COMPACT {
                     flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| r.keep(t, index, away));
                     return;
                 }
