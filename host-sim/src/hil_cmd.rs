@@ -126,7 +126,7 @@ pub fn shipped_scenes() -> Result<Vec<PathBuf>, String> {
 /// Builds the firmware for `board` with `scenes` embedded (all of
 /// `scenes/` when empty), rendering each with every one of `variants` (the
 /// planned renderer when empty); returns the ELF path.
-pub fn build_firmware(board: Board, scenes: &[PathBuf], variants: &[Variant]) -> Result<PathBuf, String> {
+pub fn build_firmware(board: Board, scenes: &[PathBuf], variants: &[Variant]) -> Result<BuiltElf, String> {
     build_firmware_as(board, scenes, variants, false, &[])
 }
 
@@ -163,7 +163,7 @@ pub fn build_firmware_as(
     variants: &[Variant],
     camera: bool,
     sent: &[PathBuf],
-) -> Result<PathBuf, String> {
+) -> Result<BuiltElf, String> {
     let held = if scenes.is_empty() {
         shipped_scenes()?
     } else {
@@ -177,6 +177,9 @@ pub fn build_firmware_as(
         board.feature().to_string()
     };
     let dir = repo_root().join("firmware");
+    // Where cargo puts it: CARGO_TARGET_DIR (relative to firmware/, where
+    // cargo runs) if set, else firmware/target.
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| dir.join("target"), |t| dir.join(t));
     let list: Vec<String> = scenes
         .iter()
         .map(|p| {
@@ -185,6 +188,13 @@ pub fn build_firmware_as(
                 .map_err(|e| format!("{}: {e}", p.display()))
         })
         .collect::<Result<_, _>>()?;
+    // Every build writes the same ELF: held from the build to the copy, the
+    // lock keeps a command running alongside (another `hil`, a `costfit`
+    // batch, a `drive`) from replacing it before this one has its own.
+    std::fs::create_dir_all(&target).map_err(|e| format!("{}: {e}", target.display()))?;
+    let lock_path = target.join("hilcam-firmware.lock");
+    let lock = std::fs::File::create(&lock_path).map_err(|e| format!("{}: {e}", lock_path.display()))?;
+    lock.lock().map_err(|e| format!("{}: {e}", lock_path.display()))?;
     let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(&dir)
         .env("CARGO_PROFILE_RELEASE_OPT_LEVEL", board.opt_level(camera))
@@ -212,10 +222,41 @@ pub fn build_firmware_as(
             String::from_utf8_lossy(&out.stderr)
         ));
     }
-    // Where cargo put it: CARGO_TARGET_DIR (relative to firmware/, where
-    // cargo ran) if set, else firmware/target.
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| dir.join("target"), |t| dir.join(t));
-    Ok(target.join(board.target()).join("release").join("hilcam-firmware"))
+    let built = target.join(board.target()).join("release").join("hilcam-firmware");
+    BuiltElf::copy(&built)
+    // `lock` is released when dropped, after the copy.
+}
+
+/// A firmware ELF built for one command: a private copy of what cargo
+/// wrote, removed when dropped, so that QEMU runs the firmware this command
+/// built even if another builds one alongside.
+#[derive(Debug)]
+pub struct BuiltElf(PathBuf);
+
+impl BuiltElf {
+    /// Copies `built` to `built.<pid>.<n>` beside it.
+    fn copy(built: &Path) -> Result<BuiltElf, String> {
+        static COPIES: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let n = COPIES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let mut name = built.as_os_str().to_owned();
+        name.push(format!(".{}.{n}", std::process::id()));
+        let copy = PathBuf::from(name);
+        std::fs::copy(built, &copy).map_err(|e| format!("{} → {}: {e}", built.display(), copy.display()))?;
+        Ok(BuiltElf(copy))
+    }
+}
+
+impl std::ops::Deref for BuiltElf {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for BuiltElf {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
 }
 
 /// Flash and static RAM of an ELF, bytes, from its sections: flash holds
@@ -444,15 +485,19 @@ pub fn hil_variants(
     };
     let resolved: Vec<Resolved> = list.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
     let mut outputs = crate::output::Outputs::prepare(out)?;
-    let elf = match elf {
+    let built;
+    let elf: &Path = match &elf {
         Some(e) => e,
-        None => build_firmware(board, scenes, &variants)?,
+        None => {
+            built = build_firmware(board, scenes, &variants)?;
+            &built
+        }
     };
-    let (flash, ram) = elf_sizes(&elf)?;
+    let (flash, ram) = elf_sizes(elf)?;
     let uart = out.join("uart.bin");
     let _ = std::fs::remove_file(&uart);
     let t = Instant::now();
-    let text = run_qemu(board, &elf, &uart, Duration::from_secs(600))?;
+    let text = run_qemu(board, elf, &uart, Duration::from_secs(600))?;
     let qemu_seconds = t.elapsed().as_secs_f64();
     outputs.write("semihosting.txt", text.as_bytes())?;
     let bytes = std::fs::read(&uart).map_err(|e| format!("{}: {e}", uart.display()))?;
@@ -552,8 +597,8 @@ pub fn hil_variants(
         instructions_per_pixel: ipp_standard,
         ram_bytes: ram,
         flash_bytes: flash,
-        panic_symbols: elf_panic_symbols(&elf)?,
-        flash_use: crate::profile::flash_use(&elf, 20)?,
+        panic_symbols: elf_panic_symbols(elf)?,
+        flash_use: crate::profile::flash_use(elf, 20)?,
         max_abs_lsb: frames.iter().map(|f| f.max_abs_lsb).max().unwrap_or(0),
         qemu_seconds,
         frames,

@@ -852,15 +852,19 @@ pub fn profile(
     }
     let resolved = scenes.iter().map(|p| load(p)).collect::<Result<Vec<_>, _>>()?;
     let mut outputs = crate::output::Outputs::prepare(out)?;
-    let elf = match elf {
+    let built;
+    let elf: &Path = match &elf {
         Some(e) => e,
-        None => build_firmware(board, scenes, &[])?,
+        None => {
+            built = build_firmware(board, scenes, &[])?;
+            &built
+        }
     };
-    let marks = frame_marks(&elf)?;
+    let marks = frame_marks(elf)?;
     let uart = out.join("uart.bin");
     let mut child = spawn_qemu_with(
         board,
-        &elf,
+        elf,
         &format!("file:{}", uart.display()),
         &["-d", "in_asm,exec,nochain", "-D", "/dev/stderr"],
         false,
@@ -871,7 +875,7 @@ pub fn profile(
     // Read as QEMU writes it (a frame of 320x240 logs about 1 GB): on a
     // thread, so that a firmware that hangs is killed at the timeout.
     let reader = std::thread::spawn({
-        let (marks, elf) = (marks.clone(), elf.clone());
+        let (marks, elf) = (marks.clone(), elf.to_path_buf());
         move || Trace::read(std::io::BufReader::with_capacity(1 << 20, log), &elf, &marks)
     });
     let status = crate::hil_cmd::wait_qemu(&mut child, Duration::from_secs(1800));
@@ -897,7 +901,7 @@ pub fn profile(
     // frame still without one is an error, not a frame left unchecked.
     let mut costs: Vec<Option<u64>> = Vec::new();
     for _ in 0..2 {
-        run_qemu(board, &elf, &uart, Duration::from_secs(600))?;
+        run_qemu(board, elf, &uart, Duration::from_secs(600))?;
         let bytes = std::fs::read(&uart).map_err(|e| format!("{}: {e}", uart.display()))?;
         let _ = std::fs::remove_file(&uart);
         costs.clear();
