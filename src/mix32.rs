@@ -921,7 +921,9 @@ impl Mix32 {
         for p in self.prims.iter_mut() {
             p.flat = directional && !matches!(p.shape, MixShape::Sphere { .. });
             let lobed = has_lobe(p.material) || p.checker.as_ref().is_some_and(|k| has_lobe(k.material));
-            if !p.flat || lobed {
+            // (A sphere's is the bound its chief rays are tested against,
+            // whatever its shading.)
+            if !matches!(p.shape, MixShape::Sphere { .. }) && (!p.flat || lobed) {
                 p.spread = 0;
             }
         }

@@ -70,6 +70,9 @@ pub(super) fn aperture_terms(p: &crate::render::CamPrimQ, (r, z): (Q, Q), e: i32
         }
     };
     let depth = [s18(z0, -1.0), s18(z1, 1.0)];
+    if let S::Sphere { .. } = p.shape {
+        return (sphere_reach(f(c[2]), reach, (f(r), f(z)), e), depth);
+    }
     let (S::Rect { n, dist, .. }, Some(b)) = (&p.shape, p.bounds) else {
         return (0, depth);
     };
@@ -100,6 +103,35 @@ pub(super) fn aperture_terms(p: &crate::render::CamPrimQ, (r, z): (Q, Q), e: i32
         (libm::ceil(k) as u32, depth)
     } else {
         (0, depth)
+    }
+}
+
+/// [`MixPrim::spread`] of a sphere (centre depth `cz`, radius `rho`,
+/// metres) through an aperture of radius `r` focused at `Z̃ = z`: how far
+/// from its centre (S24 U, rounded up) a pixel's chief ray must pass for
+/// any of its aperture rays to meet it; 0 (no bound) unless it lies wholly
+/// ahead of the lens. The aperture ray from `A` meets depth `ζ` at its
+/// chief ray's point there plus `A (1 − ζ/Z̃)`, and a hit lies within the
+/// sphere's depths `cz ± ρ`: so its chief ray passes within `ρ + |A|
+/// max|1 − ζ/Z̃|` of the centre. `r` is taken 2⁻⁸ larger and the depths
+/// 2⁻¹⁰ wider (as for a rectangle), plus `ζ 2⁻²⁰` (the slope offset
+/// `A/Z̃`'s rounding, 2⁻²⁷) and 2⁻¹² U (the points' rounding and the
+/// sphere pass's truncations, below 2⁻²⁰ U). Once a frame.
+fn sphere_reach(cz: f64, rho: f64, (r, z): (f64, f64), e: i32) -> u32 {
+    let (z0, z1) = (
+        (cz - rho) * (1.0 - libm::ldexp(1.0, -10)),
+        (cz + rho) * (1.0 + libm::ldexp(1.0, -10)),
+    );
+    if !(z0 > 0.0 && z > 0.0 && r >= 0.0) {
+        return 0;
+    }
+    let off = libm::fabs(1.0 - z0 / z).max(libm::fabs(1.0 - z1 / z));
+    let reach = rho + r * (1.0 + libm::ldexp(1.0, -8)) * off + z1 * libm::ldexp(1.0, -20);
+    let v = libm::ceil(libm::ldexp(reach, 24 - e) + libm::ldexp(1.0, 12));
+    if v < libm::ldexp(1.0, 31) {
+        v as u32
+    } else {
+        0
     }
 }
 
@@ -497,7 +529,10 @@ impl Mix32 {
     /// within its edges and one texture cell's: its sum depends on its side
     /// and material alone ([`Mix32::shade_flat`]). Where the hit lies that
     /// far outside an edge, no aperture ray meets it, and the next nearest
-    /// is taken; where none is left, the background. The same sums as the
+    /// is taken, as where the nearest is a sphere its chief ray passes
+    /// farther from than an aperture ray can reach ([`sphere_reach`],
+    /// [`passes_beyond`]; a nearer one that does not is traced); where
+    /// none is left, the background. The same sums as the
     /// rays traced, which then need not be. Where the hit lies within its
     /// edges by that much but not within one cell, every ray meets the
     /// rectangle and nothing nearer: [`Through::Only`].
@@ -507,6 +542,13 @@ impl Mix32 {
         let mut missed = 0u32;
         let holds = |j: usize, p: &MixPrim, missed: u32| {
             missed >> j & 1 == 0 && p.bounds.is_none_or(|b| meets(&b, [c.x, c.x, c.y, c.y]))
+        };
+        // A sphere its chief ray passes too far from for an aperture ray
+        // to meet it (asked only of a sphere the answer matters for: the
+        // nearest, or one not behind the nearest).
+        let beyond = |p: &MixPrim| match p.shape {
+            MixShape::Sphere { c: centre, .. } => p.spread != 0 && passes_beyond(c.x, c.y, centre, p.spread),
+            _ => false,
         };
         loop {
             let mut near: Option<(usize, &MixPrim)> = None;
@@ -518,8 +560,16 @@ impl Mix32 {
             let Some((i, p)) = near else {
                 return Through::Background;
             };
-            let behind =
-                |(j, q): (usize, &MixPrim)| j == i || !holds(j, q, missed) || q.depth[0] > p.depth[1];
+            if let MixShape::Sphere { .. } = p.shape {
+                if beyond(p) {
+                    missed |= 1 << i;
+                    continue;
+                }
+                return Through::Traced;
+            }
+            let behind = |(j, q): (usize, &MixPrim)| {
+                j == i || !holds(j, q, missed) || q.depth[0] > p.depth[1] || beyond(q)
+            };
             // (A focused depth beyond S18's range: no bound from it.)
             if p.spread == 0 || ap.z18 == i32::MAX || !self.prims.iter().enumerate().all(behind) {
                 return Through::Traced;

@@ -217,12 +217,31 @@ pub(super) struct MixPrim {
     pub(super) flat: bool,
     /// Through the aperture: for a flat rectangle without a lobe, how far
     /// its aperture rays can meet its plane from its chief ray's hit, per
-    /// unit of the hit's depth from the focused one (Q8.24; 0 for any other
-    /// primitive), and the depths (S18 U, a perspective ray's `t`) its hits
+    /// unit of the hit's depth from the focused one (Q8.24); for a sphere,
+    /// how far from its centre a chief ray must pass for an aperture ray
+    /// to meet it (S24 U: [`passes_beyond`]); 0 for any other primitive or
+    /// where there is no bound. And the depths (S18 U, a perspective ray's `t`) its hits
     /// lie within (a plane's: all): [`aperture_terms`], for
     /// [`Mix32::uniform`].
     pub(super) spread: u32,
     pub(super) depth: [i32; 2],
+}
+
+/// Whether the perspective ray of slopes `(x̂, ŷ)` (S26) passes farther
+/// than `reach` (S24 U) from the point `c` (S24 U): `|d × c|² > |d|²
+/// reach²` for `d = (x̂, ŷ, 1)`, exactly (the sphere pass's exact test,
+/// Lagrange's identity, with `reach` for the radius).
+#[inline(always)]
+pub(super) fn passes_beyond(x: i32, y: i32, c: [i32; 3], reach: u32) -> bool {
+    // d × c in S50 (each component below 2⁶⁰: |c| within 8 U, |x̂|, |ŷ|
+    // below 2⁵), its squares' sum below 2¹²¹; |d|² (S52, below 2⁶⁴)
+    // times reach² (below 2⁶²) below 2¹²⁶.
+    let e0 = wmul(y, c[2]) - ((c[1] as i64) << 26);
+    let e1 = ((c[0] as i64) << 26) - wmul(x, c[2]);
+    let e2 = wmul(x, c[1]) - wmul(y, c[0]);
+    let sq = |e: i64| u128::from(e.unsigned_abs()) * u128::from(e.unsigned_abs());
+    let a52 = wsq(x) + wsq(y) + (1 << 52);
+    u128::from(a52) * u128::from(u64::from(reach) * u64::from(reach)) < sq(e0) + sq(e1) + sq(e2)
 }
 
 /// Whether slope bounds `b` (`[x̂_lo, x̂_hi, ŷ_lo, ŷ_hi]`, S26) meet the box
