@@ -117,7 +117,7 @@ pub(super) fn aperture_terms(p: &crate::render::CamPrimQ, (r, z): (Q, Q), e: i32
 /// 2⁻¹⁰ wider (as for a rectangle), plus `ζ 2⁻²⁰` (the slope offset
 /// `A/Z̃`'s rounding, 2⁻²⁷) and 2⁻¹² U (the points' rounding and the
 /// sphere pass's truncations, below 2⁻²⁰ U). Once a frame.
-fn sphere_reach(cz: f64, rho: f64, (r, z): (f64, f64), e: i32) -> u32 {
+pub(super) fn sphere_reach(cz: f64, rho: f64, (r, z): (f64, f64), e: i32) -> u32 {
     let (z0, z1) = (
         (cz - rho) * (1.0 - libm::ldexp(1.0, -10)),
         (cz + rho) * (1.0 + libm::ldexp(1.0, -10)),

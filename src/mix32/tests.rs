@@ -1230,3 +1230,110 @@ fn aperture_slope_offsets_are_the_128_bit_ones() {
         assert_eq!(ap.slope_off(a), exact(a, inv), "a {a}, inv {inv}");
     }
 }
+
+/// A sphere the aperture loop spares for a pixel ([`aperture::sphere_reach`],
+/// [`passes_beyond`]) is met by none of its aperture rays: random spheres
+/// (radius 2⁻⁸ to 1 U, wholly ahead of the lens) and apertures (radius 1
+/// to 50 mm, focused at 0.2 to 8 U), chief rays passing the centre from
+/// inside the sphere to past the reach, and for each pattern size every
+/// point's ray made as [`Mix32::line_d`] makes it (`A` in S24 and S18 U,
+/// the slope offset [`Aperture::slope_off`]) and traced by the sphere's
+/// exact pass in the frame moved to `A` ([`MixShape::moved`]). Also that
+/// the reach is not loose: some chief ray past 90 % of its margin over the
+/// radius has a ray that hits.
+#[test]
+fn a_spared_sphere_is_met_by_no_aperture_ray() {
+    let mut s = 0x0a9e_4f17_5e4e_0001;
+    let mut f = |lo: f64, hi: f64| lo + (hi - lo) * (rng(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
+    let q = |x: f64| Q::from_num(x);
+    let (mut spared, mut hit, mut near) = (0u32, 0u32, 0f64);
+    for case in 0..400 {
+        let rho = f(-8.0, 0.0).exp2();
+        let c = [f(-2.0, 2.0), f(-2.0, 2.0), f(0.3, 6.0)];
+        let lc = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        let (r, z) = (f(0.001, 0.05), f(0.2, 8.0));
+        if lc + rho > 8.0 || c[2] - rho <= 0.05 {
+            continue;
+        }
+        let (rq, zq) = (q(r), q(z));
+        let reach = aperture::sphere_reach(c[2], rho, (rq.to_num::<f64>(), zq.to_num::<f64>()), 0);
+        if reach == 0 {
+            continue;
+        }
+        let c24 = c.map(|x| len_s(q(x), 0, 24));
+        let r24 = len_s(q(rho), 0, 24);
+        let r18 = len_s(q(rho), 0, 18) as u64;
+        let Some(inv_r) = recip_len(q(rho), 0) else {
+            continue;
+        };
+        let shape = MixShape::Sphere {
+            cz50: (c24[2] as i64) << 26,
+            c: c24,
+            c18: c.map(|x| len_s(q(x), 0, 18)),
+            r2_24: sat32((r24 as i64 * r24 as i64) >> 24),
+            r2: r18 * r18,
+            r24,
+            fine: false,
+            inv_r,
+        };
+        let reach_u = reach as f64 / (1u64 << 24) as f64;
+        for _ in 0..8 {
+            // A chief ray through the point at distance `d` from the
+            // centre, perpendicular to it: from inside the sphere to 20 %
+            // past the reach.
+            let d = f(0.5 * rho, 1.2 * reach_u);
+            let dir = unit3([f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)]);
+            let k = (dir[0] * c[0] + dir[1] * c[1] + dir[2] * c[2]) / lc;
+            let w = unit3([0, 1, 2].map(|i| dir[i] - k * c[i] / lc));
+            let p = [0, 1, 2].map(|i| c[i] + d * w[i]);
+            if p[2] <= 0.0 || (p[0] / p[2]).abs() > 15.0 || (p[1] / p[2]).abs() > 15.0 {
+                continue;
+            }
+            let s26 = |x: f64| (x * (1u64 << 26) as f64).round() as i32;
+            let (x, y) = (s26(p[0] / p[2]), s26(p[1] / p[2]));
+            let beyond = passes_beyond(x, y, c24, reach);
+            let mut any = false;
+            for m in crate::defocus::SIZES {
+                let ap = Aperture {
+                    m,
+                    up: crate::defocus::shift(m) - 17,
+                    r24: len_s(rq, 0, 24),
+                    inv_z40: ((1u128 << 72) / zq.to_bits() as u128) as i64,
+                    z18: len_s(zq, 0, 18),
+                };
+                for u in crate::defocus::SPIRAL.iter().take(m as usize) {
+                    let a24 = u.map(|v| sat32(((i64::from(v) << ap.up) * ap.r24 as i64 + (1 << 14)) >> 15));
+                    let a = a24.map(|v| sat32((v as i64 + 32) >> 6));
+                    let off = a24.map(|v| ap.slope_off(v));
+                    let mut ray = [Ray::flat(x.saturating_sub(off[0]), y.saturating_sub(off[1]))];
+                    shape
+                        .moved(a, a24)
+                        .nearest::<true, true>(0, &mut ray, (None, [0; 4]));
+                    any |= ray[0].t != NO_HIT;
+                }
+            }
+            assert!(
+                !(beyond && any),
+                "case {case}: an aperture ray meets a spared sphere (c {c:?}, r {rho}, aperture {r} at {z}, d {d})"
+            );
+            if beyond {
+                spared += 1;
+            }
+            if any {
+                hit += 1;
+                // How far past the radius the farthest chief ray with a
+                // hit lies, as a share of the reach's margin over it.
+                let dist = d * lc / (lc * lc + d * d).sqrt();
+                near = near.max((dist - rho) / (reach_u - rho));
+            }
+        }
+    }
+    std::println!(
+        "{spared} chief rays spared, {hit} with a hit; the farthest hit {near:.3} of the reach's margin"
+    );
+    assert!(spared > 200 && hit > 600, "{spared} spared, {hit} hit");
+    assert!(
+        near > 0.9,
+        "the reach is loose: hits reach {near:.3} of its margin"
+    );
+}
