@@ -219,10 +219,10 @@ pub(super) struct MixPrim {
     /// its aperture rays can meet its plane from its chief ray's hit, per
     /// unit of the hit's depth from the focused one (Q8.24); for a sphere,
     /// how far from its centre a chief ray must pass for an aperture ray
-    /// to meet it (S24 U: [`passes_beyond`]); 0 for any other primitive or
-    /// where there is no bound. And the depths (S18 U, a perspective ray's `t`) its hits
-    /// lie within (a plane's: all): [`aperture_terms`], for
-    /// [`Mix32::uniform`].
+    /// to meet it (S24 U: [`passes_beyond`]); 0 for any other primitive
+    /// or where there is no bound. And the depths (S18 U, a perspective
+    /// ray's `t`) its hits lie within (a plane's: all):
+    /// [`aperture_terms`], for [`Mix32::uniform`].
     pub(super) spread: u32,
     pub(super) depth: [i32; 2],
 }
