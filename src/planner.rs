@@ -2927,7 +2927,7 @@ pub const FAST_COST: CostModel = CostModel {
     ],
     samples: SampleCost {
         grid: [588.450, 197.181, 0.772, 53.608, 6.175],
-        aperture: [1.983, 0.582, 82.234, 66.378],
+        aperture: [1.985, 0.583, 82.156, 66.374],
     },
 };
 

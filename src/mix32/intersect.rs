@@ -457,15 +457,8 @@ impl MixShape {
                 );
                 let disc = wmul(r.a, *r2_24) - (wsq(k0) + wsq(k1) + wsq(k2)) as i64;
                 let disc = if EXACT && disc.unsigned_abs() < 1 << 33 {
-                    let a52 = (wsq(x) + wsq(y) + (1 << 52)) as i128;
-                    let rr = wsq(*r24) as i128;
-                    let e0 = wmul(y, c[2]) - c1;
-                    let e1 = c0 - wmul(x, c[2]);
-                    let e2 = wmul(x, c[1]) - wmul(y, c[0]);
-                    let kk = (e0 as i128) * (e0 as i128)
-                        + (e1 as i128) * (e1 as i128)
-                        + (e2 as i128) * (e2 as i128);
-                    if a52 * rr < kk {
+                    // (r24 ≥ 0: `len_s` of a radius.)
+                    if passes_beyond(x, y, *c, *r24 as u32) {
                         -1
                     } else {
                         disc.max(0)
