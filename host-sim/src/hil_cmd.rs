@@ -222,9 +222,10 @@ pub fn build_firmware_as(
             String::from_utf8_lossy(&out.stderr)
         ));
     }
-    let built = target.join(board.target()).join("release").join("hilcam-firmware");
-    BuiltElf::copy(&built)
-    // `lock` is released when dropped, after the copy.
+    let built = BuiltElf::copy(&target.join(board.target()).join("release").join("hilcam-firmware"));
+    // Released once this command has its copy.
+    drop(lock);
+    built
 }
 
 /// A firmware ELF built for one command: a private copy of what cargo

@@ -98,6 +98,28 @@ fn inner_boxes_pass_the_rectangles_test() {
     std::println!("{frames} rectangles with a region, {covered} boxes covered, {rays_checked} rays");
 }
 
+/// The sphere of centre `c` and radius `r` (metres, unit `U` = 1 m) as
+/// `Mix32::fill` makes it, with its centre (S24) and its `1/r` (`None`
+/// where `recip_len` has none).
+fn sphere_shape(c: [f64; 3], r: f64) -> Option<(MixShape, [i32; 3], (u32, u32))> {
+    let q = |x: f64| Q::from_num(x);
+    let c24 = c.map(|x| len_s(q(x), 0, 24));
+    let r24 = len_s(q(r), 0, 24);
+    let r18 = len_s(q(r), 0, 18) as u64;
+    let inv_r = recip_len(q(r), 0)?;
+    let shape = MixShape::Sphere {
+        cz50: (c24[2] as i64) << 26,
+        c: c24,
+        c18: c.map(|x| len_s(q(x), 0, 18)),
+        r2_24: sat32((r24 as i64 * r24 as i64) >> 24),
+        r2: r18 * r18,
+        r24,
+        fine: false,
+        inv_r,
+    };
+    Some((shape, c24, inv_r))
+}
+
 /// [`Mix32::hit_from`]'s sphere normal without saturation: at every hit
 /// of random spheres (radius 2⁻¹⁰ to 4 U, within the content's 8 U),
 /// by rays at random points of their surface and grazing their
@@ -123,27 +145,16 @@ fn a_sphere_hits_normal_fits_without_saturation() {
         if lc + r > 8.0 || c[2] - r <= 0.01 {
             continue;
         }
-        let q = |x: f64| Q::from_num(x);
-        let c24 = c.map(|x| len_s(q(x), 0, 24));
-        let r24 = len_s(q(r), 0, 24);
-        let r18 = len_s(q(r), 0, 18) as u64;
-        let Some(inv_r) = recip_len(q(r), 0) else {
+        let Some((shape, c24, inv_r)) = sphere_shape(c, r) else {
             continue;
+        };
+        let (r24, c18) = match shape {
+            MixShape::Sphere { r24, c18, .. } => (r24, c18),
+            _ => continue,
         };
         // `fine_normal` shifts by `inv_r.1 + 6` in words, `hit_from` by
         // `inv_r.1`: both below 32 for any radius within the content's 8 U.
         assert!((9..=22).contains(&inv_r.1), "r {r}: shift {}", inv_r.1);
-        let c18 = c.map(|x| len_s(q(x), 0, 18));
-        let shape = MixShape::Sphere {
-            cz50: (c24[2] as i64) << 26,
-            c: c24,
-            c18,
-            r2_24: sat32((r24 as i64 * r24 as i64) >> 24),
-            r2: r18 * r18,
-            r24,
-            fine: false,
-            inv_r,
-        };
         for k in 0..40 {
             // A random point of the surface, or one on the silhouette
             // (perpendicular to the centre's direction) moved out or
@@ -1260,21 +1271,8 @@ fn a_spared_sphere_is_met_by_no_aperture_ray() {
         if reach == 0 {
             continue;
         }
-        let c24 = c.map(|x| len_s(q(x), 0, 24));
-        let r24 = len_s(q(rho), 0, 24);
-        let r18 = len_s(q(rho), 0, 18) as u64;
-        let Some(inv_r) = recip_len(q(rho), 0) else {
+        let Some((shape, c24, _)) = sphere_shape(c, rho) else {
             continue;
-        };
-        let shape = MixShape::Sphere {
-            cz50: (c24[2] as i64) << 26,
-            c: c24,
-            c18: c.map(|x| len_s(q(x), 0, 18)),
-            r2_24: sat32((r24 as i64 * r24 as i64) >> 24),
-            r2: r18 * r18,
-            r24,
-            fine: false,
-            inv_r,
         };
         let reach_u = reach as f64 / (1u64 << 24) as f64;
         for _ in 0..8 {
@@ -1294,6 +1292,9 @@ fn a_spared_sphere_is_met_by_no_aperture_ray() {
             let beyond = passes_beyond(x, y, c24, reach);
             let mut any = false;
             for m in crate::defocus::SIZES {
+                // `2⁴⁰ U/Z̃` by one division (`Aperture::new` normalizes
+                // first: within a unit of it, which the reach's margins
+                // cover as they cover the offset's rounding).
                 let ap = Aperture {
                     m,
                     up: crate::defocus::shift(m) - 17,
