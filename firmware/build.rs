@@ -1,5 +1,5 @@
 //! Picks the board's memory map, and encodes every scene in ../scenes as
-//! scene data (`hilcam::scene_data`, postcard) — the blobs the firmware
+//! scene data (`hilcam::scene::data`, postcard) — the blobs the firmware
 //! holds in flash and builds with the core at run time, from the same f64
 //! values host-sim builds its scenes from, so the firmware renders exactly
 //! what the host renders. No code is generated per scene.
@@ -89,7 +89,7 @@ fn main() {
     }
     let _ = writeln!(
         code,
-        "/// The scenes, encoded (`hilcam::scene_data`), in scene-id order.\npub static BLOBS: [&[u8]; {}] = [{}];",
+        "/// The scenes, encoded (`hilcam::scene::data`), in scene-id order.\npub static BLOBS: [&[u8]; {}] = [{}];",
         blobs.len(),
         blobs.join(", ")
     );
@@ -125,7 +125,7 @@ fn main() {
     let mut table = 0usize;
     let mut lines = std::collections::BTreeSet::new();
     // And the corner keys the sampled fast loop carries from line to line
-    // (`hilcam::sampling::Corners`): a sensor's width plus one, for the
+    // (`hilcam::render::sensor::sampling::Corners`): a sensor's width plus one, for the
     // widest scene rendered with the adaptive rule on that loop (0: none).
     let mut corner_keys = 0usize;
     // The wide loops' stages those frames use (sampling, aperture rays,
@@ -137,7 +137,7 @@ fn main() {
         for v in &variants {
             let budget = hilcam::planner::Budget::default();
             if let Ok((_, _, f)) =
-                host_sim::harness::prepare::<hilcam::scalar::I32F32>(r, &budget, |p| v.options(p))
+                host_sim::harness::prepare::<hilcam::num::scalar::I32F32>(r, &budget, |p| v.options(p))
             {
                 table = table.max(f.stages().distortion_lut.unwrap_or(0));
                 lines.insert(f.line_loop());

@@ -3,10 +3,10 @@
 //! Fixed-point fields are logged as their raw bits; the format (and so the
 //! scale) of each is given in [`crate::num`].
 
-use crate::frame::{CameraDir, CameraPoint, ImagePoint, NormPoint, PixelPoint, Ray, WorldPoint};
-use crate::lens::{DepthOfField, Distance};
+use crate::geom::frame::{CameraDir, CameraPoint, ImagePoint, NormPoint, PixelPoint, Ray, WorldPoint};
+use crate::geom::lens::{DepthOfField, Distance};
+use crate::geom::projection::Model;
 use crate::num::Sat;
-use crate::projection::Model;
 use defmt::{write, Format, Formatter};
 
 macro_rules! bits {

@@ -3,13 +3,14 @@
 //! twice or out of order); refused commands leave the camera's last good
 //! state; the reply messages' bytes.
 
-use hilcam::control::{
-    Ack, Answer, Command, Control, Description, Fault, Library, Mode, Reason, Receiver, Reject, Request,
-    RxError, FIELD_MAX, MAX_PENDING, MAX_REQUEST, MAX_SCENE_CHUNK,
-};
+use hilcam::link::control::{Answer, Control, Fault, Library, Receiver, RxError};
 use hilcam::link::{encode_message, Encoder, Message, CRC32, PROTOCOL_VERSION};
+use hilcam::link::{
+    Ack, Command, Description, Mode, Reason, Reject, Request, FIELD_MAX, MAX_PENDING, MAX_REQUEST,
+    MAX_SCENE_CHUNK,
+};
+use hilcam::scene::data::MAX_SCENE_DATA;
 use hilcam::scene::Scene;
-use hilcam::scene_data::MAX_SCENE_DATA;
 use proptest::prelude::*;
 use std::path::Path;
 
@@ -634,7 +635,7 @@ fn a_scene_loaded_in_parts_is_shown() {
 fn one_primitive_too_many() -> Vec<u8> {
     let mut data = resolved("standard.toml").scene_data().expect("scene data");
     let first = data.primitives[0];
-    let encode = |data: &hilcam::scene_data::SceneData| {
+    let encode = |data: &hilcam::scene::data::SceneData| {
         let mut buf = vec![0u8; MAX_SCENE_DATA];
         data.encode(&mut buf).expect("fits").to_vec()
     };
@@ -663,7 +664,7 @@ fn one_primitive_too_many() -> Vec<u8> {
 fn a_bad_scene_is_refused_naming_the_field_and_the_camera_keeps_its_scene() {
     let good = standard();
     let mut data = resolved("standard.toml").scene_data().expect("scene data");
-    data.materials[1].albedo = hilcam::scene_data::Colour::Gray(1.5);
+    data.materials[1].albedo = hilcam::scene::data::Colour::Gray(1.5);
     let mut buf = vec![0u8; MAX_SCENE_DATA];
     let bad = data.encode(&mut buf).expect("fits").to_vec();
     let cases: Vec<(Vec<u8>, u16, Reason, &str)> = vec![
@@ -757,6 +758,6 @@ fn a_camera_describes_the_table_it_plans_within() {
     assert_eq!(Control::new().describe(&scene, &none, 0).max_table, 0);
     assert_eq!(
         Control::new().describe(&scene, &lib(), 0).max_table,
-        hilcam::distortion::MAX_LUT as u32
+        hilcam::geom::distortion::MAX_LUT as u32
     );
 }

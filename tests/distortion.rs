@@ -6,7 +6,7 @@ use crate::common;
 
 use common::*;
 use fixed::types::I32F32;
-use hilcam::distortion::{Distortion, OutsideLensField};
+use hilcam::geom::distortion::{Distortion, OutsideLensField};
 use hilcam::{Norm, NormPoint};
 use host_sim::reference::distortion::Radial;
 use proptest::prelude::*;

@@ -2,9 +2,9 @@
 //! expects (a typed result, a flag, saturation, or accuracy held) and asserts
 //! it.
 
-use hilcam::error::{Error, Field, NoRealImage, NotVisible};
-use hilcam::lens::{Aperture, Distance, Lens, LensConfig};
-use hilcam::projection::weak_perspective_error;
+use hilcam::geom::error::{Error, Field, NoRealImage, NotVisible};
+use hilcam::geom::lens::{Aperture, Distance, Lens, LensConfig};
+use hilcam::geom::projection::weak_perspective_error;
 use hilcam::{
     Camera, CameraPoint, Extrinsics, Intrinsics, IntrinsicsConfig, Len, Model, PixelPoint, WorldPoint,
 };
@@ -393,7 +393,7 @@ fn extreme_long_telephoto() {
 /// and a NaN entry are rejected with their own errors.
 #[test]
 fn extreme_rotation_at_tolerance() {
-    let tol = hilcam::extrinsics::ROTATION_TOLERANCE;
+    let tol = hilcam::geom::extrinsics::ROTATION_TOLERANCE;
     let stretched = |dev: f64| {
         // (1 + δ)² − 1 = dev
         let k = (1.0 + dev).sqrt();

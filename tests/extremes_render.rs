@@ -243,7 +243,7 @@ fn extreme_strong_distortion_coarser_table_format() {
     let v = host_sim::variant::Variant::parse(&format!("i32f32-lut{}-linear", table.lut_entries))
         .expect("variant");
     let (_, plan, frame, core) =
-        host_sim::variant::core_render_variant::<hilcam::scalar::I32F32>(&r, &Budget::default(), &v)
+        host_sim::variant::core_render_variant::<hilcam::num::scalar::I32F32>(&r, &Budget::default(), &v)
             .expect("renders");
     let rs = host_sim::reference::render::RefScene::new(&r);
     let m = host_sim::harness::compare(&r, &rs, &rs.render(), &plan, &Budget::default(), &frame, &core);

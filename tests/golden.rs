@@ -18,9 +18,9 @@
 //! `plans.txt` (its predictions move) and, if `git diff` shows
 //! `plan-options.txt` unchanged, has moved no decision.
 
+use hilcam::num::scalar::Scalar;
 use hilcam::planner::{Budget, Plan};
 use hilcam::render::Frame;
-use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use host_sim::harness::Collect;
 use host_sim::scene_file::load;
@@ -132,7 +132,7 @@ fn current_plans() -> (BTreeMap<String, String>, BTreeMap<String, String>) {
         add(hilcam::planner::plan(&scene, &budget));
         for (k, at_pose) in poses_about(&pose, PINNED_POSES, &mut state).iter().enumerate() {
             let mut at = scene.clone();
-            let e = hilcam::extrinsics::Extrinsics::from_matrix(at_pose.rotation, at_pose.translation);
+            let e = hilcam::geom::extrinsics::Extrinsics::from_matrix(at_pose.rotation, at_pose.translation);
             let moved = e.is_ok_and(|e| at.set_pose(e).is_ok());
             assert!(moved, "{}: pose {k}", r.desc.name);
             add(hilcam::planner::plan(&at, &budget));

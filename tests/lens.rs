@@ -4,7 +4,7 @@
 use crate::common;
 
 use common::*;
-use hilcam::lens::{Aperture, Distance, Lens, LensConfig};
+use hilcam::geom::lens::{Aperture, Distance, Lens, LensConfig};
 use hilcam::Len;
 use host_sim::reference::lens::ThinLens;
 use proptest::prelude::*;

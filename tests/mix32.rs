@@ -7,10 +7,10 @@
 use crate::common;
 
 use common::fixture::{agrees, scene, CHECKER_FLOOR, INSIDE_SPHERE, POINT_LIGHT, TANGENT_SPHERE};
+use hilcam::num::scalar::I32F32;
 use hilcam::planner::{Budget, Plan};
 use hilcam::render::Override;
 use hilcam::render::FLAG_OUTSIDE_FIELD;
-use hilcam::scalar::I32F32;
 use hilcam::scene::PixelFormat;
 use host_sim::harness::{collect, prepare, Collect, Metrics};
 use host_sim::reference::render::RefScene;

@@ -4,7 +4,7 @@
 use crate::common;
 
 use common::*;
-use hilcam::projection::{weak_perspective_bound, weak_perspective_error, DepthBox};
+use hilcam::geom::projection::{weak_perspective_bound, weak_perspective_error, DepthBox};
 use hilcam::{Camera, CameraPoint, Extrinsics, Intrinsics, Len, Model, PixelPoint, WorldPoint};
 use host_sim::reference::extrinsics::Pose;
 use host_sim::reference::projection::{self as rp, Model as RModel};

@@ -202,12 +202,12 @@ fn planner_prediction_bounds_measurement_and_budget_sets_table_size() {
         );
         let opts = tight_options(&s);
         assert_eq!(
-            Frame::<hilcam::scalar::I32F32, 16>::build(&s, &opts).err(),
+            Frame::<hilcam::num::scalar::I32F32, 16>::build(&s, &opts).err(),
             Some(RenderError::TableTooLarge),
             "{name}"
         );
         assert!(
-            Frame::<hilcam::scalar::I32F32, 1024>::build(&s, &opts).is_ok(),
+            Frame::<hilcam::num::scalar::I32F32, 1024>::build(&s, &opts).is_ok(),
             "{name}"
         );
     }

@@ -3,13 +3,13 @@
 //! called directly; truncated, padded and non-canonical encodings refused;
 //! the largest scene's size.
 
-use hilcam::distortion::Distortion;
-use hilcam::lens::Aperture;
-use hilcam::scene::{CheckerSpec, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
-use hilcam::scene_data::{
+use hilcam::geom::distortion::Distortion;
+use hilcam::geom::lens::Aperture;
+use hilcam::scene::data::{
     load, CameraData, Colour, DataError, FormatData, LightData, MaterialData, NoiseData, PrimitiveData,
     SamplingData, SceneData, SpecularData, MAX_SCENE_DATA,
 };
+use hilcam::scene::{CheckerSpec, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
 use hilcam::{Camera, Extrinsics, IntrinsicsConfig, LensConfig, Model};
 use proptest::prelude::*;
 use std::path::Path;
@@ -354,7 +354,7 @@ fn the_largest_scene_is_max_scene_data_bytes() {
     ] {
         assert_eq!(
             encode(&largest(m, p, l)).len(),
-            hilcam::scene_data::max_bytes(m, p, l),
+            hilcam::scene::data::max_bytes(m, p, l),
             "{m} materials, {p} primitives, {l} lights"
         );
     }

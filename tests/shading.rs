@@ -4,9 +4,9 @@
 use crate::common;
 
 use common::*;
+use hilcam::render::shading::{radiance, Brdf, ShadingLight};
+use hilcam::render::vignetting;
 use hilcam::scene::{Material, Q};
-use hilcam::shading::{radiance, Brdf, ShadingLight};
-use hilcam::vignetting;
 use host_sim::reference::shading as rs;
 use host_sim::reference::vignetting as rv;
 use proptest::prelude::*;

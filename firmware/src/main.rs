@@ -6,7 +6,7 @@
 //! exits non-zero.
 //!
 //! With the `camera` feature it is a camera the host drives instead: it
-//! reads commands on UART0 RX (`hilcam::control`), answers each, takes
+//! reads commands on UART0 RX (`hilcam::link::control`), answers each, takes
 //! new scenes as data, and renders the frames they ask for, forever.
 #![no_std]
 #![no_main]
@@ -54,7 +54,7 @@ use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
 use hilcam::link::{Encoder, FrameStart, Stream};
 use hilcam::render::{Frame, Options, Timed};
-use hilcam::scalar::Scalar;
+use hilcam::num::scalar::Scalar;
 use hilcam::scene::Scene;
 
 /// The encoder's chunk: the link's default; a driven camera's, one line of
@@ -298,7 +298,7 @@ fn main() -> ! {
 fn sweep(enc: &mut Enc, flags: &mut [u8], keys: &mut [u64]) -> ! {
     for (id, blob) in scenes::BLOBS.iter().enumerate() {
         // Used in place (a scene is 4.7 KB: no copy of it).
-        let loaded = hilcam::scene_data::load(blob);
+        let loaded = hilcam::scene::data::load(blob);
         let Ok(scene) = &loaded else {
             fail("scene data");
         };
@@ -344,9 +344,10 @@ fn sweep(enc: &mut Enc, flags: &mut [u8], keys: &mut [u64]) -> ! {
 #[cfg(feature = "camera")]
 mod camera {
     use super::{board, fail, ns, ticks, Enc, Run, CHUNK, MAX_WIDTH, TABLE};
-    use hilcam::control::{Command, Control, Library, Receiver, MAX_REQUEST};
+    use hilcam::link::control::{Control, Library, Receiver};
+use hilcam::link::{Command, MAX_REQUEST};
     use hilcam::scene::Scene;
-    use hilcam::scene_data::MAX_SCENE_DATA;
+    use hilcam::scene::data::MAX_SCENE_DATA;
 
     /// Bytes read from RX between two frames at most: a flood of input
     /// delays a promised frame by at most this much decoding.

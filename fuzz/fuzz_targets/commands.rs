@@ -3,8 +3,9 @@
 //! panic, and a refused command must leave the scene as it was.
 #![no_main]
 
-use hilcam::control::{Answer, Control, Library, Receiver, MAX_REQUEST};
-use hilcam::scene_data::MAX_SCENE_DATA;
+use hilcam::link::control::{Answer, Control, Library, Receiver};
+use hilcam::link::MAX_REQUEST;
+use hilcam::scene::data::MAX_SCENE_DATA;
 use libfuzzer_sys::fuzz_target;
 use std::sync::OnceLock;
 
@@ -23,7 +24,7 @@ fn standard() -> &'static [u8] {
 
 fuzz_target!(|data: &[u8]| {
     // The same bytes as scene data: refused or built, never a panic.
-    let _ = hilcam::scene_data::load(data);
+    let _ = hilcam::scene::data::load(data);
     let blobs = [standard()];
     let mut library = Library::<MAX_SCENE_DATA>::new(&blobs, 640);
     let mut scene = library.scene(0).expect("scene 0");

@@ -6,8 +6,8 @@
 #![no_main]
 
 use arbitrary::{Arbitrary, Unstructured};
-use hilcam::distortion::Distortion;
-use hilcam::lens::{Aperture, LensConfig};
+use hilcam::geom::distortion::Distortion;
+use hilcam::geom::lens::{Aperture, LensConfig};
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Frame, FLAG_OUTSIDE_FIELD};
 use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec};

@@ -22,7 +22,7 @@ fn main() -> Result<(), String> {
         let mut plans = vec![plan(&scene, &budget)];
         for (k, p) in poses_about(&pose, PINNED_POSES, &mut state).iter().enumerate() {
             let mut at = scene.clone();
-            hilcam::extrinsics::Extrinsics::from_matrix(p.rotation, p.translation)
+            hilcam::geom::extrinsics::Extrinsics::from_matrix(p.rotation, p.translation)
                 .map_err(|e| format!("{}: pose {k}: {e:?}", r.desc.name))
                 .and_then(|e| {
                     at.set_pose(e)

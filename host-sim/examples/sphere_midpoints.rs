@@ -11,8 +11,8 @@
 //!
 //! `cargo run --release -p host-sim --example sphere_midpoints -- scenes/standard.toml`
 
+use hilcam::scene::data::LightData;
 use hilcam::scene::ShapeSpec;
-use hilcam::scene_data::LightData;
 use host_sim::reference::dot;
 use host_sim::reference::render::{RefModel, RefScene};
 use host_sim::scene_file::load;

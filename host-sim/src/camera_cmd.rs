@@ -8,10 +8,11 @@
 use crate::drive_cmd::spawn_reader;
 use crate::harness::planned_frame;
 use crate::scene_file::Resolved;
-use hilcam::control::{Answer, Control, Library, Mode, Receiver, MAX_REQUEST};
+use hilcam::link::control::{Answer, Control, Library, Receiver};
+use hilcam::link::{Mode, MAX_REQUEST};
 use hilcam::planner::Budget;
 use hilcam::link::{Encoder, FrameStart, DEFAULT_CHUNK};
-use hilcam::scene_data::MAX_SCENE_DATA;
+use hilcam::scene::data::MAX_SCENE_DATA;
 use serde::Serialize;
 use std::io::{Read, Write};
 use std::sync::mpsc;

@@ -1,7 +1,7 @@
 //! The demo camera: projections and lens figures, core vs reference.
 
 use crate::reference::{extrinsics::Pose, intrinsics::Sensor, lens::ThinLens, projection};
-use hilcam::lens::{Aperture, Distance, LensConfig};
+use hilcam::geom::lens::{Aperture, Distance, LensConfig};
 use hilcam::{Camera, Extrinsics, IntrinsicsConfig, Model, WorldPoint};
 use std::fmt::Write;
 

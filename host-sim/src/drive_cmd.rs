@@ -9,7 +9,7 @@ use crate::hil_cmd::{build_firmware_as, spawn_qemu, wait_qemu, Board};
 use crate::link::decoder::{Decoder, Frame, Reply, Stats};
 use crate::scene_file::{load, Resolved};
 use crate::trajectory::{Pose, Trajectory};
-use hilcam::control::{Command, Request, MAX_REQUEST, MAX_SCENE_CHUNK};
+use hilcam::link::{Command, Request, MAX_REQUEST, MAX_SCENE_CHUNK};
 use hilcam::link::{encode_message, FrameStart, Truth, PROTOCOL_VERSION};
 use hilcam::planner::Budget;
 use hilcam::Extrinsics;
@@ -847,7 +847,7 @@ pub fn replay(capture: &Path, out: &Path) -> Result<ReplayReport, String> {
     dec.push(&bytes, &mut |f| frames.push(f));
     for (k, f) in frames.iter().enumerate() {
         let s = &f.start;
-        let format = hilcam::scene::PixelFormat::from(s.format);
+        let format = s.format.pixel_format();
         let png = crate::frame_png::encode_png(format, s.width as usize, s.height as usize, &f.pixels)?;
         outputs.write(&format!("frame-{k:05}.png"), &png)?;
         let side = ReplayFrame {

@@ -7,9 +7,9 @@
 use crate::reference::render::{RefFrame, RefRow, RefScene};
 use crate::reference::sampling::Pattern;
 use crate::scene_file::Resolved;
+use hilcam::num::scalar::Scalar;
 use hilcam::planner::{self, Budget, Plan};
 use hilcam::render::{ClosedMean, Frame, FrameError, FrameSink, Options, RenderError, FLAG_OUTSIDE_FIELD};
-use hilcam::scalar::Scalar;
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
 
@@ -303,7 +303,7 @@ pub fn planned_frame(
     budget: &Budget,
     frame_id: u32,
 ) -> Result<(Collect, hilcam::render::Stages), String> {
-    let (_, mut frame) = prepare_scene::<hilcam::scalar::I32F32>(scene, name, budget, |p| p.options)?;
+    let (_, mut frame) = prepare_scene::<hilcam::num::scalar::I32F32>(scene, name, budget, |p| p.options)?;
     frame.set_frame_id(frame_id);
     let core = collect(&frame).map_err(|e| format!("{name}: {e}"))?;
     Ok((core, frame.stages()))
@@ -806,7 +806,7 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,
         predicted_defocus_err_px: if stages.aperture > 0 {
-            hilcam::defocus::placement(stages.aperture) * plan.defocus.blur_px
+            hilcam::render::sensor::defocus::placement(stages.aperture) * plan.defocus.blur_px
         } else {
             plan.defocus.blur_px
         },
@@ -967,7 +967,7 @@ pub fn render_with(
     stage_errors: StageErrors,
     options: impl FnOnce(Options) -> Options,
 ) -> Result<RenderOutput, String> {
-    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, |p| options(p.options))?;
+    let (scene, plan, frame) = prepare::<hilcam::num::scalar::I32F32>(r, budget, |p| options(p.options))?;
     let rs = RefScene::new(r);
     let (w, h) = frame.size();
     let mut core = Collect {

@@ -12,7 +12,7 @@ use crate::scene_file::{load, Resolved};
 use crate::variant::{FrameUser, Variant};
 use hilcam::planner::{Budget, Plan};
 use hilcam::render::Frame;
-use hilcam::scalar::Scalar;
+use hilcam::num::scalar::Scalar;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::Command;

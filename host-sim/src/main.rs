@@ -546,7 +546,7 @@ fn main() -> ExitCode {
             let mut written: Vec<ReceivedFrame> = Vec::new();
             let mut seen: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
             let mut on_frame = |f: host_sim::link::decoder::Frame| -> Result<(), String> {
-                let fmt = hilcam::scene::PixelFormat::from(f.start.format);
+                let fmt = f.start.format.pixel_format();
                 let png = host_sim::frame_png::encode_png(
                     fmt,
                     f.start.width as usize,

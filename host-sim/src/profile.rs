@@ -103,63 +103,63 @@ impl Stage {
 /// product, a reciprocal) counts for the stage whose function inlined it.
 /// [`MODULES`] claim what none of these does.
 const FUNCTIONS: &[(&str, Stage)] = &[
-    // The fast arithmetic's stages (hilcam::mix32).
-    ("mix32::Mix32::undistort", Stage::Distortion),
-    ("mix32::rays::undistort_k", Stage::Distortion),
-    ("mix32::rays::fill_rays", Stage::Rays),
-    ("mix32::rays::Ray::new", Stage::Rays),
-    ("mix32::Mix32::trace_row", Stage::Rays),
-    ("mix32::Mix32::rays", Stage::Rays),
+    // The fast arithmetic's stages (hilcam::render::fast).
+    ("fast::Mix32::undistort", Stage::Distortion),
+    ("fast::rays::undistort_k", Stage::Distortion),
+    ("fast::rays::fill_rays", Stage::Rays),
+    ("fast::rays::Ray::new", Stage::Rays),
+    ("fast::Mix32::trace_row", Stage::Rays),
+    ("fast::Mix32::rays", Stage::Rays),
     // The chunk's slope box and each primitive's cull by its bounds (the
     // passes themselves are `MixShape::nearest`'s).
-    ("mix32::Mix32::passes", Stage::Intersection),
-    ("mix32::rays::Ray::mirror", Stage::Rays),
-    ("mix32::rays::Ray::plane_t", Stage::Intersection),
-    ("mix32::rays::Ray::keep", Stage::Intersection),
-    ("mix32::intersect::MixShape::nearest", Stage::Intersection),
-    ("mix32::Mix32::hit", Stage::Hit),
-    ("mix32::intersect::fine_normal", Stage::Hit),
-    ("mix32::intersect::MixChecker", Stage::Hit),
-    ("mix32::rays::Ray::point", Stage::Hit),
+    ("fast::Mix32::passes", Stage::Intersection),
+    ("fast::rays::Ray::mirror", Stage::Rays),
+    ("fast::rays::Ray::plane_t", Stage::Intersection),
+    ("fast::rays::Ray::keep", Stage::Intersection),
+    ("fast::intersect::MixShape::nearest", Stage::Intersection),
+    ("fast::Mix32::hit", Stage::Hit),
+    ("fast::intersect::fine_normal", Stage::Hit),
+    ("fast::intersect::MixChecker", Stage::Hit),
+    ("fast::rays::Ray::point", Stage::Hit),
     // The closed-form plane: its w = n·d and its test where another
     // primitive was hit (intersection), its terms (shading); the run's own
     // loop is the line loop's.
-    ("mix32::shade::closed_w", Stage::Intersection),
-    ("mix32::Mix32::closed_keep", Stage::Intersection),
-    ("mix32::shade::closed_term", Stage::Shading),
-    ("mix32::shade::cube_over", Stage::Shading),
-    ("mix32::shade::Cube", Stage::Shading),
-    ("mix32::Mix32::closed_run", Stage::LineLoop),
-    ("mix32::Mix32::shade", Stage::Shading),
-    ("mix32::shade::directional_w", Stage::Shading),
-    ("mix32::Mix32::view", Stage::Shading),
-    ("mix32::shade::lobe_pf", Stage::Shading),
-    ("mix32::arith::cos_over_r", Stage::Shading),
-    ("mix32::shade::KCache", Stage::Shading),
-    ("mix32::Mix32::c4", Stage::Vignetting),
-    ("mix32::expose::vignette_", Stage::Vignetting),
-    ("mix32::expose::noisy", Stage::Noise),
-    ("mix32::expose::sigma_z", Stage::Noise),
-    ("mix32::expose::mul_nonneg", Stage::Noise),
-    ("mix32::expose::word", Stage::PixelCodec),
-    ("mix32::expose::put", Stage::PixelCodec),
-    ("mix32::expose::store", Stage::PixelCodec),
-    ("mix32::Mix32::line_s", Stage::Sampling),
-    ("mix32::Mix32::grid", Stage::Sampling),
-    ("mix32::Mix32::key", Stage::Sampling),
-    ("mix32::Mix32::radiance_s", Stage::Sampling),
-    ("mix32::Mix32::sampled", Stage::Sampling),
-    ("mix32::Mix32::line_d", Stage::Defocus),
-    ("mix32::intersect::MixShape::moved", Stage::Defocus),
-    ("mix32::Aperture", Stage::Defocus),
-    ("mix32::Mix32::fill", Stage::Preparation),
-    ("mix32::Mix32::closed_plane", Stage::Preparation),
-    ("mix32::Mix32::set_frame_id", Stage::Preparation),
-    ("mix32::Mix32::line", Stage::LineLoop),
-    ("mix32::Mix32::pixel", Stage::LineLoop),
-    ("mix32::Mix32::radiance", Stage::LineLoop),
-    ("mix32::Mix32::dn_word", Stage::LineLoop),
-    ("mix32::rays::Rays", Stage::LineLoop),
+    ("fast::shade::closed_w", Stage::Intersection),
+    ("fast::Mix32::closed_keep", Stage::Intersection),
+    ("fast::shade::closed_term", Stage::Shading),
+    ("fast::shade::cube_over", Stage::Shading),
+    ("fast::shade::Cube", Stage::Shading),
+    ("fast::Mix32::closed_run", Stage::LineLoop),
+    ("fast::Mix32::shade", Stage::Shading),
+    ("fast::shade::directional_w", Stage::Shading),
+    ("fast::Mix32::view", Stage::Shading),
+    ("fast::shade::lobe_pf", Stage::Shading),
+    ("fast::arith::cos_over_r", Stage::Shading),
+    ("fast::shade::KCache", Stage::Shading),
+    ("fast::Mix32::c4", Stage::Vignetting),
+    ("fast::expose::vignette_", Stage::Vignetting),
+    ("fast::expose::noisy", Stage::Noise),
+    ("fast::expose::sigma_z", Stage::Noise),
+    ("fast::expose::mul_nonneg", Stage::Noise),
+    ("fast::expose::word", Stage::PixelCodec),
+    ("fast::expose::put", Stage::PixelCodec),
+    ("fast::expose::store", Stage::PixelCodec),
+    ("fast::Mix32::line_s", Stage::Sampling),
+    ("fast::Mix32::grid", Stage::Sampling),
+    ("fast::Mix32::key", Stage::Sampling),
+    ("fast::Mix32::radiance_s", Stage::Sampling),
+    ("fast::Mix32::sampled", Stage::Sampling),
+    ("fast::Mix32::line_d", Stage::Defocus),
+    ("fast::intersect::MixShape::moved", Stage::Defocus),
+    ("fast::Aperture", Stage::Defocus),
+    ("fast::Mix32::fill", Stage::Preparation),
+    ("fast::Mix32::closed_plane", Stage::Preparation),
+    ("fast::Mix32::set_frame_id", Stage::Preparation),
+    ("fast::Mix32::line", Stage::LineLoop),
+    ("fast::Mix32::pixel", Stage::LineLoop),
+    ("fast::Mix32::radiance", Stage::LineLoop),
+    ("fast::Mix32::dn_word", Stage::LineLoop),
+    ("fast::rays::Rays", Stage::LineLoop),
     ("render::Frame<S,_>::prepare", Stage::Preparation),
     ("render::WideFrame<S,_>::prepare", Stage::Preparation),
     ("render::cam_prim", Stage::Preparation),
@@ -167,16 +167,16 @@ const FUNCTIONS: &[(&str, Stage)] = &[
     ("hilcam::render::WideFrame<S,_>::through_aperture", Stage::Defocus),
 ];
 
-/// Module paths and the stage they claim where no function of
+/// Module paths (the longest that matches) and the stage they claim where no function of
 /// [`FUNCTIONS`] does (the core's stage modules, the wide arithmetic's
 /// line loop, the libraries); `None`: an out-of-line helper, counted for
 /// the stage that called it.
 const MODULES: &[(&str, Option<Stage>)] = &[
-    ("hilcam::distortion::", Some(Stage::Distortion)),
-    ("hilcam::vignetting::", Some(Stage::Vignetting)),
-    ("hilcam::noise::", Some(Stage::Noise)),
-    ("hilcam::sampling::", Some(Stage::Sampling)),
-    ("hilcam::defocus::", Some(Stage::Defocus)),
+    ("hilcam::geom::distortion::", Some(Stage::Distortion)),
+    ("hilcam::render::vignetting::", Some(Stage::Vignetting)),
+    ("hilcam::render::sensor::noise::", Some(Stage::Noise)),
+    ("hilcam::render::sensor::sampling::", Some(Stage::Sampling)),
+    ("hilcam::render::sensor::defocus::", Some(Stage::Defocus)),
     ("hilcam::fmt::", Some(Stage::PixelCodec)),
     ("hilcam::link::", Some(Stage::Link)),
     ("crc::", Some(Stage::Link)),
@@ -184,18 +184,18 @@ const MODULES: &[(&str, Option<Stage>)] = &[
     ("cobs::", Some(Stage::Link)),
     ("hilcam_firmware::board::", Some(Stage::Link)),
     ("hilcam::render::", Some(Stage::LineLoop)),
-    ("hilcam::shading::", Some(Stage::Shading)),
-    ("hilcam::scene_data::", Some(Stage::Preparation)),
+    ("hilcam::render::shading::", Some(Stage::Shading)),
+    ("hilcam::scene::data::", Some(Stage::Preparation)),
     ("hilcam::scene::", Some(Stage::Preparation)),
     ("hilcam::planner::", Some(Stage::Preparation)),
-    ("hilcam::extrinsics::", Some(Stage::Preparation)),
-    ("hilcam::intrinsics::", Some(Stage::Preparation)),
-    ("hilcam::lens::", Some(Stage::Preparation)),
-    ("hilcam::camera::", Some(Stage::Preparation)),
-    ("hilcam::projection::", Some(Stage::Preparation)),
+    ("hilcam::geom::extrinsics::", Some(Stage::Preparation)),
+    ("hilcam::geom::intrinsics::", Some(Stage::Preparation)),
+    ("hilcam::geom::lens::", Some(Stage::Preparation)),
+    ("hilcam::geom::camera::", Some(Stage::Preparation)),
+    ("hilcam::geom::projection::", Some(Stage::Preparation)),
     ("hilcam::num::", None),
-    ("hilcam::scalar::", None),
-    ("hilcam::mix32::", None),
+    ("hilcam::num::scalar::", None),
+    ("hilcam::render::fast::", None),
     ("compiler_builtins::", None),
     ("__aeabi_", None),
     ("libm::", None),
@@ -219,9 +219,13 @@ pub fn stage_of(chain: &[String]) -> Option<Stage> {
     if let Some(s) = function {
         return Some(s);
     }
-    let module = chain
-        .iter()
-        .find_map(|f| MODULES.iter().find(|(k, _)| claim(f, k)).map(|(_, s)| *s));
+    // The longest module path that claims a frame: a stage module wins
+    // over the module holding it.
+    let module = chain.iter().find_map(|f| {
+        (MODULES.iter().filter(|(k, _)| claim(f, k)))
+            .max_by_key(|(k, _)| k.len())
+            .map(|(_, s)| *s)
+    });
     match module {
         Some(s) => s,
         // A bare symbol (`__clzsi2`, `fmax`, an exception handler): the
@@ -1070,39 +1074,39 @@ mod tests {
     fn a_helper_counts_for_the_stage_that_inlined_it() {
         // recip inlined in the plane's intersection, in the line loop.
         let c = chain(&[
-            "hilcam::mix32::arith::recip",
-            "hilcam::mix32::rays::Ray::plane_t",
-            "hilcam::mix32::intersect::MixShape::nearest",
-            "hilcam::mix32::Mix32::trace_row",
-            "hilcam::mix32::Mix32::line_f",
+            "hilcam::render::fast::arith::recip",
+            "hilcam::render::fast::rays::Ray::plane_t",
+            "hilcam::render::fast::intersect::MixShape::nearest",
+            "hilcam::render::fast::Mix32::trace_row",
+            "hilcam::render::fast::Mix32::line_f",
         ]);
         assert_eq!(stage_of(&c), Some(Stage::Intersection));
         // The same helper for a ray's 1/a.
-        let c = chain(&["hilcam::mix32::arith::recip", "hilcam::mix32::rays::Ray::new", "hilcam::mix32::Mix32::trace_row"]);
+        let c = chain(&["hilcam::render::fast::arith::recip", "hilcam::render::fast::rays::Ray::new", "hilcam::render::fast::Mix32::trace_row"]);
         assert_eq!(stage_of(&c), Some(Stage::Rays));
         // The sampled loop's own code, not the plain loop's.
-        let c = chain(&["core::cmp::Ord::min", "hilcam::mix32::Mix32::line_s"]);
+        let c = chain(&["core::cmp::Ord::min", "hilcam::render::fast::Mix32::line_s"]);
         assert_eq!(stage_of(&c), Some(Stage::Sampling));
-        let c = chain(&["hilcam::mix32::Mix32::line_f"]);
+        let c = chain(&["hilcam::render::fast::Mix32::line_f"]);
         assert_eq!(stage_of(&c), Some(Stage::LineLoop));
         // The closed-form plane: 1/|q| in its term is shading, its w the
         // intersection's, the run's own loop the line loop's.
         let c = chain(&[
-            "hilcam::mix32::arith::rsqrt_top",
-            "hilcam::mix32::arith::rsqrt_norm",
-            "hilcam::mix32::shade::cube_over",
-            "hilcam::mix32::shade::closed_term",
-            "hilcam::mix32::Mix32::closed_run",
+            "hilcam::render::fast::arith::rsqrt_top",
+            "hilcam::render::fast::arith::rsqrt_norm",
+            "hilcam::render::fast::shade::cube_over",
+            "hilcam::render::fast::shade::closed_term",
+            "hilcam::render::fast::Mix32::closed_run",
         ]);
         assert_eq!(stage_of(&c), Some(Stage::Shading));
-        let c = chain(&["hilcam::mix32::arith::wmul_px", "hilcam::mix32::shade::closed_w", "hilcam::mix32::Mix32::closed_run"]);
+        let c = chain(&["hilcam::render::fast::arith::wmul_px", "hilcam::render::fast::shade::closed_w", "hilcam::render::fast::Mix32::closed_run"]);
         assert_eq!(stage_of(&c), Some(Stage::Intersection));
-        let c = chain(&["hilcam::mix32::Mix32::closed_run"]);
+        let c = chain(&["hilcam::render::fast::Mix32::closed_run"]);
         assert_eq!(stage_of(&c), Some(Stage::LineLoop));
         // The frame's preparation, however the demangler spaces generics
         // (not the render module's line loop).
         for f in ["hilcam::render::Frame<S,_>::prepare_inner", "hilcam::render::Frame<S, _>::prepare_mix32"] {
-            assert_eq!(stage_of(&chain(&["hilcam::mix32::arith::shl_q", f])), Some(Stage::Preparation));
+            assert_eq!(stage_of(&chain(&["hilcam::render::fast::arith::shl_q", f])), Some(Stage::Preparation));
         }
         let c = chain(&["hilcam::render::Frame<S,_>::render_carried"]);
         assert_eq!(stage_of(&c), Some(Stage::LineLoop));
@@ -1110,7 +1114,7 @@ mod tests {
 
     #[test]
     fn modules_claim_what_no_function_does_and_helpers_are_their_callers() {
-        let c = chain(&["hilcam::noise::normal_q16", "hilcam::noise::Stage<S>::apply_with"]);
+        let c = chain(&["hilcam::render::sensor::noise::normal_q16", "hilcam::render::sensor::noise::Stage<S>::apply_with"]);
         assert_eq!(stage_of(&c), Some(Stage::Noise));
         let c = chain(&["crc::crc32::update_table", "hilcam::link::CobsStream<W>::emit"]);
         assert_eq!(stage_of(&c), Some(Stage::Link));
@@ -1127,7 +1131,7 @@ mod tests {
 
     #[test]
     fn the_lines_table_quotes_each_line_from_its_file() {
-        let first = include_str!("../../src/mix32.rs").lines().nth(1).unwrap_or_default().trim().to_string();
+        let first = include_str!("../../src/render/fast/mod.rs").lines().nth(1).unwrap_or_default().trim().to_string();
         let r = ProfileReport {
             board: "lm3s6965evb".into(),
             frames: vec![FrameProfile {
@@ -1140,14 +1144,14 @@ mod tests {
                 total_per_pixel: 0.0,
                 functions: vec![],
                 lines: vec![
-                    ("src/mix32.rs:2".into(), 12.25),
+                    ("src/render/fast/mod.rs:2".into(), 12.25),
                     ("? in crc::crc32::update".into(), 3.0),
                     ("src/nowhere.rs:7".into(), 1.0),
                 ],
             }],
         };
         let t = lines_table(&r, 2);
-        assert!(t.contains(&format!("| 12.2 | src/mix32.rs:2 | `{}` |", first.replace('|', "\\|"))), "{t}");
+        assert!(t.contains(&format!("| 12.2 | src/render/fast/mod.rs:2 | `{}` |", first.replace('|', "\\|"))), "{t}");
         assert!(t.contains("| 3.0 | ? in crc::crc32::update | `` |"), "{t}");
         // At most n lines a frame.
         assert!(!t.contains("nowhere"), "{t}");
@@ -1156,13 +1160,13 @@ mod tests {
     #[test]
     fn hashes_are_stripped_and_nothing_else() {
         assert_eq!(name_of("_ZN6hilcam5mix325recip17h0123456789abcdefE"), "hilcam::mix32::recip");
-        assert_eq!(name_of("hilcam::mix32::recip"), "hilcam::mix32::recip");
+        assert_eq!(name_of("hilcam::render::fast::recip"), "hilcam::render::fast::recip");
         assert_eq!(name_of("a::hb::c"), "a::hb::c");
         assert_eq!(name_of("__clzsi2"), "__clzsi2");
         // A method by its type's path, wherever its impl block is.
         assert_eq!(
-            name_of("hilcam::mix32::closed::<impl hilcam::mix32::Mix32>::closed_run::{{closure}}"),
-            "hilcam::mix32::Mix32::closed_run::{{closure}}"
+            name_of("hilcam::render::fast::closed::<impl hilcam::render::fast::Mix32>::closed_run::{{closure}}"),
+            "hilcam::render::fast::Mix32::closed_run::{{closure}}"
         );
         assert_eq!(
             name_of("hilcam::render::x::<impl hilcam::render::Frame<S, P>>::line"),

@@ -20,7 +20,7 @@ pub fn render_to(
     budget: &Budget,
     allow_over_budget: bool,
 ) -> Result<Metrics, String> {
-    let (scene, plan, frame) = prepare::<hilcam::scalar::I32F32>(r, budget, |p| p.options)?;
+    let (scene, plan, frame) = prepare::<hilcam::num::scalar::I32F32>(r, budget, |p| p.options)?;
     if !plan.meets_budget && !allow_over_budget {
         let report = plan_report(&plan, budget, &frame);
         return Err(format!(

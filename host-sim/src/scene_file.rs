@@ -2,11 +2,11 @@
 //! rejected. One parsed [`SceneDesc`] builds both the core's fixed-point
 //! scene and the reference's f64 scene, so both render the same input.
 
-use hilcam::lens::Aperture;
-use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
-use hilcam::scene_data::{
+use hilcam::geom::lens::Aperture;
+use hilcam::scene::data::{
     CameraData, MaterialData, NoiseData, PrimitiveData, SamplingData, SceneData, SpecularData,
 };
+use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -206,7 +206,7 @@ impl Pose {
     /// `R` and `T` as the core makes them of this pose (what scene data
     /// carries). Errors name the scene file's key.
     pub fn matrix(&self) -> Result<([[f64; 3]; 3], [f64; 3]), String> {
-        use hilcam::extrinsics::{look_at_matrix, yaw_pitch_roll_matrix};
+        use hilcam::geom::extrinsics::{look_at_matrix, yaw_pitch_roll_matrix};
         let key = |e: hilcam::Error| {
             let k = match (self, e.field()) {
                 (_, hilcam::Field::Target) => "camera.pose.target",
@@ -263,10 +263,10 @@ impl Colour {
     }
 
     /// As scene data carries it.
-    pub fn data(self) -> hilcam::scene_data::Colour {
+    pub fn data(self) -> hilcam::scene::data::Colour {
         match self {
-            Colour::Gray(v) => hilcam::scene_data::Colour::Gray(v),
-            Colour::Rgb(c) => hilcam::scene_data::Colour::Rgb(c),
+            Colour::Gray(v) => hilcam::scene::data::Colour::Gray(v),
+            Colour::Rgb(c) => hilcam::scene::data::Colour::Rgb(c),
         }
     }
 }
@@ -316,7 +316,7 @@ pub struct LightEntry {
 
 /// A light, resolved: the core's scene data (the colour as the file gave
 /// it, one value or one a channel).
-pub use hilcam::scene_data::LightData;
+pub use hilcam::scene::data::LightData;
 
 /// `[[primitives]]`.
 #[derive(Clone, Debug, Deserialize)]
@@ -881,9 +881,9 @@ impl Resolved {
     }
 
     /// The core's scene, built from [`Resolved::scene_bytes`] as a camera
-    /// builds it ([`hilcam::scene_data::load`]). Errors name the field.
+    /// builds it ([`hilcam::scene::data::load`]). Errors name the field.
     pub fn core_scene(&self) -> Result<Scene, String> {
-        hilcam::scene_data::load(&self.scene_bytes()?).map_err(|e| {
+        hilcam::scene::data::load(&self.scene_bytes()?).map_err(|e| {
             // The data carries the pose as R and T: name the file's keys.
             let key = match (e.field().1, self.pose) {
                 ("camera.pose.rotation", Pose::Ypr { .. }) => Some("camera.pose.yaw_pitch_roll"),

@@ -356,9 +356,9 @@ pub fn wire_example() -> Result<String, String> {
 
 /// The scene of `docs/wire.md`'s scene-data example: a 4×3 Gray8 camera
 /// 1 m in front of a gray sphere lit from the camera's side.
-pub fn example_scene_data() -> hilcam::scene_data::SceneData {
+pub fn example_scene_data() -> hilcam::scene::data::SceneData {
     use hilcam::scene::ShapeSpec;
-    use hilcam::scene_data::{
+    use hilcam::scene::data::{
         CameraData, Colour, FormatData, LightData, MaterialData, PrimitiveData, SceneData,
     };
     let mut d = SceneData {
@@ -409,7 +409,7 @@ pub fn example_scene_data() -> hilcam::scene_data::SceneData {
 /// hex: a `SetPose`, a `Trigger` and a `Describe` (host → camera), then an
 /// `Ack`, a `Reject` and a `Description` (camera → host).
 pub fn command_example() -> Result<String, String> {
-    use hilcam::control::{Ack, Command, Description, Mode, Reason, Reject, Request};
+    use hilcam::link::{Ack, Command, Description, Mode, Reason, Reject, Request};
     let mut s = String::new();
     let mut buf = [0u8; 256];
     let req = |seq, command| Request {
@@ -439,13 +439,13 @@ pub fn command_example() -> Result<String, String> {
     let scene = example_scene_data();
     let data = postcard::to_stdvec(&scene).map_err(|e| e.to_string())?;
     hex_lines(&mut s, "SceneData", &data);
-    let parts = data.chunks(hilcam::control::MAX_SCENE_CHUNK);
+    let parts = data.chunks(hilcam::link::MAX_SCENE_CHUNK);
     for (k, part) in (0u32..).zip(parts) {
         let r = req(
             7 + k,
             Command::LoadScene {
                 total: data.len() as u16,
-                offset: (k as usize * hilcam::control::MAX_SCENE_CHUNK) as u16,
+                offset: (k as usize * hilcam::link::MAX_SCENE_CHUNK) as u16,
                 bytes: part,
             },
         );
@@ -475,9 +475,9 @@ pub fn command_example() -> Result<String, String> {
         pending: 0,
         last_command: Some(5),
         next_frame: 1,
-        max_request: hilcam::control::MAX_REQUEST as u32,
-        max_scene: hilcam::scene_data::MAX_SCENE_DATA as u32,
-        max_table: hilcam::distortion::MAX_LUT as u32,
+        max_request: hilcam::link::MAX_REQUEST as u32,
+        max_scene: hilcam::scene::data::MAX_SCENE_DATA as u32,
+        max_table: hilcam::geom::distortion::MAX_LUT as u32,
     })
     .map_err(|e| format!("{e:?}"))?;
     let rec = enc.into_inner();

@@ -87,7 +87,7 @@ pub fn frame_to(
     struct Png;
     impl crate::variant::FrameUser for Png {
         type Out = Result<(Vec<u8>, Vec<String>), String>;
-        fn use_frame<S: hilcam::scalar::Scalar>(
+        fn use_frame<S: hilcam::num::scalar::Scalar>(
             self,
             _: &hilcam::planner::Plan,
             frame: &hilcam::render::Frame<S>,

@@ -6,9 +6,9 @@
 
 use crate::harness::{collect, Collect};
 use crate::scene_file::Resolved;
+use hilcam::num::scalar::{Scalar, I32F32};
 use hilcam::planner::{Budget, Plan};
 use hilcam::render::{Arithmetic, DistortionEval, Frame, Options, Override};
-use hilcam::scalar::{Scalar, I32F32};
 
 /// The per-pixel arithmetic of a variant. (I16F16 and I12F20, measured in
 /// earlier sweeps, were dominated on every scene — slower than `mix32` and
@@ -23,7 +23,7 @@ pub enum ScalarKind {
     /// The wide arithmetic in IEEE single precision.
     F32,
     /// The fast arithmetic: 32-bit fixed point, a format per quantity
-    /// ([`hilcam::mix32`]).
+    /// ([`hilcam::render::fast`]).
     Mix32,
 }
 
@@ -49,7 +49,7 @@ impl ScalarKind {
     /// The Rust type of the frame's wide scalar, as firmware code names it.
     pub fn type_path(self) -> &'static str {
         match self {
-            ScalarKind::Planned | ScalarKind::I32F32 | ScalarKind::Mix32 => "hilcam::scalar::I32F32",
+            ScalarKind::Planned | ScalarKind::I32F32 | ScalarKind::Mix32 => "hilcam::num::scalar::I32F32",
             ScalarKind::F32 => "f32",
         }
     }
@@ -160,7 +160,7 @@ impl Variant {
             },
             _ if rest.starts_with("ap") => {
                 let points: u16 = rest[2..].parse().map_err(|_| bad())?;
-                if points != 0 && !hilcam::defocus::is_size(points) {
+                if points != 0 && !hilcam::render::sensor::defocus::is_size(points) {
                     return Err(format!(
                         "variant {name:?}: the aperture pattern's points must be 0, 16, 64 or 256"
                     ));
@@ -187,10 +187,10 @@ impl Variant {
                     .and_then(|r| r.split_once('-'))
                     .ok_or_else(bad)?;
                 let entries: usize = n.parse().map_err(|_| bad())?;
-                if !(2..=hilcam::distortion::MAX_LUT).contains(&entries) {
+                if !(2..=hilcam::geom::distortion::MAX_LUT).contains(&entries) {
                     return Err(format!(
                         "variant {name:?}: table entries must be 2 to {}",
-                        hilcam::distortion::MAX_LUT
+                        hilcam::geom::distortion::MAX_LUT
                     ));
                 }
                 let eval = match eval {

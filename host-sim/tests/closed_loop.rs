@@ -4,7 +4,7 @@
 //! faults in both directions. The firmware in QEMU runs the same loop in
 //! the test command (`host-sim drive`).
 
-use hilcam::control::MAX_SCENE_CHUNK;
+use hilcam::link::MAX_SCENE_CHUNK;
 use host_sim::camera_cmd::serve;
 use host_sim::drive_cmd::{drive, poses, spawn_reader, DriveReport, Driver};
 use host_sim::link::sim::{Faults, FaultyWriter};

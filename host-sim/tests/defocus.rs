@@ -10,9 +10,9 @@
 //!   samples the aperture with the same spiral; scenes within their depth
 //!   of field pay nothing.
 
+use hilcam::num::scalar::I32F32;
 use hilcam::planner::Budget;
 use hilcam::render::Override;
-use hilcam::scalar::I32F32;
 use host_sim::harness::{collect, prepare};
 use host_sim::reference::lens::ThinLens;
 use host_sim::reference::render::RefScene;

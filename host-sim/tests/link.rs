@@ -267,7 +267,7 @@ fn wire_doc_example_is_current() {
     // The example scene is one a camera takes.
     let data = postcard::to_stdvec(&host_sim::stream_cmd::example_scene_data()).expect("encodes");
     assert_eq!(data.len(), 261, "docs/wire.md says 261 bytes");
-    hilcam::scene_data::load(&data).expect("the example scene loads");
+    hilcam::scene::data::load(&data).expect("the example scene loads");
 }
 
 /// A reader that ends (the sender hung up) ends the read with what came:

@@ -8,8 +8,8 @@
 //! - noise on the fast arithmetic (a scene without sampling or defocus):
 //!   the planner's choice, against the reference.
 
+use hilcam::num::scalar::I32F32;
 use hilcam::planner::Budget;
-use hilcam::scalar::I32F32;
 use host_sim::harness::{collect, prepare};
 use host_sim::scene_file::parse;
 
@@ -224,7 +224,7 @@ fn sampled_and_noisy_frames_match_the_reference() {
         let out = host_sim::harness::render(&r, &Budget::default()).expect("renders");
         let m = &out.metrics;
         let st = &m.plan;
-        let want = hilcam::sampling::grid_for(edge);
+        let want = hilcam::render::sensor::sampling::grid_for(edge);
         assert_eq!(
             (st.samples, st.adaptive),
             (want, adaptive),
@@ -248,7 +248,7 @@ fn sampled_and_noisy_frames_match_the_reference() {
         // converged 16x16 estimate the RMS error is well under the
         // contrast (≈ 150 DN) times that.
         assert!(
-            s.rms_dn <= 150.0 * hilcam::sampling::edge_error(want),
+            s.rms_dn <= 150.0 * hilcam::render::sensor::sampling::edge_error(want),
             "case {k}: sampling error {s:?}"
         );
     }
@@ -303,7 +303,7 @@ fn noise_on_the_fast_arithmetic_matches_the_reference() {
 #[test]
 fn the_normal_table_is_the_documented_fit() {
     let fit = host_sim::reference::noise::half_normal_table();
-    let core = hilcam::noise::HALF_NORMAL;
+    let core = hilcam::render::sensor::noise::HALF_NORMAL;
     if fit.as_slice() != core.as_slice() {
         let rows: Vec<String> = fit
             .iter()
@@ -314,13 +314,13 @@ fn the_normal_table_is_the_documented_fit() {
 }
 
 /// The core's deviate against the reference's `±√2 erfc⁻¹(t)` (f64),
-/// within `hilcam::noise::Z_ERR`: on every half octave at 257 points of
+/// within `hilcam::render::sensor::noise::Z_ERR`: on every half octave at 257 points of
 /// its fraction (both ends included), and on random hashes.
 #[test]
 fn the_normal_deviate_is_the_references_within_its_bound() {
     use host_sim::reference::noise::{abs_deviate, uniform_of};
     let check = |h: u64, worst: &mut (f64, u64)| {
-        let core = f64::from(hilcam::noise::normal_of_hash(h)) / 65_536.0;
+        let core = f64::from(hilcam::render::sensor::noise::normal_of_hash(h)) / 65_536.0;
         let exact = abs_deviate(uniform_of(h)) * if h >> 63 == 1 { -1.0 } else { 1.0 };
         let err = (core - exact).abs();
         if err > worst.0 {
@@ -345,12 +345,12 @@ fn the_normal_deviate_is_the_references_within_its_bound() {
     }
     let mut x = 0x5eed_u64;
     for _ in 0..1_000_000 {
-        x = hilcam::noise::mix(x.wrapping_add(0x9e37_79b9_7f4a_7c15));
+        x = hilcam::render::sensor::noise::mix(x.wrapping_add(0x9e37_79b9_7f4a_7c15));
         check(x, &mut worst);
     }
     println!("largest |z| error: {:.3e} (hash {:#018x})", worst.0, worst.1);
     assert!(
-        worst.0 <= hilcam::noise::Z_ERR,
+        worst.0 <= hilcam::render::sensor::noise::Z_ERR,
         "{:.3e} at {:#018x}",
         worst.0,
         worst.1

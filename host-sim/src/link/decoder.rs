@@ -3,10 +3,10 @@
 //! next `0x00` after any error, and counts what it dropped and why. It never
 //! panics, whatever the bytes (a fuzz target and a proptest check it).
 
-use hilcam::control::{Ack, Description, Reason};
 use hilcam::link::{
     check_crc, is_canonical, FrameEnd, FrameStart, Message, WireFormat, CRC32, PROTOCOL_VERSION,
 };
+use hilcam::link::{Ack, Description, Reason};
 use serde::Serialize;
 use std::io::Read;
 

@@ -111,7 +111,7 @@ pub fn abs_deviate(t: f64) -> f64 {
     -(x - u / (1.0 + x * u / 2.0))
 }
 
-/// The core's table for `|z|` (`hilcam::noise::HALF_NORMAL`), as
+/// The core's table for `|z|` (`hilcam::render::sensor::noise::HALF_NORMAL`), as
 /// docs/sensor.md defines it: for octave `e` (0 … 62: `t` in `[2^−(e+1),
 /// 2^−e)`, `t = m 2^−(e+1)`) and half `j` (`m` in `[1 + j/2, 1 + (j+1)/2)`),
 /// the cubic in `s = 2(m − 1) − j` through [`abs_deviate`] at the four

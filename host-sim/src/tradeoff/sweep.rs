@@ -8,10 +8,10 @@ use crate::hil_cmd::{hil_variants, repo_root, shipped_scenes, Board, HilReport};
 use crate::reference::render::RefScene;
 use crate::scene_file::{load, Resolved};
 use crate::variant::{FrameUser, ScalarKind, Variant, WithScalar};
-use hilcam::distortion::MAX_LUT;
+use hilcam::geom::distortion::MAX_LUT;
 use hilcam::planner::{plan, Budget, Plan};
 use hilcam::render::{DistortionEval, Frame, FrameSink, Override};
-use hilcam::scalar::Scalar;
+use hilcam::num::scalar::Scalar;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -541,8 +541,8 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
             let name = r.desc.name.clone();
             let scene = r.core_scene()?;
             let p = plan(&scene, &Budget::default()).options;
-            let planned = Frame::<hilcam::scalar::I32F32>::build(&scene, &p).map_err(|e| format!("{e:?}"))?;
-            let full = Frame::<hilcam::scalar::I32F32>::build(&scene, &p.with(Override::AllStages))
+            let planned = Frame::<hilcam::num::scalar::I32F32>::build(&scene, &p).map_err(|e| format!("{e:?}"))?;
+            let full = Frame::<hilcam::num::scalar::I32F32>::build(&scene, &p.with(Override::AllStages))
                 .map_err(|e| format!("{e:?}"))?;
             let (a, b) = (planned.stages(), full.stages());
             let mut dropped = Vec::new();
