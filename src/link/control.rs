@@ -1,6 +1,6 @@
 //! The host → camera direction of the link (`docs/wire.md`, "Commands"):
-//! the [`Request`]s a host sends, the answers a camera gives ([`Ack`],
-//! [`Reject`], [`Description`]), the [`Receiver`] that turns RX bytes into
+//! the [`Request`]s a host sends, the answers a camera gives ([`Ack`](crate::link::wire::Ack),
+//! [`Reject`](crate::link::wire::Reject), [`Description`]), the [`Receiver`] that turns RX bytes into
 //! requests in a fixed buffer, and the camera's command state
 //! ([`Control`]: the sequence rule, and the last good state kept whenever
 //! a command is refused).
@@ -161,9 +161,9 @@ impl RxStats {
 /// The answer to a request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Answer {
-    /// Applied: send an [`Ack`].
+    /// Applied: send an [`Ack`](crate::link::wire::Ack).
     Ack,
-    /// Refused: send a [`Reject`] naming the field.
+    /// Refused: send a [`Reject`](crate::link::wire::Reject) naming the field.
     Reject(Reason, Fault),
     /// Send a [`Description`].
     Describe,
@@ -191,7 +191,7 @@ impl Fault {
         }
     }
 
-    /// The name as a [`Reject`] carries it (at most [`FIELD_MAX`] bytes;
+    /// The name as a [`Reject`](crate::link::wire::Reject) carries it (at most [`FIELD_MAX`] bytes;
     /// the shipped keys are shorter).
     pub fn name(&self) -> heapless::String<FIELD_MAX> {
         let mut s = heapless::String::new();

@@ -27,7 +27,7 @@ pub enum LinkError<E> {
     Encode,
 }
 
-/// Encodes one message (a [`Message`], or a [`crate::link::Request`])
+/// Encodes one message (a [`Message`](crate::link::wire::Message), or a [`crate::link::Request`])
 /// into `wire` (COBS, CRC appended, delimiter included) and returns the
 /// encoded bytes.
 pub fn encode_message<'w, T: Serialize + ?Sized>(msg: &T, wire: &'w mut [u8]) -> Option<&'w mut [u8]> {
@@ -65,7 +65,7 @@ enum FrameMessage<'a> {
 /// A message a camera sends outside frames: [`Ack`], [`Reject`],
 /// [`Description`].
 pub trait Reply: Serialize {
-    /// Its [`Message`] tag.
+    /// Its [`Message`](crate::link::wire::Message) tag.
     const TAG: u8;
 }
 
@@ -396,7 +396,7 @@ impl<W: embedded_io::Write, const CHUNK: usize> Encoder<W, CHUNK> {
 
     /// The flags of the line just added (a byte a pixel, at least the
     /// width): if any pixel is outside the lens field, sends its
-    /// [`LineFlags`] (the frame's [`FrameEnd`] counts them).
+    /// [`LineFlags`](crate::link::wire::LineFlags) (the frame's [`FrameEnd`] counts them).
     pub fn push_flags(&mut self, flags: &[u8]) -> Result<(), LinkError<W::Error>> {
         let Some(f) = self.frame.as_mut() else {
             return Err(LinkError::Sequence);

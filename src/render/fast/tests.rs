@@ -1046,7 +1046,7 @@ fn a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error() {
 }
 
 /// A disc's or rectangle's boundary, as the fast test reads it, moves by
-/// at most the planner's bound ([`crate::planner::fast_boundary_m`]): for
+/// at most the planner's bound ([`crate::planner::error_model::fast_boundary_m`]): for
 /// each ray, the distance from the disc's centre (`√` of the test's
 /// `|p − c|²`, less its radius) or the rectangle's margins (`|p·a − c_a| −
 /// h`, S42) against the exact ones of the same ray (its S26 slopes, or its
@@ -1179,7 +1179,14 @@ fn a_flat_shape_s_boundary_moves_within_the_planner_s_bound() {
                 _ => unreachable!(),
             };
             let sd = (dot(d, d) - nd * nd).max(0.0).sqrt();
-            let bound = crate::planner::fast_boundary_m(1.0, sd, dot(d, d).sqrt(), te, 1.0 / nd.abs(), r);
+            let bound = crate::planner::error_model::fast_boundary_m(
+                1.0,
+                sd,
+                dot(d, d).sqrt(),
+                te,
+                1.0 / nd.abs(),
+                r,
+            );
             for (got, exact) in margins {
                 let ratio = (got - exact).abs() / bound;
                 assert!(
