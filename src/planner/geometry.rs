@@ -1,6 +1,7 @@
 //! What the planner knows of a scene's geometry in the camera frame:
 //! each primitive's reach, screen coverage and depths (f64).
 
+use super::coverage::{extents, Coverage};
 use super::Unfit;
 use crate::geom::projection::{weak_perspective_bound, DepthBox};
 use crate::num::FixedF64;
@@ -278,6 +279,145 @@ pub(super) fn pow(x: f64, y: f64) -> f64 {
     libm::exp(y * libm::log(x))
 }
 
+/// The sensor corners' distorted slopes: the largest |x̂_d|, |ŷ_d| and the
+/// largest `u = r_d²`.
+#[inline(always)]
+fn corner_slopes_d(scene: &Scene) -> ([f64; 2], f64) {
+    let intr = &scene.camera.intrinsics;
+    let (fx, fy) = intr.focal_px();
+    let (fx, fy) = (fx.f64(), fy.f64());
+    let (w, h) = intr.size();
+    let (ox, oy) = intr.principal_point();
+    let (ox, oy) = (ox.f64(), oy.f64());
+    let mut slope_d = [0.0f64; 2];
+    let mut u_corner: f64 = 0.0;
+    for (i, j) in [
+        (0.0, 0.0),
+        (w as f64 - 1.0, 0.0),
+        (0.0, h as f64 - 1.0),
+        (w as f64 - 1.0, h as f64 - 1.0),
+    ] {
+        let xd = (ox - i) / fx;
+        let yd = (oy - j) / fy;
+        slope_d[0] = slope_d[0].max(libm::fabs(xd));
+        slope_d[1] = slope_d[1].max(libm::fabs(yd));
+        u_corner = u_corner.max(xd * xd + yd * yd);
+    }
+    (slope_d, u_corner)
+}
+
+/// Per primitive, for the extents: how far it reaches, and its checker's
+/// origin (the primitive's point or centre).
+pub(super) type Reaches = heapless::Vec<(Reach, Option<[f64; 3]>), { crate::scene::MAX_PRIMITIVES }>;
+
+impl PrimGeom {
+    /// Primitive `p` of `scene` in the camera frame, and how far it
+    /// reaches; `parallel`: the rays are parallel (no perspective culling),
+    /// `field` the undistorted field's box.
+    #[inline(always)]
+    fn of(
+        scene: &Scene,
+        p: &crate::scene::Primitive,
+        parallel: bool,
+        field: (f64, f64),
+    ) -> (PrimGeom, (Reach, Option<[f64; 3]>)) {
+        let cam_pt = |p: crate::WorldPoint| cam_point(scene, p);
+        let cam_dir = |d: [crate::Norm; 3]| cam_direction(scene, d);
+        let mat = |i: u8| scene.materials.get(i as usize);
+        // A disc's or rectangle's centre and in-plane half-axes (a
+        // disc's bounding square, along its checker's axes).
+        let mut flat: Option<([f64; 3], [f64; 3], f64, f64)> = None;
+        let (c, n, r, mut smallest, reach) = match p.shape {
+            Shape::Plane { point, normal } => {
+                let c = cam_pt(point);
+                let n = cam_dir(normal);
+                // The fast path holds the plane's distance n·c.
+                (c, n, 0.0, f64::INFINITY, Reach::Plane(libm::fabs(dot3(n, c))))
+            }
+            Shape::Sphere { centre, radius } => {
+                let c = cam_pt(centre);
+                let r = radius.f64();
+                (c, [0.0; 3], r, r, Reach::Around(c, r))
+            }
+            Shape::Disc {
+                centre,
+                normal,
+                radius,
+            } => {
+                let c = cam_pt(centre);
+                let r = radius.f64();
+                (c, cam_dir(normal), r, f64::INFINITY, Reach::Around(c, r))
+            }
+            Shape::Rectangle {
+                centre,
+                u_axis,
+                v_axis,
+                half,
+            } => {
+                let c = cam_pt(centre);
+                let (a, b) = (half[0].f64(), half[1].f64());
+                let (u, v) = (cam_dir(u_axis), cam_dir(v_axis));
+                let n = [
+                    u[1] * v[2] - u[2] * v[1],
+                    u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0],
+                ];
+                let r = libm::sqrt(a * a + b * b);
+                flat = Some((u, v, a, b));
+                (c, n, r, f64::INFINITY, Reach::Around(c, a + b))
+            }
+        };
+        let reach = (reach, p.checker.map(|_| c));
+        let mut kd: f64 = 0.0;
+        let mut ks: f64 = 0.0;
+        let mut exponent = 0;
+        let mut take = |m: Option<&crate::scene::Material>| {
+            if let Some(m) = m {
+                let b = crate::render::shading::Brdf::new(m, [crate::scene::Q::ZERO; 3]);
+                for c in 0..3 {
+                    kd = kd.max(b.kd.get(c).map_or(0.0, |v| v.f64()));
+                    ks = ks.max(b.ks.get(c).map_or(0.0, |v| v.f64()));
+                }
+                if m.has_specular() {
+                    exponent = exponent.max(m.exponent);
+                }
+            }
+        };
+        take(mat(p.material));
+        let mut cells = None;
+        if let Some(k) = &p.checker {
+            take(mat(k.material));
+            smallest = smallest.min(k.cell.f64());
+            let (ku, kv) = (cam_dir(k.u_axis), cam_dir(k.v_axis));
+            let seen = match p.shape {
+                Shape::Plane { .. } => Some(None),
+                Shape::Disc { .. } => Some(corner_slopes(c, ku, kv, r, r)),
+                Shape::Rectangle { .. } => Some(flat.and_then(|(u, v, a, b)| corner_slopes(c, u, v, a, b))),
+                Shape::Sphere { .. } => None,
+            };
+            cells = seen.map(|seen| Cells::new(ku, kv, k.cell.f64(), seen));
+        }
+        let unseen = !parallel
+            && match p.shape {
+                Shape::Plane { .. } => crate::render::prepare::plane_unseen(n, dot3(n, c), field, 0.0),
+                _ => crate::render::prepare::behind_lens(c[2], r),
+            };
+        let g = PrimGeom {
+            shape: p.shape,
+            c,
+            n,
+            r,
+            smallest,
+            kd,
+            ks,
+            exponent,
+            unseen,
+            cells,
+        };
+        (g, reach)
+    }
+}
+
 impl Geometry {
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
@@ -286,23 +426,7 @@ impl Geometry {
         let intr = &cam.intrinsics;
         let (fx, fy) = intr.focal_px();
         let (fx, fy) = (fx.f64(), fy.f64());
-        let (w, h) = intr.size();
-        let (ox, oy) = intr.principal_point();
-        let (ox, oy) = (ox.f64(), oy.f64());
-        let mut slope_d = [0.0f64; 2];
-        let mut u_corner: f64 = 0.0;
-        for (i, j) in [
-            (0.0, 0.0),
-            (w as f64 - 1.0, 0.0),
-            (0.0, h as f64 - 1.0),
-            (w as f64 - 1.0, h as f64 - 1.0),
-        ] {
-            let xd = (ox - i) / fx;
-            let yd = (oy - j) / fy;
-            slope_d[0] = slope_d[0].max(libm::fabs(xd));
-            slope_d[1] = slope_d[1].max(libm::fabs(yd));
-            u_corner = u_corner.max(xd * xd + yd * yd);
-        }
+        let (slope_d, u_corner) = corner_slopes_d(scene);
         let (k1, k2) = scene.distortion.coefficients();
         let (k1, k2) = (k1.f64(), k2.f64());
         let u_max = match scene.distortion.fold_u() {
@@ -317,152 +441,23 @@ impl Geometry {
             RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.f64()),
             RenderModel::Orthographic { scale } => Some(intr.focal_length().f64() / scale.f64().max(1e-300)),
         };
-        let cam_pt = |p: crate::WorldPoint| cam_point(scene, p);
-        let cam_dir = |d: [crate::Norm; 3]| cam_direction(scene, d);
         let field = crate::render::prepare::field_box(scene);
         let mut prims = heapless::Vec::new();
-        // Per primitive, for the extents: how far it reaches, and its
-        // checker's origin (the primitive's point or centre).
-        let mut reaches: heapless::Vec<(Reach, Option<[f64; 3]>), { crate::scene::MAX_PRIMITIVES }> =
-            heapless::Vec::new();
-        let mat = |i: u8| scene.materials.get(i as usize);
+        let mut reaches: Reaches = heapless::Vec::new();
         for p in &scene.primitives {
-            // A disc's or rectangle's centre and in-plane half-axes (a
-            // disc's bounding square, along its checker's axes).
-            let mut flat: Option<([f64; 3], [f64; 3], f64, f64)> = None;
-            let (c, n, r, mut smallest, reach) = match p.shape {
-                Shape::Plane { point, normal } => {
-                    let c = cam_pt(point);
-                    let n = cam_dir(normal);
-                    // The fast path holds the plane's distance n·c.
-                    (c, n, 0.0, f64::INFINITY, Reach::Plane(libm::fabs(dot3(n, c))))
-                }
-                Shape::Sphere { centre, radius } => {
-                    let c = cam_pt(centre);
-                    let r = radius.f64();
-                    (c, [0.0; 3], r, r, Reach::Around(c, r))
-                }
-                Shape::Disc {
-                    centre,
-                    normal,
-                    radius,
-                } => {
-                    let c = cam_pt(centre);
-                    let r = radius.f64();
-                    (c, cam_dir(normal), r, f64::INFINITY, Reach::Around(c, r))
-                }
-                Shape::Rectangle {
-                    centre,
-                    u_axis,
-                    v_axis,
-                    half,
-                } => {
-                    let c = cam_pt(centre);
-                    let (a, b) = (half[0].f64(), half[1].f64());
-                    let (u, v) = (cam_dir(u_axis), cam_dir(v_axis));
-                    let n = [
-                        u[1] * v[2] - u[2] * v[1],
-                        u[2] * v[0] - u[0] * v[2],
-                        u[0] * v[1] - u[1] * v[0],
-                    ];
-                    let r = libm::sqrt(a * a + b * b);
-                    flat = Some((u, v, a, b));
-                    (c, n, r, f64::INFINITY, Reach::Around(c, a + b))
-                }
-            };
-            let _ = reaches.push((reach, p.checker.map(|_| c)));
-            let mut kd: f64 = 0.0;
-            let mut ks: f64 = 0.0;
-            let mut exponent = 0;
-            let mut take = |m: Option<&crate::scene::Material>| {
-                if let Some(m) = m {
-                    let b = crate::render::shading::Brdf::new(m, [crate::scene::Q::ZERO; 3]);
-                    for c in 0..3 {
-                        kd = kd.max(b.kd.get(c).map_or(0.0, |v| v.f64()));
-                        ks = ks.max(b.ks.get(c).map_or(0.0, |v| v.f64()));
-                    }
-                    if m.has_specular() {
-                        exponent = exponent.max(m.exponent);
-                    }
-                }
-            };
-            take(mat(p.material));
-            let mut cells = None;
-            if let Some(k) = &p.checker {
-                take(mat(k.material));
-                smallest = smallest.min(k.cell.f64());
-                let (ku, kv) = (cam_dir(k.u_axis), cam_dir(k.v_axis));
-                let seen = match p.shape {
-                    Shape::Plane { .. } => Some(None),
-                    Shape::Disc { .. } => Some(corner_slopes(c, ku, kv, r, r)),
-                    Shape::Rectangle { .. } => {
-                        Some(flat.and_then(|(u, v, a, b)| corner_slopes(c, u, v, a, b)))
-                    }
-                    Shape::Sphere { .. } => None,
-                };
-                cells = seen.map(|seen| Cells::new(ku, kv, k.cell.f64(), seen));
-            }
-            let unseen = origin_scale.is_none()
-                && match p.shape {
-                    Shape::Plane { .. } => crate::render::prepare::plane_unseen(n, dot3(n, c), field, 0.0),
-                    _ => crate::render::prepare::behind_lens(c[2], r),
-                };
-            let _ = prims.push(PrimGeom {
-                shape: p.shape,
-                c,
-                n,
-                r,
-                smallest,
-                kd,
-                ks,
-                exponent,
-                unseen,
-                cells,
-            });
+            let (g, reach) = PrimGeom::of(scene, p, origin_scale.is_some(), field);
+            let _ = reaches.push(reach);
+            let _ = prims.push(g);
         }
         let mut lights = heapless::Vec::new();
         for l in &scene.lights {
             let p = match *l {
-                Light::Point { position, .. } => Some(cam_pt(position)),
+                Light::Point { position, .. } => Some(cam_point(scene, position)),
                 Light::Directional { .. } => None,
             };
             let _ = lights.push(p);
         }
-        // The content's extent from where the rays start, z = z0 (the
-        // fast path's `mix32::parallel_start` and `content_extent`).
-        let extent_at = |z0: f64| {
-            let at = |c: [f64; 3]| norm3([c[0], c[1], c[2] - z0]);
-            let mut e = match origin_scale {
-                Some(k) if z0 > 0.0 => k / 8.0,
-                _ => 0.0,
-            };
-            for (reach, checker) in &reaches {
-                e = e.max(match *reach {
-                    Reach::Plane(d) => d,
-                    Reach::Around(c, r) => at(c) + r,
-                });
-                if let Some(o) = checker {
-                    e = e.max(at(*o));
-                }
-            }
-            for p in lights.iter().flatten() {
-                e = e.max(at(*p));
-            }
-            e
-        };
-        let extent = extent_at(0.0);
-        let near = (reaches.iter())
-            .map(|(reach, _)| match *reach {
-                Reach::Plane(_) => f64::NEG_INFINITY,
-                Reach::Around(c, r) => c[2] - r,
-            })
-            .fold(f64::INFINITY, f64::min);
-        let z0 = libm::ceil(near) - 1.0;
-        let fast_extent = if origin_scale.is_some() && near.is_finite() && z0 > 0.0 {
-            extent_at(z0).min(extent)
-        } else {
-            extent
-        };
+        let (extent, fast_extent) = extents(&reaches, &lights, origin_scale);
         let e = unit_exp(fast_extent);
         let lens = &cam.lens;
         let d_over_f = lens.diameter().f64() / lens.focal_length().f64();
@@ -494,99 +489,8 @@ impl Geometry {
                 })
             })
             .flatten();
-        // Coverage: a grid of COVERAGE_GRID rays over the sensor (distortion
-        // ignored), each tested against every primitive.
-        let (gx, gy) = COVERAGE_GRID;
-        let (mut hits, mut bounded, mut closed_hits, mut lobe_hits) = (0u32, 0u32, 0u32, 0u32);
-        let (mut facing_hits, mut closed_facing_hits) = (0u32, 0u32);
-        let (mut flat_hits, mut closed_flat_hits) = (0u32, 0u32);
-        // Directional lights alone: a flat primitive's shading is one sum
-        // (`mix32::Mix32::shade_flat`).
-        let directional = lights.iter().all(Option::is_none);
-        // Facing: the fast arithmetic's S30 normal has n_x = n_y = 0 (to
-        // within these f64 components' rounding, which need not be the
-        // fixed-point frame's: half an S30 unit either way). Once a
-        // primitive, not per hit: soft-float compares on the driven
-        // camera, which plans every frame.
-        const S30_HALF_UNIT: f64 = 1.0 / (1u64 << 31) as f64;
-        let mut facing = [false; crate::scene::MAX_PRIMITIVES];
-        for (f, p) in facing.iter_mut().zip(&prims) {
-            *f = !matches!(p.shape, Shape::Sphere { .. })
-                && libm::fabs(p.n[0]) < S30_HALF_UNIT
-                && libm::fabs(p.n[1]) < S30_HALF_UNIT;
-        }
-        // The origin's terms: once a primitive for perspective rays, once
-        // a ray and primitive for parallel ones.
-        let mut at = [FromOrigin::default(); crate::scene::MAX_PRIMITIVES];
-        if origin_scale.is_none() {
-            for (k, p) in at.iter_mut().zip(&prims) {
-                *k = p.seen_from([0.0; 3]);
-            }
-        }
-        // The rows' slopes, once.
-        let mut ys = [0.0f64; COVERAGE_GRID.1 as usize];
-        for (b, y) in ys.iter_mut().enumerate() {
-            *y = (oy - (b as f64 + 0.5) * h as f64 / gy as f64) / fy;
-        }
-        for a in 0..gx {
-            let x = (ox - (a as f64 + 0.5) * w as f64 / gx as f64) / fx;
-            // A perspective ray's `v·d = (v₀ x̂ + v₁ ŷ) + v₂` (`dot3`'s
-            // order, `d₂ = 1`), with `v₀ x̂` once a column.
-            let xx = x * x;
-            for k in &mut at {
-                k.vx = k.v[0] * x;
-            }
-            for &y in &ys {
-                let (o, d) = match origin_scale {
-                    None => ([0.0; 3], [x, y, 1.0]),
-                    Some(k) => ([x * k, y * k, 0.0], [0.0, 0.0, 1.0]),
-                };
-                let dd = match origin_scale {
-                    None => (xx + y * y) + 1.0,
-                    Some(_) => dot3(d, d),
-                };
-                if origin_scale.is_some() {
-                    for (k, p) in at.iter_mut().zip(&prims) {
-                        *k = p.seen_from(o);
-                    }
-                }
-                let (mut any, mut others) = (false, false);
-                let mut nearest: Option<(f64, &PrimGeom)> = None;
-                for (i, (p, k)) in prims.iter().zip(&at).enumerate() {
-                    let vd = match origin_scale {
-                        None => (k.vx + k.v[1] * y) + k.v[2],
-                        Some(_) => dot3(k.v, d),
-                    };
-                    if let Some(t) = p.hit(k, d, dd, vd) {
-                        any = true;
-                        bounded += !matches!(p.shape, Shape::Plane { .. }) as u32;
-                        if facing.get(i) == Some(&true) {
-                            if closed == Some(i) {
-                                closed_facing_hits += 1;
-                            } else {
-                                facing_hits += 1;
-                            }
-                        }
-                        others |= closed != Some(i);
-                        if nearest.is_none_or(|(tn, _)| t < tn) {
-                            nearest = Some((t, p));
-                        }
-                    }
-                }
-                hits += any as u32;
-                closed_hits += (any && !others) as u32;
-                lobe_hits += nearest.is_some_and(|(_, p)| p.ks > 0.0) as u32;
-                if directional
-                    && nearest.is_some_and(|(_, p)| p.ks == 0.0 && !matches!(p.shape, Shape::Sphere { .. }))
-                {
-                    if any && !others {
-                        closed_flat_hits += 1;
-                    } else {
-                        flat_hits += 1;
-                    }
-                }
-            }
-        }
+        let cov = Coverage::of(scene, &prims, &lights, origin_scale, closed);
+        let n = (COVERAGE_GRID.0 * COVERAGE_GRID.1) as f64;
         Geometry {
             f_px: fx.max(fy),
             f_row: fx,
@@ -607,14 +511,14 @@ impl Geometry {
             lights,
             gain,
             dn_max,
-            coverage: hits as f64 / (gx * gy) as f64,
-            bounded_area: bounded as f64 / (gx * gy) as f64,
-            closed_area: closed_hits as f64 / (gx * gy) as f64,
-            lobe_area: lobe_hits as f64 / (gx * gy) as f64,
-            facing_area: facing_hits as f64 / (gx * gy) as f64,
-            closed_facing_area: closed_facing_hits as f64 / (gx * gy) as f64,
-            flat_area: flat_hits as f64 / (gx * gy) as f64,
-            closed_flat_area: closed_flat_hits as f64 / (gx * gy) as f64,
+            coverage: cov.hits as f64 / n,
+            bounded_area: cov.bounded as f64 / n,
+            closed_area: cov.closed_hits as f64 / n,
+            lobe_area: cov.lobe_hits as f64 / n,
+            facing_area: cov.facing_hits as f64 / n,
+            closed_facing_area: cov.closed_facing_hits as f64 / n,
+            flat_area: cov.flat_hits as f64 / n,
+            closed_flat_area: cov.closed_flat_hits as f64 / n,
         }
     }
 

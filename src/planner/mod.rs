@@ -47,6 +47,7 @@ use crate::Len;
 
 mod closed_mean;
 mod cost;
+mod coverage;
 pub(crate) mod error_model;
 mod geometry;
 mod search;
