@@ -243,37 +243,7 @@ impl Mix32 {
             let Some(rays) = rays.first(count) else {
                 return;
             };
-            // Runs of `single` (in its order, so of `x̂` not increasing) on
-            // one rectangle and one chief `ŷ`: `run_end[g]`, the run's last.
-            // Along a run, an aperture point's hit on a facing rectangle
-            // (one `t`) is monotone in `x̂`, and so is each of its texture
-            // cells (every step from the slope to the cell rounds down or
-            // saturates): two rays of the run in the same cells have every
-            // ray between in them. (Without distortion a row's `ŷ` is one;
-            // with it, rays of one `ŷ` are rare: no run.)
-            let mut run_end = [0u8; CHUNK];
-            let mut g = singles;
-            while g > 0 {
-                g -= 1;
-                let joined = match (single.get(g), single.get(g + 1).filter(|_| g + 1 < singles)) {
-                    (Some(&(qa, ia)), Some(&(qb, ib))) => {
-                        ia == ib
-                            && chief
-                                .get(qa as usize)
-                                .zip(chief.get(qb as usize))
-                                .is_some_and(|(ca, cb)| ca.y == cb.y && cb.x <= ca.x)
-                    }
-                    _ => false,
-                };
-                let e = if joined {
-                    run_end.get(g + 1).copied().unwrap_or(g as u8)
-                } else {
-                    g as u8
-                };
-                if let Some(r) = run_end.get_mut(g) {
-                    *r = e;
-                }
-            }
+            let run_end = single_runs(&single, singles, chief);
             for u in crate::render::sensor::defocus::SPIRAL
                 .iter()
                 .take(if count + singles > 0 { ap.m as usize } else { 0 })
@@ -295,157 +265,201 @@ impl Mix32 {
                         &mut k,
                     );
                 }
-                // The pixels one rectangle alone meets: each ray tested
-                // against it alone (the frame moved to `A` once a point),
-                // without its edges (every ray meets it within them, and
-                // nothing nearer): the hits the passes find.
-                // A rectangle facing the camera (`n_x = n_y = 0`) has one
-                // `t` for every ray of the point: `plane_t` reads nothing of
-                // the ray then (`n·d` is `n_z`), so it is taken once with
-                // the moved shape, as `flat_pass` takes it once a chunk —
-                // the same `t`. Otherwise `None`, and each ray takes its own.
-                let mut moved: Option<(u8, MixShape, Facing)> = None;
-                // This point's ray of the pixel `single[h]`.
-                let ray_at = |h: usize| {
-                    let &(q, _) = single.get(h)?;
-                    let c = chief.get(q as usize)?;
-                    Some(Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1])))
-                };
-                let mut g = 0;
-                while let (true, Some(&(_, i)), Some(&end), Some(r0)) =
-                    (g < singles, single.get(g), run_end.get(g), ray_at(g))
-                {
-                    let Some(p) = self.prims.get(i as usize) else {
-                        break;
-                    };
-                    let (shape, facing) = match moved {
-                        Some((j, shape, facing)) if j == i => (shape, facing),
-                        _ => {
-                            let shape = p.shape.moved(a, a24);
-                            let facing = match shape {
-                                MixShape::Rect { n, dist, rz, .. } if n[0] == 0 && n[1] == 0 => {
-                                    Some(r0.plane_t::<true>(n, dist, rz))
-                                }
-                                _ => None,
-                            };
-                            moved = Some((i, shape, facing));
-                            (shape, facing)
+                self.singles_at::<L, C>(
+                    (single.get(..singles).unwrap_or_default(), &run_end),
+                    chief,
+                    sums,
+                    ([a, a24], off),
+                    &mut two,
+                    &mut k,
+                );
+            }
+            self.chunk_words::<C>(
+                chief,
+                sums,
+                (words, flags),
+                (tz, nch, dn_max),
+                (noise, &mut index),
+            );
+            put(words, false, b, pixels);
+        }
+    }
+
+    /// [`Mix32::line_d`]'s pixels that one rectangle alone meets
+    /// (`single`, with `run_end` from [`single_runs`]) for the aperture
+    /// point `a` (S18 U, S24 U; `off` its slope offset): each ray tested
+    /// against that rectangle alone, its shading added to the pixel's sums;
+    /// `two` keeps a facing rectangle's two materials' sums.
+    #[inline(always)]
+    fn singles_at<L: Lines, const C: usize>(
+        &self,
+        (single, run_end): (&[(u8, u8)], &[u8; CHUNK]),
+        chief: &[Ray],
+        sums: &mut [[u64; 3]],
+        ([a, a24], off): ([[i32; 2]; 2], [i32; 2]),
+        two: &mut [((u8, usize), [u64; 3]); 2],
+        k: &mut KCache,
+    ) {
+        let singles = single.len();
+        // The pixels one rectangle alone meets: each ray tested
+        // against it alone (the frame moved to `A` once a point),
+        // without its edges (every ray meets it within them, and
+        // nothing nearer): the hits the passes find.
+        // A rectangle facing the camera (`n_x = n_y = 0`) has one
+        // `t` for every ray of the point: `plane_t` reads nothing of
+        // the ray then (`n·d` is `n_z`), so it is taken once with
+        // the moved shape, as `flat_pass` takes it once a chunk —
+        // the same `t`. Otherwise `None`, and each ray takes its own.
+        let mut moved: Option<(u8, MixShape, Facing)> = None;
+        // This point's ray of the pixel `single[h]`.
+        let ray_at = |h: usize| {
+            let &(q, _) = single.get(h)?;
+            let c = chief.get(q as usize)?;
+            Some(Ray::flat(c.x.saturating_sub(off[0]), c.y.saturating_sub(off[1])))
+        };
+        let mut g = 0;
+        while let (true, Some(&(_, i)), Some(&end), Some(r0)) =
+            (g < singles, single.get(g), run_end.get(g), ray_at(g))
+        {
+            let Some(p) = self.prims.get(i as usize) else {
+                break;
+            };
+            let (shape, facing) = match moved {
+                Some((j, shape, facing)) if j == i => (shape, facing),
+                _ => {
+                    let shape = p.shape.moved(a, a24);
+                    let facing = match shape {
+                        MixShape::Rect { n, dist, rz, .. } if n[0] == 0 && n[1] == 0 => {
+                            Some(r0.plane_t::<true>(n, dist, rz))
                         }
-                    };
-                    // A facing rectangle's hit, the same for every ray of
-                    // the point; then the run `g..=end` is taken in
-                    // segments of one texture cell (each found from its
-                    // ends: `run_end`), each ray of a segment with its
-                    // material. Otherwise the one ray `g`.
-                    let hit = match facing {
-                        Some(Some((t, away))) if t != NO_HIT => Some((t, i | if away { AWAY } else { 0 })),
                         _ => None,
                     };
-                    let end = if hit.is_some() { usize::from(end).max(g) } else { g };
-                    let cells = |h: usize| {
-                        let ((t, hit), k) = hit.zip(p.checker.as_ref())?;
-                        let mut r = ray_at(h)?;
-                        (r.t, r.hit) = (t, hit);
-                        Some(k.cells::<true>(r.hit_point::<true, true>(a), p.shape.bounded()))
-                    };
-                    let mut lo = g;
-                    let mut first = if end > g { Some(cells(g)) } else { None };
-                    while lo <= end {
-                        // The segment's last ray: every ray between two of
-                        // the same cells has them (`run_end`), so by
-                        // bisection, with the next segment's first cells.
-                        let (mut last, c_seg) = (end, first);
-                        if let Some(c_lo) = first {
-                            let c_end = cells(end);
-                            if c_end != c_lo {
-                                let (mut x, mut y, mut c_y) = (lo, end, c_end);
-                                while y - x > 1 {
-                                    let mid = x + (y - x) / 2;
-                                    let c_mid = cells(mid);
-                                    if c_mid == c_lo {
-                                        x = mid;
-                                    } else {
-                                        (y, c_y) = (mid, c_mid);
-                                    }
-                                }
-                                (last, first) = (x, Some(c_y));
-                            }
-                        }
-                        // On a facing rectangle whose sums are its side's
-                        // and material's alone (`flat_sum`), the sum of
-                        // each of its two materials kept: a checker's rays
-                        // alternate between them, which `shade_flat`'s one
-                        // sum does not keep. The material as `hit_from`
-                        // takes it, once a segment (its cells are one);
-                        // every ray of the segment adds the kept sum.
-                        let kept = hit.and_then(|(t, hit)| {
-                            let mut r = ray_at(lo)?;
-                            (r.t, r.hit) = (t, hit);
-                            // (From the segment's cells where the run found
-                            // them: `material_at`'s parity.)
-                            let m = match (c_seg, &p.checker) {
-                                (Some(Some((cu, cv))), Some(k)) if (cu ^ cv) & 1 != 0 => k.material as usize,
-                                (Some(Some(_)), _) => p.material as usize,
-                                _ => Self::material_at::<true, true>(p, &r, [0; 3], a, None),
-                            };
-                            let kept = two.get_mut(usize::from(m != p.material as usize))?;
-                            if kept.0 != (hit, m) && self.flat_sum::<L, C>(p.flat, m) {
-                                *kept = ((hit, m), self.aperture_sum::<L, C>(&r, [a, a24], &mut k));
-                            }
-                            (kept.0 == (hit, m)).then_some(kept.1)
-                        });
-                        for h in lo..=last {
-                            let Some(&(q, _)) = single.get(h) else {
-                                continue;
-                            };
-                            let Some(s) = sums.get_mut(q as usize) else {
-                                continue;
-                            };
-                            if let Some(kept) = kept {
-                                for (s, l) in s.iter_mut().zip(kept).take(self.chans::<C>()) {
-                                    *s += l;
-                                }
-                                continue;
-                            }
-                            let Some(mut r) = ray_at(h) else {
-                                continue;
-                            };
-                            if let MixShape::Rect { n, dist, rz, .. } = shape {
-                                if let Some((t, away)) =
-                                    facing.unwrap_or_else(|| r.plane_t::<true>(n, dist, rz))
-                                {
-                                    (r.t, r.hit) = (t, i | if away { AWAY } else { 0 });
-                                }
-                            }
-                            self.add_aperture_ray::<L, C>(&r, [a, a24], s, &mut k);
-                        }
-                        lo = last + 1;
-                    }
-                    g = end + 1;
+                    moved = Some((i, shape, facing));
+                    (shape, facing)
                 }
-            }
-            for (((c, s), out), flag) in chief
-                .iter()
-                .zip(sums.iter())
-                .zip(words.iter_mut())
-                .zip(flags.iter_mut())
-            {
-                *out = if c.t == 0 {
-                    *flag = FLAG_OUTSIDE_FIELD;
-                    0
-                } else {
-                    *flag = 0;
-                    let mut sum = [0; 3];
-                    each::<C>(nch, |i| {
-                        if let (Some(m), Some(v)) = (sum.get_mut(i), s.get(i)) {
-                            *m = v >> tz;
+            };
+            // A facing rectangle's hit, the same for every ray of
+            // the point; then the run `g..=end` is taken in
+            // segments of one texture cell (each found from its
+            // ends: `run_end`), each ray of a segment with its
+            // material. Otherwise the one ray `g`.
+            let hit = match facing {
+                Some(Some((t, away))) if t != NO_HIT => Some((t, i | if away { AWAY } else { 0 })),
+                _ => None,
+            };
+            let end = if hit.is_some() { usize::from(end).max(g) } else { g };
+            let cells = |h: usize| {
+                let ((t, hit), k) = hit.zip(p.checker.as_ref())?;
+                let mut r = ray_at(h)?;
+                (r.t, r.hit) = (t, hit);
+                Some(k.cells::<true>(r.hit_point::<true, true>(a), p.shape.bounded()))
+            };
+            let mut lo = g;
+            let mut first = if end > g { Some(cells(g)) } else { None };
+            while lo <= end {
+                // The segment's last ray: every ray between two of
+                // the same cells has them (`run_end`), so by
+                // bisection, with the next segment's first cells.
+                let (mut last, c_seg) = (end, first);
+                if let Some(c_lo) = first {
+                    let c_end = cells(end);
+                    if c_end != c_lo {
+                        let (mut x, mut y, mut c_y) = (lo, end, c_end);
+                        while y - x > 1 {
+                            let mid = x + (y - x) / 2;
+                            let c_mid = cells(mid);
+                            if c_mid == c_lo {
+                                x = mid;
+                            } else {
+                                (y, c_y) = (mid, c_mid);
+                            }
                         }
-                    });
-                    Self::dn_word::<C>(nch, sum, self.c4::<KEEP_C4_SAMPLED>(c), dn_max, (noise, index))
-                };
-                index = index.wrapping_add(1);
+                        (last, first) = (x, Some(c_y));
+                    }
+                }
+                // On a facing rectangle whose sums are its side's
+                // and material's alone (`flat_sum`), the sum of
+                // each of its two materials kept: a checker's rays
+                // alternate between them, which `shade_flat`'s one
+                // sum does not keep. The material as `hit_from`
+                // takes it, once a segment (its cells are one);
+                // every ray of the segment adds the kept sum.
+                let kept = hit.and_then(|(t, hit)| {
+                    let mut r = ray_at(lo)?;
+                    (r.t, r.hit) = (t, hit);
+                    // (From the segment's cells where the run found
+                    // them: `material_at`'s parity.)
+                    let m = match (c_seg, &p.checker) {
+                        (Some(Some((cu, cv))), Some(k)) if (cu ^ cv) & 1 != 0 => k.material as usize,
+                        (Some(Some(_)), _) => p.material as usize,
+                        _ => Self::material_at::<true, true>(p, &r, [0; 3], a, None),
+                    };
+                    let kept = two.get_mut(usize::from(m != p.material as usize))?;
+                    if kept.0 != (hit, m) && self.flat_sum::<L, C>(p.flat, m) {
+                        *kept = ((hit, m), self.aperture_sum::<L, C>(&r, [a, a24], k));
+                    }
+                    (kept.0 == (hit, m)).then_some(kept.1)
+                });
+                for h in lo..=last {
+                    let Some(&(q, _)) = single.get(h) else {
+                        continue;
+                    };
+                    let Some(s) = sums.get_mut(q as usize) else {
+                        continue;
+                    };
+                    if let Some(kept) = kept {
+                        for (s, l) in s.iter_mut().zip(kept).take(self.chans::<C>()) {
+                            *s += l;
+                        }
+                        continue;
+                    }
+                    let Some(mut r) = ray_at(h) else {
+                        continue;
+                    };
+                    if let MixShape::Rect { n, dist, rz, .. } = shape {
+                        if let Some((t, away)) = facing.unwrap_or_else(|| r.plane_t::<true>(n, dist, rz)) {
+                            (r.t, r.hit) = (t, i | if away { AWAY } else { 0 });
+                        }
+                    }
+                    self.add_aperture_ray::<L, C>(&r, [a, a24], s, k);
+                }
+                lo = last + 1;
             }
-            put(words, false, b, pixels);
+            g = end + 1;
+        }
+    }
+
+    /// [`Mix32::line_d`]'s chunk of pixel words: each pixel's `m` sums'
+    /// mean (`2^tz = m`), its chief ray's `cos⁴α`, noise keyed by `index`.
+    #[inline(always)]
+    fn chunk_words<const C: usize>(
+        &self,
+        chief: &[Ray],
+        sums: &[[u64; 3]],
+        (words, flags): (&mut [u16; CHUNK], &mut [u8]),
+        (tz, nch, dn_max): (u32, usize, [u64; 3]),
+        (noise, index): (Option<&crate::render::sensor::noise::Stage<Q>>, &mut u32),
+    ) {
+        for (((c, s), out), flag) in chief
+            .iter()
+            .zip(sums.iter())
+            .zip(words.iter_mut())
+            .zip(flags.iter_mut())
+        {
+            *out = if c.t == 0 {
+                *flag = FLAG_OUTSIDE_FIELD;
+                0
+            } else {
+                *flag = 0;
+                let mut sum = [0; 3];
+                each::<C>(nch, |i| {
+                    if let (Some(m), Some(v)) = (sum.get_mut(i), s.get(i)) {
+                        *m = v >> tz;
+                    }
+                });
+                Self::dn_word::<C>(nch, sum, self.c4::<KEEP_C4_SAMPLED>(c), dn_max, (noise, *index))
+            };
+            *index = index.wrapping_add(1);
         }
     }
 
@@ -659,4 +673,39 @@ impl Mix32 {
         }
         Some(n)
     }
+}
+
+/// Runs of `single` (in its order, so of `x̂` not increasing) on one
+/// rectangle and one chief `ŷ`: `run_end[g]`, the run's last. Along a
+/// run, an aperture point's hit on a facing rectangle (one `t`) is
+/// monotone in `x̂`, and so is each of its texture cells (every step from
+/// the slope to the cell rounds down or saturates): two rays of the run in
+/// the same cells have every ray between in them. (Without distortion a
+/// row's `ŷ` is one; with it, rays of one `ŷ` are rare: no run.)
+#[inline(always)]
+fn single_runs(single: &[(u8, u8); CHUNK], singles: usize, chief: &[Ray]) -> [u8; CHUNK] {
+    let mut run_end = [0u8; CHUNK];
+    let mut g = singles;
+    while g > 0 {
+        g -= 1;
+        let joined = match (single.get(g), single.get(g + 1).filter(|_| g + 1 < singles)) {
+            (Some(&(qa, ia)), Some(&(qb, ib))) => {
+                ia == ib
+                    && chief
+                        .get(qa as usize)
+                        .zip(chief.get(qb as usize))
+                        .is_some_and(|(ca, cb)| ca.y == cb.y && cb.x <= ca.x)
+            }
+            _ => false,
+        };
+        let e = if joined {
+            run_end.get(g + 1).copied().unwrap_or(g as u8)
+        } else {
+            g as u8
+        };
+        if let Some(r) = run_end.get_mut(g) {
+            *r = e;
+        }
+    }
+    run_end
 }
