@@ -362,7 +362,7 @@ fn refused_commands_keep_the_last_good_state() {
     };
     assert_eq!(c.handle(&request(n + 4, pose), &mut scene, &mut lib), Answer::Ack);
     // Rounded to the position format (I24F40: half an LSB is 2⁻⁴¹ m).
-    let t = scene.camera.extrinsics.translation().to_f64();
+    let t = scene.camera().extrinsics().translation().to_f64();
     for (got, want) in t.iter().zip([0.1, 0.2, -3.0]) {
         assert!((got - want).abs() <= 2f64.powi(-41), "{t:?}");
     }
@@ -374,7 +374,7 @@ fn refused_commands_keep_the_last_good_state() {
         ),
         Answer::Ack
     );
-    assert_eq!(scene.exposure.to_num::<f64>(), 123.5);
+    assert_eq!(scene.exposure().to_num::<f64>(), 123.5);
 }
 
 /// The revision (what the camera plans again on) moves with every command

@@ -161,7 +161,7 @@ fn extreme_largest_sensor() {
     for j in [0u16, 8191, 16383] {
         frame.render_line(j, &mut line, &mut flags).expect("renders");
         for i in (0..16384u16).step_by(7) {
-            let core = s.format.unpack(&line[i as usize..i as usize + 1])[0];
+            let core = s.format().unpack(&line[i as usize..i as usize + 1])[0];
             let (want, _) = rs.pixel(i as f64, j as f64);
             let k = rs.key(i as f64, j as f64);
             let e = 1.0 / 256.0;

@@ -375,7 +375,7 @@ fn unmirrored_and_orthographic_follow_the_renderers_cases() {
     };
     let planned = |s: &hilcam::scene::Scene| plan(s, &Budget::default()).options;
     let (base, off) = (load("cal-base"), load("cal-off-centre"));
-    assert!(base.camera.intrinsics.is_centred_x() && !off.camera.intrinsics.is_centred_x());
+    assert!(base.camera().intrinsics().is_centred_x() && !off.camera().intrinsics().is_centred_x());
     let f = |s: &hilcam::scene::Scene, o| Features::of_options(s, &o);
     assert_eq!(f(&base, planned(&base)).unmirrored, 0.0);
     assert_eq!(f(&off, planned(&off)).unmirrored, 1.0);
@@ -1137,7 +1137,7 @@ fn the_closed_planes_mean_stays_within_its_bound() {
         let values = |o: hilcam::render::Options| {
             let frame = Frame::new(&scene, &o).unwrap_or_else(|e| panic!("{e:?}:\n{t}"));
             let out = host_sim::harness::collect(&frame).unwrap_or_else(|e| panic!("{e}:\n{t}"));
-            host_sim::harness::decode_all(scene.format, &out.pixels)
+            host_sim::harness::decode_all(scene.format(), &out.pixels)
         };
         let (with, without) = (values(p.options), values(p.options.with(Override::NoMean)));
         let diff = with

@@ -2,9 +2,10 @@
 //! f64 reference), the planner's choices, stages a scene does not need, the
 //! lens field, and the line-buffer API.
 
+use hilcam::geom::distortion::MAX_LUT;
 use hilcam::planner::{plan, Budget};
-use hilcam::render::{Frame, FrameSink, RenderError, RenderModel, FLAG_OUTSIDE_FIELD};
-use hilcam::scene::PixelFormat;
+use hilcam::render::{Frame, FrameSink, LineBuffers, Options, RenderError, RenderModel, FLAG_OUTSIDE_FIELD};
+use hilcam::scene::{PixelFormat, Scene, Q};
 use host_sim::harness::{render_skipping_stage_errors, Metrics};
 use host_sim::scene_file::{load, parse, Resolved};
 use std::path::PathBuf;
@@ -100,11 +101,11 @@ fn beyond_prediction_names_what_exceeds_the_plan() {
 fn standard_scene_is_as_specified() {
     let r = scene("standard");
     let s = r.core_scene().expect("valid");
-    assert_eq!(s.camera.intrinsics.size(), (160, 120));
-    assert_eq!(s.format, hilcam::scene::PixelFormat::Gray8);
-    assert!(!s.distortion.is_none());
-    assert_eq!(s.lights.len(), 1);
-    assert!(s.ambient[0] > hilcam::scene::Q::ZERO);
+    assert_eq!(s.camera().intrinsics().size(), (160, 120));
+    assert_eq!(s.format(), hilcam::scene::PixelFormat::Gray8);
+    assert!(!s.distortion().is_none());
+    assert_eq!(s.lights().len(), 1);
+    assert!(s.ambient()[0] > hilcam::scene::Q::ZERO);
     let kinds: Vec<&str> = r.desc.primitives.iter().map(|p| p.kind.as_str()).collect();
     assert_eq!(kinds, ["plane", "sphere", "sphere"]);
 }
@@ -286,7 +287,7 @@ fn line_buffers_are_o_width_and_output_is_deterministic() {
     // flag buffer is refused before the sink hears of the frame.
     let mut none = Count(0, Vec::new());
     for (p, f) in [(159, 160), (160, 159)] {
-        let r = frame.render(&mut vec![0u8; p], &mut vec![0u8; f], &mut none);
+        let r = frame.render(LineBuffers::new(&mut vec![0u8; p], &mut vec![0u8; f]), &mut none);
         assert_eq!(
             r,
             Err(hilcam::render::FrameError::Render(RenderError::BufferTooSmall))
@@ -295,12 +296,14 @@ fn line_buffers_are_o_width_and_output_is_deterministic() {
     assert_eq!(none.0, 0);
     let mut line = vec![0u8; 160];
     let mut a = Count(0, Vec::new());
-    frame.render(&mut line, &mut flags, &mut a).expect("renders");
+    frame
+        .render(LineBuffers::new(&mut line, &mut flags), &mut a)
+        .expect("renders");
     assert_eq!(a.0, 120);
     let mut b = Count(0, Vec::new());
     Frame::new(&s, &p.options)
         .expect("frame")
-        .render(&mut line, &mut flags, &mut b)
+        .render(LineBuffers::new(&mut line, &mut flags), &mut b)
         .expect("renders");
     assert_eq!(a.1, b.1);
 }
@@ -457,21 +460,25 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
     );
     let (mut line, mut flags) = (vec![0u8; 160], vec![0u8; 160]);
     let fast = Frame::new(&s, &p.options).expect("frame");
+    let fast_some = Frame::<Q, MAX_LUT, GrayPerspective>::build(&s, &p.options).expect("frame");
     assert_eq!(fast.line_loop(), LineLoop::FastGrayPerspective);
-    assert!(fast.line_built::<GrayPerspective>());
+    assert!(fast_some.is_built());
     let (mut all, mut some) = (Seen::default(), Seen::default());
-    fast.render(&mut line, &mut flags, &mut all).expect("renders");
-    fast.render_with::<GrayPerspective, _>(&mut line, &mut flags, &mut some)
+    fast.render(LineBuffers::new(&mut line, &mut flags), &mut all)
+        .expect("renders");
+    fast_some
+        .render(LineBuffers::new(&mut line, &mut flags), &mut some)
         .expect("renders with its loop alone");
     assert_eq!(all.bytes.len(), 160 * 120);
     assert_eq!(all.bytes, some.bytes);
 
-    let wide = Frame::new(&s, &p.options.with_arithmetic(Arithmetic::Wide)).expect("frame");
+    let wide = Frame::<Q, MAX_LUT, GrayPerspective>::build(&s, &p.options.with_arithmetic(Arithmetic::Wide))
+        .expect("frame");
     assert_eq!(wide.line_loop(), LineLoop::WidePerspective);
-    assert!(!wide.line_built::<GrayPerspective>());
+    assert!(!wide.is_built());
     let mut refused = Seen::default();
     assert!(matches!(
-        wide.render_with::<GrayPerspective, _>(&mut line, &mut flags, &mut refused),
+        wide.render(LineBuffers::new(&mut line, &mut flags), &mut refused),
         Err(FrameError::Render(RenderError::NotBuilt))
     ));
     assert!(
@@ -479,18 +486,20 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
         "nothing reached the sink"
     );
     assert_eq!(
-        wide.render_line_with::<GrayPerspective>(0, &mut line, &mut flags),
+        wide.render_line(0, &mut line, &mut flags),
         Err(RenderError::NotBuilt)
     );
 }
 
-/// Every line of `f` rendered with `L`'s line loops only.
-fn lines_with<L: hilcam::render::Lines>(f: &Frame) -> Result<Vec<u8>, RenderError> {
+/// Every line of `f`'s scene and options rendered with `L`'s line loops
+/// only.
+fn lines_with<L: hilcam::render::Lines>((s, o): (&Scene, &Options)) -> Result<Vec<u8>, RenderError> {
+    let f = Frame::<Q, MAX_LUT, L>::build(s, o)?;
     let (w, h) = f.size();
     let mut out = Vec::new();
     let (mut line, mut flags) = (vec![0u8; f.line_bytes()], vec![0u8; w as usize]);
     for j in 0..h {
-        f.render_line_with::<L>(j, &mut line, &mut flags)?;
+        f.render_line(j, &mut line, &mut flags)?;
         out.extend_from_slice(&line);
     }
     Ok(out)
@@ -515,12 +524,15 @@ fn a_wide_frame_whose_stage_is_left_out_is_refused() {
     let s = scene("shallow-dof").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
     assert!(p.options.aperture > 0 && p.options.samples <= 1);
-    let frame = Frame::new(&s, &p.options.with_arithmetic(Arithmetic::Wide)).expect("frame");
+    let o = p.options.with_arithmetic(Arithmetic::Wide);
+    let frame = Frame::new(&s, &o).expect("frame");
     assert_eq!(frame.line_loop(), LineLoop::WidePerspective);
-    assert!(frame.line_built::<WideAperture>());
+    assert!(Frame::<Q, MAX_LUT, WideAperture>::build(&s, &o)
+        .expect("frame")
+        .is_built());
     let every = host_sim::harness::collect(&frame).expect("renders");
     assert_eq!(
-        lines(&frame).expect("renders with its stages alone"),
+        lines((&s, &o)).expect("renders with its stages alone"),
         every.pixels
     );
     // A sampled frame and one with the lobe, in the wide arithmetic.
@@ -532,10 +544,10 @@ fn a_wide_frame_whose_stage_is_left_out_is_refused() {
         let o = plan(&s, &Budget::default())
             .options
             .with_arithmetic(Arithmetic::Wide);
-        let frame = Frame::new(&s, &o).expect("frame");
+        let frame = Frame::<Q, MAX_LUT, WideAperture>::build(&s, &o).expect("frame");
         assert_eq!(frame.line_loop(), LineLoop::WidePerspective, "{name}");
-        assert!(!frame.line_built::<WideAperture>(), "{name}: {what} left out");
-        assert_eq!(lines(&frame), Err(RenderError::NotBuilt), "{name}");
+        assert!(!frame.is_built(), "{name}: {what} left out");
+        assert_eq!(lines((&s, &o)), Err(RenderError::NotBuilt), "{name}");
     }
 }
 
@@ -559,7 +571,7 @@ fn a_fast_frame_whose_lobe_is_left_out_is_refused() {
     assert!(!frame.stages().specular);
     let every = host_sim::harness::collect(&frame).expect("renders");
     assert_eq!(
-        lines(&frame).expect("renders without the gray lobe"),
+        lines((&s, &p.options)).expect("renders without the gray lobe"),
         every.pixels
     );
     // The same scene with every stage kept: its (zero) lobe is rendered.
@@ -567,7 +579,7 @@ fn a_fast_frame_whose_lobe_is_left_out_is_refused() {
     o.keep_all_stages = true;
     let kept = Frame::new(&s, &o).expect("frame");
     assert!(kept.stages().specular);
-    assert_eq!(lines(&kept), Err(RenderError::NotBuilt));
+    assert_eq!(lines((&s, &o)), Err(RenderError::NotBuilt));
     // RGB565 with a lobe keeps it.
     let s = scene("spheres-specular").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
@@ -575,55 +587,47 @@ fn a_fast_frame_whose_lobe_is_left_out_is_refused() {
     let frame = Frame::new(&s, &p.options).expect("frame");
     assert!(frame.stages().specular);
     let every = host_sim::harness::collect(&frame).expect("renders");
-    assert_eq!(lines(&frame).expect("renders with the RGB lobe"), every.pixels);
+    assert_eq!(
+        lines((&s, &p.options)).expect("renders with the RGB lobe"),
+        every.pixels
+    );
 }
 
-/// The sampled loop's corner keys carried from a line to the next are used
-/// only for the line after the last one rendered with them: lines taken in
-/// another order (here bottom to top, then every other line), or with a
-/// buffer too short for the frame, come out as rendered alone.
+/// The sampled loop's corner keys carried from line to line change no
+/// byte: a frame rendered in order with keys for every corner, with a key
+/// buffer too short to carry (one word short), and without keys gives the
+/// bytes of its lines rendered alone, in parallel.
 #[test]
-fn carried_corner_keys_serve_only_the_next_line() {
-    use hilcam::render::Carry;
-    use hilcam::render::{AllLines, LineLoop};
+fn carried_corner_keys_change_no_byte() {
+    use hilcam::render::{Image, LineLoop};
     let s = scene("calibration-board").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
     let frame = Frame::new(&s, &p.options).expect("frame");
     assert_eq!(frame.line_loop(), LineLoop::FastGrayPerspectiveSampled);
     let alone = host_sim::harness::collect(&frame).expect("renders");
     let (w, h) = frame.size();
-    let lb = frame.line_bytes();
-    let mut flags = vec![0u8; w as usize];
-    for (order, len) in [
-        ((0..h).rev().collect::<Vec<u16>>(), w as usize + 1),
-        (
-            (0..h).step_by(2).chain((1..h).step_by(2)).collect(),
-            w as usize + 1,
-        ),
-        ((0..h).collect(), w as usize),
-    ] {
+    for len in [w as usize + 1, w as usize, 0] {
         let mut keys = vec![0u64; len];
-        let mut carry = Carry::new(&mut keys);
-        let mut out = vec![0u8; lb * h as usize];
-        for j in order {
-            let line = &mut out[lb * j as usize..lb * (j as usize + 1)];
-            frame
-                .render_line_in::<AllLines>(j, line, &mut flags, &mut carry)
-                .expect("renders");
-        }
-        assert_eq!(out, alone.pixels);
+        let mut flags = vec![0u8; w as usize];
+        let mut out = vec![0u8; frame.line_bytes() * h as usize];
+        frame
+            .render(
+                LineBuffers::new(&mut [], &mut flags).with_keys(&mut keys),
+                &mut Image::new(&mut out),
+            )
+            .expect("renders");
+        assert_eq!(out, alone.pixels, "{len} keys");
     }
 }
 
-/// A [`hilcam::render::Carry`] holds the fast loops' chunk buffers from
-/// line to line (zeroed once, not once a line): every entry a chunk reads
-/// it writes first, so one carry kept across every shipped scene's frame
-/// in turn (wider and narrower, other formats and loops), lines bottom to
-/// top, gives the bytes a fresh render does.
+/// A frame's chunk buffers are kept from line to line (zeroed once a
+/// frame, not once a line): every entry a chunk reads it writes first, so
+/// every shipped scene's frame rendered in order through one carry gives
+/// the bytes and flags of its lines rendered alone, each with fresh
+/// buffers.
 #[test]
-fn one_carry_across_frames_and_lines_changes_no_byte() {
-    use hilcam::render::{AllLines, Carry};
-    let mut carry = Carry::new(&mut []);
+fn one_carry_across_a_frame_changes_no_byte() {
+    use hilcam::render::Image;
     let scenes = host_sim::hil_cmd::shipped_scenes().expect("scenes");
     assert!(scenes.len() >= 8, "{scenes:?}");
     for path in scenes {
@@ -631,22 +635,17 @@ fn one_carry_across_frames_and_lines_changes_no_byte() {
         let frame = Frame::new(&s, &plan(&s, &Budget::default()).options).expect("frame");
         let alone = host_sim::harness::collect(&frame).expect("renders");
         let (w, h) = frame.size();
-        let lb = frame.line_bytes();
-        let (mut out, mut flags) = (
-            vec![0xA5u8; lb * h as usize],
+        let (mut out, mut flags, mut line_flags) = (
+            vec![0xA5u8; frame.line_bytes() * h as usize],
             vec![0xA5u8; w as usize * h as usize],
+            vec![0u8; w as usize],
         );
-        for j in (0..h).rev() {
-            let (j0, j1) = (j as usize, j as usize + 1);
-            frame
-                .render_line_in::<AllLines>(
-                    j,
-                    &mut out[lb * j0..lb * j1],
-                    &mut flags[w as usize * j0..w as usize * j1],
-                    &mut carry,
-                )
-                .expect("renders");
-        }
+        frame
+            .render(
+                LineBuffers::new(&mut [], &mut line_flags),
+                &mut Image::new(&mut out).with_flags(&mut flags),
+            )
+            .expect("renders");
         assert_eq!(out, alone.pixels, "{}", path.display());
         assert_eq!(flags, alone.flags, "{}", path.display());
     }

@@ -53,7 +53,7 @@ use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
 use hilcam::link::{Encoder, FrameStart, Stream};
-use hilcam::render::{Frame, Options, Timed};
+use hilcam::render::{Frame, LineBuffers, Options, Timed};
 use hilcam::num::scalar::Scalar;
 use hilcam::scene::Scene;
 
@@ -481,7 +481,7 @@ impl Runner for Run<'_> {
     fn run<S: Scalar>(&mut self, opts: &Options) -> Result<u64, &'static str> {
         let scene = self.scene;
         let t0 = ticks();
-        let mut frame = Frame::<S, TABLE>::empty();
+        let mut frame = Frame::<S, TABLE, Built>::empty();
         frame.prepare(scene, opts).map_err(|_| "frame")?;
         // The frame id on the wire keys the sensor noise (camera-model.md §9).
         frame.set_frame_id(self.frame_id);
@@ -501,7 +501,7 @@ impl Runner for Run<'_> {
         // adapter around the link's sink.
         let mut sink = Timed::new(Stream { enc: self.enc, start }, ticks, instructions, prepare);
         frame
-            .render_carried::<Built, _>(&mut [], self.flags, self.keys, &mut sink)
+            .render(LineBuffers::new(&mut [], self.flags).with_keys(self.keys), &mut sink)
             .map_err(|_| "render")?;
         Ok(sink.cost())
     }

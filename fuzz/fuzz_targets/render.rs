@@ -66,7 +66,7 @@ fn scene(u: &mut Unstructured) -> arbitrary::Result<Option<Scene>> {
     for _ in 0..u.int_in_range(1u8..=4)? {
         let _ = s.add_material(v3(u, 1.0)?, v3(u, 1.0)?, f(u, 0.0, 1.0)?, u.int_in_range(0u16..=1000)?);
     }
-    let nm = s.materials.len().max(1) as u8;
+    let nm = s.materials().len().max(1) as u8;
     for _ in 0..u.int_in_range(0u8..=6)? {
         let shape = match u8::arbitrary(u)? % 4 {
             0 => ShapeSpec::Plane { point: v3(u, 100.0)?, normal: v3(u, 1.0)? },
@@ -104,7 +104,7 @@ fuzz_target!(|data: &[u8]| {
     let (w, h) = frame.size();
     let mut line = vec![0u8; frame.line_bytes()];
     let mut flags = vec![0u8; w as usize];
-    let bpp = s.format.bytes_per_pixel();
+    let bpp = s.format().bytes_per_pixel();
     for j in 0..h {
         frame.render_line(j, &mut line, &mut flags).expect("buffers are large enough");
         for (px, fl) in line.chunks_exact(bpp).zip(&flags) {
@@ -112,7 +112,7 @@ fuzz_target!(|data: &[u8]| {
                 1 => px[0] as u32,
                 _ => u16::from_le_bytes([px[0], px[1]]) as u32,
             };
-            if let PixelFormat::Gray16 { bits } = s.format {
+            if let PixelFormat::Gray16 { bits } = s.format() {
                 assert!(v < 1 << bits, "value {v} beyond {bits} bits");
             }
             if fl & FLAG_OUTSIDE_FIELD != 0 {

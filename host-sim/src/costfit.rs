@@ -1275,7 +1275,7 @@ fn measure(
         let opts = variant_options(&scene, &v);
         // The table variant on a scene without distortion repeats the
         // polynomial one.
-        if v.name().contains("lut") && scene.distortion.is_none() {
+        if v.name().contains("lut") && scene.distortion().is_none() {
             continue;
         }
         // And without the mean on a scene planned without it (or where it
@@ -1441,7 +1441,7 @@ fn off_centre_copy(path: &Path, dir: &Path) -> Result<Option<std::path::PathBuf>
         return Ok(None);
     }
     let r = load(path)?;
-    let (w, h) = r.core_scene()?.camera.intrinsics.size();
+    let (w, h) = r.core_scene()?.camera().intrinsics().size();
     let name = format!("{}-off-centre", r.desc.name);
     let (cx, cy) = (
         (f64::from(w) - 1.0) / 2.0 + OFF_CENTRE[0],
@@ -1465,7 +1465,7 @@ fn off_centre_copy(path: &Path, dir: &Path) -> Result<Option<std::path::PathBuf>
     std::fs::write(&p, out).map_err(|e| format!("{}: {e}", p.display()))?;
     // (It must load as the scene it copies, moved.)
     let moved = load(&p)?;
-    if moved.desc.name != name || moved.core_scene()?.camera.intrinsics.is_centred_x() {
+    if moved.desc.name != name || moved.core_scene()?.camera().intrinsics().is_centred_x() {
         return Err(format!("{}: the off-centre copy did not take", p.display()));
     }
     Ok(Some(p))

@@ -142,7 +142,7 @@ pub fn run() -> Result<(String, DemoErrors), String> {
 
     // Lens figures.
     let cam = Camera::new(&ic, &s.lens, pose, Model::Perspective).map_err(|e| e.to_string())?;
-    let lens = cam.lens;
+    let lens = cam.lens();
     let rl = ThinLens {
         f: ic.focal_length,
         d: ic.focal_length / 2.8,
@@ -154,7 +154,7 @@ pub fn run() -> Result<(String, DemoErrors), String> {
         Distance::Finite(v) => Some(v.to_num::<f64>()),
         Distance::Infinite => None,
     };
-    let (hx, hy) = cam.intrinsics.half_angles_of_view();
+    let (hx, hy) = cam.intrinsics().half_angles_of_view();
     let (rhx, rhy) = sensor.half_angles_of_view();
     let mut rows: Vec<(&str, f64, Option<f64>)> = vec![
         ("F-number N", lens.f_number().value.to_num(), Some(rl.f_number())),

@@ -481,7 +481,7 @@ impl DriveReport {
 /// The pose of a resolved scene, as the core holds it.
 pub fn scene_pose(r: &Resolved) -> Result<Pose, String> {
     let scene = r.core_scene()?;
-    let e = scene.camera.extrinsics;
+    let e = scene.camera().extrinsics();
     Ok(Pose {
         rotation: e.rotation().map(|row| row.map(|v| v.to_num())),
         translation: e.translation().to_f64(),

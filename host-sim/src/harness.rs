@@ -9,7 +9,9 @@ use crate::reference::sampling::Pattern;
 use crate::scene_file::Resolved;
 use hilcam::num::scalar::Scalar;
 use hilcam::planner::{self, Budget, Plan};
-use hilcam::render::{ClosedMean, Frame, FrameError, FrameSink, Options, RenderError, FLAG_OUTSIDE_FIELD};
+use hilcam::render::{
+    ClosedMean, Frame, FrameError, FrameSink, LineBuffers, Options, RenderError, FLAG_OUTSIDE_FIELD,
+};
 use hilcam::scene::PixelFormat;
 use serde::Serialize;
 
@@ -437,9 +439,9 @@ pub fn render_line_at<S: Scalar>(
     frame.render_line(j, pixels, flags)
 }
 
-/// [`Frame::render_carried`] with every loop (every line through `sink`,
-/// the sampled loop's corner keys carried in `keys`; empty, none), in the
-/// core's loops built for this processor ([`x86_level`]).
+/// [`Frame::render`] (every line through `sink`, the sampled loop's
+/// corner keys carried in `keys`; empty, none), in the core's loops built
+/// for this processor ([`x86_level`]).
 pub fn render_carried<S: Scalar, K: FrameSink>(
     frame: &Frame<S>,
     pixels: &mut [u8],
@@ -451,12 +453,16 @@ pub fn render_carried<S: Scalar, K: FrameSink>(
     match x86_level() {
         // SAFETY: the processor has the level's features (`x86_level` is
         // at most `processor_level`).
-        X86Level::V4 => return unsafe { frame.render_carried_v4(pixels, flags, keys, sink) },
+        X86Level::V4 => {
+            return unsafe { frame.render_v4(LineBuffers::new(pixels, flags).with_keys(keys), sink) }
+        }
         // SAFETY: as above.
-        X86Level::V3 => return unsafe { frame.render_carried_v3(pixels, flags, keys, sink) },
+        X86Level::V3 => {
+            return unsafe { frame.render_v3(LineBuffers::new(pixels, flags).with_keys(keys), sink) }
+        }
         X86Level::Baseline => {}
     }
-    frame.render_carried::<hilcam::render::AllLines, K>(pixels, flags, keys, sink)
+    frame.render(LineBuffers::new(pixels, flags).with_keys(keys), sink)
 }
 
 /// Renders a prepared frame into memory, its lines in parallel on every
@@ -997,7 +1003,7 @@ pub fn render_with(
         reference,
         metrics,
         plan,
-        format: scene.format,
+        format: scene.format(),
     })
 }
 

@@ -661,7 +661,7 @@ fn main() -> ExitCode {
                 secs.sort_by(f64::total_cmp);
                 Ok((secs[secs.len() / 2], arith))
             };
-            let (w, h) = s.camera.intrinsics.size();
+            let (w, h) = s.camera().intrinsics().size();
             let px = w as f64 * h as f64;
             // The plan, named: a scene scaled up may plan a grid or the
             // aperture (a blur circle is more pixels), a far slower loop.

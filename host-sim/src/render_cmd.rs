@@ -33,7 +33,7 @@ pub fn render_to(
     let rs = RefScene::new(r);
     let (w, h) = frame.size();
     let (w, h) = (w as usize, h as usize);
-    let format = scene.format;
+    let format = scene.format();
     let mut pngs = [
         png_stream(out.create("frame.png")?, w, h, Some(format))?,
         png_stream(out.create("reference.png")?, w, h, Some(format))?,

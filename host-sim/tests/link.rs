@@ -3,6 +3,7 @@
 //! and the wire example of docs/wire.md.
 
 use hilcam::link::{Encoder, FrameStart, LinkError, WireFormat, PROTOCOL_VERSION};
+use hilcam::render::LineBuffers;
 use host_sim::link::decoder::{Decoder, Frame};
 use host_sim::link::sim::{inject, send_frames, Faults, Link, Recorder};
 use host_sim::stream_cmd::{campaign, run, wire_example};
@@ -330,7 +331,9 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
         );
         // No line buffer: the stream places each line in the encoder's
         // chunk, where it is rendered.
-        frame.render(&mut [], &mut flags, &mut sink).expect("streams");
+        frame
+            .render(LineBuffers::new(&mut [], &mut flags), &mut sink)
+            .expect("streams");
         sink.cost()
     };
     // begin, the first line's place and each line's placed end a lap of 1
@@ -349,8 +352,7 @@ fn a_frame_streams_through_the_sink_with_its_measured_cost() {
         ..start
     };
     let r = frame.render(
-        &mut [],
-        &mut flags,
+        LineBuffers::new(&mut [], &mut flags),
         &mut hilcam::link::Stream {
             enc: &mut enc,
             start: wrong,
@@ -392,8 +394,7 @@ fn placed_lines_send_the_bytes_copied_lines_do() {
         let mut placed = Encoder::<Recorder, 2048>::new(Recorder::default()).expect("encoder");
         frame
             .render(
-                &mut [],
-                &mut flags,
+                LineBuffers::new(&mut [], &mut flags),
                 &mut hilcam::link::Stream {
                     enc: &mut placed,
                     start,
@@ -404,8 +405,7 @@ fn placed_lines_send_the_bytes_copied_lines_do() {
         let mut line = vec![0u8; frame.line_bytes()];
         frame
             .render(
-                &mut line,
-                &mut flags,
+                LineBuffers::new(&mut line, &mut flags),
                 &mut Copying(hilcam::link::Stream {
                     enc: &mut copied,
                     start,
@@ -470,7 +470,10 @@ fn streamed(scene_text: &str) -> (Vec<u8>, Vec<u8>, Recorder) {
     let mut enc = Encoder::<Recorder, 2048>::new(Recorder::default()).expect("encoder");
     let start = FrameStart::of(0, 0, &scene, &frame.stages(), 0, None);
     frame
-        .render(&mut line, &mut flags, &mut Stream { enc: &mut enc, start })
+        .render(
+            LineBuffers::new(&mut line, &mut flags),
+            &mut Stream { enc: &mut enc, start },
+        )
         .expect("renders");
     let host = host_sim::harness::planned_frame(&scene, "s", &hilcam::planner::Budget::default(), 0)
         .expect("host render")

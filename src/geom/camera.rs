@@ -12,13 +12,13 @@ use crate::num::Sat;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Camera {
     /// Sensor and focal length.
-    pub intrinsics: Intrinsics,
+    pub(crate) intrinsics: Intrinsics,
     /// Pose.
-    pub extrinsics: Extrinsics,
+    pub(crate) extrinsics: Extrinsics,
     /// Projection model.
-    pub model: Model,
+    pub(crate) model: Model,
     /// Thin lens (same focal length as the intrinsics).
-    pub lens: Lens,
+    pub(crate) lens: Lens,
 }
 
 impl Camera {
@@ -35,6 +35,34 @@ impl Camera {
             extrinsics: pose,
             model,
         })
+    }
+
+    /// Sensor and focal length.
+    pub fn intrinsics(&self) -> &Intrinsics {
+        &self.intrinsics
+    }
+
+    /// Pose.
+    pub fn extrinsics(&self) -> &Extrinsics {
+        &self.extrinsics
+    }
+
+    /// Projection model.
+    pub fn model(&self) -> Model {
+        self.model
+    }
+
+    /// Thin lens (same focal length as the intrinsics).
+    pub fn lens(&self) -> &Lens {
+        &self.lens
+    }
+
+    /// This camera moved to `pose`.
+    pub fn with_pose(self, pose: Extrinsics) -> Camera {
+        Camera {
+            extrinsics: pose,
+            ..self
+        }
     }
 
     /// World point → pixel position, through the camera's model.

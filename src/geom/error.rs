@@ -104,6 +104,8 @@ impl fmt::Display for Error {
     }
 }
 
+impl core::error::Error for Error {}
+
 /// How far `R Rᵀ` may be from the identity, entry by entry (and `det R` from
 /// 1), for `R` to be accepted as a rotation.
 pub const ROTATION_TOLERANCE: f64 = 1e-6;

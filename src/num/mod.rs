@@ -172,7 +172,7 @@ fn clz128_words(v: u128) -> u32 {
 /// (half the M0's work of 128-bit ones), the last three at most in 128.
 /// Its users run once a frame (preparation), not a pixel.
 #[inline(never)]
-pub fn isqrt_u128(v: u128) -> u128 {
+pub(crate) fn isqrt_u128(v: u128) -> u128 {
     // Steps: the bit pairs from the highest non-zero one; the pairs are
     // taken from the top of (hi, lo), shifted two bits a step.
     let steps = (129 - clz128(v)) / 2;
@@ -215,7 +215,7 @@ pub fn isqrt_u128(v: u128) -> u128 {
 /// `a · b mod 2⁶⁴` (the noise generator's hash): on the M0
 /// `mul64_words`, elsewhere the one instruction sequence.
 #[inline(always)]
-pub const fn wrapping_mul64(a: u64, b: u64) -> u64 {
+pub(crate) const fn wrapping_mul64(a: u64, b: u64) -> u64 {
     if ARMV6M {
         mul64_words(a, b)
     } else {
@@ -675,14 +675,15 @@ pub fn to_f64<T: fixed::traits::Fixed>(x: T) -> f64 {
 /// (the M0's 10.1 KB with the scene data's `f64` reader, out of line in
 /// the same step).
 #[inline(never)]
-pub fn mul_sat(a: I32F32, b: I32F32) -> I32F32 {
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+pub(crate) fn mul_sat(a: I32F32, b: I32F32) -> I32F32 {
     a.saturating_mul(b)
 }
 
 /// `a / b`, `None` if `b` is 0 or the quotient is out of range. Out of
 /// line, as [`mul_sat`].
 #[inline(never)]
-pub fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
+pub(crate) fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
     a.checked_div(b)
 }
 

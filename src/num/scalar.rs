@@ -13,7 +13,7 @@
 //! | `f32` | 32 | ±3.4·10³⁸ | 24-bit mantissa | soft-float on M0/M3, the FPU on M4F; `sqrt` through `libm` |
 //!
 //! (The 32-bit single-format types I16F16 and I12F20 were measured and
-//! dropped: dominated by the fast arithmetic, [`crate::render::fast`], on every
+//! dropped: dominated by the fast arithmetic, `crate::render::fast`, on every
 //! scene.) The fixed type saturates (never wraps); `f32` overflows to infinity, and
 //! a non-finite value quantizes to a clamped DN (NaN to 0) — nothing panics.
 
@@ -302,7 +302,7 @@ fn mul63(a: u64, b: u64) -> u64 {
 /// `x^n` for `x ∈ [0, 1]` (clamped), by squaring, as a fraction with 63
 /// fractional bits: a Phong lobe of 10⁻⁶ keeps 10⁻¹³ relative, where I32F32
 /// would keep only 10⁻⁴.
-pub fn powi63(x: I32F32, mut n: u16) -> u64 {
+pub(crate) fn powi63(x: I32F32, mut n: u16) -> u64 {
     let mut base = (x.to_bits().clamp(0, 1 << 32) as u64) << 31;
     let mut acc = ONE63;
     while n > 0 {

@@ -65,7 +65,7 @@ pub struct Features {
     pub facing_area: f64,
     /// [`Features::closed`] times the share of its light terms the
     /// interpolation (`Options::closed_mean`) leaves out, in units of the
-    /// pairs' share ([`closed_mean_skipped`]): 0 without it (or without
+    /// pairs' share (`closed_mean_skipped`): 0 without it (or without
     /// exactly one light on the plane's side, [`Features::closed_lights`],
     /// the only case it runs), 1 with `Pairs`, 22/15 with `Quads`, 25/15
     /// with `Octs`.

@@ -57,7 +57,6 @@ mod tests;
 use cost::{fast_shares, Shares};
 use search::{plan_with, prepares};
 
-pub use closed_mean::{closed_mean_factor, closed_mean_skipped};
 pub use cost::APERTURE_STRIDE;
 pub use cost::{CostModel, Features, SampleCost, Samples, COST_TERMS, FAST_COST, WIDE_COST};
 pub use error_model::{Boundary, ErrorModel};

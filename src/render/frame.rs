@@ -2,13 +2,27 @@
 
 use crate::geom::distortion::{Lut, MAX_LUT};
 use crate::num::scalar::Scalar;
+#[cfg(feature = "mix32")]
+use crate::render::fast::Carry;
 use crate::render::options::{
     AllLines, FrameError, LineLoop, Lines, Options, RenderError, RenderModel, Stages,
 };
 use crate::render::prepare::FastInput;
-use crate::render::sink::{Carry, FrameInfo, FrameSink};
+use crate::render::sink::{FrameInfo, FrameSink, LineBuffers};
 use crate::render::wide::{WideFrame, PARALLEL, PINHOLE};
 use crate::scene::{PixelFormat, Scene, Q};
+use core::marker::PhantomData;
+
+/// Without the fast arithmetic nothing carries from line to line.
+#[cfg(not(feature = "mix32"))]
+struct Carry;
+
+#[cfg(not(feature = "mix32"))]
+impl Carry {
+    fn new(_keys: &mut [u64]) -> Carry {
+        Carry
+    }
+}
 
 /// A frame prepared for rendering, with per-pixel values in `S`: one of
 /// the two arithmetics' per-frame state (never both), the distortion table
@@ -17,13 +31,18 @@ use crate::scene::{PixelFormat, Scene, Q};
 /// `T` is the table storage the frame reserves (`4 T` bytes): a device sizes
 /// it to the tables its scenes' plans use ([`crate::planner::Budget`]'s
 /// `max_table_entries`), 0 if none.
+///
+/// `L` is the set of line loops the build compiles in ([`Lines`]; every
+/// loop by default): a frame whose loop `L` leaves out is refused
+/// ([`RenderError::NotBuilt`]) before a line is rendered.
 #[derive(Clone, Debug)]
-pub struct Frame<S: Scalar = Q, const T: usize = MAX_LUT> {
+pub struct Frame<S: Scalar = Q, const T: usize = MAX_LUT, L: Lines = AllLines> {
     width: u16,
     height: u16,
     format: PixelFormat,
     stages: Stages,
     path: Path<S, T>,
+    lines: PhantomData<fn() -> L>,
 }
 
 /// The per-frame state of the arithmetic that renders the frame (no heap to
@@ -44,12 +63,20 @@ impl Frame<Q> {
     pub fn new(scene: &Scene, opts: &Options) -> Result<Frame, RenderError> {
         Frame::build(scene, opts)
     }
+
+    /// Plans `scene` within `budget` ([`crate::planner::plan`]: the
+    /// cheapest rendering predicted to meet it) and prepares that
+    /// rendering. [`crate::planner::plan`] gives the plan itself: its
+    /// candidates, predicted errors and costs.
+    pub fn plan(scene: &Scene, budget: &crate::planner::Budget) -> Result<Frame, RenderError> {
+        Frame::build(scene, &crate::planner::plan(scene, budget).options)
+    }
 }
 
 /// The fast arithmetic's entry points built for one x86-64 level (its
 /// name, features in words, `target_feature` list, then `Mix32`'s line of
 /// that level and the three functions' names): [`Frame::render_line`],
-/// [`Frame::render_carried`] and the line both call. The same bytes as the
+/// [`Frame::render`] and the line both call. The same bytes as the
 /// baseline build (integer arithmetic; host-sim's tests compare every
 /// shipped scene at every level the processor has); the wide arithmetic's
 /// loops are the baseline's. The caller checks the processor (host-sim's
@@ -68,26 +95,23 @@ macro_rules! x86_entry_points {
         }
 
         #[doc = concat!(
-                            "[`Frame::render_carried`] (every loop) with the fast loops built for ",
+                            "[`Frame::render`] with the fast loops built for ",
                             $level, ".\n\n# Safety\n\nCall only on a processor with ", $level, "'s features."
                         )]
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
-        pub fn $carried<K: FrameSink>(
-            &self,
-            pixels: &mut [u8],
-            flags: &mut [u8],
-            keys: &mut [u64],
-            sink: &mut K,
-        ) -> Result<(), FrameError<K::Error>> {
+        pub fn $carried<K: FrameSink>(&self, lines: LineBuffers<'_>, sink: &mut K) -> Result<(), FrameError<K::Error>> {
+            let LineBuffers { pixels, flags, keys } = lines;
             let mut carry = Carry::new(keys);
+            if !self.is_built() {
+                return Err(FrameError::Render(RenderError::NotBuilt));
+            }
             self.render_each(pixels, flags, sink, |j, p, f| {
                 self.$line_in(j, p, f, &mut carry)
             })
         }
 
-        /// [`Frame::render_line_in`] (every loop) with the fast loops of
-        /// this level.
+        /// A line with the fast loops of this level.
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
         fn $line_in(
@@ -100,30 +124,34 @@ macro_rules! x86_entry_points {
             #[cfg(feature = "mix32")]
             if let Path::Fast(m) = &self.path {
                 self.check_buffers(pixels, flags)?;
-                m.$mix::<AllLines>(j, pixels, flags, carry);
+                if !self.is_built() {
+                    return Err(RenderError::NotBuilt);
+                }
+                m.$mix::<L>(j, pixels, flags, carry);
                 return Ok(());
             }
-            self.render_line_in::<AllLines>(j, pixels, flags, carry)
+            self.line_in(j, pixels, flags, carry)
         }
     };
 }
 
-impl<S: Scalar, const T: usize> Frame<S, T> {
+impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
     /// Prepares `scene` for rendering with `opts`, per-pixel values in `S`.
-    pub fn build(scene: &Scene, opts: &Options) -> Result<Frame<S, T>, RenderError> {
+    pub fn build(scene: &Scene, opts: &Options) -> Result<Frame<S, T, L>, RenderError> {
         let mut f = Frame::empty();
         f.prepare(scene, opts)?;
         Ok(f)
     }
 
     /// A frame of no pixels, to be prepared in place by [`Frame::prepare`].
-    pub fn empty() -> Frame<S, T> {
+    pub fn empty() -> Frame<S, T, L> {
         Frame {
             width: 0,
             height: 0,
             format: PixelFormat::Gray8,
             stages: Stages::NONE,
             path: Path::Wide(WideFrame::empty()),
+            lines: PhantomData,
         }
     }
 
@@ -234,7 +262,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
     /// every `stride`-th row and column (traced, tested against one
     /// rectangle, or one sum); `None` otherwise.
     #[cfg(feature = "mix32")]
-    pub fn aperture_classes(&self, stride: u16) -> Option<crate::render::fast::ApertureClasses> {
+    pub fn aperture_classes(&self, stride: u16) -> Option<crate::render::ApertureClasses> {
         match &self.path {
             Path::Wide(_) => None,
             Path::Fast(m) => m.aperture_classes(self.height, stride),
@@ -288,10 +316,11 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         }
     }
 
-    /// Renders line `j` into `pixels` (at least [`Frame::line_bytes`]) and
-    /// `flags` (at least the width).
+    /// Renders line `j` alone into `pixels` (at least
+    /// [`Frame::line_bytes`]) and `flags` (at least the width): lines in any
+    /// order, or in parallel (the same bytes as [`Frame::render`]'s).
     pub fn render_line(&self, j: u16, pixels: &mut [u8], flags: &mut [u8]) -> Result<(), RenderError> {
-        self.render_line_with::<AllLines>(j, pixels, flags)
+        self.line_in(j, pixels, flags, &mut Carry::new(&mut []))
     }
 
     /// The loop this frame's lines are rendered by.
@@ -306,8 +335,9 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         }
     }
 
-    /// Whether this frame's line loop is one of `L`'s.
-    pub fn line_built<L: Lines>(&self) -> bool {
+    /// Whether this frame's line loop is one of `L`'s (otherwise it is
+    /// refused: [`RenderError::NotBuilt`]).
+    pub fn is_built(&self) -> bool {
         let st = &self.stages;
         let wide_stages = match &self.path {
             Path::Wide(_) => {
@@ -327,22 +357,10 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         self.line_loop().built::<L>() && wide_stages
     }
 
-    /// [`Frame::render_line`] with only `L`'s line loops compiled in:
-    /// [`RenderError::NotBuilt`] for a frame whose loop is not one of them.
-    pub fn render_line_with<L: Lines>(
-        &self,
-        j: u16,
-        pixels: &mut [u8],
-        flags: &mut [u8],
-    ) -> Result<(), RenderError> {
-        self.render_line_in::<L>(j, pixels, flags, &mut Carry::new(&mut []))
-    }
-
-    /// [`Frame::render_line_with`] with what the line before (the same
-    /// frame's line `j − 1`, rendered with `carry`) left in `carry`: the
-    /// same bytes, with one row of the sampled loop's corners traced
-    /// instead of two.
-    pub fn render_line_in<L: Lines>(
+    /// Line `j` with what the line before (the same frame's line `j − 1`,
+    /// rendered with `carry`) left in `carry`: the same bytes, with one
+    /// row of the sampled loop's corners traced instead of two.
+    fn line_in(
         &self,
         j: u16,
         pixels: &mut [u8],
@@ -353,7 +371,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         #[cfg(not(feature = "mix32"))]
         let _ = carry;
         self.check_buffers(pixels, flags)?;
-        if !self.line_built::<L>() {
+        if !self.is_built() {
             return Err(RenderError::NotBuilt);
         }
         // Per-frame dispatch to one of the loops; those `L` leaves out are
@@ -383,49 +401,26 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         Ok(())
     }
 
-    /// Renders every line through `sink`, each where the sink places it
-    /// ([`FrameSink::place`]) or in `pixels`; `flags` holds a line's flags.
+    /// Renders the frame, line by line in order, through `sink`: each line
+    /// where the sink places it ([`FrameSink::place`]) or else in
+    /// `lines`' pixel buffer, handed to the sink ([`FrameSink::line`]).
+    /// `lines` holds a line's flags, and the corner keys pixel-area
+    /// sampling carries from line to line (with them, one row of corners
+    /// is traced a line instead of two; the same bytes). Out of line: its
+    /// carry (1.4 KB) is on the stack only while the frame renders, not
+    /// while its caller prepares the next.
+    #[inline(never)]
     pub fn render<K: FrameSink>(
         &self,
-        pixels: &mut [u8],
-        flags: &mut [u8],
+        lines: LineBuffers<'_>,
         sink: &mut K,
     ) -> Result<(), FrameError<K::Error>> {
-        self.render_with::<AllLines, K>(pixels, flags, sink)
-    }
-
-    /// [`Frame::render`] with only `L`'s line loops compiled in: a frame
-    /// whose loop is not one of them is refused
-    /// ([`RenderError::NotBuilt`]) before the sink sees it.
-    pub fn render_with<L: Lines, K: FrameSink>(
-        &self,
-        pixels: &mut [u8],
-        flags: &mut [u8],
-        sink: &mut K,
-    ) -> Result<(), FrameError<K::Error>> {
-        self.render_carried::<L, K>(pixels, flags, &mut [], sink)
-    }
-
-    /// [`Frame::render_with`] carrying the sampled loop's corner keys from
-    /// line to line in `keys` ([`crate::render::sensor::sampling::Corners`]: `width + 1` words; shorter,
-    /// unused): the same frame, one row of corners traced a line instead
-    /// of two. Out of line: its [`Carry`] (1.4 KB) is on the stack only
-    /// while the frame renders, not while its caller prepares the next.
-    #[inline(never)]
-    pub fn render_carried<L: Lines, K: FrameSink>(
-        &self,
-        pixels: &mut [u8],
-        flags: &mut [u8],
-        keys: &mut [u64],
-        sink: &mut K,
-    ) -> Result<(), FrameError<K::Error>> {
+        let LineBuffers { pixels, flags, keys } = lines;
         let mut carry = Carry::new(keys);
-        if !self.line_built::<L>() {
+        if !self.is_built() {
             return Err(FrameError::Render(RenderError::NotBuilt));
         }
-        self.render_each(pixels, flags, sink, |j, p, f| {
-            self.render_line_in::<L>(j, p, f, &mut carry)
-        })
+        self.render_each(pixels, flags, sink, |j, p, f| self.line_in(j, p, f, &mut carry))
     }
 
     /// Every line through `sink`, each rendered by `line` where the sink
@@ -472,7 +467,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt",
         line_v3,
         render_line_v3,
-        render_carried_v3,
+        render_v3,
         render_line_v3_in
     );
     x86_entry_points!(
@@ -481,7 +476,7 @@ impl<S: Scalar, const T: usize> Frame<S, T> {
         "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt,avx512f,avx512cd,avx512vl,avx512bw,avx512dq",
         line_v4,
         render_line_v4,
-        render_carried_v4,
+        render_v4,
         render_line_v4_in
     );
 }

@@ -12,7 +12,7 @@
 //! frame, the distortion table built, constants folded, each bounded
 //! primitive's slope-space bounds computed. The per-pixel arithmetic is the
 //! planner's choice ([`Options::arithmetic`]): the fast one
-//! ([`crate::render::fast`], 32-bit with a format per quantity, lines in chunks of
+//! (`crate::render::fast`, 32-bit with a format per quantity, lines in chunks of
 //! 32 rays), or the wide one here, generic over a [`crate::num::scalar::Scalar`] — I32F32
 //! ([`crate::scene::Q`]) for the planner's fallback, `f32` for comparison
 //! ([`Frame::build`]). The wide one runs one of two pixel loops
@@ -25,7 +25,7 @@
 //! formats cannot hold the planner does not send them.
 
 #[cfg(feature = "mix32")]
-pub mod fast;
+pub(crate) mod fast;
 mod frame;
 mod options;
 pub(crate) mod prepare;
@@ -35,9 +35,11 @@ mod sink;
 pub mod vignetting;
 mod wide;
 
+#[cfg(feature = "mix32")]
+pub use fast::ApertureClasses;
 pub use frame::Frame;
 pub use options::{
     AllLines, Arithmetic, ClosedMean, DistortionEval, FrameError, LineLoop, Lines, Options, Override,
     PlannedLines, RenderError, RenderModel, Stages, FLAG_OUTSIDE_FIELD, MAX_SLOPE,
 };
-pub use sink::{Carry, FrameInfo, FrameSink, Timed};
+pub use sink::{FrameInfo, FrameSink, Image, ImageTooSmall, LineBuffers, Timed};

@@ -125,12 +125,13 @@ pub trait Lines {
     /// and the specular lobe.
     const WIDE_SPECULAR: bool = true;
     /// The sampled fast loops carry their corner keys from line to line
-    /// ([`crate::render::sensor::sampling::Corners`]); without, they trace both rows of
+    /// (`crate::render::sensor::sampling::Corners`); without, they trace both rows of
     /// corners a line whatever the caller passes (less code).
     const CARRY_CORNERS: bool = true;
 }
 
 /// Every line loop.
+#[derive(Clone, Copy, Debug)]
 pub struct AllLines;
 
 impl Lines for AllLines {}
@@ -140,6 +141,7 @@ impl Lines for AllLines {}
 /// are spoken for). (Until the fast aperture loops were planned, it left
 /// them out: they took the camera's flash from 222 704 to 238 292 B on the
 /// M3, 226 116 to 244 920 B on the M0.)
+#[derive(Clone, Copy, Debug)]
 pub struct PlannedLines;
 
 impl Lines for PlannedLines {
@@ -362,7 +364,7 @@ impl ClosedMean {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Arithmetic {
-    /// 32-bit fixed point with a format per quantity ([`crate::render::fast`]):
+    /// 32-bit fixed point with a format per quantity (`crate::render::fast`):
     /// the fast default, for every scene its formats hold.
     Fast,
     /// Every quantity in the frame's [`crate::num::scalar::Scalar`] (I32F32 for the planner's
@@ -535,7 +537,7 @@ pub enum RenderError {
     Degenerate,
     /// The distortion factor `g` exceeds ±32 768 over the sensor.
     DistortionOutOfRange,
-    /// The [`crate::render::fast`] path cannot render the frame: it needs a stage
+    /// The `crate::render::fast` path cannot render the frame: it needs a stage
     /// that path leaves out (a distortion table, defocus) or values beyond
     /// its formats.
     OutsideFormat,
@@ -556,6 +558,33 @@ pub enum FrameError<E> {
     /// The sink failed.
     Sink(E),
 }
+
+impl core::fmt::Display for RenderError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            RenderError::BufferTooSmall => "the line or flag buffer is shorter than a line",
+            RenderError::FieldTooWide => "an undistorted sensor corner lies beyond the largest slope (16)",
+            RenderError::Degenerate => "degenerate frame: a primitive at the centre of projection, or a ray model, sample grid or aperture pattern out of range",
+            RenderError::DistortionOutOfRange => "the distortion factor g exceeds ±32 768 over the sensor",
+            RenderError::OutsideFormat => "the fast arithmetic's formats cannot hold this frame",
+            RenderError::NotBuilt => "this frame's line loop or stage is not built in",
+            RenderError::TableTooLarge => "the distortion table has more entries than the frame holds",
+        })
+    }
+}
+
+impl core::error::Error for RenderError {}
+
+impl<E: core::fmt::Display> core::fmt::Display for FrameError<E> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FrameError::Render(e) => write!(f, "cannot render: {e}"),
+            FrameError::Sink(e) => write!(f, "the sink failed: {e}"),
+        }
+    }
+}
+
+impl<E: core::fmt::Display + core::fmt::Debug> core::error::Error for FrameError<E> {}
 
 /// Which stages a frame runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,7 +1,7 @@
 //! Where rendered lines go: a [`FrameSink`] (a link encoder, a PNG
-//! writer, a test's buffer) and what carries between lines ([`Carry`]).
+//! writer, a caller's [`Image`]), and the line buffers a frame renders
+//! through ([`LineBuffers`]).
 
-use crate::render::sensor::sampling::Corners;
 use crate::scene::PixelFormat;
 
 /// What a [`FrameSink`] is told when a frame begins.
@@ -15,28 +15,112 @@ pub struct FrameInfo {
     pub format: PixelFormat,
 }
 
-/// What a frame's lines, rendered in order, pass from one to the next
-/// ([`crate::render::Frame::render_line_in`]; [`crate::render::Frame::render_carried`] holds one a
-/// frame): the sampled loop's corner keys and, with the fast arithmetic,
-/// its chunk buffers ([`crate::render::fast::ChunkBufs`]).
+/// The buffers a frame renders through ([`crate::render::Frame::render`]):
+/// one line of pixels (where the sink does not place lines itself; may be
+/// empty where it always does), one line of flags (at least the width),
+/// and the corner keys pixel-area sampling carries from line to line
+/// (`width + 1` words; shorter, none carried).
 #[derive(Debug)]
-pub struct Carry<'a> {
-    // (Read by the fast arithmetic's sampled loop alone.)
-    #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
-    pub(crate) corners: Corners<'a>,
-    #[cfg(feature = "mix32")]
-    pub(crate) chunk: crate::render::fast::ChunkBufs,
+pub struct LineBuffers<'a> {
+    pub(crate) pixels: &'a mut [u8],
+    pub(crate) flags: &'a mut [u8],
+    pub(crate) keys: &'a mut [u64],
 }
 
-impl<'a> Carry<'a> {
-    /// A carry for a new frame, with `keys` for the corner keys
-    /// ([`Corners::new`]).
-    pub fn new(keys: &'a mut [u64]) -> Carry<'a> {
-        Carry {
-            corners: Corners::new(keys),
-            #[cfg(feature = "mix32")]
-            chunk: crate::render::fast::ChunkBufs::EMPTY,
+impl<'a> LineBuffers<'a> {
+    /// A line of `pixels` and one of `flags`, no corner keys.
+    pub fn new(pixels: &'a mut [u8], flags: &'a mut [u8]) -> LineBuffers<'a> {
+        LineBuffers {
+            pixels,
+            flags,
+            keys: &mut [],
         }
+    }
+
+    /// These buffers with `keys` for the corner keys.
+    pub fn with_keys(self, keys: &'a mut [u64]) -> LineBuffers<'a> {
+        LineBuffers { keys, ..self }
+    }
+}
+
+/// A whole frame in one caller's buffer: line `y` rendered in place at
+/// `y · line_bytes`, and each line's flags, if asked for, at `y · width`.
+#[derive(Debug)]
+pub struct Image<'a> {
+    pixels: &'a mut [u8],
+    flags: Option<&'a mut [u8]>,
+    width: usize,
+}
+
+/// An [`Image`] too small for the frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageTooSmall;
+
+impl core::fmt::Display for ImageTooSmall {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("the image buffer is smaller than the frame")
+    }
+}
+
+impl core::error::Error for ImageTooSmall {}
+
+impl<'a> Image<'a> {
+    /// An image in `pixels` (at least `line_bytes · height`), without flags.
+    pub fn new(pixels: &'a mut [u8]) -> Image<'a> {
+        Image {
+            pixels,
+            flags: None,
+            width: 0,
+        }
+    }
+
+    /// This image with each pixel's flags ([`crate::render::FLAG_OUTSIDE_FIELD`])
+    /// in `flags` (at least `width · height`).
+    pub fn with_flags(self, flags: &'a mut [u8]) -> Image<'a> {
+        Image {
+            flags: Some(flags),
+            ..self
+        }
+    }
+}
+
+impl FrameSink for Image<'_> {
+    type Error = ImageTooSmall;
+
+    fn begin(&mut self, info: &FrameInfo) -> Result<(), ImageTooSmall> {
+        let (w, h) = (info.width as usize, info.height as usize);
+        let line = w * info.format.bytes_per_pixel();
+        let flags_fit = self.flags.as_ref().is_none_or(|f| f.len() >= w * h);
+        if self.pixels.len() < line * h || !flags_fit {
+            return Err(ImageTooSmall);
+        }
+        self.width = w;
+        Ok(())
+    }
+
+    fn line(&mut self, y: u16, pixels: &[u8], flags: &[u8]) -> Result<(), ImageTooSmall> {
+        let n = pixels.len();
+        let at = y as usize * n;
+        let dst = self.pixels.get_mut(at..at + n).ok_or(ImageTooSmall)?;
+        dst.copy_from_slice(pixels);
+        self.placed(y, flags)
+    }
+
+    fn place(&mut self, y: u16, len: usize) -> Result<Option<&mut [u8]>, ImageTooSmall> {
+        let at = y as usize * len;
+        self.pixels.get_mut(at..at + len).map(Some).ok_or(ImageTooSmall)
+    }
+
+    fn placed(&mut self, y: u16, flags: &[u8]) -> Result<(), ImageTooSmall> {
+        let (w, at) = (self.width, y as usize * self.width);
+        if let Some(all) = self.flags.as_deref_mut() {
+            let (dst, src) = (all.get_mut(at..at + w), flags.get(..w));
+            dst.zip(src)
+                .ok_or(ImageTooSmall)?
+                .0
+                .copy_from_slice(src.unwrap_or_default());
+        }
+        Ok(())
     }
 }
 

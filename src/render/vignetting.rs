@@ -21,7 +21,7 @@ pub fn cos4<S: Scalar>(x: S, y: S) -> S {
 /// `cos⁴α = 1/a²` from `a = 1 + x̂² + ŷ²` (the perspective ray's `d·d`,
 /// which the renderer has computed already).
 #[inline(always)]
-pub fn cos4_of<S: Scalar>(a: S) -> S {
+pub(crate) fn cos4_of<S: Scalar>(a: S) -> S {
     S::ONE.div(a.mul(a)).unwrap_or(S::ZERO)
 }
 

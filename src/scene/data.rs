@@ -207,7 +207,7 @@ pub enum DataError {
     /// over-long varint).
     Malformed,
     /// A camera value: what the camera's constructor said (its key:
-    /// [`camera_key`]).
+    /// `camera_key`).
     Camera(Error),
     /// A scene value.
     Scene(SceneError),
@@ -245,6 +245,8 @@ impl fmt::Display for DataError {
         }
     }
 }
+
+impl core::error::Error for DataError {}
 
 impl From<SceneError> for DataError {
     fn from(e: SceneError) -> Self {
@@ -294,7 +296,7 @@ pub fn load(bytes: &[u8]) -> Result<Scene, DataError> {
 /// returned whatever the error type (one scene on the stack, not a scene
 /// and a copy of it).
 #[inline(never)]
-pub fn load_as<E>(bytes: &[u8], refused: impl Fn(DataError) -> E) -> Result<Scene, E> {
+pub(crate) fn load_as<E>(bytes: &[u8], refused: impl Fn(DataError) -> E) -> Result<Scene, E> {
     let mut r = Reader(bytes);
     let (camera, distortion, format, head) = head(&mut r).map_err(&refused)?;
     let mut scene = Ok(Scene::of(camera, distortion, format, head));
@@ -393,7 +395,7 @@ fn fill(r: &mut Reader, s: &mut Scene) -> Result<(), DataError> {
 /// The scene-file key of a camera constructor's field (the core names its
 /// own parameters: `pitch_x` is the file's `camera.pitch`), the pose given
 /// as `R` and `T`.
-pub fn camera_key(field: Field) -> &'static str {
+pub(crate) fn camera_key(field: Field) -> &'static str {
     match field {
         Field::FocalLength => "camera.focal_length",
         Field::PitchX | Field::PitchY => "camera.pitch",

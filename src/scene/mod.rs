@@ -342,33 +342,35 @@ impl fmt::Display for SceneError {
     }
 }
 
+impl core::error::Error for SceneError {}
+
 /// A renderable scene.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Scene {
     /// The camera (its model is the true model; the planner may render an
     /// approximation of it).
-    pub camera: Camera,
+    pub(crate) camera: Camera,
     /// Radial distortion.
-    pub distortion: Distortion,
+    pub(crate) distortion: Distortion,
     /// Output format.
-    pub format: PixelFormat,
+    pub(crate) format: PixelFormat,
     /// Exposure `K`, DN per W/m² of image irradiance.
-    pub exposure: Q,
+    pub(crate) exposure: Q,
     /// Ambient term `A` per channel (radiance `ρ·A` is added).
-    pub ambient: [Q; 3],
+    pub(crate) ambient: [Q; 3],
     /// Background radiance `L_bg` per channel, W/(m²·sr).
-    pub background: [Q; 3],
+    pub(crate) background: [Q; 3],
     /// Materials.
-    pub materials: heapless::Vec<Material, MAX_MATERIALS>,
+    pub(crate) materials: heapless::Vec<Material, MAX_MATERIALS>,
     /// Primitives.
-    pub primitives: heapless::Vec<Primitive, MAX_PRIMITIVES>,
+    pub(crate) primitives: heapless::Vec<Primitive, MAX_PRIMITIVES>,
     /// Lights.
-    pub lights: heapless::Vec<Light, MAX_LIGHTS>,
+    pub(crate) lights: heapless::Vec<Light, MAX_LIGHTS>,
     /// Pixel-area integration (camera-model.md §7), if the scene asks for
     /// it; without it a pixel is one sample at its centre.
-    pub sampling: Option<Sampling>,
+    pub(crate) sampling: Option<Sampling>,
     /// Sensor noise (camera-model.md §9), if the scene asks for it.
-    pub noise: Option<Noise>,
+    pub(crate) noise: Option<Noise>,
 }
 
 /// Smallest edge-placement error a scene may ask of pixel-area sampling,
@@ -533,6 +535,64 @@ pub enum ShapeSpec {
 }
 
 impl Scene {
+    /// The camera (its model is the true model; the planner may render an
+    /// approximation of it).
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// Radial distortion.
+    pub fn distortion(&self) -> &Distortion {
+        &self.distortion
+    }
+
+    /// Output format.
+    pub fn format(&self) -> PixelFormat {
+        self.format
+    }
+
+    /// Exposure `K`, DN per W/m² of image irradiance.
+    pub fn exposure(&self) -> Q {
+        self.exposure
+    }
+
+    /// Ambient term `A` per channel (radiance `ρ·A` is added).
+    pub fn ambient(&self) -> [Q; 3] {
+        self.ambient
+    }
+
+    /// Background radiance `L_bg` per channel, W/(m²·sr).
+    pub fn background(&self) -> [Q; 3] {
+        self.background
+    }
+
+    /// Materials, in the order they were added (a primitive's `material`
+    /// is an index here).
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// Primitives, in the order they were added.
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.primitives
+    }
+
+    /// Lights, in the order they were added.
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// Pixel-area integration (camera-model.md §7), if the scene asks for
+    /// it; without it a pixel is one sample at its centre.
+    pub fn sampling(&self) -> Option<Sampling> {
+        self.sampling
+    }
+
+    /// Sensor noise (camera-model.md §9), if the scene asks for it.
+    pub fn noise(&self) -> Option<Noise> {
+        self.noise
+    }
+
     /// An empty scene (no materials, primitives or lights) for `camera`.
     ///
     /// `exposure` is `K` in DN per W/m² (0 to 10⁹); `ambient` and

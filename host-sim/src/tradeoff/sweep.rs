@@ -145,8 +145,8 @@ fn host_ns_per_pixel(v: &Variant, r: &Resolved, repeats: usize) -> Result<f64, S
         type Out = Result<f64, String>;
         fn run<S: Scalar>(self) -> Self::Out {
             let mut times = Vec::new();
-            let (w, h) = self.scene.camera.intrinsics.size();
-            let mut line = vec![0u8; w as usize * self.scene.format.bytes_per_pixel()];
+            let (w, h) = self.scene.camera().intrinsics().size();
+            let mut line = vec![0u8; w as usize * self.scene.format().bytes_per_pixel()];
             let mut flags = vec![0u8; w as usize];
             for _ in 0..self.repeats {
                 let t = Instant::now();
@@ -565,9 +565,9 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
             // Per channel value (DN), not per byte: a byte of an RGB565 or
             // Gray16 pixel is not a value.
             let max_between = pa
-                .dn(scene.format)
+                .dn(scene.format())
                 .iter()
-                .zip(&pb_.dn(scene.format))
+                .zip(&pb_.dn(scene.format()))
                 .flat_map(|(x, y)| x.iter().zip(y).map(|(a, b)| a.abs_diff(*b)))
                 .max()
                 .unwrap_or(0);

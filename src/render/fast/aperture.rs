@@ -21,7 +21,7 @@ enum Through {
 }
 
 /// Pixels of a defocused frame by how the fast aperture loop takes them
-/// ([`Mix32::aperture_classes`]).
+/// (`Mix32::aperture_classes`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ApertureClasses {
     /// Pixels looked at.
@@ -266,7 +266,7 @@ impl Mix32 {
                     );
                 }
                 self.singles_at::<L, C>(
-                    (single.get(..singles).unwrap_or_default(), &run_end),
+                    (&single, singles, &run_end),
                     chief,
                     sums,
                     ([a, a24], off),
@@ -293,14 +293,13 @@ impl Mix32 {
     #[inline(always)]
     fn singles_at<L: Lines, const C: usize>(
         &self,
-        (single, run_end): (&[(u8, u8)], &[u8; CHUNK]),
+        (single, singles, run_end): (&[(u8, u8); CHUNK], usize, &[u8; CHUNK]),
         chief: &[Ray],
         sums: &mut [[u64; 3]],
         ([a, a24], off): ([[i32; 2]; 2], [i32; 2]),
         two: &mut [((u8, usize), [u64; 3]); 2],
         k: &mut KCache,
     ) {
-        let singles = single.len();
         // The pixels one rectangle alone meets: each ray tested
         // against it alone (the frame moved to `A` once a point),
         // without its edges (every ray meets it within them, and
@@ -682,7 +681,8 @@ impl Mix32 {
 /// the slope to the cell rounds down or saturates): two rays of the run in
 /// the same cells have every ray between in them. (Without distortion a
 /// row's `ŷ` is one; with it, rays of one `ŷ` are rare: no run.)
-#[inline(always)]
+#[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn single_runs(single: &[(u8, u8); CHUNK], singles: usize, chief: &[Ray]) -> [u8; CHUNK] {
     let mut run_end = [0u8; CHUNK];
     let mut g = singles;

@@ -91,6 +91,7 @@ impl Pf {
     }
 
     /// The value as f64 (exact), for tests.
+    #[cfg(test)]
     pub fn to_f64(self) -> f64 {
         libm::ldexp(self.m as f64, self.e)
     }
@@ -368,6 +369,7 @@ pub(super) fn mul_hi_64_words(a: u64, b: u64) -> u64 {
 /// Relative error: `(1/r)³`'s 3 · 2⁻¹⁹ and the truncation of `n·l` to its
 /// top word, 2⁻²¹ where `n̂·l̂ ≥ 2⁻⁸` (`2⁻²⁹ / n̂·l̂`).
 #[inline]
+#[cfg(test)]
 pub fn cos_over_r2(nl: u64, r2: u64) -> Pf {
     let (_, y, z) = rsqrt_norm(r2);
     cos_over_r3(nl, y, z)

@@ -203,6 +203,7 @@ pub(super) fn noisy_dn(d: crate::render::sensor::noise::Draw<Q>, mu: Q, dn_max: 
 /// line, the general product cost the noisy scene 20 M3 instructions a
 /// pixel more).
 #[inline(always)]
+#[cfg(test)]
 pub fn mul_nonneg(a: Q, b: Q) -> Q {
     Q::from_bits(mul_nonneg_bits(a.to_bits().max(0) as u64, b.to_bits().max(0) as u64) as i64)
 }

@@ -13,7 +13,7 @@ impl Mix32 {
     /// inlined here and into [`Mix32::line_v3`] and [`Mix32::line_v4`]:
     /// three copies of them, two built for newer processors.
     #[cfg_attr(target_arch = "x86_64", inline(never))]
-    pub fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
+    pub(crate) fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
         self.line_any::<L, false>(j, pixels, flags, carry)
     }
 
@@ -31,7 +31,7 @@ impl Mix32 {
     /// Call only on a processor with those features.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
-    pub fn line_v3<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
+    pub(crate) fn line_v3<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
         self.line_any::<L, true>(j, pixels, flags, carry)
     }
 
@@ -47,7 +47,7 @@ impl Mix32 {
     #[target_feature(
         enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt,avx512f,avx512cd,avx512vl,avx512bw,avx512dq"
     )]
-    pub fn line_v4<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
+    pub(crate) fn line_v4<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
         self.line_any::<L, true>(j, pixels, flags, carry)
     }
 

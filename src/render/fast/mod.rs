@@ -88,7 +88,7 @@ use crate::num::scalar::shr_sat;
 use crate::num::{clz64, div_q, mul_sat, umul16_words, FixedF64, ARMV6M};
 use crate::render::sensor::sampling::Corners;
 use crate::render::shading::{Brdf, ShadingLight, V3};
-use crate::render::{Carry, ClosedMean, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
+use crate::render::{ClosedMean, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::scene::{PixelFormat, Q};
 use core::num::{NonZeroU32, NonZeroU64};
 
@@ -107,14 +107,38 @@ mod tests;
 
 pub use aperture::ApertureClasses;
 use aperture::*;
+#[cfg(test)]
+use arith::cos_over_r2;
 use arith::*;
-pub use arith::{cos_over_r2, recip, Pf};
+pub(crate) use arith::{recip, Pf};
+#[cfg(test)]
+use expose::mul_nonneg;
+pub(crate) use expose::SUM_CAP;
 use expose::*;
-pub use expose::{mul_nonneg, SUM_CAP};
 use intersect::*;
 pub use rays::ChunkBufs;
 use rays::*;
 use shade::*;
+
+/// What a frame's lines, rendered in order, pass from one to the next
+/// ([`crate::render::Frame::render`] holds one a frame): the sampled loop's corner keys and, with the fast arithmetic,
+/// its chunk buffers ([`ChunkBufs`]).
+#[derive(Debug)]
+pub(crate) struct Carry<'a> {
+    pub(crate) corners: Corners<'a>,
+    pub(crate) chunk: ChunkBufs,
+}
+
+impl<'a> Carry<'a> {
+    /// A carry for a new frame, with `keys` for the corner keys
+    /// ([`Corners::new`]).
+    pub(crate) fn new(keys: &'a mut [u64]) -> Carry<'a> {
+        Carry {
+            corners: Corners::new(keys),
+            chunk: ChunkBufs::EMPTY,
+        }
+    }
+}
 
 /// Whether `L`'s fast loops for `C` channels render the specular lobe
 /// ([`Lines::FAST_GRAY_SPECULAR`], [`Lines::FAST_RGB_SPECULAR`]); in a

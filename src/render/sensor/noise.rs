@@ -43,7 +43,7 @@ const fn mix_by(mut z: u64, k: [u64; 2]) -> u64 {
 }
 
 /// A frame's key.
-pub const fn frame_key(seed: u64, frame_id: u32) -> u64 {
+pub(crate) const fn frame_key(seed: u64, frame_id: u32) -> u64 {
     mix(seed.wrapping_add(mix(frame_id as u64 + 1)))
 }
 
@@ -151,7 +151,7 @@ pub const Z_ERR: f64 = 4e-5;
 
 /// Largest `|z|` [`normal_q16`] draws: `√2 erfc⁻¹(2⁻⁶³)` = 9.0802, with
 /// [`Z_ERR`].
-pub const Z_MAX: f64 = 9.081;
+pub(crate) const Z_MAX: f64 = 9.081;
 
 /// The noise stage of a frame, in the renderer's scalar.
 #[derive(Clone, Copy, Debug)]
@@ -217,7 +217,7 @@ impl<S: Scalar> Stage<S> {
     /// `pixel`: what [`Stage::apply_with`] combines, for an arithmetic that
     /// combines them its own way (the fast one's [`crate::render::fast`]).
     #[inline(always)]
-    pub fn draw(&self, pixel: u32, c: usize) -> Draw<S> {
+    pub(crate) fn draw(&self, pixel: u32, c: usize) -> Draw<S> {
         Draw {
             ksys: self.ksys.get(c).copied().unwrap_or(S::ZERO),
             dark_var: self.dark_var.get(c).copied().unwrap_or(S::ZERO),
@@ -263,7 +263,7 @@ impl<S: Scalar> Stage<S> {
 
 /// One draw of [`Stage::draw`]: a channel's constants and the pixel's `z`.
 #[derive(Clone, Copy, Debug)]
-pub struct Draw<S> {
+pub(crate) struct Draw<S> {
     /// `K_sys`, DN per electron (≥ 0).
     pub ksys: S,
     /// `(K_sys σ_d)²`, DN² (≥ 0).

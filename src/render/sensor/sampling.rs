@@ -20,7 +20,7 @@
 //! sample beyond it is.
 
 /// The largest grid side.
-pub const MAX_GRID: u8 = 16;
+pub(crate) const MAX_GRID: u8 = 16;
 
 /// The smallest grid side `n` ∈ {1, 2, 4, 8, 16} whose edge-placement error
 /// `1/(2n)` is within `edge_error_px` (16 if none is).
@@ -43,7 +43,8 @@ pub fn edge_error(n: u8) -> f64 {
 /// `step (2a + 1 − n)` shifted right by `log2 n + 1` (rounded toward −∞,
 /// the same on every target; saturating).
 #[inline(never)]
-pub fn scaled_offsets(step: i128, n: u8) -> [i128; MAX_GRID as usize] {
+#[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+pub(crate) fn scaled_offsets(step: i128, n: u8) -> [i128; MAX_GRID as usize] {
     let n = n.clamp(1, MAX_GRID);
     let shift = log2(n) + 1;
     let mut out = [0i128; MAX_GRID as usize];
@@ -66,7 +67,7 @@ pub fn of_scene(scene: &crate::scene::Scene) -> (u8, bool) {
 }
 
 /// `log2 n` of a grid side (0 for 1).
-pub fn log2(n: u8) -> u32 {
+pub(crate) fn log2(n: u8) -> u32 {
     n.max(1).trailing_zeros()
 }
 
@@ -94,13 +95,15 @@ mod tests {
 /// the one after the last, leaves it unused and the line traces both rows.
 /// Only the fast arithmetic's sampled loop uses it.
 #[derive(Debug)]
-pub struct Corners<'a> {
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+pub(crate) struct Corners<'a> {
     /// The keys of the last line's bottom corners, by column.
     keys: &'a mut [u64],
     /// The line whose top corners they are.
     next: Option<u16>,
 }
 
+#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 impl<'a> Corners<'a> {
     /// A carry over `keys` for a new frame (nothing carried yet).
     pub fn new(keys: &'a mut [u64]) -> Corners<'a> {

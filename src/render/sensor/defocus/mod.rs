@@ -22,17 +22,17 @@
 //! content all lies within it pays nothing — with the smallest `m` whose
 //! placement error ([`placement`]) times the largest blur in view, pixels,
 //! is within the edge budget and whose spread error ([`spread`]) is within
-//! [`SPREAD_BUDGET`].
+//! `SPREAD_BUDGET`.
 
 mod table;
 
 pub use table::SPIRAL;
 
 /// The aperture pattern sizes, smallest first.
-pub const SIZES: [u16; 3] = [16, 64, 256];
+pub(crate) const SIZES: [u16; 3] = [16, 64, 256];
 
 /// Most aperture points (the table's length).
-pub const MAX_POINTS: usize = 256;
+pub(crate) const MAX_POINTS: usize = 256;
 
 /// The pattern's placement error as a fraction of the blur diameter, for
 /// [`SIZES`]: over edge directions every 0.5°, the largest distance, along
@@ -50,16 +50,16 @@ const SPREAD: [f64; 3] = [0.0491, 0.0117, 0.0030];
 
 /// The largest spread error the planner accepts: an edge's measured spread
 /// within 2 % of its blur circle.
-pub const SPREAD_BUDGET: f64 = 0.02;
+pub(crate) const SPREAD_BUDGET: f64 = 0.02;
 
 /// The spread error of the `m`-point pattern (1 for a size not in
-/// [`SIZES`]).
+/// `SIZES`).
 pub fn spread(m: u16) -> f64 {
     of_size(SPREAD, m)
 }
 
 /// The placement error of the `m`-point pattern, as a fraction of the blur
-/// diameter (1 for a size not in [`SIZES`]).
+/// diameter (1 for a size not in `SIZES`).
 pub fn placement(m: u16) -> f64 {
     of_size(PLACEMENT, m)
 }
@@ -76,7 +76,7 @@ fn of_size(table: [f64; 3], m: u16) -> f64 {
 /// The smallest pattern whose placement error for a blur of `blur_px`
 /// pixels is within `budget_px` and whose spread error is within
 /// [`SPREAD_BUDGET`] (the largest if none is).
-pub fn points_for(blur_px: f64, budget_px: f64) -> u16 {
+pub(crate) fn points_for(blur_px: f64, budget_px: f64) -> u16 {
     SIZES
         .into_iter()
         .find(|m| placement(*m) * blur_px <= budget_px && spread(*m) <= SPREAD_BUDGET)
