@@ -74,6 +74,7 @@ pub mod num;
 pub mod planner;
 pub mod render;
 pub mod scene;
+mod target;
 
 #[cfg(feature = "defmt")]
 mod fmt;

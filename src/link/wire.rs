@@ -371,8 +371,8 @@ pub fn is_canonical<T: Serialize + ?Sized>(value: &T, body: &[u8]) -> bool {
 /// standard scene, `host-sim profile --board microbit`'s link row). A
 /// single byte's stays in line. In line on the other boards (out of line
 /// it cost the M3 48 B).
-#[cfg_attr(all(target_arch = "arm", not(target_has_atomic = "32")), inline(never))]
-#[cfg_attr(not(all(target_arch = "arm", not(target_has_atomic = "32"))), inline(always))]
+#[cfg_attr(hilcam_m0, inline(never))]
+#[cfg_attr(not(hilcam_m0), inline(always))]
 pub(crate) fn crc_update(d: &mut crc::Digest<'static, u32>, bytes: &[u8]) {
     d.update(bytes);
 }

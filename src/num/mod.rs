@@ -42,11 +42,7 @@ pub(crate) mod vec3;
 use core::ops::{Add, Mul, Neg, Sub};
 use fixed::types::{I16F16, I16F48, I24F40, I2F62, I32F32, I4F28, I4F60, I64F64};
 
-/// Whether this is the Cortex-M0 (ARMv6-M: the Arm target without
-/// atomics). It has only a 32 × 32 → 32 multiply: the compiler's 64-bit
-/// products there are 64 × 64 library calls, which the fast path and the
-/// noise generator replace with 16 × 16-bit products (the same bits).
-pub(crate) const ARMV6M: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
+use crate::target::M0;
 
 /// `a · b` (u32 × u32 → u64) from four 16 × 16-bit products: the cross
 /// terms' sum may carry into bit 32. The M0's route (tested exact); compiled
@@ -80,7 +76,7 @@ pub(crate) fn umul16_words(a: u32, b: u32) -> u64 {
 #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 #[inline(always)]
 pub(crate) fn clz32(x: u32) -> u32 {
-    if ARMV6M {
+    if M0 {
         clz32_table(x)
     } else {
         x.leading_zeros()
@@ -91,7 +87,7 @@ pub(crate) fn clz32(x: u32) -> u32 {
 #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
 #[inline(always)]
 pub(crate) fn clz64(x: u64) -> u32 {
-    if ARMV6M {
+    if M0 {
         clz64_table(x)
     } else {
         x.leading_zeros()
@@ -147,7 +143,7 @@ const CLZ8: [u8; 256] = {
 /// library's 128-bit count is four calls of a bit loop there; per-frame
 /// preparation only).
 pub(crate) fn clz128(v: u128) -> u32 {
-    if ARMV6M {
+    if M0 {
         clz128_words(v)
     } else {
         v.leading_zeros()
@@ -216,7 +212,7 @@ pub(crate) fn isqrt_u128(v: u128) -> u128 {
 /// `mul64_words`, elsewhere the one instruction sequence.
 #[inline(always)]
 pub(crate) const fn wrapping_mul64(a: u64, b: u64) -> u64 {
-    if ARMV6M {
+    if M0 {
         mul64_words(a, b)
     } else {
         a.wrapping_mul(b)
@@ -606,7 +602,7 @@ impl Mul for Wide {
         let a = self.normalized(MUL_BITS);
         let b = o.normalized(MUL_BITS);
         Wide {
-            mant: if ARMV6M {
+            mant: if M0 {
                 mul_63_words(a.mant, b.mant)
             } else {
                 a.mant * b.mant

@@ -19,7 +19,7 @@
 
 use core::num::{NonZeroU32, NonZeroU64};
 
-use crate::num::ARMV6M;
+use crate::target::M0;
 
 pub use fixed::types::I32F32;
 
@@ -110,7 +110,7 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     // shallow-dof 766 373 → 592 573. On the M3 the test cost the wide
     // calibration scenes about 6 % (cal-base 2 611 → 2 769, `host-sim
     // costfit`) for shallow-dof's 3.7 % (193 858 → 186 616).
-    if ARMV6M && (x == 0 || y == 0) {
+    if M0 && (x == 0 || y == 0) {
         return I32F32::ZERO;
     }
     let neg = (x < 0) != (y < 0);
@@ -119,7 +119,7 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     // 32 × 32 → 64-bit products: on the M0 four 16-bit ones (the library's
     // 64-bit multiply is a call that multiplies 64 by 64 bits).
     let mul = |a: u64, b: u64| {
-        if ARMV6M {
+        if M0 {
             crate::num::umul16(a as u32, b as u32)
         } else {
             a * b
@@ -133,7 +133,7 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
         // below 2^63 (xh, yh ≤ 2^31, and xl = 0 where xh = 2^31). On the
         // M0 that one alone, and none where both are below 1 (on the M3 two
         // `UMULL`s cost less than the choice).
-        let cross = if ARMV6M {
+        let cross = if M0 {
             let (h, l) = if yh == 0 { (xh, yl) } else { (yh, xl) };
             if h == 0 {
                 0
@@ -226,7 +226,7 @@ fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
 /// 64-bit one is the library's routine: then [`div_64_32`] divides by
 /// 16-bit digits; elsewhere (the host; the M0, whose 32-bit division is a
 /// routine too) the 64-bit division is used. The same quotients.
-const UDIV32: bool = cfg!(target_arch = "arm") && !ARMV6M;
+const UDIV32: bool = cfg!(target_arch = "arm") && !M0;
 
 /// `n / d` and `n mod d` for a 32-bit `d > 0`.
 #[inline(always)]
@@ -315,107 +315,91 @@ pub(crate) fn powi63(x: I32F32, mut n: u16) -> u64 {
     acc
 }
 
-macro_rules! fixed_scalar {
-    ($t:ty, $name:literal, $mul:expr, $div:expr, $bits:ty, $frac:literal) => {
-        fixed_scalar!(
-            $t,
-            $name,
-            $mul,
-            $div,
-            $bits,
-            $frac,
-            $t,
-            powi_clamped,
-            Scalar::mul
-        );
-    };
-    ($t:ty, $name:literal, $mul:expr, $div:expr, $bits:ty, $frac:literal, $lobe_t:ty, $lobe:expr, $scale:expr) => {
-        impl Scalar for $t {
-            const NAME: &'static str = $name;
-            const ZERO: Self = <$t>::ZERO;
-            const ONE: Self = <$t>::ONE;
-            const HALF: Self = <$t>::from_bits(1 << ($frac - 1));
-            const MAX: Self = <$t>::MAX;
-            #[inline(always)]
-            fn from_q(q: I32F32) -> Self {
-                <$t>::saturating_from_num(q)
+/// The wide arithmetic in I32F32: saturating, products and quotients
+/// rounded once ([`mul_q`], [`div_q`]), the lobe a 63-bit fraction.
+impl Scalar for I32F32 {
+    const NAME: &'static str = "i32f32";
+    const ZERO: Self = I32F32::ZERO;
+    const ONE: Self = I32F32::ONE;
+    const HALF: Self = I32F32::from_bits(1 << 31);
+    const MAX: Self = I32F32::MAX;
+    #[inline(always)]
+    fn from_q(q: I32F32) -> Self {
+        I32F32::saturating_from_num(q)
+    }
+    #[inline(always)]
+    fn to_q(self) -> I32F32 {
+        I32F32::saturating_from_num(self)
+    }
+    #[inline(always)]
+    fn from_int(i: i32) -> Self {
+        I32F32::saturating_from_num(i)
+    }
+    fn to_f64(self) -> f64 {
+        crate::num::to_f64(self)
+    }
+    #[inline(always)]
+    fn from_fixed_bits(bits: i32, frac: u32) -> Self {
+        // Both shifts are by less than 64; the table entry has at
+        // most 30 fractional bits.
+        let b = bits as i64;
+        let v = if frac >= 32 {
+            let s = frac - 32;
+            if s == 0 {
+                b
+            } else {
+                (b + (1 << (s - 1))) >> s
             }
-            #[inline(always)]
-            fn to_q(self) -> I32F32 {
-                I32F32::saturating_from_num(self)
-            }
-            #[inline(always)]
-            fn from_int(i: i32) -> Self {
-                <$t>::saturating_from_num(i)
-            }
-            fn to_f64(self) -> f64 {
-                crate::num::to_f64(self)
-            }
-            #[inline(always)]
-            fn from_fixed_bits(bits: i32, frac: u32) -> Self {
-                // Both shifts are by less than 64; the table entry has at
-                // most 30 fractional bits.
-                let b = bits as i64;
-                let v = if frac >= $frac {
-                    let s = frac - $frac;
-                    if s == 0 {
-                        b
-                    } else {
-                        (b + (1 << (s - 1))) >> s
-                    }
-                } else {
-                    b << ($frac - frac)
-                };
-                <$t>::from_bits(v.clamp(<$bits>::MIN as i64, <$bits>::MAX as i64) as $bits)
-            }
-            #[inline(always)]
-            fn add(self, o: Self) -> Self {
-                self.saturating_add(o)
-            }
-            #[inline(always)]
-            fn sub(self, o: Self) -> Self {
-                self.saturating_sub(o)
-            }
-            #[inline(always)]
-            fn mul(self, o: Self) -> Self {
-                $mul(self, o)
-            }
-            #[inline(always)]
-            fn div(self, o: Self) -> Option<Self> {
-                $div(self, o)
-            }
-            // Out of line: the bit-by-bit root is long, and inlined at each
-            // use it grew every pixel loop.
-            #[inline(never)]
-            fn sqrt(self) -> Option<Self> {
-                self.checked_sqrt()
-            }
-            #[inline(always)]
-            fn abs(self) -> Self {
-                self.saturating_abs()
-            }
-            #[inline(always)]
-            fn neg(self) -> Self {
-                self.saturating_neg()
-            }
-            #[inline(always)]
-            fn floor_int(self) -> i64 {
-                self.to_num::<i64>()
-            }
-            type Lobe = $lobe_t;
-            #[inline(always)]
-            fn lobe(x: Self, n: u16) -> Self::Lobe {
-                $lobe(x, n)
-            }
-            #[inline(always)]
-            fn scale_lobe(k: Self, lobe: Self::Lobe) -> Self {
-                $scale(k, lobe)
-            }
-        }
-    };
+        } else {
+            b << (32 - frac)
+        };
+        I32F32::from_bits(v)
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        self.saturating_add(o)
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        self.saturating_sub(o)
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        mul_q(self, o)
+    }
+    #[inline(always)]
+    fn div(self, o: Self) -> Option<Self> {
+        div_q(self, o)
+    }
+    // Out of line: the bit-by-bit root is long, and inlined at each
+    // use it grew every pixel loop.
+    #[inline(never)]
+    fn sqrt(self) -> Option<Self> {
+        self.checked_sqrt()
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        self.saturating_abs()
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        self.saturating_neg()
+    }
+    #[inline(always)]
+    fn floor_int(self) -> i64 {
+        self.to_num::<i64>()
+    }
+    type Lobe = u64;
+    #[inline(always)]
+    fn lobe(x: Self, n: u16) -> Self::Lobe {
+        powi63(x, n)
+    }
+    #[inline(always)]
+    fn scale_lobe(k: Self, lobe: Self::Lobe) -> Self {
+        scale63(k, lobe)
+    }
 }
 
-fixed_scalar!(I32F32, "i32f32", mul_q, div_q, i64, 32, u64, powi63, scale63);
 /// `p >> SH` saturated to i32 (`SH` in 1..=32): the high word says whether
 /// it fits, without a 64-bit compare.
 #[cfg_attr(not(feature = "mix32"), allow(dead_code))]

@@ -149,8 +149,8 @@ impl Mix32 {
     /// is shaded in the camera frame. A primitive's pass is skipped where
     /// the chunk's chief slopes miss its bounds, widened by the blur. The
     /// mean of the `m` sums is exact (`m` a power of two), rounded once.
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     pub(super) fn line_d<L: Lines, const C: usize>(
         &self,
         j: u16,
@@ -467,8 +467,8 @@ impl Mix32 {
     /// chief rays in `chief`, the box of their slopes `[x̂_lo, x̂_hi, ŷ_lo,
     /// ŷ_hi]`), every primitive's pass, and each hit's shading added to its
     /// pixel's sum.
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     fn traced_at<L: Lines, const C: usize>(
         &self,
         (rays, todo): (&mut [Ray], &[u8; CHUNK]),
@@ -681,8 +681,8 @@ impl Mix32 {
 /// the slope to the cell rounds down or saturates): two rays of the run in
 /// the same cells have every ray between in them. (Without distortion a
 /// row's `ŷ` is one; with it, rays of one `ŷ` are rare: no run.)
-#[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+#[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
 fn single_runs(single: &[(u8, u8); CHUNK], singles: usize, chief: &[Ray]) -> [u8; CHUNK] {
     let mut run_end = [0u8; CHUNK];
     let mut g = singles;

@@ -8,8 +8,9 @@
 
 use super::{SUM_CAP, T_MAX};
 use crate::num::scalar::shr_sat;
-use crate::num::{clz32, clz64, umul16, umul16_words, ARMV6M};
+use crate::num::{clz32, clz64, umul16, umul16_words};
 use crate::scene::Q;
+use crate::target::M0;
 use core::num::NonZeroU32;
 
 /// `m · 2^e`: a normalized mantissa (top bit set) or zero, for the
@@ -160,14 +161,14 @@ pub fn recip(d: NonZeroU32) -> (u32, u32) {
     // r = seed 2^16: both products are by the 16-bit seed.
     let seed = RECIP_SEED.get(idx).copied().unwrap_or(1 << 15);
     // r (2 − v r), Q2.30.
-    let vr = if ARMV6M {
+    let vr = if M0 {
         (umul_h(dn, seed) >> 16) as u32
     } else {
         // The product's high word: no shift on the M3.
         ((dn as u64 * ((seed as u64) << 16)) >> 32) as u32
     };
     let f = (1u32 << 31).wrapping_sub(vr);
-    let r = if ARMV6M {
+    let r = if M0 {
         mul_h_words::<14>(f, seed)
     } else {
         (umul_h(f, seed) >> 14) as u32
@@ -221,7 +222,7 @@ pub(super) fn mul_shr_right(v: i32, r: u32, sh: u32) -> i32 {
 /// instructions), on the M0 [`smul_u`]'s.
 #[inline(always)]
 pub(super) fn smul_r(v: i32, r: u32) -> i64 {
-    if ARMV6M {
+    if M0 {
         smul_u(v, r)
     } else {
         v as i64 * (r as i32) as i64
@@ -278,7 +279,7 @@ pub(super) fn rsqrt_top(m32: u32) -> u32 {
     // y (3 − m y²) / 2: y² in Q3.29, m y² in Q2.30, 32 × 32 products.
     // (m y² < 3·2^30 for every m and its seed: `tests`. The M0 keeps the
     // saturating form, which measured 3 instructions a pixel fewer there.)
-    if ARMV6M {
+    if M0 {
         newton_words(m32, seed)
     } else {
         // The same values from the products' high words: m y² = ⌊m · 4
@@ -320,7 +321,7 @@ pub(super) fn rsqrt_refine(x: u64, y: u32, z: u32) -> (u32, u32) {
     let my2 = mul_hi_64(m, y2);
     let f = (3u64 << 60).saturating_sub(my2);
     // y f < 2^93: ⌊y f / 2^61⌋ < 2^32.
-    let r = if ARMV6M {
+    let r = if M0 {
         mul_shr61_words(y, f)
     } else {
         ((y as u128 * f as u128) >> 61) as u64
@@ -346,7 +347,7 @@ pub(super) fn mul_shr61_words(y: u32, f: u64) -> u64 {
 /// words).
 #[inline(always)]
 pub(super) fn mul_hi_64(a: u64, b: u64) -> u64 {
-    if ARMV6M {
+    if M0 {
         mul_hi_64_words(a, b)
     } else {
         ((a as u128 * b as u128) >> 64) as u64
@@ -461,7 +462,7 @@ pub(super) use copy3;
 
 /// `a · b`, exact (i32 × i32 → i64).
 #[inline(always)]
-#[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+#[cfg(not(hilcam_m0))]
 pub(super) fn wmul(a: i32, b: i32) -> i64 {
     a as i64 * b as i64
 }
@@ -471,7 +472,7 @@ pub(super) fn wmul(a: i32, b: i32) -> i64 {
 /// the standard scene slower: 1 500 against 1 428 instructions a pixel);
 /// [`wmul_px`] inlines it where every pixel needs it.
 #[inline(never)]
-#[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+#[cfg(hilcam_m0)]
 pub(super) fn wmul(a: i32, b: i32) -> i64 {
     wmul16(a, b)
 }
@@ -482,7 +483,7 @@ pub(super) fn wmul(a: i32, b: i32) -> i64 {
 /// the product, whose test measured more there.
 #[inline(always)]
 pub(super) fn wmul_axis(v: i32, c: i32) -> i64 {
-    if ARMV6M && c == 0 {
+    if M0 && c == 0 {
         0
     } else {
         wmul(v, c)
@@ -493,7 +494,7 @@ pub(super) fn wmul_axis(v: i32, c: i32) -> i64 {
 /// makes (the call costs the M0 a third of the product).
 #[inline(always)]
 pub(super) fn wmul_px(a: i32, b: i32) -> i64 {
-    if ARMV6M {
+    if M0 {
         wmul16(a, b)
     } else {
         a as i64 * b as i64
@@ -503,7 +504,7 @@ pub(super) fn wmul_px(a: i32, b: i32) -> i64 {
 /// `a · b`, exact (u32 × u32 → u64).
 #[inline(always)]
 pub(super) fn umul(a: u32, b: u32) -> u64 {
-    if ARMV6M {
+    if M0 {
         umul16(a, b)
     } else {
         a as u64 * b as u64
@@ -518,7 +519,7 @@ pub(super) fn umul(a: u32, b: u32) -> u64 {
 /// around them), so those keep [`umul`].
 #[inline(always)]
 pub(super) fn umul_px(a: u32, b: u32) -> u64 {
-    if ARMV6M {
+    if M0 {
         umul16_words(a, b)
     } else {
         umul(a, b)
@@ -528,7 +529,7 @@ pub(super) fn umul_px(a: u32, b: u32) -> u64 {
 /// `a · b` for a 16-bit `b` (u32 × u16 → u64).
 #[inline(always)]
 pub(super) fn umul_h(a: u32, b: u16) -> u64 {
-    if ARMV6M {
+    if M0 {
         umul_h16(a, b)
     } else {
         a as u64 * b as u64
@@ -546,7 +547,7 @@ pub(super) fn mul32<const F: u32>(a: i32, b: i32) -> i32 {
 /// `a²`, exact (three 16 × 16-bit products on the M0).
 #[inline(always)]
 pub(super) fn wsq(a: i32) -> u64 {
-    if ARMV6M {
+    if M0 {
         usq16(a)
     } else {
         (a as i64 * a as i64) as u64
@@ -556,7 +557,7 @@ pub(super) fn wsq(a: i32) -> u64 {
 /// `a · b` for an unsigned `b` (i32 × u32 → i64; `|a b| ≤ 2⁶³`).
 #[inline(always)]
 pub(super) fn smul_u(a: i32, b: u32) -> i64 {
-    if ARMV6M {
+    if M0 {
         smul_u16(a, b)
     } else {
         a as i64 * b as i64
@@ -566,7 +567,7 @@ pub(super) fn smul_u(a: i32, b: u32) -> i64 {
 /// `v << z` for `z` < 64 (bits shifted out are lost).
 #[inline(always)]
 pub(super) fn shl64(v: u64, z: u32) -> u64 {
-    if ARMV6M {
+    if M0 {
         shl64_words(v, z)
     } else {
         v << z
@@ -576,7 +577,7 @@ pub(super) fn shl64(v: u64, z: u32) -> u64 {
 /// `v >> s` (arithmetic) for `s` < 64.
 #[inline(always)]
 pub(super) fn sar64(v: i64, s: u32) -> i64 {
-    if ARMV6M {
+    if M0 {
         sar64_words(v, s)
     } else {
         v >> s

@@ -112,8 +112,8 @@ impl Mix32 {
     /// been hit or lies outside the field (else every `t` is [`NO_HIT`]: a
     /// pass ran on none, [`Mix32::passes`]). Out of line: its own
     /// registers.
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn closed_run<const C: usize>(
         &self,
@@ -159,11 +159,7 @@ impl Mix32 {
                 // (The two calls: through one closure the compiler kept a
                 // single copy, with the test — 204.8 a pixel.)
                 match noise {
-                    #[cfg(not(all(
-                        feature = "compact",
-                        target_arch = "arm",
-                        not(target_has_atomic = "32")
-                    )))]
+                    #[cfg(not(all(feature = "compact", hilcam_m0)))]
                     None => self.closed_lit::<C>(
                         c,
                         l,
@@ -255,8 +251,8 @@ impl Mix32 {
     /// Out of line, the test with it: the run's loops keep their
     /// registers and size ([`Mix32::closed_run`] says what each form
     /// measured); on the M0 inlined, its words out of line.
-    #[cfg_attr(all(target_arch = "arm", not(target_has_atomic = "32")), inline(always))]
-    #[cfg_attr(not(all(target_arch = "arm", not(target_has_atomic = "32"))), inline(never))]
+    #[cfg_attr(hilcam_m0, inline(always))]
+    #[cfg_attr(not(hilcam_m0), inline(never))]
     fn closed_flat(
         &self,
         c: &Closed,
@@ -275,7 +271,7 @@ impl Mix32 {
         // 72.9, for 96 B). Not on the M0, where `flat_words` is a call (its
         // standard scene moved 586.7 → 587.5 with the second).
         match noise {
-            #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+            #[cfg(not(hilcam_m0))]
             None => self.flat_words(c, rgb, rays, words, dn_max, (None, index, step)),
             _ => self.flat_words(c, rgb, rays, words, dn_max, (noise, index, step)),
         }
@@ -287,8 +283,8 @@ impl Mix32 {
     /// constant sum `flat`. Out of line on the M0 (where `closed_flat`,
     /// the chunk's test, is inlined in the run), inlined in `closed_flat`
     /// elsewhere.
-    #[cfg_attr(all(target_arch = "arm", not(target_has_atomic = "32")), inline(never))]
-    #[cfg_attr(not(all(target_arch = "arm", not(target_has_atomic = "32"))), inline(always))]
+    #[cfg_attr(hilcam_m0, inline(never))]
+    #[cfg_attr(not(hilcam_m0), inline(always))]
     fn flat_words(
         &self,
         c: &Closed,

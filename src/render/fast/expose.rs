@@ -30,7 +30,7 @@ pub(super) fn vignette_dn(sum: u64, c4: u32, max: u32) -> u32 {
 /// [`vignette_dn`] of a sum below 2³² (`lo`).
 #[inline(always)]
 pub(super) fn vignette_dn_lo(lo: u32, c4: u32, max: u32) -> u32 {
-    let dn = if ARMV6M {
+    let dn = if M0 {
         round_c4_words(lo, c4)
     } else {
         ((umul(lo, c4) >> 32) as u32 + (1 << 13)) >> 14
@@ -109,8 +109,8 @@ pub(super) fn vignette_q(sum: u64, c4: u32) -> Q {
 /// three values back through memory, packed by the caller, took the M3's
 /// low-light scene 383.0 instructions a pixel against 370.7). Out of line:
 /// the noiseless pixel loop stays lean.
-#[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+#[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
 pub(super) fn noisy<const C: usize>(
     n: usize,
     z: &crate::render::sensor::noise::Stage<Q>,
@@ -131,7 +131,7 @@ pub(super) fn noisy<const C: usize>(
     // 75.9, spheres-specular 378.3 → 384.7. One helper for these two forms
     // and `Mix32::dn_word`'s, the value a closure argument, measured the
     // M3 camera's standard 217.0 → 222.3, low-light 335.2 → 348.4.)
-    if cfg!(feature = "compact") && !M0_COMPACT {
+    if crate::target::COMPACT && !M0_COMPACT {
         let mut dn = [0u32; 3];
         super::each::<C>(n, |c| {
             if let (Some(d), Some(&s), Some(&max)) = (dn.get_mut(c), sum.get(c), dn_max.get(c)) {
@@ -179,7 +179,7 @@ pub(super) fn noisy_dn(d: crate::render::sensor::noise::Draw<Q>, mu: Q, dn_max: 
     // 2^61, the sum is below 2^63: neither saturates. (Not on the M0: its
     // registers took low-light 29 instructions a pixel more.)
     let (k, dark) = (d.ksys.to_bits() as u64, d.dark_var.to_bits() as u64);
-    let var = if !ARMV6M && ((k | mu as u64) >> 47) | (dark >> 61) == 0 {
+    let var = if !M0 && ((k | mu as u64) >> 47) | (dark >> 61) == 0 {
         mul_small_bits(k, mu as u64) + dark
     } else {
         mul_nonneg_bits(k, mu as u64)
@@ -187,7 +187,7 @@ pub(super) fn noisy_dn(d: crate::render::sensor::noise::Draw<Q>, mu: Q, dn_max: 
             .min(i64::MAX as u64)
     };
     let v = (mu + sigma_z16(var, d.z) + off) >> 32;
-    if ARMV6M {
+    if M0 {
         v.clamp(0, dn_max as i64) as u32
     } else {
         // |v| < 2^30 (μ and the offset below 2^61, σ z within ±2^52, over
@@ -306,7 +306,7 @@ pub(super) fn put(words: &[u16], reversed: bool, bytes_per_pixel: usize, out: &m
 #[inline(always)]
 pub(super) fn quads<T: Copy + Into<u32>>(src: &[T], reversed: bool, out: &mut [u8]) {
     let b = |v: T| v.into() & 0xff;
-    if ARMV6M {
+    if M0 {
         if reversed {
             out.iter_mut()
                 .zip(src.iter().rev())

@@ -19,8 +19,8 @@ use super::*;
 /// the memory [`Mix32::hit_from`]'s other normals were stored to, whose
 /// three 4-byte stores an 8-byte load of them then stalled on (1080p
 /// standard 52.8–53.4 → 54.3–54.9 frames/s, three interleaved runs).
-#[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+#[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
 #[cold]
 pub(super) fn fine_normal<const PERSP: bool, const MOVED: bool>(
     r: &Ray,
@@ -447,7 +447,7 @@ impl MixShape {
                 // hit: 3 instructions a pixel fewer on its standard scene; on
                 // the M3 before it, as its registers would have it: 0.8
                 // fewer.)
-                let b_first = if ARMV6M { 0 } else { b() };
+                let b_first = if M0 { 0 } else { b() };
                 let k = |v: i64| (v >> 28) as i32;
                 let (c0, c1) = ((c[0] as i64) << 26, (c[1] as i64) << 26);
                 let (k0, k1, k2) = (
@@ -469,7 +469,7 @@ impl MixShape {
                 if disc < 0 {
                     continue;
                 }
-                (if ARMV6M { b() } else { b_first }, sqrt_s44_to_s22(disc as u64))
+                (if M0 { b() } else { b_first }, sqrt_s44_to_s22(disc as u64))
             } else {
                 // b = c_z − o_z = c_z (S18); disc = r² − |(c − o)_xy|²,
                 // S36 (|c − o| ≤ 72 U).

@@ -12,7 +12,7 @@ impl Mix32 {
     /// On x86-64 the loops the Cortex-M builds keep out of line are
     /// inlined here and into [`Mix32::line_v3`] and [`Mix32::line_v4`]:
     /// three copies of them, two built for newer processors.
-    #[cfg_attr(target_arch = "x86_64", inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(never))]
     pub(crate) fn line<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
         self.line_any::<L, false>(j, pixels, flags, carry)
     }
@@ -64,7 +64,7 @@ impl Mix32 {
         let (corners, buf) = (&mut carry.corners, &mut carry.chunk);
         // One channel's loops: in a `compact` build, those for three, which
         // compute the frame's one channel ([`chans`]; a copy fewer of each).
-        const G: usize = if cfg!(feature = "compact") { 3 } else { 1 };
+        const G: usize = if crate::target::COMPACT { 3 } else { 1 };
         match self.line_loop() {
             LineLoop::FastGrayPerspective if L::FAST_GRAY_PERSPECTIVE => {
                 self.line_f::<L, LANES, G, true>(j, pixels, flags, buf)
@@ -127,8 +127,8 @@ impl Mix32 {
     /// mirrored ([`Ray::mirror`]) into the right half's columns and run
     /// through the passes again: the right half's rays are not undistorted
     /// anew (the error of each is the mirror image of its column's).
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     pub(super) fn line_f<L: Lines, const LANES: bool, const C: usize, const PERSP: bool>(
         &self,
         j: u16,
@@ -397,7 +397,7 @@ impl Mix32 {
             // (A `compact` build's loop for three channels serves one-channel
             // frames too: their channel alone. The others leave the
             // compiler to drop what `word` does not pack.)
-            None if cfg!(feature = "compact") && !M0_COMPACT => {
+            None if crate::target::COMPACT && !M0_COMPACT => {
                 let mut dn = [0u32; 3];
                 each::<C>(n, |c| {
                     if let (Some(d), Some(&s), Some(&max)) = (dn.get_mut(c), sum.get(c), dn_max.get(c)) {
@@ -426,7 +426,7 @@ impl Mix32 {
             // Three sums below 2^32 (no channel saturated), tested once:
             // spheres-specular 4.4 M3 instructions a pixel fewer (on the
             // M0 1.7 more: not there).
-            None if C == 3 && !ARMV6M && (sum[0] | sum[1] | sum[2]) >> 32 == 0 => word::<C>(
+            None if C == 3 && !M0 && (sum[0] | sum[1] | sum[2]) >> 32 == 0 => word::<C>(
                 n,
                 zip3(sum, dn_max, |s, max| vignette_dn_lo(s as u32, c4, max as u32)),
             ),
@@ -462,7 +462,7 @@ impl Mix32 {
     /// `C` says): no code.
     #[inline(always)]
     pub(super) fn nch(&self) -> usize {
-        if cfg!(feature = "compact") {
+        if crate::target::COMPACT {
             self.format.channels()
         } else {
             0
@@ -565,7 +565,7 @@ impl Mix32 {
                 // (Not kept in a `compact` build, whose loops measured more
                 // with it: shallow-target 270.3 → 286.9 M3 instructions a
                 // pixel, shallow-dof 13 653 → 13 914.)
-                view = (!cfg!(feature = "compact")).then_some(v);
+                view = (!crate::target::COMPACT).then_some(v);
                 n
             }
             // A point of the sphere: `|p − c|` is `r` within the hit's

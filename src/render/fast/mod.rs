@@ -85,11 +85,12 @@
 
 use crate::num::from_acc;
 use crate::num::scalar::shr_sat;
-use crate::num::{clz64, div_q, mul_sat, umul16_words, FixedF64, ARMV6M};
+use crate::num::{clz64, div_q, mul_sat, umul16_words, FixedF64};
 use crate::render::sensor::sampling::Corners;
 use crate::render::shading::{Brdf, ShadingLight, V3};
 use crate::render::{ClosedMean, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
 use crate::scene::{PixelFormat, Q};
+use crate::target::M0;
 use core::num::{NonZeroU32, NonZeroU64};
 
 mod aperture;
@@ -146,7 +147,7 @@ impl<'a> Carry<'a> {
 /// frames too ([`chans`]), if either does (a frame whose lobe `L` leaves
 /// out is refused before it reaches a loop: `Frame::line_built`).
 const fn lobe_built<L: Lines, const C: usize>() -> bool {
-    if cfg!(feature = "compact") {
+    if crate::target::COMPACT {
         L::FAST_RGB_SPECULAR || L::FAST_GRAY_SPECULAR
     } else if C == 3 {
         L::FAST_RGB_SPECULAR
@@ -162,7 +163,7 @@ const fn lobe_built<L: Lines, const C: usize>() -> bool {
 /// M0 camera's flash.
 #[inline(always)]
 const fn chans<const C: usize>(n: usize) -> usize {
-    if cfg!(feature = "compact") {
+    if crate::target::COMPACT {
         if n < C {
             n
         } else {
@@ -173,10 +174,7 @@ const fn chans<const C: usize>(n: usize) -> usize {
     }
 }
 
-/// The M0's driven camera (a `compact` build for ARMv6-M, at opt-level
-/// "z"): where its flash, not speed, decides a form (the rays' y-range,
-/// the inner region's pass, `copy3!`, the exposure's channels).
-const M0_COMPACT: bool = ARMV6M && cfg!(feature = "compact");
+use crate::target::M0_COMPACT;
 
 /// `f(c)` for each of the [`chans`] channels, written out: a loop over them
 /// is not unrolled at opt-level "s" (the firmware's), which cost the RGB565

@@ -8,7 +8,7 @@ use super::*;
 /// ([`Ray::c4`]; the one-sample loop's always do): on the M0 only (on the
 /// M3 the keep cost calibration-board 10 a pixel). The rays are filled
 /// ([`Mix32::rays`]) and read ([`Mix32::c4`]) alike.
-pub(super) const KEEP_C4_SAMPLED: bool = ARMV6M;
+pub(super) const KEEP_C4_SAMPLED: bool = M0;
 
 /// Pixels a pass handles at once (at most 32: [`Mix32::line_f`] keeps a
 /// bit a ray).
@@ -33,7 +33,7 @@ pub(super) const NO_Q2: i32 = -1;
 /// the products are one `SMULL` each and the registers the keeping takes
 /// cost more: kept there, standard measured 304.4 against 293.0,
 /// low-light 536.4 against 524.7.
-pub(super) const KEEP_Q2: bool = ARMV6M || cfg!(target_arch = "x86_64");
+pub(super) const KEEP_Q2: bool = M0 || cfg!(target_arch = "x86_64");
 
 /// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
 /// [`NO_HIT`].
@@ -198,7 +198,7 @@ impl Ray {
     #[cfg_attr(feature = "compact", inline(never))]
     #[cfg_attr(not(feature = "compact"), inline(always))]
     pub(super) fn mirror_all<const PERSP: bool>(rays: &mut [Ray]) {
-        if ARMV6M {
+        if M0 {
             // By index: over the slice's iterator the M0's unrolled loop
             // (opt-level 3) divided the slice's length in bytes by a ray's
             // 40 to count them, a library call a chunk (M0 standard 687.3
@@ -500,7 +500,7 @@ pub(super) fn fill_rays<const PERSP: bool>(
             // (Without `1/a`: rays no sphere's pass and no `cos⁴α` reads.
             // On the M0 alone: elsewhere the arm, though never taken, moved
             // the loops' layout, `Mix32::trace_row`.)
-            #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+            #[cfg(hilcam_m0)]
             Some((x, y)) if PERSP && !ra => Ray::flat(x, y),
             Some((x, y)) => Ray::new::<PERSP>(x, y, korigin).with_c4(vignette),
             None => {
@@ -611,7 +611,7 @@ pub(super) fn fill_lanes(
 #[inline(always)]
 pub(super) fn cos4((r, z): (u32, u32)) -> u32 {
     let inv = r >> (11u32.saturating_sub(z));
-    if ARMV6M {
+    if M0 {
         // (A square: three 16 × 16-bit products, where the form below
         // takes four, 7.5 instructions a pixel more on the standard scene.)
         (umul(inv, inv) >> 31) as u32

@@ -26,8 +26,8 @@ impl Mix32 {
     /// The rays ([`Mix32::rays`]) and passes ([`Mix32::passes`]) of a row: ray `q` at `x̂_d = x − q·step` (S58)
     /// and `(ŷ_d, ŷ_d²)` (S26, S52). Out of line: one copy serves every row
     /// of rays of the sampled loop (pixel centres, corners, grid rows).
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     fn trace_row<const PERSP: bool>(
         &self,
         rays: &mut [Ray],
@@ -49,8 +49,8 @@ impl Mix32 {
     /// [`Mix32::radiance`] out of line: one copy of the shading serves the
     /// sampled loop's centres (whose [`Key`] is known: a checker's cell is
     /// not found twice) and grids.
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     fn radiance_s<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         r: &Ray,
@@ -89,8 +89,8 @@ impl Mix32 {
     /// centres, then the grids of the pixels that need one, each in the
     /// chunk's passes. A grid's mean is exact (`n²` is a power of two), then
     /// rounded once.
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     fn line_s<L: Lines, const C: usize, const PERSP: bool, const CARRY: bool>(
         &self,
         j: u16,
@@ -126,7 +126,7 @@ impl Mix32 {
         let stored = keys.is_some();
         // The corners' rays are not shaded: on the M0, their `1/a` only
         // where a sphere's pass reads it ([`fill_rays`]).
-        let ra = !crate::num::ARMV6M
+        let ra = !crate::target::M0
             || self
                 .prims
                 .iter()
@@ -283,8 +283,8 @@ impl Mix32 {
     /// at `(x̂_d, ŷ_d)` (S58, I64F64 raw) per channel, before rounding
     /// (I32F32 DN, exact: a power-of-two mean of exact values, saturated);
     /// `None` if a sample lies beyond the fold. `rays` is scratch.
-    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
+    #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
     fn grid<L: Lines, const C: usize, const PERSP: bool>(
         &self,
         rays: &mut [Ray],

@@ -106,11 +106,7 @@ pub(super) fn lobe_pf(x: i32, s: u16) -> Pf {
 /// camera without roll: `n_x = 0`) is left out — the same sum.
 #[inline(always)]
 pub(super) fn closed_w(n: [i32; 3], r: &Ray) -> i32 {
-    let nx = if ARMV6M && n[0] == 0 {
-        0
-    } else {
-        wmul_px(n[0], r.x)
-    };
+    let nx = if M0 && n[0] == 0 { 0 } else { wmul_px(n[0], r.x) };
     ((nx + wmul_px(n[1], r.y) + ((n[2] as i64) << 26)) >> 32) as i32
 }
 

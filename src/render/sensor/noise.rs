@@ -84,7 +84,7 @@ pub fn normal_of_hash(h: u64) -> i32 {
     // the cubic in it by Horner; |z| < 9.1 in S27 → S16, rounded.
     let s = (n >> 14) as u16;
     let half = (n >> 30) & 1;
-    let z = if crate::num::ARMV6M {
+    let z = if crate::target::M0 {
         cubic_words(lz, half, s)
     } else {
         // The same value with each product the high word of one SMULL:
@@ -165,7 +165,7 @@ pub struct Stage<S> {
     key: u64,
     /// [`MIX`], read from memory on every draw ([`mix_by`]); not on the
     /// M0, whose draws take [`MIX`] at compile time ([`Stage::normal`]).
-    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+    #[cfg(not(hilcam_m0))]
     mix: [u64; 2],
 }
 
@@ -179,7 +179,7 @@ impl<S: Scalar> Stage<S> {
             dark_var: [S::ZERO; 3],
             offset: [S::HALF; 3],
             key: frame_key(noise.seed, frame_id),
-            #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+            #[cfg(not(hilcam_m0))]
             mix: MIX,
         };
         for c in 0..3 {
@@ -232,9 +232,9 @@ impl<S: Scalar> Stage<S> {
     /// instructions a draw).
     #[inline(always)]
     fn normal(&self, pixel: u32, channel: u8) -> i32 {
-        #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+        #[cfg(not(hilcam_m0))]
         return normal_of_hash(mix_by(input(self.key, pixel, channel), self.mix));
-        #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+        #[cfg(hilcam_m0)]
         return normal_q16(self.key, pixel, channel);
     }
 
