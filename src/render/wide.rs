@@ -120,69 +120,12 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         scene: &Scene,
         opts: &Options,
     ) -> Result<Option<FastInput>, RenderError> {
-        let intr = &scene.camera.intrinsics;
-        let (w, h) = intr.size();
-        let (fx, fy) = intr.focal_px();
-        let (ox, oy) = intr.principal_point();
-        let one = Wide::int(1);
-        let inv_fx = one.checked_div(Wide::of(fx)).ok_or(RenderError::Degenerate)?;
-        let x0 = Wide::of(ox).mul(inv_fx).narrow::<I64F64>().value.to_bits();
-        let dx = inv_fx.narrow::<I64F64>().value.to_bits();
-        let inv_fy = one.checked_div(Wide::of(fy)).ok_or(RenderError::Degenerate)?;
-        let y0 = Wide::of(oy).mul(inv_fy).narrow::<I64F64>().value.to_bits();
-        let dy = inv_fy.narrow::<I64F64>().value.to_bits();
-        self.width = w;
-        self.height = h;
-        self.format = scene.format;
-        self.stages = Stages {
-            model: opts.model,
-            distortion: None,
-            distortion_lut: None,
-            vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
-            specular: scene.has_specular() || opts.keep_all_stages,
-            format: scene.format,
-            arithmetic: opts.arithmetic,
-            samples: opts.samples.clamp(1, crate::render::sensor::sampling::MAX_GRID),
-            adaptive: opts.adaptive && opts.samples > 1,
-            aperture: opts.aperture,
-            noise: scene.noise.is_some(),
-        };
-        if !matches!(self.stages.samples, 1 | 2 | 4 | 8 | 16) {
-            return Err(RenderError::Degenerate);
-        }
-        let aperture = opts.aperture > 0;
-        if aperture
-            && (!crate::render::sensor::defocus::is_size(opts.aperture)
-                || !matches!(opts.model, RenderModel::Perspective))
-        {
-            return Err(RenderError::Degenerate);
-        }
-        if cfg!(not(feature = "sensor")) && (self.stages.samples > 1 || self.stages.noise || aperture) {
-            return Err(RenderError::NotBuilt);
-        }
-        (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
+        self.geometry(scene, opts)?;
         #[cfg(feature = "sensor")]
-        {
-            let n = self.stages.samples;
-            self.sub_x = crate::render::sensor::sampling::scaled_offsets(dx, n);
-            self.sub_y = crate::render::sensor::sampling::scaled_offsets(dy, n);
-            // Half a pixel step (the corners), rounded toward −∞.
-            self.half = (dx >> 1, dy >> 1);
-            self.inv_n2 = S::from_q(Q::from_bits(
-                1i64 << (32 - 2 * crate::render::sensor::sampling::log2(n)),
-            ));
-            // Defocus: the aperture radius, and it over Z̃.
-            let m = opts.aperture.max(1);
-            let lens = &scene.camera.lens;
-            let r = Wide::of(lens.diameter()).mul(Wide::of(Q::from_bits(1 << 31)));
-            let rz = r
-                .checked_div(Wide::of(lens.focus_distance()))
-                .ok_or(RenderError::Degenerate)?;
-            self.ap_r = S::from_q(q(r));
-            self.ap_rz = S::from_q(q(rz));
-            self.ap_shift = crate::render::sensor::defocus::shift(m);
-            self.inv_m = S::from_q(Q::from_bits(1i64 << (32 - m.trailing_zeros())));
-        }
+        self.sensor_constants(scene, opts)?;
+        let intr = &scene.camera.intrinsics;
+        let (w, h) = (self.width, self.height);
+        let aperture = opts.aperture > 0;
         self.noise_spec = scene.noise;
         self.noise = crate::render::sensor::noise::Stage::for_frame(scene.noise, scene.format, 0);
         self.background = from_q3(scene.background);
@@ -195,43 +138,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         self.prims.clear();
         self.lights.clear();
         self.materials = [Brdf::ZERO; crate::scene::MAX_MATERIALS];
-        let mut poly_q = None;
-        // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
-        // every stage kept, a lens without distortion runs the identity
-        // (`k1 = k2 = 0`, g = 1).
-        if !scene.distortion.is_none() || opts.keep_all_stages {
-            let dist = scene.distortion;
-            let mut u_corner = Q::ZERO;
-            for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
-                let (xd, yd) = (self.xd_q(i), self.yd_q(j));
-                u_corner = u_corner.max(Scalar::add(Scalar::mul(xd, xd), Scalar::mul(yd, yd)));
-            }
-            let fold = dist.fold_u().map(Q::saturating_from_num);
-            let (u_max, limit) = match fold {
-                Some(f) if f < u_corner => (f, f),
-                _ => (u_corner, Q::MAX),
-            };
-            self.limit = S::from_q(limit);
-            self.stages.distortion = Some(opts.distortion_eval);
-            if opts.distortion_eval == DistortionEval::Polynomial {
-                let (k1, k2) = dist.coefficients();
-                let k = [k1, k2].map(Q::saturating_from_num);
-                poly_q = Some((k, limit));
-                self.poly = k.map(S::from_q);
-            } else {
-                if opts.lut_entries.clamp(2, MAX_LUT) > T {
-                    return Err(RenderError::TableTooLarge);
-                }
-                // Filled where it is used: no copy of the table on the stack.
-                let lut = self.lut.get_or_insert_with(Lut::empty);
-                if dist.fill_lut(u_max, opts.lut_entries, lut) {
-                    self.lut = None;
-                    return Err(RenderError::DistortionOutOfRange);
-                }
-                self.lut_scale = S::from_q(lut.scale());
-                self.stages.distortion_lut = Some(lut.len());
-            }
-        }
+        let poly_q = self.distortion(scene, opts)?;
         // The widest undistorted corner must stay within MAX_SLOPE.
         for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
             if let Some((x, y)) = self.undistorted(i, j) {
@@ -287,6 +194,136 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 centred: scene.camera.intrinsics.is_centred_x(),
             }));
         }
+        self.wide_scene(scene, opts, origin_scale);
+        Ok(None)
+    }
+
+    /// The pixel grid's slopes (`x̂_d`, `ŷ_d` of pixel 0 and their steps),
+    /// and the stages `opts` asks for, checked.
+    #[inline(always)]
+    fn geometry(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+        let intr = &scene.camera.intrinsics;
+        let (w, h) = intr.size();
+        let (fx, fy) = intr.focal_px();
+        let (ox, oy) = intr.principal_point();
+        let one = Wide::int(1);
+        let inv_fx = one.checked_div(Wide::of(fx)).ok_or(RenderError::Degenerate)?;
+        let x0 = Wide::of(ox).mul(inv_fx).narrow::<I64F64>().value.to_bits();
+        let dx = inv_fx.narrow::<I64F64>().value.to_bits();
+        let inv_fy = one.checked_div(Wide::of(fy)).ok_or(RenderError::Degenerate)?;
+        let y0 = Wide::of(oy).mul(inv_fy).narrow::<I64F64>().value.to_bits();
+        let dy = inv_fy.narrow::<I64F64>().value.to_bits();
+        self.width = w;
+        self.height = h;
+        self.format = scene.format;
+        self.stages = Stages {
+            model: opts.model,
+            distortion: None,
+            distortion_lut: None,
+            vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
+            specular: scene.has_specular() || opts.keep_all_stages,
+            format: scene.format,
+            arithmetic: opts.arithmetic,
+            samples: opts.samples.clamp(1, crate::render::sensor::sampling::MAX_GRID),
+            adaptive: opts.adaptive && opts.samples > 1,
+            aperture: opts.aperture,
+            noise: scene.noise.is_some(),
+        };
+        if !matches!(self.stages.samples, 1 | 2 | 4 | 8 | 16) {
+            return Err(RenderError::Degenerate);
+        }
+        let aperture = opts.aperture > 0;
+        if aperture
+            && (!crate::render::sensor::defocus::is_size(opts.aperture)
+                || !matches!(opts.model, RenderModel::Perspective))
+        {
+            return Err(RenderError::Degenerate);
+        }
+        if cfg!(not(feature = "sensor")) && (self.stages.samples > 1 || self.stages.noise || aperture) {
+            return Err(RenderError::NotBuilt);
+        }
+        (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
+        Ok(())
+    }
+
+    /// The sample grid's offsets and the aperture pattern's constants.
+    #[cfg(feature = "sensor")]
+    #[inline(always)]
+    fn sensor_constants(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+        let (dx, dy) = (self.dx, self.dy);
+        let n = self.stages.samples;
+        self.sub_x = crate::render::sensor::sampling::scaled_offsets(dx, n);
+        self.sub_y = crate::render::sensor::sampling::scaled_offsets(dy, n);
+        // Half a pixel step (the corners), rounded toward −∞.
+        self.half = (dx >> 1, dy >> 1);
+        self.inv_n2 = S::from_q(Q::from_bits(
+            1i64 << (32 - 2 * crate::render::sensor::sampling::log2(n)),
+        ));
+        // Defocus: the aperture radius, and it over Z̃.
+        let m = opts.aperture.max(1);
+        let lens = &scene.camera.lens;
+        let r = Wide::of(lens.diameter()).mul(Wide::of(Q::from_bits(1 << 31)));
+        let rz = r
+            .checked_div(Wide::of(lens.focus_distance()))
+            .ok_or(RenderError::Degenerate)?;
+        self.ap_r = S::from_q(q(r));
+        self.ap_rz = S::from_q(q(rz));
+        self.ap_shift = crate::render::sensor::defocus::shift(m);
+        self.inv_m = S::from_q(Q::from_bits(1i64 << (32 - m.trailing_zeros())));
+        Ok(())
+    }
+
+    /// Distortion over `[0, u_max]`, `u_max = min(fold, corner maximum)`:
+    /// the polynomial's coefficients or the table; the polynomial and the
+    /// `u` limit in I32F32 for the fast arithmetic.
+    #[inline(always)]
+    fn distortion(&mut self, scene: &Scene, opts: &Options) -> Result<Option<([Q; 2], Q)>, RenderError> {
+        let (w, h) = (self.width, self.height);
+        let mut poly_q = None;
+        // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
+        // every stage kept, a lens without distortion runs the identity
+        // (`k1 = k2 = 0`, g = 1).
+        if !scene.distortion.is_none() || opts.keep_all_stages {
+            let dist = scene.distortion;
+            let mut u_corner = Q::ZERO;
+            for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
+                let (xd, yd) = (self.xd_q(i), self.yd_q(j));
+                u_corner = u_corner.max(Scalar::add(Scalar::mul(xd, xd), Scalar::mul(yd, yd)));
+            }
+            let fold = dist.fold_u().map(Q::saturating_from_num);
+            let (u_max, limit) = match fold {
+                Some(f) if f < u_corner => (f, f),
+                _ => (u_corner, Q::MAX),
+            };
+            self.limit = S::from_q(limit);
+            self.stages.distortion = Some(opts.distortion_eval);
+            if opts.distortion_eval == DistortionEval::Polynomial {
+                let (k1, k2) = dist.coefficients();
+                let k = [k1, k2].map(Q::saturating_from_num);
+                poly_q = Some((k, limit));
+                self.poly = k.map(S::from_q);
+            } else {
+                if opts.lut_entries.clamp(2, MAX_LUT) > T {
+                    return Err(RenderError::TableTooLarge);
+                }
+                // Filled where it is used: no copy of the table on the stack.
+                let lut = self.lut.get_or_insert_with(Lut::empty);
+                if dist.fill_lut(u_max, opts.lut_entries, lut) {
+                    self.lut = None;
+                    return Err(RenderError::DistortionOutOfRange);
+                }
+                self.lut_scale = S::from_q(lut.scale());
+                self.stages.distortion_lut = Some(lut.len());
+            }
+        }
+        Ok(poly_q)
+    }
+
+    /// The wide arithmetic's materials, primitives and lights, in the
+    /// camera frame and its scalar.
+    #[inline(always)]
+    fn wide_scene(&mut self, scene: &Scene, opts: &Options, origin_scale: Option<Q>) {
+        let aperture = opts.aperture > 0;
         for (m, dst) in scene.materials.iter().zip(self.materials.iter_mut()) {
             *dst = Brdf::new(m, scene.ambient).to();
         }
@@ -298,7 +335,6 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         for l in &scene.lights {
             let _ = self.lights.push(shading_light(scene, l).to());
         }
-        Ok(None)
     }
 
     #[inline(always)]

@@ -172,7 +172,6 @@ impl Mix32 {
             let Some(rays) = rays.first(flags.len()) else {
                 return;
             };
-            let x_at = |q: usize| x - self.dx * q as i64;
             // Pixels that take the grid.
             let mut grid = u32::MAX;
             if self.adaptive {
@@ -218,64 +217,120 @@ impl Mix32 {
                     }
                 }
                 // Centres: their own sample where the corners agree with it.
-                self.trace_row::<PERSP>(rays, x, self.dx, yd_of(yc), (KEEP_C4_SAMPLED, true));
-                for (q, ((r, c), (out, flag))) in rays
-                    .iter()
-                    .zip(&corners)
-                    .zip(words.iter_mut().zip(flags.iter_mut()))
-                    .enumerate()
-                {
-                    if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
-                        // In the field: its corners are.
-                        let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, &mut k, Some(*c));
-                        *out = Self::dn_word::<C>(
-                            nch,
-                            copy3!(sum),
-                            c4,
-                            copy3!(dn_max),
-                            (noise, index.wrapping_add(q as u32)),
-                        );
-                        *flag = 0;
-                        grid &= !(1 << q);
-                    }
-                }
+                grid &= self.centre_words::<L, C, PERSP>(
+                    (rays, &corners),
+                    (x, yd_of(yc)),
+                    (&mut words, flags),
+                    (noise, index, nch, dn_max),
+                    &mut k,
+                );
             }
-            for q in 0..rays.len() {
-                if grid & (1 << q) == 0 {
-                    continue;
-                }
-                let (Some(out), Some(flag)) = (words.get_mut(q), flags.get_mut(q)) else {
-                    break;
-                };
-                let value = self.grid::<L, C, PERSP>(rays, x_at(q), yc, n, log_n, &mut k);
-                let (dn, f) = match value {
-                    Some(v) => {
-                        let mut dn = [0u32; 3];
-                        for (c, ((d, v), max)) in dn
-                            .iter_mut()
-                            .zip(v)
-                            .zip(copy3!(dn_max))
-                            .take(chans::<C>(nch))
-                            .enumerate()
-                        {
-                            *d = match noise {
-                                Some(z) => noisy_dn(z.draw(index.wrapping_add(q as u32), c), v, max as u16),
-                                None => crate::render::vignetting::round_dn(v, max as u32),
-                            };
-                        }
-                        (dn, 0)
-                    }
-                    None => ([0; 3], FLAG_OUTSIDE_FIELD),
-                };
-                *out = word::<C>(nch, dn);
-                *flag = f;
-            }
+            self.grid_words::<L, C, PERSP>(
+                (rays, grid),
+                (x, yc, n, log_n),
+                (&mut words, flags),
+                (noise, index, nch, dn_max),
+                &mut k,
+            );
             put(&words, false, b, pixels);
             x -= self.dx * rays.len() as i64;
             index = index.wrapping_add(rays.len() as u32);
         }
         if stored {
             carry.carried(j);
+        }
+    }
+
+    /// [`Mix32::line_s`]'s centres (the chunk's rays traced at `x`, row
+    /// `yd`): a pixel whose corners agree (`corners`, [`Key::OUTSIDE`]
+    /// where they do not) and whose centre sees what they see is one
+    /// sample, its word and flag written; the others' bits are left set in
+    /// the mask returned (they take the grid).
+    #[inline(always)]
+    fn centre_words<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        (rays, corners): (&mut [Ray], &[Key; CHUNK]),
+        (x, yd): (i64, (i32, i64)),
+        (words, flags): (&mut [u16; CHUNK], &mut [u8]),
+        (noise, index, nch, dn_max): (
+            Option<&crate::render::sensor::noise::Stage<Q>>,
+            u32,
+            usize,
+            [u64; 3],
+        ),
+        k: &mut KCache,
+    ) -> u32 {
+        let mut grid = u32::MAX;
+        self.trace_row::<PERSP>(rays, x, self.dx, yd, (KEEP_C4_SAMPLED, true));
+        for (q, ((r, c), (out, flag))) in rays
+            .iter()
+            .zip(corners)
+            .zip(words.iter_mut().zip(flags.iter_mut()))
+            .enumerate()
+        {
+            if *c != Key::OUTSIDE && *c == self.key::<PERSP>(r) {
+                // In the field: its corners are.
+                let (sum, c4) = self.radiance_s::<L, C, PERSP>(r, k, Some(*c));
+                *out = Self::dn_word::<C>(
+                    nch,
+                    copy3!(sum),
+                    c4,
+                    copy3!(dn_max),
+                    (noise, index.wrapping_add(q as u32)),
+                );
+                *flag = 0;
+                grid &= !(1 << q);
+            }
+        }
+        grid
+    }
+
+    /// [`Mix32::line_s`]'s pixels whose corners disagree (a bit each in
+    /// `grid`): each the mean of its `n×n` grid ([`Mix32::grid`]; `rays`
+    /// scratch) at `x̂_d = x − q dx`, as words with their flags.
+    #[inline(always)]
+    fn grid_words<L: Lines, const C: usize, const PERSP: bool>(
+        &self,
+        (rays, grid): (&mut [Ray], u32),
+        (x, yc, n, log_n): (i64, i128, u8, u32),
+        (words, flags): (&mut [u16; CHUNK], &mut [u8]),
+        (noise, index, nch, dn_max): (
+            Option<&crate::render::sensor::noise::Stage<Q>>,
+            u32,
+            usize,
+            [u64; 3],
+        ),
+        k: &mut KCache,
+    ) {
+        for q in 0..rays.len() {
+            if grid & (1 << q) == 0 {
+                continue;
+            }
+            let (Some(out), Some(flag)) = (words.get_mut(q), flags.get_mut(q)) else {
+                break;
+            };
+            let value = self.grid::<L, C, PERSP>(rays, x - self.dx * q as i64, yc, n, log_n, k);
+            let (dn, f) = match value {
+                Some(v) => {
+                    let mut dn = [0u32; 3];
+                    for (c, ((d, v), max)) in dn
+                        .iter_mut()
+                        .zip(v)
+                        .zip(copy3!(dn_max))
+                        .take(chans::<C>(nch))
+                        .enumerate()
+                    {
+                        *d = match noise {
+                            Some(z) => noisy_dn(z.draw(index.wrapping_add(q as u32), c), v, max as u16),
+                            None => crate::render::vignetting::round_dn(v, max as u32),
+                        };
+                    }
+                    (dn, 0)
+                }
+                None => ([0; 3], FLAG_OUTSIDE_FIELD),
+            };
+            *out = word::<C>(nch, dn);
+            *flag = f;
         }
     }
 
