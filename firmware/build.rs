@@ -1,4 +1,5 @@
-//! Picks the board's memory map, and encodes every scene in ../scenes as
+//! Writes the board's memory map and UART constants (from boards.toml,
+//! `HILCAM_BOARD`), and encodes every scene in ../scenes as
 //! scene data (`hilcam::scene::data`, postcard) — the blobs the firmware
 //! holds in flash and builds with the core at run time, from the same f64
 //! values host-sim builds its scenes from, so the firmware renders exactly
@@ -11,20 +12,36 @@ use std::path::PathBuf;
 
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
-    let feature = |f: &str| std::env::var_os(format!("CARGO_FEATURE_BOARD_{f}")).is_some();
-    let memory = if feature("MPS2_AN386") {
-        "memory-mps2-an386.x"
-    } else if feature("MICROBIT") {
-        "memory-microbit.x"
-    } else {
-        "../memory.x"
-    };
-    std::fs::copy(memory, out.join("memory.x")).expect("memory map");
+    // The board (firmware/boards.toml): its memory map for the linker, its
+    // UART's kind (a cfg) and base, and its SysTick period.
+    println!("cargo:rerun-if-env-changed=HILCAM_BOARD");
+    println!("cargo:rerun-if-changed=boards.toml");
+    println!("cargo::rustc-check-cfg=cfg(hilcam_uart, values(\"pl011\", \"cmsdk\", \"nrf51\"))");
+    let name = std::env::var("HILCAM_BOARD").unwrap_or_else(|_| "lm3s6965evb".into());
+    let board = host_sim::boards::Board::parse(&name).unwrap_or_else(|e| panic!("HILCAM_BOARD: {e}"));
+    let spec = board.spec();
+    if std::env::var("TARGET").is_ok_and(|t| t != spec.target) {
+        panic!(
+            "HILCAM_BOARD={name} is built for {}, not {}",
+            spec.target,
+            std::env::var("TARGET").unwrap_or_default()
+        );
+    }
+    std::fs::write(out.join("memory.x"), host_sim::boards::memory_x(spec)).expect("memory.x");
+    println!("cargo::rustc-cfg=hilcam_uart=\"{}\"", spec.uart.name());
+    std::fs::write(
+        out.join("board.rs"),
+        format!(
+            "/// UART0's base address ({name}).\nconst UART_BASE: usize = {:#x};\n/// SysTick's period, ps.\npub const SYSTICK_PS: u64 = {};\n",
+            spec.uart_base,
+            board.systick_ps()
+        ),
+    )
+    .expect("board.rs");
     // cortex-m-rt's "device" feature includes device.x for the interrupt
     // handlers' weak aliases: the firmware enables none (main.rs).
     std::fs::write(out.join("device.x"), "/* no device interrupt handlers */\n").expect("device.x");
     println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rerun-if-changed={memory}");
     println!("cargo:rerun-if-changed=../scenes");
 
     // HILCAM_SCENES: newline-separated scene files (host-sim hil --scene);

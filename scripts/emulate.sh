@@ -1,100 +1,158 @@
 #!/usr/bin/env bash
-# The main job: renders every shipped scene with the fixed-point core and the
-# f64 reference, writes the frames, diff maps and metrics under out/, and
-# prints one line of metrics a scene; streams the standard scene through the
-# simulated UART and USB links and runs the fault campaign; runs the firmware
-# in QEMU on both boards (installing QEMU when it can) and checks its frames
-# against the host render; drives the camera firmware in QEMU along a
-# trajectory (the closed loop); the speed/accuracy sweep; then the demo camera's
-# projections and lens figures, core vs reference.
+# The main job: the emulator end to end, a line a stage with its time.
 #
-# Works on a fresh machine with only rustup (it installs the thumb targets).
-# --short: fewer streamed frames and the sweep's tiny configuration (what the
-# test command runs, so that CI exercises this script).
+#   render    every shipped scene with the fixed-point core and the f64
+#             reference: frame, reference, diff map, metrics (out/<scene>/)
+#   link      the standard scene over the simulated UART and USB links, and
+#             the fault campaign (out/stream-uart, out/stream-usb, out/faults)
+#   opencv    OpenCV's calibration on the rendered calibration set, and the
+#             ground-truth export checked with cv2.projectPoints (a Python
+#             virtual environment in target/venv; out/opencv, out/export)
+#   firmware  the firmware on every board of firmware/boards.toml in QEMU,
+#             every frame checked byte for byte against the host render
+#             (out/hil/<board>/)
+#   drive     the camera firmware driven over its UART along a trajectory,
+#             and sent a scene it was not built with (out/drive, out/drive-new)
+#   sweep     the speed/accuracy trade, every variant against the reference
+#             (out/tradeoff)
+#
+# Works on a fresh machine with only rustup: it installs the thumb targets,
+# QEMU (as root, with apt) and the Python packages (in target/venv).
+# Without QEMU it says so and runs the host-only stages.
+#
+#   --full    the whole sweep, 300 poses, 200 frames a link, the fault
+#             campaign at full scale, the 1080p throughput; then
+#             docs/measurements.md from these outputs
+#             (scripts/measurements.py)
+#   --short   what the test command runs: host-sim as the tests built it
+#             (HILCAM_HOST_SIM), otherwise as the default
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib.sh
-short=0
-[ "${1:-}" = "--short" ] && short=1
-ensure_toolchain
-# host-sim's release build, or a host-sim the caller built (HILCAM_HOST_SIM:
-# the test command gives the one its tests ran, built at the test profile;
-# the same frames and instruction counts, only its host timings slower).
+mode=default
+case "${1:-}" in
+  --full) mode=full ;;
+  --short) mode=short ;;
+  "") ;;
+  *) echo "usage: $0 [--full | --short]" >&2; exit 2 ;;
+esac
+start=$(date +%s.%N)
+mkdir -p out
+: > out/run.tsv
+
+# stage NAME COMMAND...: runs COMMAND, its output indented, then one line
+# with the stage's time; the time and the command go to out/run.tsv.
+stage() {
+  local name=$1 t0 t1
+  shift
+  t0=$(date +%s.%N)
+  echo "== $name"
+  if "$@" 2>&1 | sed 's/^/   /'; then :; else
+    echo "FAILED: $name ($*)" >&2
+    exit 1
+  fi
+  t1=$(date +%s.%N)
+  printf '%s\t%.1f\t%s\n' "$name" "$(awk "BEGIN { print $t1 - $t0 }")" "$*" >> out/run.tsv
+  printf '   %s: %.1f s\n' "$name" "$(awk "BEGIN { print $t1 - $t0 }")"
+}
+
+stage toolchain ensure_toolchain
+qemu=0
+ensure_qemu > out/qemu-install.log 2>&1 && qemu=1
+
+# host-sim: the one the caller built (HILCAM_HOST_SIM), or the main job's
+# build (the release profile's optimisation without its single codegen unit
+# and LTO: the same frames and counts, built in a fraction of the time).
 if [ -n "${HILCAM_HOST_SIM:-}" ]; then
   host_sim=$HILCAM_HOST_SIM
 else
-  cargo build -q --release -p host-sim
-  host_sim=./target/release/host-sim
+  stage build cargo build -q --profile main-job -p host-sim
+  host_sim=./target/main-job/host-sim
 fi
-for scene in scenes/*.toml; do
-  name=$(basename "$scene" .toml)
-  "$host_sim" render --scene "$scene" --out "out/$name"
-done
-echo "frames, diff maps and metrics.json: out/<scene>/"
-echo
-# The link: the standard scene streamed through the simulated links, then the
-# standard fault campaign.
-uart_frames=20 usb_frames=200
-[ $short = 1 ] && uart_frames=3 usb_frames=20
-"$host_sim" stream --scene scenes/standard.toml --link uart:921600 --frames $uart_frames --out out/stream-uart
-"$host_sim" stream --scene scenes/standard.toml --link usb-fs --frames $usb_frames --out out/stream-usb
-"$host_sim" faults --out out/faults 2>/dev/null
-echo
-# The sensor as calibration software sees it: OpenCV's corners and
-# calibrateCamera on the 36-frame calibration set (pixel-area integration by
-# default) against the true corners (docs/sensor.md). Installs
-# opencv-python-headless and numpy with pip when they are missing.
-python3 scripts/opencv-check.py --host-sim "$host_sim" --out out/opencv
-# The ground-truth export (host-sim export: OpenCV and ROS YAML), loaded by
-# OpenCV and checked with cv2.projectPoints on every shipped camera.
-python3 scripts/export-check.py --host-sim "$host_sim" --out out/export
-echo
-# The firmware in QEMU: the same scenes rendered on a Cortex-M3 and a
-# Cortex-M4F, streamed over their UARTs, checked byte for byte.
-qemu=0
-ensure_qemu && qemu=1
+
+render_all() {
+  for scene in scenes/*.toml; do
+    "$host_sim" render --scene "$scene" --out "out/$(basename "$scene" .toml)" | head -1
+  done
+}
+stage render render_all
+
+frames_uart=3 frames_usb=20 scale=0.1
+[ $mode = full ] && frames_uart=20 frames_usb=200 scale=1
+link_all() {
+  "$host_sim" stream --scene scenes/standard.toml --link uart:921600 --frames $frames_uart --out out/stream-uart
+  "$host_sim" stream --scene scenes/standard.toml --link usb-fs --frames $frames_usb --out out/stream-usb
+  "$host_sim" faults --scale $scale --out out/faults 2>/dev/null
+}
+stage link link_all
+
+opencv_all() {
+  ensure_venv
+  target/venv/bin/python scripts/opencv-check.py --host-sim "$host_sim" --out out/opencv
+  target/venv/bin/python scripts/export-check.py --host-sim "$host_sim" --out out/export
+}
+stage opencv opencv_all
+
 if [ $qemu = 1 ]; then
-  build_firmware
-  "$host_sim" hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware --out out/hil/lm3s6965evb
-  "$host_sim" hil --board mps2-an386 --elf firmware/target/thumbv7em-none-eabihf/release/hilcam-firmware --out out/hil/mps2-an386
-  # The Cortex-M0 with 16 KiB of RAM (QEMU microbit, nRF51 UART).
-  "$host_sim" hil --board microbit --elf firmware/target/thumbv6m-none-eabi/release/hilcam-firmware --out out/hil/microbit
-  # The closed loop: the camera build of the firmware driven over its UART
-  # (LoadScene: the scene as data; then SetPose, Trigger) along a
-  # trajectory, every frame checked byte for byte against the host render
-  # of its pose and its ground truth against the pose sent.
-  loop_frames=300
-  [ $short = 1 ] && loop_frames=30
-  "$host_sim" drive --board lm3s6965evb --scene scenes/standard.toml --frames $loop_frames \
-    --capture out/drive/camera.bin --out out/drive
-  # A scene the firmware was not built with (the standard scene in RGB565,
-  # a sphere moved and coloured, a lens whose fold lies inside the sensor:
-  # pixels outside the lens field, flagged on the wire): sent as data,
-  # driven the same way.
-  mkdir -p out/drive-new
-  sed -e 's/^name = "standard"/name = "not-shipped"/' -e 's/^format = "gray8"/format = "rgb565"/' \
-      -e 's/^distortion = \[0.15, 0.05\]/distortion = [-2.0, 0.0]/' \
-      -e 's/^albedo = 0.8$/albedo = [0.8, 0.5, 0.3]/' \
-      -e 's/^centre = \[-0.5, 0.4, 0.3\]/centre = [-0.3, 0.5, 0.6]/' scenes/standard.toml > out/drive-new/scene.toml
-  cmp -s scenes/standard.toml out/drive-new/scene.toml && { echo "the edits changed nothing"; exit 1; }
-  "$host_sim" drive --board lm3s6965evb --scene out/drive-new/scene.toml --frames 10 \
-    --out out/drive-new/frames
+  firmware_all() {
+    for board in $(sed -n 's/^name = "\(.*\)"/\1/p' firmware/boards.toml); do
+      "$host_sim" hil --board "$board" --out "out/hil/$board" | tail -1
+    done
+  }
+  stage firmware firmware_all
+  poses=30
+  [ $mode = full ] && poses=300
+  drive_all() {
+    "$host_sim" drive --board lm3s6965evb --scene scenes/standard.toml --frames $poses \
+      --capture out/drive/camera.bin --out out/drive | tail -1
+    # A scene the firmware was not built with (the standard scene in
+    # RGB565, a sphere moved and coloured, a lens whose fold lies inside
+    # the sensor: pixels outside the lens field, flagged on the wire), sent
+    # as data and driven the same way.
+    mkdir -p out/drive-new
+    sed -e 's/^name = "standard"/name = "not-shipped"/' -e 's/^format = "gray8"/format = "rgb565"/' \
+        -e 's/^distortion = \[0.15, 0.05\]/distortion = [-2.0, 0.0]/' \
+        -e 's/^albedo = 0.8$/albedo = [0.8, 0.5, 0.3]/' \
+        -e 's/^centre = \[-0.5, 0.4, 0.3\]/centre = [-0.3, 0.5, 0.6]/' scenes/standard.toml > out/drive-new/scene.toml
+    cmp -s scenes/standard.toml out/drive-new/scene.toml && { echo "the edits changed nothing"; return 1; }
+    "$host_sim" drive --board lm3s6965evb --scene out/drive-new/scene.toml --frames 10 --out out/drive-new/frames | tail -1
+  }
+  stage drive drive_all
 else
-  echo "SKIPPED: the firmware-in-QEMU run (qemu-system-arm is not installed and could not be"
-  echo "installed: run as root on Debian, or apt-get install qemu-system-arm, then rerun)."
-  echo "Everything above ran on the host only."
+  echo "== firmware, drive: SKIPPED (qemu-system-arm is missing and could not be installed:"
+  echo "   run as root on Debian, or apt-get install qemu-system-arm; out/qemu-install.log)"
 fi
-echo
-# The speed/accuracy trade: every variant against the reference, on the M3
-# and the M4F when QEMU is here (the host only otherwise).
-sweep=()
-[ $short = 1 ] && sweep=(--tiny --repeats 1)
+
+sweep=(--tiny --repeats 1)
+[ $mode = full ] && sweep=()
 [ $qemu = 1 ] || sweep+=(--boards none)
-"$host_sim" tradeoff "${sweep[@]}" --out out/tradeoff | { sed -n '/^Cheapest/,$p' | grep -v '^| standard-' || true; }
-if grep -q '"bit_exact_m3": false\|"bit_exact_m4f": false' out/tradeoff/tradeoff.json; then
-  echo "a variant was not bit-exact on a board"
-  exit 1
+sweep_all() {
+  "$host_sim" tradeoff "${sweep[@]}" --out out/tradeoff | sed -n '/^Cheapest/,$p' | grep -v '^| standard-' || true
+  if grep -q '"bit_exact_m3": false\|"bit_exact_m4f": false' out/tradeoff/tradeoff.json; then
+    echo "a variant was not bit-exact on a board"
+    return 1
+  fi
+}
+stage sweep sweep_all
+
+if [ $mode = full ]; then
+  throughput() {
+    mkdir -p out/throughput
+    sed -e 's/^width = 160/width = 1920/' -e 's/^height = 120/height = 1080/' -e 's/^pitch = 12e-6/pitch = 1e-6/' \
+        -e 's/^tolerable_blur = 12e-6/tolerable_blur = 1e-6/' scenes/standard.toml > out/throughput/standard-1080p.toml
+    "$host_sim" throughput --scene out/throughput/standard-1080p.toml --frames 20 --out out/throughput
+  }
+  stage throughput throughput
+  stage measurements python3 scripts/measurements.py --out out --write docs/measurements.md
 fi
-echo "the whole table and the plot: out/tradeoff/tradeoff.md, out/tradeoff/tradeoff.png"
+
+end=$(date +%s.%N)
 echo
-"$host_sim" demo
+printf 'main job: %.0f s in all; the stages above, each with its time (out/run.tsv)\n' "$(awk "BEGIN { print $end - $start }")"
+echo "  out/<scene>/             frame.png, reference.png, diff.png, metrics.json (one a shipped scene)"
+echo "  out/stream-*/, out/faults/  the links: stream.json, received.png, faults.json"
+echo "  out/opencv/, out/export/ OpenCV's calibration and the export's check"
+[ $qemu = 1 ] && echo "  out/hil/<board>/         each board's frames and hil.json (instructions, flash, RAM); out/drive*/ the closed loop"
+echo "  out/tradeoff/            tradeoff.md, tradeoff.png: the speed/accuracy trade"
+[ $mode = full ] && echo "  docs/measurements.md     every figure above, regenerated"
+exit 0

@@ -9,7 +9,7 @@ within the residual its export states (plus 1e-6 px of arithmetic), and
 the largest is reported. Target (issue 15): <= 0.05 px. Exits 1 if a
 camera misses either; writes export-check.json into --out.
 
-Needs opencv-python-headless and numpy (installed with pip if missing)."""
+Needs opencv-python-headless and numpy (scripts/emulate.sh installs them in target/venv)."""
 import argparse
 import json
 import pathlib
@@ -23,8 +23,10 @@ def need(mod, pkg):
     try:
         return __import__(mod)
     except ImportError:
-        subprocess.check_call([sys.executable, "-m", "pip", "install", "-q", pkg])
-        return __import__(mod)
+        sys.exit(
+            f"{pkg} is missing: run this through scripts/emulate.sh, which makes a "
+            "virtual environment with it (target/venv), or install it in yours"
+        )
 
 
 np = need("numpy", "numpy")

@@ -10,8 +10,19 @@ export CARGO_INCREMENTAL=0
 # for core"), so both README commands call this first.
 ensure_toolchain() {
   rustup component add clippy rustfmt >/dev/null 2>&1 || rustup component add clippy rustfmt
-  rustup target add thumbv6m-none-eabi thumbv7m-none-eabi thumbv7em-none-eabihf >/dev/null 2>&1 ||
-    rustup target add thumbv6m-none-eabi thumbv7m-none-eabi thumbv7em-none-eabihf
+  # The targets of every board in firmware/boards.toml.
+  local targets
+  targets=$(sed -n 's/^target = "\(.*\)"/\1/p' firmware/boards.toml | sort -u)
+  # shellcheck disable=SC2086
+  rustup target add $targets >/dev/null 2>&1 || rustup target add $targets
+}
+
+# A board's field in firmware/boards.toml (board_field BOARD FIELD).
+board_field() {
+  awk -v b="$1" -v f="$2" '
+    /^\[\[board\]\]/ { inb = 0 }
+    /^name = / { inb = ($3 == "\"" b "\"") }
+    inb && $1 == f { v = $3; gsub("\"", "", v); print v; exit }' firmware/boards.toml
 }
 
 # Installs qemu-system-arm when it is missing and this is root on a
@@ -27,12 +38,32 @@ ensure_qemu() {
   return 1
 }
 
-# Builds the firmware for the three Cortex-M targets: the M3 and M4F at the
-# release profile's opt-level "s", the M0 (QEMU's microbit) at 3, whose
-# 64-bit products opt-level "s" leaves slower (host-sim's Board::opt_level).
+# Every board's name, in the table's order.
+boards() {
+  sed -n 's/^name = "\(.*\)"/\1/p' firmware/boards.toml
+}
+
+# Builds the default firmware for BOARD (firmware/boards.toml) at its
+# opt-level, as host-sim does: firmware/target/<target>/release/hilcam-firmware.
 build_firmware() {
-  (cd firmware &&
-    cargo build -q --release --features board-lm3s6965 --target thumbv7m-none-eabi &&
-    cargo build -q --release --features board-mps2-an386 --target thumbv7em-none-eabihf &&
-    CARGO_PROFILE_RELEASE_OPT_LEVEL=3 cargo build -q --release --features board-microbit --target thumbv6m-none-eabi)
+  local board=$1 target opt
+  target=$(board_field "$board" target)
+  opt=$(board_field "$board" opt_level)
+  # The environment host-sim's build gives it (hil_cmd, qemu.rs), so that
+  # a `host-sim hil` after this finds it built.
+  (cd firmware && HILCAM_BOARD="$board" CARGO_PROFILE_RELEASE_OPT_LEVEL="${opt:-s}" \
+    HILCAM_SCENES= HILCAM_VARIANTS= HILCAM_MAX_MATERIALS=4 HILCAM_MAX_PRIMITIVES=4 HILCAM_MAX_LIGHTS=1 \
+    cargo build -q --release --target "$target")
+}
+
+# A Python virtual environment in target/venv with what the OpenCV checks
+# and the hilcam Python package need (never the system interpreter's
+# packages).
+ensure_venv() {
+  if [ ! -x target/venv/bin/python ]; then
+    mkdir -p target
+    python3 -m venv target/venv
+  fi
+  target/venv/bin/python -c "import cv2, numpy" >/dev/null 2>&1 ||
+    target/venv/bin/python -m pip install -q numpy opencv-python-headless
 }

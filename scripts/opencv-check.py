@@ -10,7 +10,7 @@ cx, cy. Targets (issue 17): corner RMS <= 0.07 px, and fx, fy, cx, cy
 within 0.3 px, with and without barrel distortion. Exits 1 if a target is
 missed; writes opencv.json into --out.
 
-Needs opencv-python-headless and numpy (installed with pip if missing)."""
+Needs opencv-python-headless and numpy (scripts/emulate.sh installs them in target/venv)."""
 import argparse
 import glob
 import json
@@ -26,8 +26,10 @@ def need(mod, pkg):
     try:
         return __import__(mod)
     except ImportError:
-        subprocess.check_call([sys.executable, "-m", "pip", "install", "-q", pkg])
-        return __import__(mod)
+        sys.exit(
+            f"{pkg} is missing: run this through scripts/emulate.sh, which makes a "
+            "virtual environment with it (target/venv), or install it in yours"
+        )
 
 
 np = need("numpy", "numpy")

@@ -28,10 +28,10 @@ trap 'kill "$qemu_install" 2>/dev/null || true' EXIT
 # board's build ends in one LTO codegen unit on one core, and the checks
 # below (clippy of one crate, the docs, the thumb lints, one after another)
 # and the tests leave a core idle at times.
-echo "== firmware builds: thumbv7m (lm3s6965evb), thumbv7em (mps2-an386), thumbv6m (microbit), and their clippy; in the background"
-(build_firmware &&
-  cd firmware && cargo clippy -q --release --features board-lm3s6965 --target thumbv7m-none-eabi -- -D warnings &&
-  cargo clippy -q --release --no-default-features --features board-lm3s6965,camera,mix32,sensor \
+echo "== firmware builds: every board of firmware/boards.toml, and their clippy; in the background"
+(for b in $(boards); do build_firmware "$b" || exit 1; done &&
+  cd firmware && cargo clippy -q --release --target thumbv7m-none-eabi -- -D warnings &&
+  cargo clippy -q --release --no-default-features --features camera,mix32,sensor \
     --target thumbv7m-none-eabi -- -D warnings) > target/firmware-build.log 2>&1 &
 firmware_build=$!
 # The fuzz targets' build (nightly, the address sanitizer; on a fresh
@@ -79,9 +79,9 @@ cargo test --workspace
 echo "== firmware builds and their clippy (above)"
 wait "$firmware_build" || { cat target/firmware-build.log; echo "a firmware build or its clippy failed"; exit 1; }
 cat target/firmware-build.log
-echo "   lm3s6965evb, mps2-an386, microbit; clippy of the default firmware and the driven camera: ok"
+echo "   $(boards | tr '\n' ' '); clippy of the default firmware and the driven camera: ok"
 
-echo "== the main job, short (README's first command): renders, streams, QEMU on both boards, tiny sweep"
+echo "== the main job, short (README's first command): renders, links, OpenCV, every board in QEMU, the drive, tiny sweep"
 # host-sim as the tests above built and ran it (the test profile,
 # opt-level 1): the main job's frames, comparisons and QEMU counts do not
 # depend on host-sim's optimisation, and its release build (LTO in one
@@ -97,8 +97,8 @@ mkdir -p target/scenes640
 sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 640/' \
     -e 's/^height = 120/height = 480/' -e 's/^pitch = 12e-6/pitch = 3e-6/' \
     -e 's/^tolerable_blur = 12e-6/tolerable_blur = 3e-6/' scenes/standard.toml > target/scenes640/standard-640.toml
-for b in lm3s6965evb mps2-an386 microbit; do
-  "$HILCAM_HOST_SIM" hil --board "$b" --scene target/scenes640/standard-640.toml --out "target/hil/$b-640"
+for b in $(boards); do
+  "$HILCAM_HOST_SIM" hil --board "$b" --scene target/scenes640/standard-640.toml --out "target/hil/$b-640" | tail -1
 done
 # The driven camera, sent the 640x480 scene as data: its RAM with the widest lines it takes;
 # and the driven camera on the M0 (built for size there: host-sim's build_firmware_as).
@@ -130,8 +130,7 @@ echo "== where the instructions go: the standard scene's stages on the M3 and th
 "$HILCAM_HOST_SIM" profile --board microbit --out target/profile/microbit | tail -n 20
 
 echo "== peak RAM (painted stack + static) within 16 KiB on every board, at 160x120 and 640x480, and in the driven camera"
-for j in out/hil/lm3s6965evb/hil.json out/hil/mps2-an386/hil.json out/hil/microbit/hil.json target/hil/lm3s6965evb-640/hil.json \
-  target/hil/mps2-an386-640/hil.json target/hil/microbit-640/hil.json \
+for j in $(for b in $(boards); do echo "out/hil/$b/hil.json target/hil/$b-640/hil.json"; done) \
   out/drive/drive.json out/drive-new/frames/drive.json target/drive-640/drive.json target/drive-microbit/drive.json \
   target/drive-microbit-dof/drive.json; do
   awk -F': ' -v f="$j" '/"ram_peak_bytes"/ { found = 1; gsub(",", "", $2); print f ": peak RAM " $2 " B"; if ($2 + 0 > 16384 || $2 + 0 == 0) bad = 1 } END { exit bad || !found }' "$j" ||
@@ -142,11 +141,11 @@ echo "== no panic path in the default firmware (no core::panicking symbol in the
 # The driven camera decodes commands and loads scenes from the link. The
 # M0's is built at opt-level z with a higher inline threshold, which
 # inlines postcard's varint encoding (host-sim's Board::rustflags).
-for j in out/hil/lm3s6965evb/hil.json out/hil/mps2-an386/hil.json out/hil/microbit/hil.json \
+for j in $(for b in $(boards); do echo "out/hil/$b/hil.json"; done) \
   out/drive/drive.json target/drive-640/drive.json target/drive-microbit/drive.json; do
   grep -q '"panic_symbols": \[\]' "$j" || { echo "$j: the firmware links a panic path:"; grep -A8 '"panic_symbols"' "$j"; exit 1; }
 done
-echo "none on lm3s6965evb, mps2-an386, microbit, nor in the driven camera on the M3 and the M0"
+echo "none on $(boards | tr '\n' ' ')nor in the driven camera on the M3 and the M0"
 
 echo "== the M0 within 3x the M3 on the standard scene (instructions/pixel under QEMU -icount, the default build)"
 m0=$(awk -F': ' '/^  "instructions_per_pixel"/ { gsub(",", "", $2); print $2 }' out/hil/microbit/hil.json)
@@ -159,7 +158,7 @@ echo "== the compact loops (the driven camera's: one copy serves one and three c
 # the host's, through the loops the driven camera runs (every scene here;
 # the drives above send it the standard scene alone).
 (cd firmware && CARGO_PROFILE_RELEASE_OPT_LEVEL=s cargo build -q --release --no-default-features \
-  --features board-lm3s6965,status,mix32,sensor,hilcam/compact --target thumbv7m-none-eabi)
+  --features status,mix32,sensor,hilcam/compact --target thumbv7m-none-eabi)
 "$HILCAM_HOST_SIM" hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
   --out target/hil/lm3s6965evb-compact | tail -3
 
@@ -172,7 +171,7 @@ echo "== firmware built for size (opt-level z, no status): the M3 image within 6
 small_scenes=$(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v shallow-dof)
 (cd firmware && HILCAM_SCENES="$(for s in $small_scenes; do echo "$PWD/../$s"; done)" HILCAM_VARIANTS=i32f32-poly \
   CARGO_PROFILE_RELEASE_OPT_LEVEL=z \
-  cargo build -q --release --no-default-features --features board-lm3s6965 --target thumbv7m-none-eabi)
+  cargo build -q --release --no-default-features --target thumbv7m-none-eabi)
 # shellcheck disable=SC2086
 "$HILCAM_HOST_SIM" hil --board lm3s6965evb --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
   --scene $small_scenes --variant i32f32-poly --out target/hil/lm3s6965evb-small | tail -3

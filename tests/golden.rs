@@ -63,7 +63,7 @@ fn options_path() -> PathBuf {
 }
 
 fn scenes() -> Vec<PathBuf> {
-    host_sim::hil_cmd::shipped_scenes().expect("scenes/")
+    host_sim::qemu::shipped_scenes().expect("scenes/")
 }
 
 struct Hash;

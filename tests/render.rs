@@ -628,7 +628,7 @@ fn carried_corner_keys_change_no_byte() {
 #[test]
 fn one_carry_across_a_frame_changes_no_byte() {
     use hilcam::render::Image;
-    let scenes = host_sim::hil_cmd::shipped_scenes().expect("scenes");
+    let scenes = host_sim::qemu::shipped_scenes().expect("scenes");
     assert!(scenes.len() >= 8, "{scenes:?}");
     for path in scenes {
         let s = load(&path).expect("loads").core_scene().expect("valid");

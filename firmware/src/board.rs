@@ -1,5 +1,7 @@
-//! The boards: UART0 as an `embedded_io::Write` (and polled RX), and the
-//! SysTick clock.
+//! The board: UART0 as an `embedded_io::Write` (and polled RX), and the
+//! SysTick clock. Which board is data (`boards.toml`, `HILCAM_BOARD`): the
+//! build script writes its UART's base and SysTick period (`board.rs` in
+//! `OUT_DIR`) and names its UART's kind (`cfg(hilcam_uart)`).
 //!
 //! Register access is MMIO, so this is the one place with `unsafe`: volatile
 //! reads and writes of fixed, documented device addresses.
@@ -20,11 +22,11 @@ fn write(addr: usize, value: u32) {
     unsafe { core::ptr::write_volatile(addr as *mut u32, value) }
 }
 
-#[cfg(feature = "board-lm3s6965")]
+include!(concat!(env!("OUT_DIR"), "/board.rs"));
+
+#[cfg(hilcam_uart = "pl011")]
 mod regs {
-    use super::{read, write};
-    /// PL011 UART0 of the LM3S6965.
-    const BASE: usize = 0x4000_C000;
+    use super::{read, write, UART_BASE as BASE};
     /// Data register.
     const DATA: usize = BASE;
     /// Flag register; bit 5 = transmit FIFO full, bit 4 = receive FIFO
@@ -32,8 +34,6 @@ mod regs {
     const STATUS: usize = BASE + 0x018;
     const TX_FULL: u32 = 1 << 5;
     const RX_EMPTY: u32 = 1 << 4;
-    /// SysTick clock period on lm3s6965evb, ps (12.5 MHz).
-    pub const SYSTICK_PS: u64 = 80_000;
     pub fn init() {}
     pub fn put(b: u8) {
         while read(STATUS) & TX_FULL != 0 {}
@@ -44,11 +44,10 @@ mod regs {
     }
 }
 
-#[cfg(feature = "board-mps2-an386")]
+/// The Arm CMSDK APB UART (the MPS2 boards).
+#[cfg(hilcam_uart = "cmsdk")]
 mod regs {
-    use super::{read, write};
-    /// CMSDK APB UART0 of the MPS2+ AN386.
-    const BASE: usize = 0x4000_4000;
+    use super::{read, write, UART_BASE as BASE};
     /// Data register.
     const DATA: usize = BASE;
     /// State register; bit 0 = transmit buffer full, bit 1 = receive
@@ -58,8 +57,6 @@ mod regs {
     const RX_FULL: u32 = 1 << 1;
     const CTRL: usize = BASE + 0x008;
     const BAUDDIV: usize = BASE + 0x010;
-    /// SysTick clock period on mps2-an386, ps (25 MHz).
-    pub const SYSTICK_PS: u64 = 40_000;
     /// The CMSDK UART needs a divider of at least 16, and TX and RX
     /// enabled.
     pub fn init() {
@@ -77,11 +74,10 @@ mod regs {
     }
 }
 
-#[cfg(feature = "board-microbit")]
+/// The nRF51822's UART (QEMU microbit).
+#[cfg(hilcam_uart = "nrf51")]
 mod regs {
-    use super::{read, write};
-    /// The nRF51822's UART (QEMU microbit).
-    const BASE: usize = 0x4000_2000;
+    use super::{read, write, UART_BASE as BASE};
     /// Tasks: start the receiver, the transmitter.
     const STARTRX: usize = BASE; // offset 0x000
     const STARTTX: usize = BASE + 0x008;
@@ -92,8 +88,6 @@ mod regs {
     const ENABLE: usize = BASE + 0x500;
     const RXD: usize = BASE + 0x518;
     const TXD: usize = BASE + 0x51C;
-    /// SysTick on the core clock, ps (16 MHz).
-    pub const SYSTICK_PS: u64 = 62_500;
     pub fn init() {
         write(ENABLE, 4);
         write(STARTTX, 1);
@@ -114,14 +108,6 @@ mod regs {
     }
 }
 
-#[cfg(not(any(
-    feature = "board-lm3s6965",
-    feature = "board-mps2-an386",
-    feature = "board-microbit"
-)))]
-compile_error!("pick a board: --features board-lm3s6965, board-mps2-an386 or board-microbit");
-
-pub use regs::SYSTICK_PS;
 
 /// UART0, blocking.
 pub struct Uart0(());

@@ -15,7 +15,7 @@ fn main() -> Result<(), String> {
     let verbose = std::env::args().any(|a| a == "-v");
     let budget = Budget::default();
     let mut state = POSES_SEED;
-    for path in host_sim::hil_cmd::shipped_scenes()? {
+    for path in host_sim::qemu::shipped_scenes()? {
         let r = host_sim::scene_file::load(&path)?;
         let scene = r.core_scene()?;
         let pose = host_sim::drive_cmd::scene_pose(&r)?;

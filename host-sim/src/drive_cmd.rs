@@ -5,7 +5,7 @@
 //! the host's render of the same pose, and its truth against the pose sent.
 
 use crate::harness::planned_frame;
-use crate::hil_cmd::{build_firmware_as, spawn_qemu, wait_qemu, Board};
+use crate::qemu::{build_firmware_as, spawn_qemu, wait_qemu, Board};
 use crate::link::decoder::{Decoder, Frame, Reply, Stats};
 use crate::scene_file::{load, Resolved};
 use crate::trajectory::{Pose, Trajectory};
@@ -403,11 +403,11 @@ pub struct Probe {
 impl Probe {
     /// What `elf` holds (before QEMU runs it).
     pub fn read(elf: &Path) -> Result<Probe, String> {
-        let (flash_bytes, static_bytes) = crate::hil_cmd::elf_sizes(elf)?;
+        let (flash_bytes, static_bytes) = crate::qemu::elf_sizes(elf)?;
         Ok(Probe {
             static_bytes,
             flash_bytes,
-            panic_symbols: crate::hil_cmd::elf_panic_symbols(elf)?,
+            panic_symbols: crate::qemu::elf_panic_symbols(elf)?,
             seen: Default::default(),
             said: Default::default(),
         })

@@ -9,6 +9,7 @@
 //! Without the default `cli` feature only [`scene_file`], [`trajectory`]
 //! and the link's decoder are built (what the fuzz targets need).
 
+pub mod boards;
 pub mod link;
 pub mod scene_file;
 pub mod trajectory;
@@ -24,7 +25,7 @@ macro_rules! cli_modules {
 }
 
 cli_modules!(
-    camera_cmd, costfit, demo, drive_cmd, export, frame_png, hil_cmd, output, profile, render_cmd,
+    camera_cmd, costfit, demo, drive_cmd, export, frame_png, hil_cmd, output, profile, qemu, render_cmd,
     stream_cmd, tradeoff, truth,
 );
 

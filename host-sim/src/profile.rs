@@ -15,7 +15,7 @@
 //! instructions); this run is without `-icount`, whose rewound blocks the
 //! log would count twice.
 
-use crate::hil_cmd::{build_firmware, run_qemu, spawn_qemu_with, Board};
+use crate::qemu::{build_firmware, run_qemu, spawn_qemu_with, Board};
 use crate::link::decoder::Decoder;
 use crate::scene_file::load;
 use serde::Serialize;
@@ -460,7 +460,7 @@ impl Symbols {
             loader,
             names: Interned::default(),
             lines: Interned::default(),
-            root: std::fs::canonicalize(crate::hil_cmd::repo_root()).unwrap_or_else(|_| crate::hil_cmd::repo_root()),
+            root: std::fs::canonicalize(crate::qemu::repo_root()).unwrap_or_else(|_| crate::qemu::repo_root()),
         })
     }
 
@@ -875,14 +875,14 @@ pub fn profile(
     )?;
     let log = child.stderr.take().ok_or("qemu: no log")?;
     // Its semihosting text, read as it comes (a full pipe would stall QEMU).
-    let _text = crate::hil_cmd::drain(child.stdout.take());
+    let _text = crate::qemu::drain(child.stdout.take());
     // Read as QEMU writes it (a frame of 320x240 logs about 1 GB): on a
     // thread, so that a firmware that hangs is killed at the timeout.
     let reader = std::thread::spawn({
         let (marks, elf) = (marks.clone(), elf.to_path_buf());
         move || Trace::read(std::io::BufReader::with_capacity(1 << 20, log), &elf, &marks)
     });
-    let status = crate::hil_cmd::wait_qemu(&mut child, Duration::from_secs(1800));
+    let status = crate::qemu::wait_qemu(&mut child, Duration::from_secs(1800));
     let trace = reader.join().map_err(|_| "QEMU log: the reader failed")?;
     let _ = std::fs::remove_file(&uart);
     let status = status?;
@@ -1033,7 +1033,7 @@ pub fn table(r: &ProfileReport) -> String {
 /// for the line that inlined it), with the line's text where the file is
 /// in the repository.
 pub fn lines_table(r: &ProfileReport, n: usize) -> String {
-    let root = crate::hil_cmd::repo_root();
+    let root = crate::qemu::repo_root();
     let mut files: HashMap<String, Vec<String>> = HashMap::new();
     let mut s = String::new();
     for f in &r.frames {

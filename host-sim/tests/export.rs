@@ -29,7 +29,7 @@ fn project(e: &host_sim::export::Export, p: [f64; 3]) -> [f64; 2] {
 
 #[test]
 fn every_shipped_camera_exports_within_its_stated_residual() {
-    for path in host_sim::hil_cmd::shipped_scenes().expect("scenes") {
+    for path in host_sim::qemu::shipped_scenes().expect("scenes") {
         let r = host_sim::scene_file::load(&path).expect("scene");
         let e = match export(&r) {
             Ok(e) => e,

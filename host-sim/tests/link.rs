@@ -383,7 +383,7 @@ fn placed_lines_send_the_bytes_copied_lines_do() {
             self.0.end(cost)
         }
     }
-    let scenes = host_sim::hil_cmd::shipped_scenes().expect("scenes");
+    let scenes = host_sim::qemu::shipped_scenes().expect("scenes");
     assert!(scenes.len() >= 8, "{scenes:?}");
     for path in scenes {
         let r = host_sim::scene_file::load(&path).expect("scene");

@@ -4,7 +4,8 @@
 
 use super::report::{cheapest, markdown, recommend, Growth, GrowthPoint, Pruning, Report, Row};
 use crate::harness::{compare, Collect, Metrics};
-use crate::hil_cmd::{hil_variants, repo_root, shipped_scenes, Board, HilReport};
+use crate::hil_cmd::{hil_variants, HilReport};
+use crate::qemu::{repo_root, shipped_scenes, Board};
 use crate::reference::render::RefScene;
 use crate::scene_file::{load, Resolved};
 use crate::variant::{FrameUser, ScalarKind, Variant, WithScalar};
@@ -414,7 +415,7 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
     // Firmware: instructions, bit-exactness, flash.
     for &board in &cfg.boards {
         let (runs, flash) = firmware_runs(board, &scenes, &cfg.variants, out, &pb)?;
-        let m3 = board == Board::Lm3s6965evb;
+        let m3 = board.core() == "M3";
         for row in rows.iter_mut() {
             let Some(v) = cfg.variants.iter().find(|v| v.name() == row.variant) else {
                 continue;
@@ -493,14 +494,14 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
             }
         }
         let per_board = runs_per_board(&cfg.boards, "growth", &all, &gvariants, out, &pb)?;
-        let ins = |board: Board, scene: &str, v: &str| lookup(&per_board, board, scene, v).map(|r| r.1);
+        let ins = |board: Option<Board>, scene: &str, v: &str| lookup(&per_board, board?, scene, v).map(|r| r.1);
         for v in &gvariants {
             let point = |r: &Resolved| GrowthPoint {
                 scene: r.desc.name.clone(),
                 pixels: r.desc.camera.width as u64 * r.desc.camera.height as u64,
                 primitives: r.primitives.len(),
-                instructions_m3: ins(Board::Lm3s6965evb, &r.desc.name, &v.name()),
-                instructions_m4f: ins(Board::Mps2An386, &r.desc.name, &v.name()),
+                instructions_m3: ins(Board::by_core("M3"), &r.desc.name, &v.name()),
+                instructions_m4f: ins(Board::by_core("M4F"), &r.desc.name, &v.name()),
             };
             let resolution: Vec<GrowthPoint> = all_r.iter().take(res_scenes.len()).map(point).collect();
             let primitives: Vec<GrowthPoint> = all_r.iter().skip(res_scenes.len()).map(point).collect();
@@ -536,7 +537,7 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         let pv = [Variant::PLANNED, all_stages];
         let per_board = runs_per_board(&cfg.boards, "pruning", &shipped, &pv, out, &pb)?;
         let ipp =
-            |board: Board, scene: &str, v: &Variant| lookup(&per_board, board, scene, &v.name()).map(|r| r.0);
+            |board: Option<Board>, scene: &str, v: &Variant| lookup(&per_board, board?, scene, &v.name()).map(|r| r.0);
         for r in &shipped_r {
             let name = r.desc.name.clone();
             let scene = r.core_scene()?;
@@ -573,10 +574,10 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
                 .unwrap_or(0);
             pruning.push(Pruning {
                 dropped,
-                planned_m3: ipp(Board::Lm3s6965evb, &name, &Variant::PLANNED),
-                all_stages_m3: ipp(Board::Lm3s6965evb, &name, &all_stages),
-                planned_m4f: ipp(Board::Mps2An386, &name, &Variant::PLANNED),
-                all_stages_m4f: ipp(Board::Mps2An386, &name, &all_stages),
+                planned_m3: ipp(Board::by_core("M3"), &name, &Variant::PLANNED),
+                all_stages_m3: ipp(Board::by_core("M3"), &name, &all_stages),
+                planned_m4f: ipp(Board::by_core("M4F"), &name, &Variant::PLANNED),
+                all_stages_m4f: ipp(Board::by_core("M4F"), &name, &all_stages),
                 planned_host_ns: host_ns_per_pixel(&Variant::PLANNED, r, cfg.repeats)?,
                 all_stages_host_ns: host_ns_per_pixel(&all_stages, r, cfg.repeats)?,
                 max_abs_lsb_between: max_between,
