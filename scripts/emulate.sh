@@ -60,13 +60,18 @@ stage toolchain ensure_toolchain
 qemu=0
 ensure_qemu > out/qemu-install.log 2>&1 && qemu=1
 
-# host-sim: the one the caller built (HILCAM_HOST_SIM), or the main job's
-# build (the release profile's optimisation without its single codegen unit
-# and LTO: the same frames and counts, built in a fraction of the time).
+# host-sim: the one the caller built (HILCAM_HOST_SIM); with --full the
+# release build (whose host timings docs/measurements.md quotes); else the
+# main job's quick build (the release profile's optimisation without its
+# single codegen unit and LTO, and the fast loops for the baseline x86-64
+# only: the same frames and counts, built in half the time).
 if [ -n "${HILCAM_HOST_SIM:-}" ]; then
   host_sim=$HILCAM_HOST_SIM
+elif [ $mode = full ]; then
+  stage build cargo build -q --release -p host-sim
+  host_sim=./target/release/host-sim
 else
-  stage build cargo build -q --profile main-job -p host-sim
+  stage build cargo build -q --profile main-job -p host-sim --no-default-features --features cli
   host_sim=./target/main-job/host-sim
 fi
 

@@ -354,9 +354,10 @@ impl X86Level {
     }
 }
 
-/// The highest level whose build of the core's loops this processor runs.
+/// The highest level whose build of the core's loops this processor runs
+/// (the baseline in a build without them: the `x86-levels` feature).
 fn processor_level() -> X86Level {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "x86-levels"))]
     {
         use std::arch::is_x86_feature_detected as has;
         static LEVEL: std::sync::OnceLock<X86Level> = std::sync::OnceLock::new();
@@ -380,7 +381,7 @@ fn processor_level() -> X86Level {
             }
         })
     }
-    #[cfg(not(target_arch = "x86_64"))]
+    #[cfg(not(all(target_arch = "x86_64", feature = "x86-levels")))]
     X86Level::Baseline
 }
 
@@ -427,7 +428,7 @@ pub fn render_line_at<S: Scalar>(
     pixels: &mut [u8],
     flags: &mut [u8],
 ) -> Result<(), RenderError> {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "x86-levels"))]
     match level.min(processor_level()) {
         // SAFETY: the processor has the level's features (`processor_level`).
         X86Level::V4 => return unsafe { frame.render_line_v4(j, pixels, flags) },
@@ -449,7 +450,7 @@ pub fn render_carried<S: Scalar, K: FrameSink>(
     keys: &mut [u64],
     sink: &mut K,
 ) -> Result<(), FrameError<K::Error>> {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "x86-levels"))]
     match x86_level() {
         // SAFETY: the processor has the level's features (`x86_level` is
         // at most `processor_level`).

@@ -316,7 +316,7 @@ pub(crate) fn powi63(x: I32F32, mut n: u16) -> u64 {
 }
 
 /// The wide arithmetic in I32F32: saturating, products and quotients
-/// rounded once ([`mul_q`], [`div_q`]), the lobe a 63-bit fraction.
+/// rounded once (`mul_q`, `div_q`), the lobe a 63-bit fraction.
 impl Scalar for I32F32 {
     const NAME: &'static str = "i32f32";
     const ZERO: Self = I32F32::ZERO;

@@ -81,6 +81,7 @@ impl Frame<Q> {
 /// shipped scene at every level the processor has); the wide arithmetic's
 /// loops are the baseline's. The caller checks the processor (host-sim's
 /// `harness::x86_level`).
+#[cfg(feature = "x86-levels")]
 macro_rules! x86_entry_points {
     ($level:literal, $words:literal, $features:literal, $mix:ident, $line:ident, $carried:ident, $line_in:ident) => {
         #[doc = concat!(
@@ -461,6 +462,7 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
         sink.end(None).map_err(FrameError::Sink)
     }
 
+    #[cfg(feature = "x86-levels")]
     x86_entry_points!(
         "x86-64-v3",
         "AVX2, BMI1, BMI2, FMA, LZCNT, MOVBE, POPCNT",
@@ -470,6 +472,7 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
         render_v3,
         render_line_v3_in
     );
+    #[cfg(feature = "x86-levels")]
     x86_entry_points!(
         "x86-64-v4",
         "x86-64-v3's and AVX-512 F, CD, VL, BW, DQ",

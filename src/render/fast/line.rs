@@ -29,7 +29,7 @@ impl Mix32 {
     /// # Safety
     ///
     /// Call only on a processor with those features.
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "x86-levels"))]
     #[target_feature(enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt")]
     pub(crate) fn line_v3<L: Lines>(&self, j: u16, pixels: &mut [u8], flags: &mut [u8], carry: &mut Carry) {
         self.line_any::<L, true>(j, pixels, flags, carry)
@@ -43,7 +43,7 @@ impl Mix32 {
     /// # Safety
     ///
     /// Call only on a processor with those features.
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "x86-levels"))]
     #[target_feature(
         enable = "bmi1,bmi2,lzcnt,avx2,fma,movbe,popcnt,avx512f,avx512cd,avx512vl,avx512bw,avx512dq"
     )]
