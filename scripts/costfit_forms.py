@@ -16,7 +16,7 @@ import sys
 import numpy as np
 
 FORMS = {
-    "factors p (g0 (1-c) + g1 c + g2 n)  [before 092def4]": lambda p, n, c, k: [p * (1 - c), p * c, p * n],
+    "factors p (g0 (1-c) + g1 c + g2 n)  [an earlier form]": lambda p, n, c, k: [p * (1 - c), p * c, p * n],
     "g0 (1-c) + g1 c + g2 n p            [before 2026-12-05]": lambda p, n, c, k: [1 - c, c, n * p],
     "g0 (1-c) + g1 c + p (g2 n + g3 c)": lambda p, n, c, k: [1 - c, c, n * p, c * p],
     "g0 (1-c) + g1 c + p (g2 n + g3 c) + g4 n": lambda p, n, c, k: [1 - c, c, n * p, c * p, n],

@@ -974,12 +974,11 @@ fn floors_within_their_predictions(
 
 /// A checkered floor level with its horizon across the middle of the
 /// frame, one sample a pixel (a case of the test above). The face-on
-/// estimate planned it fast within the budget (0.0003 % predicted at
-/// db4ff42) and 0.42 % of its pixels differed at edges (`host-sim
-/// render`). Now no candidate claims the budget: fast is predicted 0.71 %
-/// and wide 0.085 % (0.98 % and 0.108 % with the hit's error at its bound
-/// twice over, before ecf939e), and each rendered measures within its
-/// prediction (0.42 % and 0.031 %), the fast one over the budget.
+/// estimate planned it fast within the budget (0.0003 % predicted) and
+/// 0.42 % of its pixels differed at edges (`host-sim render`). Now no
+/// candidate claims the budget: fast is predicted 0.71 % and wide 0.085 %,
+/// and each rendered measures within its prediction (0.42 % and 0.031 %),
+/// the fast one over the budget.
 #[test]
 fn a_level_checkered_floor_is_not_claimed_within_the_budget() {
     let t = Floor {

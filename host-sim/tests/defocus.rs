@@ -313,9 +313,8 @@ fn the_shallow_scene_matches_the_reference() {
 /// aperture loop (pixel centres; its aperture rays start at points rounded
 /// to S24 U, and a ray next to a sphere's silhouette is decided exactly).
 /// Geometry within the candidate's prediction, at least 99.9 % of the
-/// pixels identical, none more than 1 LSB off (before the exact decision,
-/// c5d6afa, one pixel at the sphere's blurred silhouette was 2 LSB off and
-/// the planner did not pick the loop).
+/// pixels identical, none more than 1 LSB off (without the exact decision
+/// a pixel at the sphere's blurred silhouette was 2 LSB off).
 #[test]
 fn the_fast_aperture_loop_on_the_shallow_scene() {
     use hilcam::render::{Arithmetic, LineLoop};

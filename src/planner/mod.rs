@@ -47,10 +47,10 @@ use crate::Len;
 
 mod closed_mean;
 mod cost;
-mod coverage;
 pub(crate) mod error_model;
 mod geometry;
 mod search;
+mod survey;
 #[cfg(test)]
 mod tests;
 
@@ -108,9 +108,9 @@ pub enum Unfit {
     /// The scene needs defocus and a sample grid: the fast arithmetic's
     /// aperture loop (`mix32::line_d`) takes pixel centres only. (Through
     /// the aperture, a ray next to a sphere's silhouette is decided exactly
-    /// there, since nothing marks its pixel as an edge; before
-    /// c5d6afa on shallow-dof 14 pixels differed from the reference, one
-    /// by 2 LSB, and the loop was never planned.)
+    /// there, since nothing marks its pixel as an edge: decided only
+    /// approximately, pixels at a blurred silhouette differ from the
+    /// reference by 2 LSB.)
     Defocus,
 }
 

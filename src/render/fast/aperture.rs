@@ -4,7 +4,15 @@
 //! (`uniform`), and the bounds a primitive's aperture rays keep
 //! (`aperture_terms`).
 
-use super::*;
+use super::arith::{copy3, sat32, umul, wmul};
+use super::expose::{chunks, put};
+use super::intersect::{meets, passes_beyond, MixPrim, MixShape};
+use super::rays::{ChunkBufs, Ray, Rays, AWAY, CHUNK, KEEP_C4_SAMPLED, NO_HIT};
+use super::shade::KCache;
+use super::{each, Aperture, Facing, Hit, Mix32};
+use crate::num::FixedF64;
+use crate::render::{Lines, FLAG_OUTSIDE_FIELD};
+use crate::scene::Q;
 
 /// What the aperture loop does with a pixel ([`Mix32::uniform`]).
 #[derive(Clone, Copy)]

@@ -6,12 +6,19 @@
 //! which has no such product, from 16-bit halves). Each states its formats
 //! and error; the tests below check them against exact arithmetic.
 
-use super::{SUM_CAP, T_MAX};
 use crate::num::scalar::shr_sat;
 use crate::num::{clz32, clz64, umul16, umul16_words};
 use crate::scene::Q;
 use crate::target::M0;
 use core::num::NonZeroU32;
+
+/// The cap of a pixel's sum before vignetting (S15 DN): 2³² DN, so that a
+/// capped sum times any `cos⁴α` (≥ 2⁻¹⁸) still saturates the pixel.
+pub const SUM_CAP: u64 = 1 << 47;
+
+/// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
+/// `NO_HIT`.
+pub(super) const T_MAX: i32 = i32::MAX - 1;
 
 /// `m · 2^e`: a normalized mantissa (top bit set) or zero, for the
 /// radiometric products, whose range no fixed format covers.
@@ -443,7 +450,7 @@ pub(super) fn map3<A: Copy, R>(a: [A; 3], f: impl Fn(A) -> R) -> [R; 3] {
 /// pixel).
 macro_rules! copy3 {
     ($a:expr) => {
-        if M0_COMPACT {
+        if $crate::target::M0_COMPACT {
             let a: &[u64; 3] = &$a;
             [a[0], a[1], a[2]]
         } else {

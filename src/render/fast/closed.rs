@@ -5,7 +5,13 @@
 //! hit point; `closed_flat`: a constant sum where no point light is on
 //! its side).
 
-use super::*;
+use super::arith::{copy3, zip3, Pf, SUM_CAP};
+use super::intersect::MixShape;
+use super::rays::{unhit, Ray, AWAY, CHUNK, KEEP_Q2, NO_HIT};
+use super::shade::{closed_term, closed_w, directional_w, mean, mean_into};
+use super::{chans, each, Closed, ClosedLight, Mix32, MixLight};
+use crate::render::{ClosedMean, FLAG_OUTSIDE_FIELD};
+use crate::scene::Q;
 
 impl Mix32 {
     /// The frame's first plane that [`Mix32::closed_run`] can shade: no

@@ -2,11 +2,12 @@
 //! exposure's rounding to DN (`vignette_dn`), the sensor's noise
 //! (`noisy`), and the pixel's words and bytes (`word`, `store`).
 
-use super::*;
-
-/// The cap of a pixel's sum before vignetting (S15 DN): 2³² DN, so that a
-/// capped sum times any `cos⁴α` (≥ 2⁻¹⁸) still saturates the pixel.
-pub const SUM_CAP: u64 = 1 << 47;
+use super::arith::{norm_top_even, rsqrt_top, smul_u, umul};
+use super::chans;
+use super::rays::CHUNK;
+use crate::num::umul16_words;
+use crate::scene::Q;
+use crate::target::{M0, M0_COMPACT};
 
 /// `DN = floor(sum · cos⁴α + ½)` for a sum in S15 DN (≤ [`SUM_CAP`]) and
 /// `cos⁴α` in S31, exactly, capped at `max` (a channel's full scale, below

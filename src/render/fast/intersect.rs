@@ -3,7 +3,15 @@
 //! (`MixShape::nearest`), a sphere's normal at its hit (`fine_normal`),
 //! and the region where a rectangle's test cannot fail ([`Inner`]).
 
-use super::*;
+use super::arith::{
+    map3, mul_shr_right, recip, sar64_low_lt32, smul_u, sqrt_fine, sqrt_s44_to_s22, wmul, wmul_axis, wsq,
+    zip3, T_MAX,
+};
+use super::rays::Ray;
+use super::{Mix32, ALONG_S42};
+use crate::num::scalar::shr_sat;
+use crate::target::{M0, M0_COMPACT};
+use core::num::NonZeroU32;
 
 /// The outward unit normal (S30) of a sphere (centre `c`, radius `r24`,
 /// S24 U; `inv_r` maps S18 U to S30) where the ray `r` meets it, entering

@@ -2,7 +2,20 @@
 //! rays, each in passes (rays, one pass a primitive, shading), and the
 //! per-pixel stages the other loops share.
 
-use super::*;
+use super::arith::{
+    copy3, cos_over_r3, map3, rsqrt_fine, rsqrt_norm, rsqrt_refine, sar64, sar64_low, sar64_low_lt32, sat32,
+    smul_u, wmul, wmul_px, wsq, zip3, SUM_CAP,
+};
+use super::expose::{noisy, store, vignette_dn, vignette_dn_lo, word};
+use super::intersect::{fine_normal, moved_point, MixPrim, MixShape};
+#[cfg(target_arch = "x86_64")]
+use super::rays::fill_lanes;
+use super::rays::{cos4, fill_rays, undistort_k, ChunkBufs, Key, Ray, AWAY, CHUNK, NO_HIT};
+use super::shade::{directional_w, dot30, lobe_pf, KCache};
+use super::{chans, each, lobe_built, Carry, Hit, Mix32, MixLight};
+use crate::render::{LineLoop, Lines, FLAG_OUTSIDE_FIELD};
+use crate::scene::{PixelFormat, Q};
+use crate::target::{M0, M0_COMPACT};
 
 impl Mix32 {
     /// Renders line `j`: `pixels` holds `width × bytes_per_pixel` bytes.

@@ -83,15 +83,12 @@
 //! ([`Mix32`], declared here) once a frame, and `line` holds the
 //! one-sample line loop and the per-pixel steps the other loops share.
 
-use crate::num::from_acc;
-use crate::num::scalar::shr_sat;
-use crate::num::{clz64, div_q, mul_sat, umul16_words, FixedF64};
+use crate::num::clz64;
 use crate::render::sensor::sampling::Corners;
-use crate::render::shading::{Brdf, ShadingLight, V3};
-use crate::render::{ClosedMean, LineLoop, Lines, RenderError, FLAG_OUTSIDE_FIELD};
+use crate::render::shading::V3;
+use crate::render::{ClosedMean, Lines, RenderError};
 use crate::scene::{PixelFormat, Q};
-use crate::target::M0;
-use core::num::{NonZeroU32, NonZeroU64};
+use core::num::NonZeroU64;
 
 mod aperture;
 mod arith;
@@ -107,19 +104,10 @@ mod shade;
 mod tests;
 
 pub use aperture::ApertureClasses;
-use aperture::*;
-#[cfg(test)]
-use arith::cos_over_r2;
+pub(crate) use arith::Pf;
 use arith::*;
-pub(crate) use arith::{recip, Pf};
-#[cfg(test)]
-use expose::mul_nonneg;
-pub(crate) use expose::SUM_CAP;
-use expose::*;
 use intersect::*;
 pub use rays::ChunkBufs;
-use rays::*;
-use shade::*;
 
 /// What a frame's lines, rendered in order, pass from one to the next
 /// ([`crate::render::Frame::render`] holds one a frame): the sampled loop's corner keys and, with the fast arithmetic,
@@ -173,8 +161,6 @@ const fn chans<const C: usize>(n: usize) -> usize {
         C
     }
 }
-
-use crate::target::M0_COMPACT;
 
 /// `f(c)` for each of the [`chans`] channels, written out: a loop over them
 /// is not unrolled at opt-level "s" (the firmware's), which cost the RGB565

@@ -2,7 +2,16 @@
 //! ([`crate::render::prepare`]) in the fast formats, with the frame's
 //! length unit, and what the formats cannot hold refused.
 
-use super::*;
+use super::aperture::aperture_terms;
+use super::arith::{isqrt_q, len_s, recip_len, recip_z, sat32, shl_q, unit_s30, wmul, zip3, Pf};
+use super::intersect::{Inner, MixChecker, MixPrim, MixShape};
+use super::rays::undistort_k;
+use super::shade::lobe_below;
+use super::{Aperture, Input, Mix32, MixLight, ALONG_S42};
+use crate::num::{div_q, from_acc, mul_sat};
+use crate::render::shading::{Brdf, ShadingLight, V3};
+use crate::render::RenderError;
+use crate::scene::{PixelFormat, Q};
 
 impl Input<'_> {
     /// The scene's primitives in the camera frame (culled unless every

@@ -2,7 +2,11 @@
 //! slopes (`undistort_k`, `fill_rays`), what one sees ([`Key`]), its
 //! `cos⁴α` (`cos4`), and the chunk's buffers ([`ChunkBufs`]).
 
-use super::*;
+#[cfg(target_arch = "x86_64")]
+use super::arith::RECIP_SEED;
+use super::arith::{mul32, mul_shr_t, recip, sat32, umul, wmul, wmul_axis, wmul_px, wsq, T_MAX};
+use crate::target::M0;
+use core::num::NonZeroU32;
 
 /// Whether the sampled and aperture loops' shaded rays keep their `cos⁴α`
 /// ([`Ray::c4`]; the one-sample loop's always do): on the M0 only (on the
@@ -25,19 +29,11 @@ pub(super) const NO_Q2: i32 = -1;
 /// Whether a ray of the one-sample loop keeps, for its mirror, the mirror's
 /// `|q|²` to a point light on the closed plane ([`closed_term`]; the two
 /// share `w`, `q_y`, `q_z` and the products of `q_x`): on the M0, where a
-/// product is four 16-bit ones, and on the x86-64 host. Kept rather than
-/// `q_y² + q_z²` alone (as before 96df502): the M0's standard scene 867.8
-/// → 854.9 instructions a pixel, low-light 1 441.4 → 1 425.4; the host's
-/// 1080p standard 28.8–29.1 → 29.4–29.6 frames/s on one thread (three
-/// interleaved runs of `host-sim throughput`). Not on the M3/M4F, where
-/// the products are one `SMULL` each and the registers the keeping takes
-/// cost more: kept there, standard measured 304.4 against 293.0,
-/// low-light 536.4 against 524.7.
+/// product is four 16-bit ones, and on the x86-64 host, where keeping it
+/// measured faster than keeping `q_y² + q_z²` alone. Not on the M3/M4F,
+/// where the products are one `SMULL` each and the registers the keeping
+/// takes cost more.
 pub(super) const KEEP_Q2: bool = M0 || cfg!(target_arch = "x86_64");
-
-/// Hits have `t` in `(0, T_MAX]` (a saturated `t` is `T_MAX`), below
-/// [`NO_HIT`].
-pub(super) const T_MAX: i32 = i32::MAX - 1;
 
 /// `Ray::hit`'s flag: the surface hit faces away from the viewer.
 pub(super) const AWAY: u8 = 0x80;
@@ -96,12 +92,9 @@ pub(super) struct Ray {
     /// Where kept (the one-sample loop's rays on every target, the others'
     /// where [`KEEP_C4_SAMPLED`]; [`Mix32::c4`]), `cos⁴α` (S31) for the
     /// pixel it is shaded for: [`cos4`] if the frame vignettes, else 1
-    /// ([`fill_rays`]); once for a ray and its mirror. (At acf5f59 the M3
-    /// keeping it took checkerboard-barrel 11 instructions a pixel more and
-    /// the standard scene none fewer; at 858df5f, with the closed plane's
-    /// run, it takes 6 and 9 off them: M3 standard 306 → 297. The x86-64
-    /// host's 1080p standard 38.5 → 40.3 frames/s on 2 threads, three
-    /// interleaved runs of `host-sim throughput`.)
+    /// ([`fill_rays`]); once for a ray and its mirror. (With the closed
+    /// plane's run, keeping it measured fewer instructions on the M3 and
+    /// more frames a second on the x86-64 host than recomputing it.)
     pub(super) c4: u32,
 }
 
@@ -371,11 +364,8 @@ pub struct ChunkBufs {
     pub(super) fl: [u8; CHUNK],
     /// The closed plane's even sums of a chunk (`Mix32::closed_lit`), three
     /// channels' or one's in the first 17 words: here, not zeroed a chunk
-    /// (408 B; every slot a chunk reads it writes first). One channel's in
-    /// the run's own frame, zeroed, measured the M3's standard scene 203.6
-    /// against 201.8 instructions a pixel (at bd1c493, before the run's
-    /// chunk had a function of its own, the other way: 4 a pixel more
-    /// here).
+    /// (408 B; every slot a chunk reads it writes first): in the run's own
+    /// frame, zeroed, it measured more instructions on the M3.
     pub(super) even3: [[u64; 3]; CHUNK / 2 + 1],
 }
 
@@ -408,8 +398,8 @@ impl core::fmt::Debug for ChunkBufs {
 
 impl Default for Rays {
     /// All zero (every ray is filled before it is read): a zeroed buffer
-    /// rather than [`Ray::OUTSIDE`] built and copied in, per line (4 M3
-    /// instructions a pixel of the standard scene at fa98b82).
+    /// rather than [`Ray::OUTSIDE`] built and copied in, per line (cheaper
+    /// on the M3).
     fn default() -> Rays {
         Rays::EMPTY
     }

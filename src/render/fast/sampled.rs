@@ -3,7 +3,15 @@
 //! adaptive rule's corners and what each sees (`key`), the centres, and
 //! the `n×n` grid of each pixel that needs it (`grid`).
 
-use super::*;
+use super::arith::{copy3, wmul};
+use super::expose::{chunks, noisy_dn, put, vignette_q, word};
+use super::intersect::{MixPrim, MixShape};
+use super::rays::{Key, Ray, Rays, AWAY, CHUNK, KEEP_C4_SAMPLED, NO_HIT};
+use super::shade::KCache;
+use super::{chans, Mix32};
+use crate::render::sensor::sampling::Corners;
+use crate::render::{Lines, FLAG_OUTSIDE_FIELD};
+use crate::scene::Q;
 
 impl Mix32 {
     /// [`Mix32::line_s`] with the corner carry if `L` builds it in (one

@@ -3,7 +3,10 @@
 //! terms (`closed_term`) and its mean over rays (`mean_into`), a point
 //! light's `cos/r²` (`cube_over`), a directional light's (`directional_w`).
 
-use super::*;
+use super::arith::{norm_top, norm_top_even, rsqrt_top, umul, wmul, wmul_px, wsq, Pf, SUM_CAP};
+use super::rays::{Ray, NO_Q2};
+use super::{each, Closed, ClosedLight};
+use crate::target::M0;
 
 /// `kd · E` and `ks · E` (or `· I/U²`) per light and channel for one
 /// material, its ambient term and its lobe: a pixel of the material the

@@ -1,4 +1,19 @@
-use super::*;
+use super::arith::{
+    cos_over_r2, len_s, mul_h_words, mul_hi_64_words, mul_shr61_words, mul_shr_t, newton_words,
+    norm_top_even, recip, recip_len, recip_z, rsqrt_norm, rsqrt_top, sar64, sar64_low_lt32, sat32, smul_u,
+    sqrt_s44_to_s22, umul, umul_h, umul_px, wmul, wsq, zip3, Pf, RECIP_SEED, SEED, SUM_CAP, T_MAX,
+};
+use super::expose::{
+    mul_nonneg, noisy_dn, round_c4_words, sigma_z, sigma_z16, store, vignette_dn, vignette_dn_words,
+};
+use super::intersect::{fine_normal, passes_beyond, Inner, MixPrim, MixShape};
+use super::rays::{cos4, fill_lanes, fill_rays, undistort_k, Ray, Rays, AWAY, CHUNK, NO_HIT};
+use super::shade::{lobe_below, lobe_pf};
+use super::{Aperture, Mix32, ALONG_S42};
+use crate::num::scalar::shr_sat;
+use crate::render::ClosedMean;
+use crate::scene::Q;
+use core::num::NonZeroU32;
 
 /// `1/√(x · 2^e)` for `x > 0`, `e` even.
 fn rsqrt(x: u64, e: i32) -> Pf {
@@ -1274,7 +1289,7 @@ fn a_spared_sphere_is_met_by_no_aperture_ray() {
             continue;
         }
         let (rq, zq) = (q(r), q(z));
-        let reach = aperture::sphere_reach(c[2], rho, (rq.to_num::<f64>(), zq.to_num::<f64>()), 0);
+        let reach = super::aperture::sphere_reach(c[2], rho, (rq.to_num::<f64>(), zq.to_num::<f64>()), 0);
         if reach == 0 {
             continue;
         }

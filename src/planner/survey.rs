@@ -1,9 +1,15 @@
-//! What the coverage grid's rays find: the fractions of the sensor each
-//! kind of primitive covers (the cost model's areas), and the content's
-//! extent (the fast arithmetic's length unit).
+//! What the planner finds of a scene ([`Geometry::of`]): each primitive in
+//! the camera frame, the content's extent (the fast arithmetic's length
+//! unit), and what the coverage grid's rays find (the fractions of the
+//! sensor each kind of primitive covers: the cost model's areas).
 
-use super::geometry::{dot3, norm3, FromOrigin, PrimGeom, Reach, Reaches, COVERAGE_GRID};
+use super::geometry::{
+    cam_point, corner_slopes_d, dot3, norm3, prim_light_distance, unit_exp, FromOrigin, Geometry, PrimGeom,
+    Reach, Reaches, COVERAGE_GRID,
+};
 use crate::num::FixedF64;
+use crate::render::RenderModel;
+use crate::scene::Light;
 use crate::scene::{Scene, Shape};
 
 /// The content's extent from the camera and from where the fast
@@ -190,6 +196,111 @@ impl Coverage {
             } else {
                 self.flat_hits += 1;
             }
+        }
+    }
+}
+
+impl Geometry {
+    // Out of line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
+    pub(super) fn of(scene: &Scene, model: RenderModel) -> Geometry {
+        let cam = &scene.camera;
+        let intr = &cam.intrinsics;
+        let (fx, fy) = intr.focal_px();
+        let (fx, fy) = (fx.f64(), fy.f64());
+        let (slope_d, u_corner) = corner_slopes_d(scene);
+        let (k1, k2) = scene.distortion.coefficients();
+        let (k1, k2) = (k1.f64(), k2.f64());
+        let u_max = match scene.distortion.fold_u() {
+            Some(f) if !scene.distortion.is_none() => u_corner.min(f.f64()),
+            _ => u_corner,
+        };
+        let s_max = libm::fabs(k1) + libm::fabs(k2) * u_max;
+        let g_max = 1.0 + s_max * u_max;
+        let slope = slope_d[0].max(slope_d[1]) * g_max;
+        let origin_scale = match model {
+            RenderModel::Perspective => None,
+            RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.f64()),
+            RenderModel::Orthographic { scale } => Some(intr.focal_length().f64() / scale.f64().max(1e-300)),
+        };
+        let field = crate::render::prepare::field_box(scene);
+        let mut prims = heapless::Vec::new();
+        let mut reaches: Reaches = heapless::Vec::new();
+        for p in &scene.primitives {
+            let (g, reach) = PrimGeom::of(scene, p, origin_scale.is_some(), field);
+            let _ = reaches.push(reach);
+            let _ = prims.push(g);
+        }
+        let mut lights = heapless::Vec::new();
+        for l in &scene.lights {
+            let p = match *l {
+                Light::Point { position, .. } => Some(cam_point(scene, position)),
+                Light::Directional { .. } => None,
+            };
+            let _ = lights.push(p);
+        }
+        let (extent, fast_extent) = extents(&reaches, &lights, origin_scale);
+        let e = unit_exp(fast_extent);
+        let lens = &cam.lens;
+        let d_over_f = lens.diameter().f64() / lens.focal_length().f64();
+        let fmt = scene.format;
+        let gain = (0..fmt.channels())
+            .map(|c| {
+                let (n, d) = fmt.channel_scale(c);
+                scene.exposure.f64() * core::f64::consts::PI / 4.0 * d_over_f * d_over_f * n as f64 / d as f64
+            })
+            .fold(0.0, f64::max);
+        let dn_max = (0..fmt.channels()).map(|c| fmt.dn_max(c)).max().unwrap_or(255) as f64;
+        // The plane the fast arithmetic shades in closed form, as
+        // `mix32::Mix32::closed_plane` picks it: the first plane without a
+        // checker or a lobe, perspective rays, the camera and every point
+        // light off it by 2⁻¹⁰ of the fast unit or more.
+        let unit = libm::ldexp(1.0, e);
+        let closed = (origin_scale.is_none())
+            .then(|| {
+                prims.iter().zip(&scene.primitives).position(|(p, sp)| {
+                    matches!(p.shape, Shape::Plane { .. })
+                        && !p.unseen
+                        && sp.checker.is_none()
+                        && p.ks == 0.0
+                        && libm::fabs(dot3(p.c, p.n)) >= unit / 1024.0
+                        && lights
+                            .iter()
+                            .flatten()
+                            .all(|l| prim_light_distance(p, *l) >= unit / 1024.0)
+                })
+            })
+            .flatten();
+        let cov = Coverage::of(scene, &prims, &lights, origin_scale, closed);
+        let n = (COVERAGE_GRID.0 * COVERAGE_GRID.1) as f64;
+        Geometry {
+            f_px: fx.max(fy),
+            f_row: fx,
+            f_col: fy,
+            closed,
+            u_max,
+            slope_d,
+            field,
+            g_max,
+            s_max,
+            slope,
+            origin_scale,
+            extent,
+            fast_extent,
+            unit,
+            aperture: None,
+            prims,
+            lights,
+            gain,
+            dn_max,
+            coverage: cov.hits as f64 / n,
+            bounded_area: cov.bounded as f64 / n,
+            closed_area: cov.closed_hits as f64 / n,
+            lobe_area: cov.lobe_hits as f64 / n,
+            facing_area: cov.facing_hits as f64 / n,
+            closed_facing_area: cov.closed_facing_hits as f64 / n,
+            flat_area: cov.flat_hits as f64 / n,
+            closed_flat_area: cov.closed_flat_hits as f64 / n,
         }
     }
 }
