@@ -77,7 +77,7 @@ fi
 
 render_all() {
   for scene in scenes/*.toml; do
-    "$host_sim" render --scene "$scene" --out "out/$(basename "$scene" .toml)" | head -1
+    "$host_sim" render --scene "$scene" --out "out/$(basename "$scene" .toml)" | sed -n 1p
   done
 }
 stage render render_all

@@ -505,36 +505,12 @@ pub fn drive<W: Write>(
 ) -> Result<DriveReport, String> {
     let mut outputs = crate::output::Outputs::prepare(out)?;
     let t_all = Instant::now();
-    let (d, _) = driver.command(Command::Describe)?;
-    let Reply::Description(d) = d else {
-        return Err(format!("Describe answered with {d:?}"));
-    };
-    driver.set_next_seq(d.last_command.map_or(0, |l| l.wrapping_add(1)));
+    let d = load_scene(driver, r)?;
+    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
     let expect = |reply: Reply, what: &str| match reply {
         Reply::Ack(a) => Ok(a),
         other => Err(format!("{what}: {other:?}")),
     };
-    let data = r.scene_bytes()?;
-    if data.len() > d.max_scene as usize {
-        return Err(format!(
-            "the camera takes scenes of at most {} bytes as data; {} is {} bytes",
-            d.max_scene,
-            r.desc.name,
-            data.len()
-        ));
-    }
-    expect(driver.load_scene(&data)?, &format!("LoadScene {}", r.desc.name))?;
-    let (d, _) = driver.command(Command::Describe)?;
-    let Reply::Description(d) = d else {
-        return Err(format!("Describe answered with {d:?}"));
-    };
-    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
-    if (d.width, d.height) != (w, h) {
-        return Err(format!(
-            "the camera shows {}x{} after loading the scene, which is {w}x{h}",
-            d.width, d.height
-        ));
-    }
     let mut scene = r.core_scene()?;
     // The camera plans within the distortion table its frame holds; the
     // host's render of its frames plans with the same budget.
@@ -622,19 +598,88 @@ pub fn drive<W: Write>(
         outputs.write(&format!("frame-{k:05}.json"), &json)?;
         frames.push(df);
     }
+    let counts = Counts {
+        lost,
+        out_of_order,
+        late,
+        seconds: t_all.elapsed().as_secs_f64(),
+    };
+    let report = report(driver, (board, r, poses.len()), frames, counts, (instr_ns, probe));
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+    outputs.write("drive.json", &json)?;
+    outputs.commit()?;
+    Ok(report)
+}
+
+/// Loads `r` into the camera as data (after asking where its commands'
+/// sequence stands), and its description once loaded, checked against the
+/// scene's size.
+fn load_scene<W: Write>(driver: &mut Driver<W>, r: &Resolved) -> Result<hilcam::link::Description, String> {
+    let (d, _) = driver.command(Command::Describe)?;
+    let Reply::Description(d) = d else {
+        return Err(format!("Describe answered with {d:?}"));
+    };
+    driver.set_next_seq(d.last_command.map_or(0, |l| l.wrapping_add(1)));
+    let expect = |reply: Reply, what: &str| match reply {
+        Reply::Ack(a) => Ok(a),
+        other => Err(format!("{what}: {other:?}")),
+    };
+    let data = r.scene_bytes()?;
+    if data.len() > d.max_scene as usize {
+        return Err(format!(
+            "the camera takes scenes of at most {} bytes as data; {} is {} bytes",
+            d.max_scene,
+            r.desc.name,
+            data.len()
+        ));
+    }
+    expect(driver.load_scene(&data)?, &format!("LoadScene {}", r.desc.name))?;
+    let (d, _) = driver.command(Command::Describe)?;
+    let Reply::Description(d) = d else {
+        return Err(format!("Describe answered with {d:?}"));
+    };
+    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
+    if (d.width, d.height) != (w, h) {
+        return Err(format!(
+            "the camera shows {}x{} after loading the scene, which is {w}x{h}",
+            d.width, d.height
+        ));
+    }
+    Ok(d)
+}
+
+/// A drive's frames lost, out of order and late, and its time.
+struct Counts {
+    lost: usize,
+    out_of_order: usize,
+    late: usize,
+    seconds: f64,
+}
+
+/// `drive.json` of a drive's frames (`requested` poses of `r` on `board`),
+/// its round trips in instructions where `instr_ns` converts the camera's
+/// clock, and the firmware's RAM and flash where `probe` read them.
+fn report<W: Write>(
+    driver: &Driver<W>,
+    (board, r, requested): (&str, &Resolved, usize),
+    frames: Vec<DriveFrame>,
+    counts: Counts,
+    (instr_ns, probe): (Option<f64>, Option<&Probe>),
+) -> DriveReport {
+    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
     let stat = |v: Vec<f64>| {
         let n = v.len().max(1) as f64;
         [v.iter().sum::<f64>() / n, v.iter().cloned().fold(0.0, f64::max)]
     };
     let stack_peak = probe.and_then(|p| p.stack_peak(frames.len()));
-    let report = DriveReport {
+    DriveReport {
         board: board.into(),
         scene: r.desc.name.clone(),
-        frames_requested: poses.len(),
+        frames_requested: requested,
         frames_received: frames.len(),
-        lost,
-        out_of_order,
-        late,
+        lost: counts.lost,
+        out_of_order: counts.out_of_order,
+        late: counts.late,
         bit_exact: frames.iter().filter(|f| f.bit_exact).count(),
         truth_matches: frames.iter().filter(|f| f.truth_matches).count(),
         resent: driver.resent,
@@ -663,7 +708,7 @@ pub fn drive<W: Write>(
             let v: Vec<f64> = frames.iter().filter_map(|f| f.instructions).map(|n| n as f64 / px).collect();
             (!v.is_empty()).then(|| stat(v))
         },
-        seconds: t_all.elapsed().as_secs_f64(),
+        seconds: counts.seconds,
         link: driver.stats(),
         ram_bytes: probe.map(|p| p.static_bytes),
         stack_peak_bytes: stack_peak,
@@ -671,11 +716,7 @@ pub fn drive<W: Write>(
         flash_bytes: probe.map(|p| p.flash_bytes),
         panic_symbols: probe.map(|p| p.panic_symbols.clone()),
         frames,
-    };
-    let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
-    outputs.write("drive.json", &json)?;
-    outputs.commit()?;
-    Ok(report)
+    }
 }
 
 /// The poses of a drive: `poses_file` (JSON or CSV lines, see

@@ -602,6 +602,45 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
         gray(&desc.environment.ambient, "environment.ambient".into())?;
         gray(&desc.environment.background, "environment.background".into())?;
     }
+    let primitives = resolve_primitives(&desc, &material)?;
+    let lights = resolve_lights(&desc)?;
+    let trajectory = if desc.trajectory.is_empty() {
+        None
+    } else {
+        let t = crate::trajectory::Trajectory::new(desc.trajectory.clone())?;
+        if let Some(i) = desc
+            .trajectory
+            .iter()
+            .position(|k| k.position.iter().any(|v| v.abs() > hilcam::scene::MAX_EXTENT))
+        {
+            return Err(format!(
+                "trajectory keyframe {i}: position: beyond ±{} m",
+                hilcam::scene::MAX_EXTENT
+            ));
+        }
+        Some(t)
+    };
+    let r = Resolved {
+        desc,
+        format,
+        pose,
+        primitives,
+        lights,
+        trajectory,
+    };
+    // Build the core scene and prepare its default frame once, so that
+    // every range check runs now, naming the field, rather than at render.
+    let scene = r.core_scene()?;
+    r.check_renderable(&scene)?;
+    Ok(r)
+}
+
+/// The scene file's primitives: each shape with the fields its kind uses
+/// (another field is refused, naming it), its material by name.
+fn resolve_primitives(
+    desc: &SceneDesc,
+    material: &dyn Fn(&str, String) -> Result<usize, String>,
+) -> Result<Vec<ResolvedPrimitive>, String> {
     let mut primitives = Vec::new();
     for (i, pd) in desc.primitives.iter().enumerate() {
         let f = |name: &str| format!("primitives[{i}].{name}");
@@ -661,6 +700,12 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
             checker,
         });
     }
+    Ok(primitives)
+}
+
+/// The scene file's lights: point or directional, each with the fields its
+/// kind uses.
+fn resolve_lights(desc: &SceneDesc) -> Result<Vec<LightData>, String> {
     let mut lights = Vec::new();
     for (i, l) in desc.lights.iter().enumerate() {
         let f = |name: &str| format!("lights[{i}].{name}");
@@ -699,35 +744,7 @@ fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
         }
         lights.push(light);
     }
-    let trajectory = if desc.trajectory.is_empty() {
-        None
-    } else {
-        let t = crate::trajectory::Trajectory::new(desc.trajectory.clone())?;
-        if let Some(i) = desc
-            .trajectory
-            .iter()
-            .position(|k| k.position.iter().any(|v| v.abs() > hilcam::scene::MAX_EXTENT))
-        {
-            return Err(format!(
-                "trajectory keyframe {i}: position: beyond ±{} m",
-                hilcam::scene::MAX_EXTENT
-            ));
-        }
-        Some(t)
-    };
-    let r = Resolved {
-        desc,
-        format,
-        pose,
-        primitives,
-        lights,
-        trajectory,
-    };
-    // Build the core scene and prepare its default frame once, so that
-    // every range check runs now, naming the field, rather than at render.
-    let scene = r.core_scene()?;
-    r.check_renderable(&scene)?;
-    Ok(r)
+    Ok(lights)
 }
 
 impl Resolved {

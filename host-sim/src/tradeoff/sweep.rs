@@ -369,8 +369,79 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
     );
 
     // Host: fidelity and timing.
+    let mut rows = host_rows(cfg, &resolved, &pb)?;
+    // Firmware: instructions, bit-exactness, flash.
+    board_columns(cfg, &scenes, &mut rows, out, &pb)?;
+    let first = resolved.first().map(|r| r.desc.name.clone()).unwrap_or_default();
+    let fixed_rows: Vec<Row> = rows.iter().filter(|r| r.is_fixed_point()).cloned().collect();
+    let best_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, false);
+    let fastest_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, true);
+    let recommendations = recommend(
+        &rows,
+        &resolved,
+        best_fixed_m3.as_deref(),
+        fastest_fixed_m3.as_deref(),
+    );
+    let ratio = |fixed: Option<&String>, m3: bool| -> Option<f64> {
+        let ipp = |r: &Row| {
+            if m3 {
+                r.instructions_per_pixel_m3
+            } else {
+                r.instructions_per_pixel_m4f
+            }
+        };
+        let f32_best = rows
+            .iter()
+            .filter(|r| r.scalar == "f32" && r.scene == first)
+            .filter_map(ipp)
+            .fold(f64::INFINITY, f64::min);
+        let fixed = rows
+            .iter()
+            .find(|r| Some(&r.variant) == fixed && r.scene == first)
+            .and_then(ipp)?;
+        f32_best.is_finite().then(|| f32_best / fixed)
+    };
+    let speedups = (
+        ratio(best_fixed_m3.as_ref(), true),
+        ratio(best_fixed_m3.as_ref(), false),
+        ratio(fastest_fixed_m3.as_ref(), true),
+    );
+    let rec_m3 = best_fixed_m3.clone();
+
+    // Growth and pruning.
+    let (mut growth, mut pruning) = (Vec::new(), Vec::new());
+    if cfg.growth_and_pruning {
+        growth = growth_runs(cfg, &base, rec_m3.as_ref(), out, &pb)?;
+        pruning = pruning_runs(cfg, out, &pb)?;
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+
+    let report = Report {
+        best_fixed_m3,
+        m3_fixed_speedup_over_f32: speedups.0,
+        m4f_fixed_speedup_over_f32: speedups.1,
+        m3_fastest_fixed_speedup_over_f32: speedups.2,
+        variants: rows,
+        growth,
+        pruning,
+        recommendations,
+    };
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
+    let md = markdown(&report);
+    let png = super::plot::plot(&report)?;
+    outputs.write("tradeoff.json", &json)?;
+    outputs.write("tradeoff.md", md.as_bytes())?;
+    outputs.write("tradeoff.png", &png)?;
+    outputs.commit()?;
+    Ok(md)
+}
+
+/// Every scene's reference and variants rendered on the host: a row each,
+/// with its fidelity and its time.
+fn host_rows(cfg: &Config, resolved: &[Resolved], pb: &ProgressBar) -> Result<Vec<Row>, String> {
     let mut rows = Vec::new();
-    for r in &resolved {
+    for r in resolved {
         pb.set_message(format!("host, {}: reference", r.desc.name));
         let rs = RefScene::new(r);
         let reference = rs.render();
@@ -412,9 +483,19 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         }
     }
 
-    // Firmware: instructions, bit-exactness, flash.
+    Ok(rows)
+}
+
+/// Each board's instructions, bit-exactness and flash, into `rows`.
+fn board_columns(
+    cfg: &Config,
+    scenes: &[PathBuf],
+    rows: &mut [Row],
+    out: &Path,
+    pb: &ProgressBar,
+) -> Result<(), String> {
     for &board in &cfg.boards {
-        let (runs, flash) = firmware_runs(board, &scenes, &cfg.variants, out, &pb)?;
+        let (runs, flash) = firmware_runs(board, scenes, &cfg.variants, out, pb)?;
         let m3 = board.core() == "M3";
         for row in rows.iter_mut() {
             let Some(v) = cfg.variants.iter().find(|v| v.name() == row.variant) else {
@@ -434,176 +515,135 @@ pub fn run(cfg: &Config, out: &Path) -> Result<String, String> {
         }
     }
 
-    let first = resolved.first().map(|r| r.desc.name.clone()).unwrap_or_default();
-    let fixed_rows: Vec<Row> = rows.iter().filter(|r| r.is_fixed_point()).cloned().collect();
-    let best_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, false);
-    let fastest_fixed_m3 = cheapest(&fixed_rows, &resolved, |r| r.instructions_per_pixel_m3, true);
-    let recommendations = recommend(
-        &rows,
-        &resolved,
-        best_fixed_m3.as_deref(),
-        fastest_fixed_m3.as_deref(),
-    );
-    let ratio = |fixed: Option<&String>, m3: bool| -> Option<f64> {
-        let ipp = |r: &Row| {
-            if m3 {
-                r.instructions_per_pixel_m3
-            } else {
-                r.instructions_per_pixel_m4f
-            }
-        };
-        let f32_best = rows
-            .iter()
-            .filter(|r| r.scalar == "f32" && r.scene == first)
-            .filter_map(ipp)
-            .fold(f64::INFINITY, f64::min);
-        let fixed = rows
-            .iter()
-            .find(|r| Some(&r.variant) == fixed && r.scene == first)
-            .and_then(ipp)?;
-        f32_best.is_finite().then(|| f32_best / fixed)
-    };
-    let speedups = (
-        ratio(best_fixed_m3.as_ref(), true),
-        ratio(best_fixed_m3.as_ref(), false),
-        ratio(fastest_fixed_m3.as_ref(), true),
-    );
-    let rec_m3 = best_fixed_m3.clone();
+    Ok(())
+}
 
-    // Growth and pruning.
+/// Instructions a pixel against resolution and against the primitives'
+/// count, the planned variant's and the recommended one's.
+fn growth_runs(
+    cfg: &Config,
+    base: &str,
+    rec_m3: Option<&String>,
+    out: &Path,
+    pb: &ProgressBar,
+) -> Result<Vec<Growth>, String> {
     let mut growth = Vec::new();
-    let mut pruning = Vec::new();
-    if cfg.growth_and_pruning {
-        let gdir = out.join("scenes");
-        let mut res_scenes = Vec::new();
-        for w in [80u32, 160, 320, 640] {
-            let name = format!("standard-{w}x{}", w * 3 / 4);
-            res_scenes.push(write_scene(&gdir, &name, &derive_scene(&base, &name, w, 3)?)?);
-        }
-        let mut prim_scenes = Vec::new();
-        for n in [1usize, 2, 4, 8, 16] {
-            let name = format!("standard-{n}-primitives");
-            prim_scenes.push(write_scene(&gdir, &name, &derive_scene(&base, &name, 160, n)?)?);
-        }
-        let all: Vec<PathBuf> = res_scenes.iter().chain(&prim_scenes).cloned().collect();
-        let all_r: Vec<Resolved> = all.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
-        let mut gvariants = vec![Variant::PLANNED];
-        if let Some(rec) = rec_m3.as_ref().and_then(|n| Variant::parse(n).ok()) {
-            if rec != Variant::PLANNED {
-                gvariants.push(rec);
-            }
-        }
-        let per_board = runs_per_board(&cfg.boards, "growth", &all, &gvariants, out, &pb)?;
-        let ins = |board: Option<Board>, scene: &str, v: &str| lookup(&per_board, board?, scene, v).map(|r| r.1);
-        for v in &gvariants {
-            let point = |r: &Resolved| GrowthPoint {
-                scene: r.desc.name.clone(),
-                pixels: r.desc.camera.width as u64 * r.desc.camera.height as u64,
-                primitives: r.primitives.len(),
-                instructions_m3: ins(Board::by_core("M3"), &r.desc.name, &v.name()),
-                instructions_m4f: ins(Board::by_core("M4F"), &r.desc.name, &v.name()),
-            };
-            let resolution: Vec<GrowthPoint> = all_r.iter().take(res_scenes.len()).map(point).collect();
-            let primitives: Vec<GrowthPoint> = all_r.iter().skip(res_scenes.len()).map(point).collect();
-            let fit = |pts: &[GrowthPoint], x: fn(&GrowthPoint) -> f64, m3: bool| {
-                let p: Vec<(f64, f64)> = pts
-                    .iter()
-                    .filter_map(|g| {
-                        let y = if m3 { g.instructions_m3 } else { g.instructions_m4f };
-                        y.map(|y| (x(g), y as f64))
-                    })
-                    .collect();
-                slope(&p)
-            };
-            growth.push(Growth {
-                variant: v.name(),
-                per_pixel_slope_m3: fit(&resolution, |g| g.pixels as f64, true),
-                per_pixel_slope_m4f: fit(&resolution, |g| g.pixels as f64, false),
-                per_primitive_slope_m3: fit(&primitives, |g| g.primitives as f64, true),
-                per_primitive_slope_m4f: fit(&primitives, |g| g.primitives as f64, false),
-                resolution,
-                primitives,
-            });
-        }
-
-        // Pruning: every shipped scene, planned vs every stage.
-        let shipped = shipped_scenes()?;
-        let shipped_r: Vec<Resolved> = shipped.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
-        // The same arithmetic as planned, nothing pruned.
-        let all_stages = Variant {
-            scalar: ScalarKind::Planned,
-            over: Override::AllStages,
-        };
-        let pv = [Variant::PLANNED, all_stages];
-        let per_board = runs_per_board(&cfg.boards, "pruning", &shipped, &pv, out, &pb)?;
-        let ipp =
-            |board: Option<Board>, scene: &str, v: &Variant| lookup(&per_board, board?, scene, &v.name()).map(|r| r.0);
-        for r in &shipped_r {
-            let name = r.desc.name.clone();
-            let scene = r.core_scene()?;
-            let p = plan(&scene, &Budget::default()).options;
-            let planned = Frame::<hilcam::num::scalar::I32F32>::build(&scene, &p).map_err(|e| format!("{e:?}"))?;
-            let full = Frame::<hilcam::num::scalar::I32F32>::build(&scene, &p.with(Override::AllStages))
-                .map_err(|e| format!("{e:?}"))?;
-            let (a, b) = (planned.stages(), full.stages());
-            let mut dropped = Vec::new();
-            for s in b.names() {
-                if !s.starts_with("rays:") && !a.names().contains(&s) {
-                    dropped.push(s.to_string());
-                }
-            }
-            if a.model != b.model {
-                dropped.push(format!("{} instead of {}", a.model.name(), b.model.name()));
-            }
-            if a.distortion_lut != b.distortion_lut && a.distortion.is_some() {
-                dropped.push(format!(
-                    "distortion table of {} entries instead of {MAX_LUT}",
-                    a.distortion_lut.unwrap_or(0)
-                ));
-            }
-            let pa = crate::harness::collect(&planned)?;
-            let pb_ = crate::harness::collect(&full)?;
-            // Per channel value (DN), not per byte: a byte of an RGB565 or
-            // Gray16 pixel is not a value.
-            let max_between = pa
-                .dn(scene.format())
-                .iter()
-                .zip(&pb_.dn(scene.format()))
-                .flat_map(|(x, y)| x.iter().zip(y).map(|(a, b)| a.abs_diff(*b)))
-                .max()
-                .unwrap_or(0);
-            pruning.push(Pruning {
-                dropped,
-                planned_m3: ipp(Board::by_core("M3"), &name, &Variant::PLANNED),
-                all_stages_m3: ipp(Board::by_core("M3"), &name, &all_stages),
-                planned_m4f: ipp(Board::by_core("M4F"), &name, &Variant::PLANNED),
-                all_stages_m4f: ipp(Board::by_core("M4F"), &name, &all_stages),
-                planned_host_ns: host_ns_per_pixel(&Variant::PLANNED, r, cfg.repeats)?,
-                all_stages_host_ns: host_ns_per_pixel(&all_stages, r, cfg.repeats)?,
-                max_abs_lsb_between: max_between,
-                scene: name,
-            });
-        }
-        pb.inc(1);
+    let gdir = out.join("scenes");
+    let mut res_scenes = Vec::new();
+    for w in [80u32, 160, 320, 640] {
+        let name = format!("standard-{w}x{}", w * 3 / 4);
+        res_scenes.push(write_scene(&gdir, &name, &derive_scene(base, &name, w, 3)?)?);
     }
-    pb.finish_and_clear();
+    let mut prim_scenes = Vec::new();
+    for n in [1usize, 2, 4, 8, 16] {
+        let name = format!("standard-{n}-primitives");
+        prim_scenes.push(write_scene(&gdir, &name, &derive_scene(base, &name, 160, n)?)?);
+    }
+    let all: Vec<PathBuf> = res_scenes.iter().chain(&prim_scenes).cloned().collect();
+    let all_r: Vec<Resolved> = all.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
+    let mut gvariants = vec![Variant::PLANNED];
+    if let Some(rec) = rec_m3.and_then(|n| Variant::parse(n).ok()) {
+        if rec != Variant::PLANNED {
+            gvariants.push(rec);
+        }
+    }
+    let per_board = runs_per_board(&cfg.boards, "growth", &all, &gvariants, out, pb)?;
+    let ins = |board: Option<Board>, scene: &str, v: &str| lookup(&per_board, board?, scene, v).map(|r| r.1);
+    for v in &gvariants {
+        let point = |r: &Resolved| GrowthPoint {
+            scene: r.desc.name.clone(),
+            pixels: r.desc.camera.width as u64 * r.desc.camera.height as u64,
+            primitives: r.primitives.len(),
+            instructions_m3: ins(Board::by_core("M3"), &r.desc.name, &v.name()),
+            instructions_m4f: ins(Board::by_core("M4F"), &r.desc.name, &v.name()),
+        };
+        let resolution: Vec<GrowthPoint> = all_r.iter().take(res_scenes.len()).map(point).collect();
+        let primitives: Vec<GrowthPoint> = all_r.iter().skip(res_scenes.len()).map(point).collect();
+        let fit = |pts: &[GrowthPoint], x: fn(&GrowthPoint) -> f64, m3: bool| {
+            let p: Vec<(f64, f64)> = pts
+                .iter()
+                .filter_map(|g| {
+                    let y = if m3 { g.instructions_m3 } else { g.instructions_m4f };
+                    y.map(|y| (x(g), y as f64))
+                })
+                .collect();
+            slope(&p)
+        };
+        growth.push(Growth {
+            variant: v.name(),
+            per_pixel_slope_m3: fit(&resolution, |g| g.pixels as f64, true),
+            per_pixel_slope_m4f: fit(&resolution, |g| g.pixels as f64, false),
+            per_primitive_slope_m3: fit(&primitives, |g| g.primitives as f64, true),
+            per_primitive_slope_m4f: fit(&primitives, |g| g.primitives as f64, false),
+            resolution,
+            primitives,
+        });
+    }
 
-    let report = Report {
-        best_fixed_m3,
-        m3_fixed_speedup_over_f32: speedups.0,
-        m4f_fixed_speedup_over_f32: speedups.1,
-        m3_fastest_fixed_speedup_over_f32: speedups.2,
-        variants: rows,
-        growth,
-        pruning,
-        recommendations,
+    Ok(growth)
+}
+
+/// What the planner's pruning saves: every shipped scene planned against
+/// every stage kept.
+fn pruning_runs(cfg: &Config, out: &Path, pb: &ProgressBar) -> Result<Vec<Pruning>, String> {
+    let mut pruning = Vec::new();
+    // Pruning: every shipped scene, planned vs every stage.
+    let shipped = shipped_scenes()?;
+    let shipped_r: Vec<Resolved> = shipped.iter().map(|p| load(p)).collect::<Result<_, _>>()?;
+    // The same arithmetic as planned, nothing pruned.
+    let all_stages = Variant {
+        scalar: ScalarKind::Planned,
+        over: Override::AllStages,
     };
-    let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
-    let md = markdown(&report);
-    let png = super::plot::plot(&report)?;
-    outputs.write("tradeoff.json", &json)?;
-    outputs.write("tradeoff.md", md.as_bytes())?;
-    outputs.write("tradeoff.png", &png)?;
-    outputs.commit()?;
-    Ok(md)
+    let pv = [Variant::PLANNED, all_stages];
+    let per_board = runs_per_board(&cfg.boards, "pruning", &shipped, &pv, out, pb)?;
+    let ipp =
+        |board: Option<Board>, scene: &str, v: &Variant| lookup(&per_board, board?, scene, &v.name()).map(|r| r.0);
+    for r in &shipped_r {
+        let name = r.desc.name.clone();
+        let scene = r.core_scene()?;
+        let p = plan(&scene, &Budget::default()).options;
+        let planned = Frame::<hilcam::num::scalar::I32F32>::build(&scene, &p).map_err(|e| format!("{e:?}"))?;
+        let full = Frame::<hilcam::num::scalar::I32F32>::build(&scene, &p.with(Override::AllStages))
+            .map_err(|e| format!("{e:?}"))?;
+        let (a, b) = (planned.stages(), full.stages());
+        let mut dropped = Vec::new();
+        for s in b.names() {
+            if !s.starts_with("rays:") && !a.names().contains(&s) {
+                dropped.push(s.to_string());
+            }
+        }
+        if a.model != b.model {
+            dropped.push(format!("{} instead of {}", a.model.name(), b.model.name()));
+        }
+        if a.distortion_lut != b.distortion_lut && a.distortion.is_some() {
+            dropped.push(format!(
+                "distortion table of {} entries instead of {MAX_LUT}",
+                a.distortion_lut.unwrap_or(0)
+            ));
+        }
+        let pa = crate::harness::collect(&planned)?;
+        let pb_ = crate::harness::collect(&full)?;
+        // Per channel value (DN), not per byte: a byte of an RGB565 or
+        // Gray16 pixel is not a value.
+        let max_between = pa
+            .dn(scene.format())
+            .iter()
+            .zip(&pb_.dn(scene.format()))
+            .flat_map(|(x, y)| x.iter().zip(y).map(|(a, b)| a.abs_diff(*b)))
+            .max()
+            .unwrap_or(0);
+        pruning.push(Pruning {
+            dropped,
+            planned_m3: ipp(Board::by_core("M3"), &name, &Variant::PLANNED),
+            all_stages_m3: ipp(Board::by_core("M3"), &name, &all_stages),
+            planned_m4f: ipp(Board::by_core("M4F"), &name, &Variant::PLANNED),
+            all_stages_m4f: ipp(Board::by_core("M4F"), &name, &all_stages),
+            planned_host_ns: host_ns_per_pixel(&Variant::PLANNED, r, cfg.repeats)?,
+            all_stages_host_ns: host_ns_per_pixel(&all_stages, r, cfg.repeats)?,
+            max_abs_lsb_between: max_between,
+            scene: name,
+        });
+    }
+    Ok(pruning)
 }
