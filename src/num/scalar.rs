@@ -99,17 +99,13 @@ fn powi_clamped<S: Scalar>(x: S, mut n: u16) -> S {
 /// each on Cortex-M3/M4) summed in 64 bits, rather than through the
 /// library's signed 128-bit multiply; where a factor is below 1 (the
 /// common case) two products suffice. The result equals `saturating_mul`'s
-/// (rounded down). (The 128-bit sums this replaced cost shallow-dof, the
-/// wide arithmetic's scene, 247 515 M3 instructions a pixel against
-/// 212 203.)
+/// (rounded down), in fewer M3 instructions than the 128-bit sums.
 #[inline(never)]
 fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
     let (x, y) = (a.to_bits(), b.to_bits());
     // On the M0, whose products are 16-bit ones, a zero factor (an
-    // axis-aligned normal's or axis's components) returns at once:
-    // shallow-dof 766 373 → 592 573. On the M3 the test cost the wide
-    // calibration scenes about 6 % (cal-base 2 611 → 2 769, `host-sim
-    // costfit`) for shallow-dof's 3.7 % (193 858 → 186 616).
+    // axis-aligned normal's or axis's components) returns at once. On the
+    // M3 the test cost the wide calibration scenes more than it saved.
     if M0 && (x == 0 || y == 0) {
         return I32F32::ZERO;
     }
@@ -177,8 +173,7 @@ fn mul_q(a: I32F32, b: I32F32) -> I32F32 {
 /// 32 bits, at most two too large (Knuth's normalized digit estimate),
 /// corrected exactly. A 32-bit divisor's divisions, and the estimate, are
 /// 64 by 32 bits ([`div_64_32`]): on the M3/M4F two `UDIV`s each rather
-/// than the library's 64-bit routine (shallow-dof 212 203 → 193 858 M3
-/// instructions a pixel).
+/// than the library's 64-bit routine.
 #[inline(never)]
 fn div_q(a: I32F32, b: I32F32) -> Option<I32F32> {
     let (x, y) = (a.to_bits(), b.to_bits());
@@ -256,9 +251,8 @@ fn div_64_32(u1: u32, u0: u32, v: NonZeroU32) -> (u32, u32) {
 }
 
 /// [`div_64_32`] by 16-bit digits (compiled everywhere: the tests check
-/// it). Out of line: one copy for [`div_q`]'s three divisions (inlined,
-/// shallow-dof 193 858 → 192 949 M3 instructions a pixel for 236 B of
-/// flash).
+/// it). Out of line: one copy for [`div_q`]'s three divisions (inlined, a
+/// little faster for more flash).
 #[inline(never)]
 fn div_64_32_digits(u1: u32, u0: u32, v: NonZeroU32) -> (u32, u32) {
     const B: u32 = 1 << 16;

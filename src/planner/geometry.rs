@@ -100,13 +100,10 @@ pub(super) enum Reach {
 }
 
 /// The coverage sample grid (columns, rows): the sampled features'
-/// resolution (a sample is 1/108 of the sensor). At 8 × 6 a sample was
-/// 2 % of it, and moving spheres-specular's principal point by 3.8 px
-/// moved its coverage 0.83 → 0.67 (50 instructions a pixel of
-/// prediction); refitted, the shipped scenes' error 9.2 → 8.5 % RMS and
-/// their off-centre copies' 10.1 → 8.1 %, for a plan of 635 k M3
-/// instructions against 482 k (16 × 12: 7.9 and 7.8 %, 838 k;
-/// `docs/cost-model.md`).
+/// resolution (a sample is 1/108 of the sensor): coarser, a principal
+/// point moved by a few pixels moved a scene's sampled coverage, and its
+/// predicted cost, far more than its measured cost moved; finer, planning
+/// costs more for little better predictions (`docs/cost-model.md`).
 pub(super) const COVERAGE_GRID: (u32, u32) = (12, 9);
 
 impl PrimGeom {

@@ -348,10 +348,8 @@ pub(super) fn mul_shr61_words(y: u32, f: u64) -> u64 {
 
 /// `⌊a · b / 2⁶⁴⌋` for u64 `a`, `b`, exactly: on the M0 from four
 /// 32 × 32-bit products (two where `b` is a u32's: the others fold away),
-/// as its 128-bit product is library calls (with it, spheres-specular
-/// 1 672.8 → 1 477.1 instructions a pixel); elsewhere the 128-bit
-/// product (the M3's spheres-specular measured 1.1 a pixel more in
-/// words).
+/// as its 128-bit product is library calls; elsewhere the 128-bit
+/// product (on the M3 the words measured more).
 #[inline(always)]
 pub(super) fn mul_hi_64(a: u64, b: u64) -> u64 {
     if M0 {
@@ -520,8 +518,8 @@ pub(super) fn umul(a: u32, b: u32) -> u64 {
 
 /// [`umul`] with the M0's product in 32-bit words ([`umul16_words`]): at
 /// the sites where that measured cheaper on the M0 (`rsqrt_top`'s `m y²`,
-/// [`Pf::mul_to_sum`], and [`vignette_dn`](super::vignette_dn) before its common case took
-/// [`round_c4_words`](super::round_c4_words): standard 887.8 → 873.2 a pixel, every scene down).
+/// [`Pf::mul_to_sum`], and [`vignette_dn`](super::vignette_dn)'s rare
+/// case beside [`round_c4_words`](super::round_c4_words)).
 /// In [`cube_over`](super::cube_over) and [`cos_over_r3`] it cost more (the registers
 /// around them), so those keep [`umul`].
 #[inline(always)]

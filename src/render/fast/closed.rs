@@ -252,8 +252,7 @@ impl Mix32 {
     /// [`Mix32::closed_run`]'s chunk, in a frame without a point light on
     /// the plane's side: if its rays all see the plane ([`all_ahead`]),
     /// each ray's word from the plane's constant sum `flat`, no `w` a ray
-    /// (wide-vignetting, a wall under a directional light: M3 102.9 → 83.4
-    /// instructions a pixel, M0 215.0 → 136.8), and `true`; else nothing.
+    /// (a wall under a directional light), and `true`; else nothing.
     /// Out of line, the test with it: the run's loops keep their
     /// registers and size ([`Mix32::closed_run`] says what each form
     /// measured); on the M0 inlined, its words out of line.
@@ -272,10 +271,10 @@ impl Mix32 {
             return false;
         }
         // Without noise, a copy of the words without its test, as
-        // `closed_lit` has (wide-vignetting, in a firmware that also holds a
-        // scene with noise: M3 83.4 → 72.0 instructions a pixel, M4F 83.2 →
-        // 72.9, for 96 B). Not on the M0, where `flat_words` is a call (its
-        // standard scene moved 586.7 → 587.5 with the second).
+        // `closed_lit` has: in a firmware that also holds a scene with
+        // noise, a scene without paid noise's test a ray. Not on the M0,
+        // where `flat_words` is a call and a second one cost its other
+        // scenes.
         match noise {
             #[cfg(not(hilcam_m0))]
             None => self.flat_words(c, rgb, rays, words, dn_max, (None, index, step)),

@@ -121,17 +121,13 @@ pub(super) fn noisy<const C: usize>(
     dn_max: [u64; 3],
 ) -> u16 {
     // In a `compact` build (one loop for one and three channels) the
-    // channels written out, as `Mix32::dn_word` takes them: the loop over
-    // their count measured the camera's low-light 364.6 against 336.4
-    // instructions a pixel on the M3, 1 292.5 against 1 039.2 on the M0.
-    // On the M3 through `each` (each channel a value measured its low-light
-    // 338.7, standard 224.7 against 218.9), on the M0 each channel a value
-    // (through `each`, its wide-vignetting 335.9 against 192.5: the arrays
-    // copied a pixel again). (Outside a `compact` build the value form
-    // moved the default M3 firmware's other loops: wide-vignetting 83.4 →
-    // 75.9, spheres-specular 378.3 → 384.7. One helper for these two forms
-    // and `Mix32::dn_word`'s, the value a closure argument, measured the
-    // M3 camera's standard 217.0 → 222.3, low-light 335.2 → 348.4.)
+    // channels written out, as `Mix32::dn_word` takes them (a loop over
+    // their count measured slower on both boards): on the M3 through
+    // `each`, on the M0 each channel a value (through `each` the arrays
+    // were copied a pixel again). Outside a `compact` build the value form
+    // slowed the default firmware's other loops; one helper for these two
+    // forms and `Mix32::dn_word`'s, the value a closure argument, slowed
+    // the camera's.
     if crate::target::COMPACT && !M0_COMPACT {
         let mut dn = [0u32; 3];
         super::each::<C>(n, |c| {

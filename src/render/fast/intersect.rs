@@ -25,8 +25,7 @@ use core::num::NonZeroU32;
 /// the lobe by geometry instead. Out of line on the Cortex-M; inlined on
 /// the x86-64 host, where, out of line, it returned the normal through
 /// the memory [`Mix32::hit_from`]'s other normals were stored to, whose
-/// three 4-byte stores an 8-byte load of them then stalled on (1080p
-/// standard 52.8–53.4 → 54.3–54.9 frames/s, three interleaved runs).
+/// three 4-byte stores an 8-byte load of them then stalled on.
 #[cfg_attr(hilcam_loops_out_of_line, inline(never))]
 #[cfg_attr(not(hilcam_loops_out_of_line), inline(always))]
 #[cold]
@@ -174,7 +173,7 @@ impl MixChecker {
     /// [`MixChecker::cells`] of ray `r`'s hit ([`Ray::along`]: no point).
     /// Out of line in a `compact` build (flash). (Its pair written out as
     /// in `cells`: one body for both, through a closure argument, measured
-    /// the M0's calibration-board 3 010.2 → 3 020.6.)
+    /// slower on the M0.)
     #[cfg_attr(feature = "compact", inline(never))]
     #[cfg_attr(not(feature = "compact"), inline(always))]
     pub(super) fn cells_of<const PERSP: bool>(&self, r: &Ray, bounded: bool) -> (i32, i32) {
@@ -377,11 +376,9 @@ impl MixShape {
                 // A chunk whose slope box lies within the frame's [`Inner`]
                 // region: every ray's test would pass, and none is made —
                 // in a pass of the plane alone (one pass with the flag
-                // tested per ray measured 266.6 against 257.4 M3
-                // instructions a pixel on checkerboard-barrel), but in the
-                // M0's `compact` build (flash: 1.3 KB of its camera's for
-                // checkerboard-barrel 1 057.4 → 1 052.3; the M3 camera's
-                // 265.8 → 261.9 for 776 B).
+                // tested per ray measured slower), but in the M0's
+                // `compact` build, where the flash it takes is worth more
+                // than the little it saves.
                 let within = PERSP && inner.is_some_and(|q| q.index == index && q.covers(slopes));
                 if within && !M0_COMPACT {
                     flat_pass::<PERSP>(*n, *dist, *rz, rays, |r, t, away| r.keep(t, index, away));

@@ -281,9 +281,8 @@ impl Mix32 {
     ) -> ([i32; 2], bool) {
         let korigin = self.parallel.unwrap_or(0);
         let vignette = keep_c4 && self.vignetting;
-        // (Not in the M0's `compact` build: flash, 1.7 KB of its camera's
-        // for standard 885.4 → 877.2; the M3 camera's 226.7 → 221.7 for
-        // 1 KB.)
+        // (Not in the M0's `compact` build: the flash it takes there is worth
+        // more than the little it saves.)
         let mono = !M0_COMPACT;
         match self.k {
             // `ŷ = ŷ_d g(u)` is monotone in `u` (so in `|x̂_d|`) where `g` is,
@@ -576,8 +575,7 @@ impl Mix32 {
                 let c = if MOVED { moved_point(*c, a24) } else { *c };
                 let (n, v) = fine_normal::<PERSP, MOVED>(r, c, *r24, *inv_r, away);
                 // (Not kept in a `compact` build, whose loops measured more
-                // with it: shallow-target 270.3 → 286.9 M3 instructions a
-                // pixel, shallow-dof 13 653 → 13 914.)
+                // with it.)
                 view = (!crate::target::COMPACT).then_some(v);
                 n
             }
@@ -613,8 +611,7 @@ impl Mix32 {
         }
         // a S20 = m 2^-z; 1/√a = y 2^((z − 44)/2) in S30 (z ≤ 42: a ≥ 1).
         // (The shift is below 32 — a ≤ 513 in S20, so z ≥ 34 — but its
-        // word form here, [`sar64_low_lt32`], measured the M3's
-        // spheres-specular 445.9 → 447.1 a pixel, the M4F's 435.3 → 431.3.)
+        // word form here, [`sar64_low_lt32`], measured no better.)
         let (y, z) = rsqrt_fine(r.a as u64);
         let sh = 26 + (44 - z.min(44)) / 2;
         [

@@ -340,9 +340,8 @@ impl Aperture {
     /// shifted by 38, rounded, saturated — in 64-bit products (`inv_z40 =
     /// h 2³² + l`; `a l = m 2³² + k` with `0 ≤ k < 2³²`, so `⌊(a inv +
     /// 2³⁷) / 2³⁸⌋ = ⌊(a h + m + ⌊(k + 2³⁷) / 2³²⌋) / 2⁶⌋`), not a
-    /// 128-bit one, which the M3 builds of more (per chunk and point:
-    /// shallow-dof 8 998 → 8 955 M3 instructions a pixel). The same value
-    /// (`tests`).
+    /// 128-bit one, which the M3 builds of more (per chunk and point). The
+    /// same value (`tests`).
     #[inline(always)]
     fn slope_off(&self, a: i32) -> i32 {
         let (h, l) = (self.inv_z40 >> 32, self.inv_z40 & 0xFFFF_FFFF);

@@ -194,10 +194,8 @@ impl Ray {
         if M0 {
             // By index: over the slice's iterator the M0's unrolled loop
             // (opt-level 3) divided the slice's length in bytes by a ray's
-            // 40 to count them, a library call a chunk (M0 standard 687.3
-            // → 685.5 instructions a pixel, shallow-target 700.5 → 687.9;
-            // `flat_pass` by index measured worse: calibration-board
-            // 2 985 → 3 058, so it keeps its loop).
+            // 40 to count them, a library call a chunk (`flat_pass` by
+            // index measured worse, so it keeps its loop).
             for q in 0..rays.len() {
                 if let Some(r) = rays.get_mut(q) {
                     r.mirror::<PERSP>();
@@ -251,10 +249,9 @@ impl Ray {
     ///
     /// On the Cortex-M0 a parallel ray's product by a zero component of
     /// the axis (a rectangle or checker square to the camera) is left out
-    /// ([`wmul_axis`]): the same sum. (For perspective rays too, the M0's
-    /// checkerboard-barrel measured 726.0 → 691.4 and shallow-dof 32 611 →
-    /// 32 360, but calibration-board 2 926.2 → 2 970.9, whose second axis
-    /// has none.)
+    /// ([`wmul_axis`]): the same sum. (For perspective rays too it helped
+    /// some scenes and slowed calibration-board, whose second axis has no
+    /// zero component.)
     #[inline(always)]
     pub(super) fn along<const PERSP: bool>(&self, t: i32, a: [i32; 3]) -> i64 {
         if PERSP {
