@@ -347,7 +347,9 @@ impl Mix32 {
     /// The frame's primitives in the fast formats, in length unit `U = 2^e`
     /// with the rays starting at `z = z0`; `ap` the aperture's radius and
     /// focus distance ([`Aperture::lens`]).
-    #[inline(always)]
+    // Out of line: its loop over the primitives inlined into `fill`
+    // measured more flash.
+    #[inline(never)]
     fn fill_prims(&mut self, f: &Input, z0: Q, e: i32, (ap_r, ap_z): (Q, Q)) -> Result<(), RenderError> {
         use crate::render::prepare::CamShapeQ as S;
         let bad = RenderError::OutsideFormat;
