@@ -57,8 +57,13 @@ stage() {
 }
 
 stage toolchain ensure_toolchain
-qemu=0
-ensure_qemu > out/qemu-install.log 2>&1 && qemu=1
+# QEMU (apt, as root, where it is missing) and the Python environment
+# (pip) install in the background while host-sim builds.
+ensure_qemu > out/qemu-install.log 2>&1 &
+qemu_install=$!
+ensure_venv > out/venv-install.log 2>&1 &
+venv_install=$!
+trap 'kill "$qemu_install" "$venv_install" 2>/dev/null || true' EXIT
 
 # host-sim: the one the caller built (HILCAM_HOST_SIM); with --full the
 # release build (whose host timings docs/measurements.md quotes); else the
@@ -92,12 +97,14 @@ link_all() {
 stage link link_all
 
 opencv_all() {
-  ensure_venv
   target/venv/bin/python scripts/opencv-check.py --host-sim "$host_sim" --out out/opencv
   target/venv/bin/python scripts/export-check.py --host-sim "$host_sim" --out out/export
 }
+wait "$venv_install" || { cat out/venv-install.log; echo "the Python environment (target/venv) could not be made" >&2; exit 1; }
 stage opencv opencv_all
 
+qemu=0
+wait "$qemu_install" && qemu=1
 if [ $qemu = 1 ]; then
   firmware_all() {
     for board in $(sed -n 's/^name = "\(.*\)"/\1/p' firmware/boards.toml); do
