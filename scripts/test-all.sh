@@ -47,6 +47,9 @@ trap 'kill "$qemu_install" "$firmware_build" "$fuzz_build" 2>/dev/null || true' 
 echo "== format"
 cargo fmt --all -- --check
 
+echo "== layout: no file over 1 000 lines or function over 150, no import circle (scripts/check-layout.py)"
+python3 scripts/check-layout.py
+
 echo "== clippy: workspace, warnings are errors (and host-sim without its cli feature, as the fuzz targets use it)"
 cargo clippy --workspace --all-targets -q -- -D warnings
 cargo clippy -p host-sim --no-default-features --lib -q -- -D warnings
