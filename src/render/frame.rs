@@ -5,9 +5,9 @@ use crate::num::scalar::Scalar;
 #[cfg(feature = "mix32")]
 use crate::render::fast::Carry;
 use crate::render::options::{
-    AllLines, FrameError, LineLoop, Lines, Options, RenderError, RenderModel, Stages,
+    AllLines, Arithmetic, FrameError, LineLoop, Lines, Options, RenderError, RenderModel, Stages,
 };
-use crate::render::prepare::FastInput;
+use crate::render::prepare::Prepared;
 use crate::render::sink::{FrameInfo, FrameSink, LineBuffers};
 use crate::render::wide::{WideFrame, PARALLEL, PINHOLE};
 use crate::scene::{PixelFormat, Scene, Q};
@@ -170,49 +170,61 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
 
     #[inline(never)]
     fn prepare_inner(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
-        // The wide state holds what both arithmetics start from.
-        if !matches!(self.path, Path::Wide(_)) {
-            self.path = Path::Wide(WideFrame::empty());
-        }
-        // (Irrefutable without the fast path.)
-        #[allow(irrefutable_let_patterns)]
-        let Path::Wide(w) = &mut self.path
-        else {
-            return Err(RenderError::Degenerate);
-        };
-        let fast = w.prepare(scene, opts)?;
-        (self.width, self.height, self.format, self.stages) = (w.width, w.height, w.format, w.stages);
-        match fast {
-            None => Ok(()),
-            Some(fast) => self.prepare_mix32(scene, &fast),
+        // Prepared once, whichever arithmetic renders the frame.
+        let p = Prepared::new(scene, opts)?;
+        (self.width, self.height, self.format, self.stages) = (p.width, p.height, scene.format, p.stages);
+        match opts.arithmetic {
+            Arithmetic::Fast => self.prepare_fast(scene, opts, &p),
+            Arithmetic::Wide => {
+                if !matches!(self.path, Path::Wide(_)) {
+                    self.path = Path::Wide(WideFrame::empty());
+                }
+                // (Irrefutable without the fast path.)
+                #[allow(irrefutable_let_patterns)]
+                let Path::Wide(w) = &mut self.path
+                else {
+                    return Err(RenderError::Degenerate);
+                };
+                let r = w.fill(&p, scene, opts);
+                self.stages = w.stages;
+                r
+            }
         }
     }
 
-    /// Prepares the [`crate::render::fast`] path from the scene's I32F32 values
-    /// (the wide state it replaces gave the frame's geometry).
+    /// The fast arithmetic's state ([`crate::render::fast`]) filled from
+    /// the frame's preparation `p`: what its formats cannot hold refused.
     #[cfg(feature = "mix32")]
     #[inline(never)]
-    fn prepare_mix32(&mut self, scene: &Scene, fast: &FastInput) -> Result<(), RenderError> {
+    fn prepare_fast(&mut self, scene: &Scene, opts: &Options, p: &Prepared) -> Result<(), RenderError> {
+        p.corners_within()?;
+        let table = p.stages.distortion.is_some()
+            && opts.distortion_eval != crate::render::options::DistortionEval::Polynomial;
+        // Defocus runs in the fast arithmetic for pixel centres only.
+        let sampled = p.stages.samples > 1;
+        if table || (opts.aperture > 0 && sampled) {
+            return Err(RenderError::OutsideFormat);
+        }
         let input = crate::render::fast::Input {
-            width: self.width,
-            height: self.height,
+            width: p.width,
+            height: p.height,
             format: scene.format,
-            x0: fast.x0,
-            dx: fast.dx,
-            y0: fast.y0,
-            dy: fast.dy,
-            distortion: fast.distortion,
-            vignetting: self.stages.vignetting,
-            origin_scale: fast.origin_scale,
-            specular_all: fast.specular_all,
+            x0: p.x0,
+            dx: p.dx,
+            y0: p.y0,
+            dy: p.dy,
+            distortion: p.distortion.map(|d| (d.k, d.limit)),
+            vignetting: p.stages.vignetting,
+            origin_scale: p.origin_scale,
+            specular_all: opts.keep_all_stages,
             scene,
             background: scene.background,
-            gain: fast.gain,
-            samples: fast.samples,
-            adaptive: fast.adaptive,
-            aperture: fast.aperture,
-            closed_mean: fast.closed_mean,
-            centred: fast.centred,
+            gain: p.gain,
+            samples: p.stages.samples,
+            adaptive: p.stages.adaptive,
+            aperture: opts.aperture,
+            closed_mean: opts.closed_mean,
+            centred: p.centred,
         };
         self.path = Path::Fast(crate::render::fast::Mix32::EMPTY);
         let Path::Fast(m) = &mut self.path else {
@@ -221,9 +233,9 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
         m.fill(&input)
     }
 
-    /// Without the `mix32` feature the path is not built in.
+    /// Without the `mix32` feature the fast arithmetic is not built in.
     #[cfg(not(feature = "mix32"))]
-    fn prepare_mix32(&mut self, _: &Scene, _: &FastInput) -> Result<(), RenderError> {
+    fn prepare_fast(&mut self, _: &Scene, _: &Options, _: &Prepared) -> Result<(), RenderError> {
         Err(RenderError::OutsideFormat)
     }
 

@@ -3,11 +3,13 @@
 //! the culling tests the planner and the renderer share.
 
 use crate::num::scalar::Scalar;
-use crate::num::{quotient, FixedF64, Norm, Wide};
-use crate::render::options::ClosedMean;
+use crate::num::{from_acc, quotient, FixedF64, Norm, Wide};
+use crate::render::options::{Options, RenderError, RenderModel, Stages, MAX_SLOPE};
 use crate::render::shading::{dot, from_q3, ShadingLight, V3};
+use crate::render::vignetting;
 use crate::scene::{Light, Primitive, Scene, Shape, Q};
 use core::ops::{Add as _, Mul as _};
+use fixed::types::I64F64;
 
 /// A primitive in the camera frame.
 /// A primitive in the camera frame, I32F32 (what [`crate::render::fast`] converts).
@@ -139,29 +141,175 @@ pub(crate) fn dir_to_cam(scene: &Scene, d: [Norm; 3]) -> V3 {
     })
 }
 
-/// What the fast path is prepared from, beyond the scene: the wide
-/// preparation's geometry and constants (I32F32, camera frame).
-#[cfg_attr(not(feature = "mix32"), allow(dead_code))]
-pub(crate) struct FastInput {
+/// What every frame is prepared from, once, whichever arithmetic renders
+/// it: the pixel grid's slopes, the stages, the distortion polynomial and
+/// its limit, the parallel rays' origin scale and the exposure's gain, in
+/// I32F32 (camera frame). Each arithmetic's state is filled from it
+/// (`WideFrame::fill`, `Mix32::fill`); neither builds the other's.
+#[derive(Clone, Copy)]
+pub(crate) struct Prepared {
+    pub(crate) width: u16,
+    pub(crate) height: u16,
+    pub(crate) stages: Stages,
+    /// `x̂_d` of column 0 and its step per column, `ŷ_d` of line 0 and its
+    /// step per line, I64F64 raw.
     pub(crate) x0: i128,
     pub(crate) dx: i128,
     pub(crate) y0: i128,
     pub(crate) dy: i128,
-    /// `k1`, `k2` and the `u` limit, if distortion is modelled (polynomial).
-    pub(crate) distortion: Option<([Q; 2], Q)>,
+    /// If distortion is modelled (or every stage kept): `k1`, `k2`, the `u`
+    /// beyond which a pixel is outside the lens field (`Q::MAX`: none), and
+    /// the largest `u` a table must span.
+    pub(crate) distortion: Option<Poly>,
+    /// Parallel rays' origin scale (`Z̄` or `f/m`); `None`: perspective.
     pub(crate) origin_scale: Option<Q>,
-    pub(crate) specular_all: bool,
+    /// `K π/4 (d/f)²` per channel (with the channel's full-scale factor):
+    /// DN per unit radiance on the axis.
     pub(crate) gain: V3,
-    pub(crate) samples: u8,
-    pub(crate) adaptive: bool,
-    /// Defocus: the aperture pattern's points (0: none).
-    pub(crate) aperture: u16,
-    /// [`Options::closed_mean`].
-    pub(crate) closed_mean: ClosedMean,
     /// The principal point is the sensor's centre, `o_x = (W − 1)/2`
     /// exactly: column `W − 1 − i` sees the mirror image of column `i`'s
     /// slopes.
+    #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
     pub(crate) centred: bool,
+}
+
+/// The distortion polynomial a frame renders with ([`Prepared::distortion`]).
+#[derive(Clone, Copy)]
+pub(crate) struct Poly {
+    pub(crate) k: [Q; 2],
+    pub(crate) limit: Q,
+    pub(crate) u_max: Q,
+}
+
+impl Prepared {
+    /// `scene` prepared for `opts`: the stages checked (sample grid and
+    /// aperture sizes, what the build holds), the slopes, the distortion's
+    /// range over the sensor, the origin scale and the gain.
+    #[inline(never)]
+    pub(crate) fn new(scene: &Scene, opts: &Options) -> Result<Prepared, RenderError> {
+        let intr = &scene.camera.intrinsics;
+        let (w, h) = intr.size();
+        let (fx, fy) = intr.focal_px();
+        let (ox, oy) = intr.principal_point();
+        let one = Wide::int(1);
+        let inv_fx = one.checked_div(Wide::of(fx)).ok_or(RenderError::Degenerate)?;
+        let x0 = Wide::of(ox).mul(inv_fx).narrow::<I64F64>().value.to_bits();
+        let dx = inv_fx.narrow::<I64F64>().value.to_bits();
+        let inv_fy = one.checked_div(Wide::of(fy)).ok_or(RenderError::Degenerate)?;
+        let y0 = Wide::of(oy).mul(inv_fy).narrow::<I64F64>().value.to_bits();
+        let dy = inv_fy.narrow::<I64F64>().value.to_bits();
+        let mut stages = Stages {
+            model: opts.model,
+            distortion: None,
+            distortion_lut: None,
+            vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
+            specular: scene.has_specular() || opts.keep_all_stages,
+            format: scene.format,
+            arithmetic: opts.arithmetic,
+            samples: opts.samples.clamp(1, crate::render::sensor::sampling::MAX_GRID),
+            adaptive: opts.adaptive && opts.samples > 1,
+            aperture: opts.aperture,
+            noise: scene.noise.is_some(),
+        };
+        if !matches!(stages.samples, 1 | 2 | 4 | 8 | 16) {
+            return Err(RenderError::Degenerate);
+        }
+        let aperture = opts.aperture > 0;
+        if aperture
+            && (!crate::render::sensor::defocus::is_size(opts.aperture)
+                || !matches!(opts.model, RenderModel::Perspective))
+        {
+            return Err(RenderError::Degenerate);
+        }
+        if cfg!(not(feature = "sensor")) && (stages.samples > 1 || stages.noise || aperture) {
+            return Err(RenderError::NotBuilt);
+        }
+        // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
+        // every stage kept, a lens without distortion runs the identity
+        // (`k1 = k2 = 0`, g = 1).
+        let mut distortion = None;
+        if !scene.distortion.is_none() || opts.keep_all_stages {
+            let dist = scene.distortion;
+            let mut u_corner = Q::ZERO;
+            for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
+                let (xd, yd) = (from_acc(x0 - dx * i as i128), from_acc(y0 - dy * j as i128));
+                u_corner = u_corner.max(Scalar::add(Scalar::mul(xd, xd), Scalar::mul(yd, yd)));
+            }
+            let fold = dist.fold_u().map(Q::saturating_from_num);
+            let (u_max, limit) = match fold {
+                Some(f) if f < u_corner => (f, f),
+                _ => (u_corner, Q::MAX),
+            };
+            stages.distortion = Some(opts.distortion_eval);
+            let (k1, k2) = dist.coefficients();
+            let k = [k1, k2].map(Q::saturating_from_num);
+            distortion = Some(Poly { k, limit, u_max });
+        }
+        let origin_scale = match opts.model {
+            RenderModel::Perspective => None,
+            RenderModel::WeakPerspective { mean_depth } => Some(Q::saturating_from_num(mean_depth)),
+            RenderModel::Orthographic { scale } => Some(q(Wide::of(intr.focal_length())
+                .checked_div(Wide::of(scale))
+                .ok_or(RenderError::Degenerate)?)),
+        };
+        // Constants: gain = K π/4 (d/f)².
+        let lens = &scene.camera.lens;
+        let dof = Wide::of(lens.diameter())
+            .checked_div(Wide::of(lens.focal_length()))
+            .ok_or(RenderError::Degenerate)?;
+        let gain = [0, 1, 2].map(|c| vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c)));
+        Ok(Prepared {
+            width: w,
+            height: h,
+            stages,
+            x0,
+            dx,
+            y0,
+            dy,
+            distortion,
+            origin_scale,
+            gain,
+            centred: intr.is_centred_x(),
+        })
+    }
+
+    /// [`RenderError::FieldTooWide`] if an undistorted sensor corner lies
+    /// beyond [`MAX_SLOPE`], by the polynomial in I32F32 (a corner outside
+    /// the lens field is none).
+    #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
+    pub(crate) fn corners_within(&self) -> Result<(), RenderError> {
+        let (w, h) = (self.width, self.height);
+        for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
+            let (xd, yd) = (
+                from_acc(self.x0 - self.dx * i as i128),
+                from_acc(self.y0 - self.dy * j as i128),
+            );
+            let xy = match &self.distortion {
+                Some(d) => undistort_poly(xd, yd, d.k, d.limit),
+                None => Some((xd, yd)),
+            };
+            if let Some((x, y)) = xy {
+                let lim = Q::from_num(MAX_SLOPE);
+                if Scalar::abs(x) > lim || Scalar::abs(y) > lim {
+                    return Err(RenderError::FieldTooWide);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The undistorted point `(x̂, ŷ) = g(u) (x̂_d, ŷ_d)` by the polynomial
+/// `g = 1 + u (k1 + k2 u)`, `u = x̂_d² + ŷ_d²`; `None` beyond `limit`
+/// (outside the lens field).
+#[inline(always)]
+pub(crate) fn undistort_poly<S: Scalar>(xd: S, yd: S, k: [S; 2], limit: S) -> Option<(S, S)> {
+    let u = xd.mul(xd).add(yd.mul(yd));
+    if u > limit {
+        return None;
+    }
+    let g = S::ONE.add(u.mul(k[0].add(u.mul(k[1]))));
+    Some((xd.mul(g), yd.mul(g)))
 }
 
 /// What the culling keeps to spare, absolute and relative (metres, slopes):

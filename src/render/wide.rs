@@ -2,18 +2,17 @@
 //! for the planner's fallback, `f32` for comparison), one ray per sample.
 
 use crate::geom::distortion::{Lut, MAX_LUT};
+use crate::num::from_acc;
 use crate::num::scalar::Scalar;
-use crate::num::{from_acc, Wide};
 use crate::render::options::{
-    Arithmetic, DistortionEval, Lines, Options, RenderError, RenderModel, Stages, FLAG_OUTSIDE_FIELD,
-    MAX_SLOPE,
+    DistortionEval, Lines, Options, RenderError, Stages, FLAG_OUTSIDE_FIELD, MAX_SLOPE,
 };
-use crate::render::prepare::{cam_prim, lens_blur, q, shading_light, CamPrim, CamShape, FastInput};
+use crate::render::prepare::{
+    cam_prim, lens_blur, shading_light, undistort_poly, CamPrim, CamShape, Poly, Prepared,
+};
 use crate::render::shading::{axpy, dot, dot_k, from_q3, scale3, sub3, Brdf, ShadingLight, V3};
 use crate::render::vignetting;
 use crate::scene::{PixelFormat, Scene, Q};
-use core::ops::Mul as _;
-use fixed::types::I64F64;
 
 /// The wide arithmetic's per-frame state.
 #[derive(Clone, Debug)]
@@ -111,21 +110,17 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         }
     }
 
-    /// Prepares the frame's geometry and, for the wide arithmetic, its
-    /// primitives, lights and materials; for the fast arithmetic it returns
-    /// what that path is prepared from instead.
+    /// Fills the wide arithmetic's state from the frame's preparation
+    /// `p`: the sample grid's and the aperture's constants, the distortion
+    /// table or polynomial in `S`, and the scene's materials, primitives and
+    /// lights in the camera frame.
     #[inline(always)]
-    pub(crate) fn prepare(
-        &mut self,
-        scene: &Scene,
-        opts: &Options,
-    ) -> Result<Option<FastInput>, RenderError> {
-        self.geometry(scene, opts)?;
+    pub(crate) fn fill(&mut self, p: &Prepared, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+        (self.width, self.height, self.format, self.stages) = (p.width, p.height, scene.format, p.stages);
+        (self.x0, self.dx, self.y0, self.dy) = (p.x0, p.dx, p.y0, p.dy);
         #[cfg(feature = "sensor")]
         self.sensor_constants(scene, opts)?;
-        let intr = &scene.camera.intrinsics;
         let (w, h) = (self.width, self.height);
-        let aperture = opts.aperture > 0;
         self.noise_spec = scene.noise;
         self.noise = crate::render::sensor::noise::Stage::for_frame(scene.noise, scene.format, 0);
         self.background = from_q3(scene.background);
@@ -138,7 +133,9 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         self.prims.clear();
         self.lights.clear();
         self.materials = [Brdf::ZERO; crate::scene::MAX_MATERIALS];
-        let poly_q = self.distortion(scene, opts)?;
+        if let Some(d) = &p.distortion {
+            self.distortion(d, scene, opts)?;
+        }
         // The widest undistorted corner must stay within MAX_SLOPE.
         for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
             if let Some((x, y)) = self.undistorted(i, j) {
@@ -148,101 +145,9 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 }
             }
         }
-        self.k_origin = match opts.model {
-            RenderModel::Perspective => S::ZERO,
-            RenderModel::WeakPerspective { mean_depth } => S::from_q(Q::saturating_from_num(mean_depth)),
-            RenderModel::Orthographic { scale } => S::from_q(q(Wide::of(intr.focal_length())
-                .checked_div(Wide::of(scale))
-                .ok_or(RenderError::Degenerate)?)),
-        };
-        // Constants: gain = K π/4 (d/f)².
-        let lens = &scene.camera.lens;
-        let dof = Wide::of(lens.diameter())
-            .checked_div(Wide::of(lens.focal_length()))
-            .ok_or(RenderError::Degenerate)?;
-        let gain = [0, 1, 2].map(|c| vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c)));
-        self.gain = from_q3(gain);
-        // Parallel rays' origin scale; slope-space culling unless every
-        // stage is kept.
-        let origin_scale = match opts.model {
-            RenderModel::Perspective => None,
-            _ => Some(self.k_origin.to_q()),
-        };
-        if opts.arithmetic == Arithmetic::Fast {
-            let table =
-                self.stages.distortion.is_some() && opts.distortion_eval != DistortionEval::Polynomial;
-            // Defocus runs in the fast arithmetic for pixel centres only.
-            let sampled = self.stages.samples > 1;
-            if table || (aperture && sampled) || (sampled && cfg!(not(feature = "sensor"))) {
-                return Err(RenderError::OutsideFormat);
-            }
-            // The fast path prepares its own primitives, lights and
-            // materials: the wide ones are not built.
-            return Ok(Some(FastInput {
-                x0: self.x0,
-                dx: self.dx,
-                y0: self.y0,
-                dy: self.dy,
-                distortion: poly_q,
-                origin_scale,
-                specular_all: opts.keep_all_stages,
-                gain,
-                samples: self.stages.samples,
-                adaptive: self.stages.adaptive,
-                aperture: opts.aperture,
-                closed_mean: opts.closed_mean,
-                centred: scene.camera.intrinsics.is_centred_x(),
-            }));
-        }
-        self.wide_scene(scene, opts, origin_scale);
-        Ok(None)
-    }
-
-    /// The pixel grid's slopes (`x̂_d`, `ŷ_d` of pixel 0 and their steps),
-    /// and the stages `opts` asks for, checked.
-    #[inline(always)]
-    fn geometry(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
-        let intr = &scene.camera.intrinsics;
-        let (w, h) = intr.size();
-        let (fx, fy) = intr.focal_px();
-        let (ox, oy) = intr.principal_point();
-        let one = Wide::int(1);
-        let inv_fx = one.checked_div(Wide::of(fx)).ok_or(RenderError::Degenerate)?;
-        let x0 = Wide::of(ox).mul(inv_fx).narrow::<I64F64>().value.to_bits();
-        let dx = inv_fx.narrow::<I64F64>().value.to_bits();
-        let inv_fy = one.checked_div(Wide::of(fy)).ok_or(RenderError::Degenerate)?;
-        let y0 = Wide::of(oy).mul(inv_fy).narrow::<I64F64>().value.to_bits();
-        let dy = inv_fy.narrow::<I64F64>().value.to_bits();
-        self.width = w;
-        self.height = h;
-        self.format = scene.format;
-        self.stages = Stages {
-            model: opts.model,
-            distortion: None,
-            distortion_lut: None,
-            vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
-            specular: scene.has_specular() || opts.keep_all_stages,
-            format: scene.format,
-            arithmetic: opts.arithmetic,
-            samples: opts.samples.clamp(1, crate::render::sensor::sampling::MAX_GRID),
-            adaptive: opts.adaptive && opts.samples > 1,
-            aperture: opts.aperture,
-            noise: scene.noise.is_some(),
-        };
-        if !matches!(self.stages.samples, 1 | 2 | 4 | 8 | 16) {
-            return Err(RenderError::Degenerate);
-        }
-        let aperture = opts.aperture > 0;
-        if aperture
-            && (!crate::render::sensor::defocus::is_size(opts.aperture)
-                || !matches!(opts.model, RenderModel::Perspective))
-        {
-            return Err(RenderError::Degenerate);
-        }
-        if cfg!(not(feature = "sensor")) && (self.stages.samples > 1 || self.stages.noise || aperture) {
-            return Err(RenderError::NotBuilt);
-        }
-        (self.x0, self.dx, self.y0, self.dy) = (x0, dx, y0, dy);
+        self.k_origin = p.origin_scale.map_or(S::ZERO, S::from_q);
+        self.gain = from_q3(p.gain);
+        self.wide_scene(scene, opts, p.origin_scale);
         Ok(())
     }
 
@@ -250,6 +155,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     #[cfg(feature = "sensor")]
     #[inline(always)]
     fn sensor_constants(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+        use core::ops::Mul as _;
         let (dx, dy) = (self.dx, self.dy);
         let n = self.stages.samples;
         self.sub_x = crate::render::sensor::sampling::scaled_offsets(dx, n);
@@ -262,61 +168,38 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         // Defocus: the aperture radius, and it over Z̃.
         let m = opts.aperture.max(1);
         let lens = &scene.camera.lens;
-        let r = Wide::of(lens.diameter()).mul(Wide::of(Q::from_bits(1 << 31)));
+        let r = crate::num::Wide::of(lens.diameter()).mul(crate::num::Wide::of(Q::from_bits(1 << 31)));
         let rz = r
-            .checked_div(Wide::of(lens.focus_distance()))
+            .checked_div(crate::num::Wide::of(lens.focus_distance()))
             .ok_or(RenderError::Degenerate)?;
-        self.ap_r = S::from_q(q(r));
-        self.ap_rz = S::from_q(q(rz));
+        self.ap_r = S::from_q(crate::render::prepare::q(r));
+        self.ap_rz = S::from_q(crate::render::prepare::q(rz));
         self.ap_shift = crate::render::sensor::defocus::shift(m);
         self.inv_m = S::from_q(Q::from_bits(1i64 << (32 - m.trailing_zeros())));
         Ok(())
     }
 
-    /// Distortion over `[0, u_max]`, `u_max = min(fold, corner maximum)`:
-    /// the polynomial's coefficients or the table; the polynomial and the
-    /// `u` limit in I32F32 for the fast arithmetic.
+    /// The distortion polynomial `d` in `S`, or its table (`opts`' entries
+    /// over `[0, u_max]`).
     #[inline(always)]
-    fn distortion(&mut self, scene: &Scene, opts: &Options) -> Result<Option<([Q; 2], Q)>, RenderError> {
-        let (w, h) = (self.width, self.height);
-        let mut poly_q = None;
-        // Distortion over [0, u_max], u_max = min(fold, corner maximum). With
-        // every stage kept, a lens without distortion runs the identity
-        // (`k1 = k2 = 0`, g = 1).
-        if !scene.distortion.is_none() || opts.keep_all_stages {
-            let dist = scene.distortion;
-            let mut u_corner = Q::ZERO;
-            for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
-                let (xd, yd) = (self.xd_q(i), self.yd_q(j));
-                u_corner = u_corner.max(Scalar::add(Scalar::mul(xd, xd), Scalar::mul(yd, yd)));
+    fn distortion(&mut self, d: &Poly, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+        self.limit = S::from_q(d.limit);
+        if opts.distortion_eval == DistortionEval::Polynomial {
+            self.poly = d.k.map(S::from_q);
+        } else {
+            if opts.lut_entries.clamp(2, MAX_LUT) > T {
+                return Err(RenderError::TableTooLarge);
             }
-            let fold = dist.fold_u().map(Q::saturating_from_num);
-            let (u_max, limit) = match fold {
-                Some(f) if f < u_corner => (f, f),
-                _ => (u_corner, Q::MAX),
-            };
-            self.limit = S::from_q(limit);
-            self.stages.distortion = Some(opts.distortion_eval);
-            if opts.distortion_eval == DistortionEval::Polynomial {
-                let (k1, k2) = dist.coefficients();
-                let k = [k1, k2].map(Q::saturating_from_num);
-                poly_q = Some((k, limit));
-                self.poly = k.map(S::from_q);
-            } else {
-                if opts.lut_entries.clamp(2, MAX_LUT) > T {
-                    return Err(RenderError::TableTooLarge);
-                }
-                // Filled where it is used: no copy of the table on the stack.
-                let lut = self.lut.get_or_insert_with(Lut::empty);
-                if dist.fill_lut(u_max, opts.lut_entries, lut) {
-                    self.lut = None;
-                    return Err(RenderError::DistortionOutOfRange);
-                }
-                self.lut_scale = S::from_q(lut.scale());
-                self.stages.distortion_lut = Some(lut.len());
+            // Filled where it is used: no copy of the table on the stack.
+            let lut = self.lut.get_or_insert_with(Lut::empty);
+            if scene.distortion.fill_lut(d.u_max, opts.lut_entries, lut) {
+                self.lut = None;
+                return Err(RenderError::DistortionOutOfRange);
             }
+            self.lut_scale = S::from_q(lut.scale());
+            self.stages.distortion_lut = Some(lut.len());
         }
-        Ok(poly_q)
+        Ok(())
     }
 
     /// The wide arithmetic's materials, primitives and lights, in the
@@ -361,12 +244,14 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// `(x̂_d, ŷ_d) g(u)`, or `None` beyond the fold.
     #[inline(always)]
     fn undistort(&self, xd: S, yd: S) -> Option<(S, S)> {
+        if self.stages.distortion == Some(DistortionEval::Polynomial) {
+            return undistort_poly(xd, yd, self.poly, self.limit);
+        }
         let u = xd.mul(xd).add(yd.mul(yd));
         if u > self.limit {
             return None;
         }
         let g = match self.stages.distortion {
-            Some(DistortionEval::Polynomial) => S::ONE.add(u.mul(self.poly[0].add(u.mul(self.poly[1])))),
             Some(DistortionEval::Nearest) => {
                 self.lut.as_ref().map_or(S::ONE, |l| l.nearest(u, self.lut_scale))
             }
