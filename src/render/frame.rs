@@ -197,7 +197,6 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
     #[cfg(feature = "mix32")]
     #[inline(never)]
     fn prepare_fast(&mut self, scene: &Scene, opts: &Options, p: &Prepared) -> Result<(), RenderError> {
-        p.corners_within()?;
         let table = p.stages.distortion.is_some()
             && opts.distortion_eval != crate::render::options::DistortionEval::Polynomial;
         // Defocus runs in the fast arithmetic for pixel centres only.

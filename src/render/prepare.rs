@@ -4,7 +4,7 @@
 
 use crate::num::scalar::Scalar;
 use crate::num::{from_acc, quotient, FixedF64, Norm, Wide};
-use crate::render::options::{Options, RenderError, RenderModel, Stages, MAX_SLOPE};
+use crate::render::options::{DistortionEval, Options, RenderError, RenderModel, Stages, MAX_SLOPE};
 use crate::render::shading::{dot, from_q3, ShadingLight, V3};
 use crate::render::vignetting;
 use crate::scene::{Light, Primitive, Scene, Shape, Q};
@@ -258,7 +258,7 @@ impl Prepared {
             .checked_div(Wide::of(lens.focal_length()))
             .ok_or(RenderError::Degenerate)?;
         let gain = [0, 1, 2].map(|c| vignetting::gain(scene.exposure, dof, scene.format.channel_scale(c)));
-        Ok(Prepared {
+        let p = Prepared {
             width: w,
             height: h,
             stages,
@@ -270,14 +270,18 @@ impl Prepared {
             origin_scale,
             gain,
             centred: intr.is_centred_x(),
-        })
+        };
+        // A table's corners are checked where the table is built.
+        if opts.distortion_eval == DistortionEval::Polynomial || p.distortion.is_none() {
+            p.corners_within()?;
+        }
+        Ok(p)
     }
 
     /// [`RenderError::FieldTooWide`] if an undistorted sensor corner lies
     /// beyond [`MAX_SLOPE`], by the polynomial in I32F32 (a corner outside
     /// the lens field is none).
-    #[cfg_attr(not(feature = "mix32"), allow(dead_code))]
-    pub(crate) fn corners_within(&self) -> Result<(), RenderError> {
+    fn corners_within(&self) -> Result<(), RenderError> {
         let (w, h) = (self.width, self.height);
         for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
             let (xd, yd) = (

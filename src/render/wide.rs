@@ -136,8 +136,12 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         if let Some(d) = &p.distortion {
             self.distortion(d, scene, opts)?;
         }
-        // The widest undistorted corner must stay within MAX_SLOPE.
-        for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
+        // The widest undistorted corner must stay within MAX_SLOPE (by the
+        // table, where there is one: the polynomial's, `Prepared::new`).
+        for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)]
+            .into_iter()
+            .filter(|_| self.lut.is_some())
+        {
             if let Some((x, y)) = self.undistorted(i, j) {
                 let lim = S::from_int(MAX_SLOPE);
                 if x.abs() > lim || y.abs() > lim {
