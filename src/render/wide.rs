@@ -114,7 +114,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// `p`: the sample grid's and the aperture's constants, the distortion
     /// table or polynomial in `S`, and the scene's materials, primitives and
     /// lights in the camera frame.
-    #[inline(always)]
+    #[inline(never)]
     pub(crate) fn fill(&mut self, p: &Prepared, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
         (self.width, self.height, self.format, self.stages) = (p.width, p.height, scene.format, p.stages);
         (self.x0, self.dx, self.y0, self.dy) = (p.x0, p.dx, p.y0, p.dy);
