@@ -5,7 +5,7 @@
 //! the default rendering path, so its frames are the firmware's, byte for
 //! byte.
 
-use crate::drive_cmd::spawn_reader;
+use crate::client::spawn_reader;
 use crate::harness::planned_frame;
 use crate::scene_file::Resolved;
 use hilcam::link::control::{Answer, Control, Library, Receiver};
@@ -28,10 +28,38 @@ impl<W: Write> embedded_io::ErrorType for IoWrite<W> {
 
 impl<W: Write> embedded_io::Write for IoWrite<W> {
     fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
-        self.0.write(buf).map_err(|_| embedded_io::ErrorKind::Other)
+        self.0.write(buf).map_err(|e| kind(&e))
     }
     fn flush(&mut self) -> Result<(), Self::Error> {
-        self.0.flush().map_err(|_| embedded_io::ErrorKind::Other)
+        self.0.flush().map_err(|e| kind(&e))
+    }
+}
+
+/// An I/O error as the encoder carries it: a hang-up
+/// ([`crate::link::serial::is_hangup`]) as `BrokenPipe`.
+fn kind(e: &std::io::Error) -> embedded_io::ErrorKind {
+    if crate::link::serial::is_hangup(e) {
+        embedded_io::ErrorKind::BrokenPipe
+    } else if e.kind() == std::io::ErrorKind::TimedOut {
+        embedded_io::ErrorKind::TimedOut
+    } else {
+        embedded_io::ErrorKind::Other
+    }
+}
+
+/// Why a camera's session stopped sending.
+enum Stop {
+    /// The host hung up while the camera wrote.
+    HungUp,
+    /// Anything else: the error.
+    Failed(String),
+}
+
+/// A send's error as a [`Stop`]: `what` names the message.
+fn stop(what: &str, e: hilcam::link::LinkError<embedded_io::ErrorKind>) -> Stop {
+    match e {
+        hilcam::link::LinkError::Write(embedded_io::ErrorKind::BrokenPipe) => Stop::HungUp,
+        e => Stop::Failed(format!("{what}: {e:?}")),
     }
 }
 
@@ -89,6 +117,8 @@ pub struct CameraStats {
     pub rejects: u32,
     /// Frames sent.
     pub frames: u32,
+    /// The host hung up while the camera wrote (the session's end).
+    pub hung_up: bool,
 }
 
 /// Runs the camera over `scenes` (the first shown first), reading
@@ -129,8 +159,11 @@ pub fn serve_from<W: Write>(
     let now_ns = || t0.elapsed().as_nanos() as u64;
     let mut frame_id = 0u32;
     let mut stats = CameraStats::default();
-    let mut open = true;
+    let (mut open, mut hung_up, mut cut) = (true, false, false);
     loop {
+        if hung_up {
+            break;
+        }
         // Wait for input only as long as no frame is due.
         let got = match control.mode {
             _ if !open => Err(mpsc::RecvTimeoutError::Disconnected),
@@ -156,7 +189,11 @@ pub fn serve_from<W: Write>(
                     let sent = enc.send_answer(seq, answer, now_ns(), || {
                         control.describe(&scene, &library, frame_id)
                     });
-                    sent.map_err(|e| format!("answering: {e:?}"))?;
+                    match sent.map_err(|e| stop("answering", e)) {
+                        Ok(()) => {}
+                        Err(Stop::HungUp) => hung_up = true,
+                        Err(Stop::Failed(e)) => return Err(e),
+                    }
                 }
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
@@ -178,18 +215,47 @@ pub fn serve_from<W: Write>(
                 now_ns(),
                 control.last_command(),
             );
-            enc.begin_frame(start).map_err(|e| format!("sending: {e:?}"))?;
-            let lines = core.pixels.chunks(start.line_bytes().max(1));
-            for (line, flags) in lines.zip(core.flags.chunks(usize::from(start.width).max(1))) {
-                enc.push_line(line).map_err(|e| format!("sending: {e:?}"))?;
-                enc.push_flags(flags).map_err(|e| format!("sending: {e:?}"))?;
+            let sent = send_frame(&mut enc, start, &core);
+            match sent {
+                Ok(()) => {}
+                Err(Stop::HungUp) => {
+                    hung_up = true;
+                    cut = control.mode == Mode::Triggered;
+                    break;
+                }
+                Err(Stop::Failed(e)) => return Err(e),
             }
-            enc.end_frame(None).map_err(|e| format!("sending: {e:?}"))?;
             frame_id = frame_id.wrapping_add(1);
             stats.frames += 1;
         }
     }
     stats.requests = rx.stats.requests;
     stats.refused = rx.stats.errors;
+    stats.hung_up = hung_up;
+    // A hang-up ends a session cleanly unless it left triggered frames
+    // undelivered.
+    let undelivered = control.pending + u32::from(cut);
+    if hung_up && control.mode == Mode::Triggered && undelivered > 0 {
+        return Err(format!(
+            "the host hung up with {undelivered} triggered frames undelivered ({} sent)",
+            stats.frames
+        ));
+    }
     Ok(stats)
+}
+
+/// Sends a rendered frame: its start, each line with its flags, its end.
+fn send_frame<W: embedded_io::Write<Error = embedded_io::ErrorKind>>(
+    enc: &mut Encoder<W, DEFAULT_CHUNK>,
+    start: FrameStart,
+    core: &crate::harness::Collect,
+) -> Result<(), Stop> {
+    enc.begin_frame(start).map_err(|e| stop("sending", e))?;
+    let lines = core.pixels.chunks(start.line_bytes().max(1));
+    for (line, flags) in lines.zip(core.flags.chunks(usize::from(start.width).max(1))) {
+        enc.push_line(line).map_err(|e| stop("sending", e))?;
+        enc.push_flags(flags).map_err(|e| stop("sending", e))?;
+    }
+    enc.end_frame(None).map_err(|e| stop("sending", e))?;
+    Ok(())
 }

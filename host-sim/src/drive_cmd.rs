@@ -6,247 +6,17 @@
 
 use crate::harness::planned_frame;
 use crate::qemu::{build_firmware_as, spawn_qemu, wait_qemu, Board};
-use crate::link::decoder::{Decoder, Frame, Reply, Stats};
+use crate::client::{spawn_reader, Client};
+use crate::link::decoder::{Decoder, Reply, Stats};
 use crate::scene_file::{load, Resolved};
 use crate::trajectory::{Pose, Trajectory};
-use hilcam::link::{Command, Request, MAX_REQUEST, MAX_SCENE_CHUNK};
-use hilcam::link::{encode_message, FrameStart, Truth, PROTOCOL_VERSION};
+use hilcam::link::{Command, FrameStart, Truth};
 use hilcam::planner::Budget;
 use hilcam::Extrinsics;
 use serde::Serialize;
-use std::collections::{HashMap, VecDeque};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
-
-/// Bytes from the camera, with the time they arrived.
-type Batch = (Instant, Vec<u8>);
-
-/// Reads `r` on a thread until it ends, sending what arrives (and
-/// appending it to `capture`, the raw wire bytes, when given).
-pub fn spawn_reader(
-    mut r: impl Read + Send + 'static,
-    mut capture: Option<std::fs::File>,
-) -> mpsc::Receiver<Batch> {
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let mut buf = vec![0u8; 1 << 14];
-        loop {
-            match r.read(&mut buf) {
-                Ok(0) => return,
-                Ok(n) => {
-                    if let Some(f) = capture.as_mut() {
-                        if f.write_all(&buf[..n]).is_err() {
-                            capture = None;
-                        }
-                    }
-                    if tx.send((Instant::now(), buf[..n].to_vec())).is_err() {
-                        return;
-                    }
-                }
-                // Serial ports time out when idle: keep reading.
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        std::io::ErrorKind::Interrupted
-                            | std::io::ErrorKind::TimedOut
-                            | std::io::ErrorKind::WouldBlock
-                    ) => {}
-                Err(_) => return,
-            }
-        }
-    });
-    rx
-}
-
-/// A frame and when its first message arrived.
-pub struct Arrived {
-    /// The frame.
-    pub frame: Frame,
-    /// When the batch holding its `FrameStart` arrived.
-    pub first_byte: Instant,
-}
-
-/// The host's end of a link to a camera: sends requests (numbered,
-/// resent on silence), collects answers and frames.
-pub struct Driver<W: Write> {
-    writer: W,
-    rx: mpsc::Receiver<Batch>,
-    dec: Decoder,
-    frames: VecDeque<Arrived>,
-    started: HashMap<u32, Instant>,
-    seq: u32,
-    /// How long to wait for an answer before sending a request again.
-    pub timeout: Duration,
-    /// How long to wait for a triggered frame before counting it lost.
-    pub frame_timeout: Duration,
-    /// Requests sent again after a silence.
-    pub resent: u32,
-    /// [`drive`] sends each pose and its trigger in one write, as a system
-    /// under test that fires both at once (the camera reads them in one
-    /// batch); otherwise the trigger after the pose's answer.
-    pub batched: bool,
-}
-
-impl<W: Write> Driver<W> {
-    /// A driver writing requests to `writer` and reading the camera's bytes
-    /// from `rx` ([`spawn_reader`]).
-    pub fn new(writer: W, rx: mpsc::Receiver<Batch>) -> Self {
-        Driver {
-            writer,
-            rx,
-            dec: Decoder::new(1 << 20, 1 << 24),
-            frames: VecDeque::new(),
-            started: HashMap::new(),
-            seq: 0,
-            timeout: Duration::from_secs(10),
-            frame_timeout: Duration::from_secs(120),
-            resent: 0,
-            batched: false,
-        }
-    }
-
-    /// The decoder's counts.
-    pub fn stats(&self) -> Stats {
-        self.dec.stats
-    }
-
-    /// The sequence number the next command will carry.
-    pub fn set_next_seq(&mut self, seq: u32) {
-        self.seq = seq;
-    }
-
-    /// Waits until `deadline` for bytes and decodes them; false if none came.
-    fn pump(&mut self, deadline: Instant) -> Result<bool, String> {
-        let wait = deadline.saturating_duration_since(Instant::now());
-        let (at, bytes) = match self.rx.recv_timeout(wait) {
-            Ok(b) => b,
-            Err(mpsc::RecvTimeoutError::Timeout) => return Ok(false),
-            Err(mpsc::RecvTimeoutError::Disconnected) => return Err("the camera closed the link".into()),
-        };
-        let before = self.dec.open_frame();
-        let mut done = Vec::new();
-        self.dec.push(&bytes, &mut |f| done.push(f));
-        if let Some(id) = self.dec.open_frame().filter(|id| Some(*id) != before) {
-            self.started.insert(id, at);
-        }
-        for f in done {
-            let first_byte = self.started.remove(&f.start.frame_id).unwrap_or(at);
-            self.frames.push_back(Arrived { frame: f, first_byte });
-        }
-        Ok(true)
-    }
-
-    /// Sends `command` and waits for its answer (resending it, with the
-    /// same number, after each silence of `timeout`, three times at most).
-    /// Returns the answer and when the request was first sent.
-    pub fn command(&mut self, command: Command) -> Result<(Reply, Instant), String> {
-        let [answer] = self.commands([command])?;
-        Ok(answer)
-    }
-
-    /// Sends `commands` in one write, numbered in turn — as a system under
-    /// test that fires them at once, so that the camera reads them in one
-    /// batch — and waits for each answer in order (a command unanswered
-    /// after a silence of `timeout` is sent again alone, with its number,
-    /// three times at most). Returns each answer and when it was first
-    /// sent.
-    pub fn commands<const N: usize>(&mut self, commands: [Command; N]) -> Result<[(Reply, Instant); N], String> {
-        let (mut wires, mut all) = (Vec::with_capacity(N), Vec::new());
-        for command in &commands {
-            let seq = self.seq;
-            if *command != Command::Describe {
-                self.seq = seq.wrapping_add(1);
-            }
-            let req = Request {
-                version: PROTOCOL_VERSION,
-                seq,
-                command: *command,
-            };
-            let mut wire = [0u8; MAX_REQUEST];
-            let bytes = encode_message(&req, &mut wire).ok_or("request does not fit MAX_REQUEST")?;
-            all.extend_from_slice(bytes);
-            wires.push((seq, bytes.to_vec()));
-        }
-        let sent = Instant::now();
-        self.send(&all, wires.first().map_or(self.seq, |w| w.0))?;
-        let mut answers = Vec::with_capacity(N);
-        for ((seq, bytes), command) in wires.iter().zip(&commands) {
-            answers.push((self.answer(*seq, *command, bytes)?, sent));
-        }
-        answers.try_into().map_err(|_| format!("{N} answers expected"))
-    }
-
-    /// Writes a request's bytes.
-    fn send(&mut self, bytes: &[u8], seq: u32) -> Result<(), String> {
-        self.writer
-            .write_all(bytes)
-            .and_then(|_| self.writer.flush())
-            .map_err(|e| format!("sending command {seq}: {e}"))
-    }
-
-    /// Waits for the answer to request `seq` (`command`, sent as `bytes`),
-    /// sending it again after each silence of `timeout`, three times at
-    /// most.
-    fn answer(&mut self, seq: u32, command: Command, bytes: &[u8]) -> Result<Reply, String> {
-        for attempt in 0..4 {
-            if attempt > 0 {
-                self.resent += 1;
-                self.send(bytes, seq)?;
-            }
-            let deadline = Instant::now() + self.timeout;
-            loop {
-                while let Some(r) = self.dec.replies.pop_front() {
-                    let ours = match &r {
-                        Reply::Ack(a) => a.seq == seq,
-                        Reply::Reject { seq: s, .. } => *s == seq,
-                        Reply::Description(_) => command == Command::Describe,
-                    };
-                    if ours {
-                        return Ok(r);
-                    }
-                }
-                if !self.pump(deadline)? {
-                    break;
-                }
-            }
-        }
-        Err(format!("no answer to command {seq} ({command:?}) after 4 tries"))
-    }
-
-    /// Sends `data` (an encoded scene) in `LoadScene` parts; returns the
-    /// answer to the last part, or the first refusal.
-    pub fn load_scene(&mut self, data: &[u8]) -> Result<Reply, String> {
-        let total = u16::try_from(data.len()).map_err(|_| format!("scene data of {} bytes", data.len()))?;
-        let mut last = Err("empty scene data".to_string());
-        for (k, part) in data.chunks(MAX_SCENE_CHUNK).enumerate() {
-            let command = Command::LoadScene {
-                total,
-                offset: (k * MAX_SCENE_CHUNK) as u16,
-                bytes: part,
-            };
-            match self.command(command)?.0 {
-                a @ Reply::Ack(_) => last = Ok(a),
-                other => return Ok(other),
-            }
-        }
-        last
-    }
-
-    /// The next frame, waiting up to `timeout`.
-    pub fn next_frame(&mut self, timeout: Duration) -> Result<Option<Arrived>, String> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(f) = self.frames.pop_front() {
-                return Ok(Some(f));
-            }
-            if !self.pump(deadline)? {
-                return Ok(None);
-            }
-        }
-    }
-}
 
 /// A frame's ground truth in SI units (each raw fixed-point value of the
 /// wire divided by its power of two, to the nearest f64), with the raw
@@ -318,7 +88,7 @@ pub struct DriveFrame {
     pub round_trip_camera_ns: u64,
     /// Host time from sending the `Trigger` to the frame's first bytes, ms.
     pub round_trip_wall_ms: f64,
-    /// Sent with its pose ([`Driver::batched`]): camera time from answering
+    /// Sent with its pose ([`Client::batched`]): camera time from answering
     /// the pose to answering the trigger, ns — the new pose's plan, which
     /// the camera makes between the two, and the trigger's decoding.
     pub pose_to_trigger_camera_ns: Option<u64>,
@@ -349,7 +119,7 @@ pub struct DriveReport {
     pub truth_matches: usize,
     /// Commands sent again after a silence.
     pub resent: u32,
-    /// Each pose was sent with its trigger in one write ([`Driver::batched`]).
+    /// Each pose was sent with its trigger in one write ([`Client::batched`]).
     pub batched: bool,
     /// Round trip in the camera's time, ns: mean and largest.
     pub round_trip_camera_ns: [f64; 2],
@@ -495,7 +265,7 @@ pub fn scene_pose(r: &Resolved) -> Result<Pose, String> {
 /// `out`. `instr_ns`: ns of camera time an instruction, where it is fixed
 /// (128 under QEMU `-icount shift=7`).
 pub fn drive<W: Write>(
-    driver: &mut Driver<W>,
+    driver: &mut Client<W>,
     board: &str,
     r: &Resolved,
     poses: &[Pose],
@@ -505,7 +275,7 @@ pub fn drive<W: Write>(
 ) -> Result<DriveReport, String> {
     let mut outputs = crate::output::Outputs::prepare(out)?;
     let t_all = Instant::now();
-    let d = load_scene(driver, r)?;
+    let d = driver.load_scene_file(r).map_err(|e| e.to_string())?;
     let (w, h) = (r.desc.camera.width, r.desc.camera.height);
     let expect = |reply: Reply, what: &str| match reply {
         Reply::Ack(a) => Ok(a),
@@ -611,43 +381,6 @@ pub fn drive<W: Write>(
     Ok(report)
 }
 
-/// Loads `r` into the camera as data (after asking where its commands'
-/// sequence stands), and its description once loaded, checked against the
-/// scene's size.
-fn load_scene<W: Write>(driver: &mut Driver<W>, r: &Resolved) -> Result<hilcam::link::Description, String> {
-    let (d, _) = driver.command(Command::Describe)?;
-    let Reply::Description(d) = d else {
-        return Err(format!("Describe answered with {d:?}"));
-    };
-    driver.set_next_seq(d.last_command.map_or(0, |l| l.wrapping_add(1)));
-    let expect = |reply: Reply, what: &str| match reply {
-        Reply::Ack(a) => Ok(a),
-        other => Err(format!("{what}: {other:?}")),
-    };
-    let data = r.scene_bytes()?;
-    if data.len() > d.max_scene as usize {
-        return Err(format!(
-            "the camera takes scenes of at most {} bytes as data; {} is {} bytes",
-            d.max_scene,
-            r.desc.name,
-            data.len()
-        ));
-    }
-    expect(driver.load_scene(&data)?, &format!("LoadScene {}", r.desc.name))?;
-    let (d, _) = driver.command(Command::Describe)?;
-    let Reply::Description(d) = d else {
-        return Err(format!("Describe answered with {d:?}"));
-    };
-    let (w, h) = (r.desc.camera.width, r.desc.camera.height);
-    if (d.width, d.height) != (w, h) {
-        return Err(format!(
-            "the camera shows {}x{} after loading the scene, which is {w}x{h}",
-            d.width, d.height
-        ));
-    }
-    Ok(d)
-}
-
 /// A drive's frames lost, out of order and late, and its time.
 struct Counts {
     lost: usize,
@@ -660,7 +393,7 @@ struct Counts {
 /// its round trips in instructions where `instr_ns` converts the camera's
 /// clock, and the firmware's RAM and flash where `probe` read them.
 fn report<W: Write>(
-    driver: &Driver<W>,
+    driver: &Client<W>,
     (board, r, requested): (&str, &Resolved, usize),
     frames: Vec<DriveFrame>,
     counts: Counts,
@@ -755,7 +488,7 @@ pub enum Target {
 
 /// Drives the camera at `target` showing `scene` ([`drive`]) through the
 /// poses of `poses_file` or the scene ([`poses`]), each pose with its
-/// trigger in one write if `batched` ([`Driver::batched`]); `capture`
+/// trigger in one write if `batched` ([`Client::batched`]); `capture`
 /// receives the raw bytes the camera sent.
 pub fn drive_target(
     target: &Target,
@@ -770,7 +503,7 @@ pub fn drive_target(
     let poses = poses(&r, poses_file, frames)?;
     let run = |reader: Box<dyn Read + Send>, writer: Box<dyn Write>, name: &str, instr_ns, probe: Option<&Probe>| {
         let capture = capture.map(create_capture).transpose()?;
-        let mut driver = Driver::new(writer, spawn_reader(reader, capture));
+        let mut driver = Client::new(writer, spawn_reader(reader, capture));
         driver.batched = batched;
         drive(&mut driver, name, &r, &poses, instr_ns, probe, out)
     };

@@ -25,8 +25,8 @@ macro_rules! cli_modules {
 }
 
 cli_modules!(
-    camera_cmd, costfit, demo, drive_cmd, export, frame_png, hil_cmd, output, profile, qemu, render_cmd,
-    stream_cmd, tradeoff, truth,
+    camera_cmd, client, costfit, demo, drive_cmd, export, frame_png, hil_cmd, output, profile, qemu,
+    render_cmd, stream_cmd, tradeoff, truth,
 );
 
 #[cfg(feature = "model")]

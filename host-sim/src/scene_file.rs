@@ -542,7 +542,9 @@ fn need<T: Copy>(v: Option<T>, what: &str) -> Result<T, String> {
     v.ok_or_else(|| format!("{what}: missing"))
 }
 
-fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
+/// Checks a parsed scene file and resolves it (what [`load`] and [`parse`]
+/// do after parsing): errors name the key.
+pub fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
     let format = match (desc.output.format.as_str(), desc.output.bits) {
         ("gray8", None) => PixelFormat::Gray8,
         ("gray16", Some(bits)) => PixelFormat::Gray16 { bits },

@@ -28,6 +28,11 @@ pub struct Truth {
     /// The contract's radial distortion `[k1, k2]` (distorted →
     /// undistorted, camera-model.md §3; not OpenCV's direction), if any.
     pub distortion: Option<[f64; 2]>,
+    /// `R`, row by row: the camera's axes in world coordinates
+    /// (camera-model.md §1).
+    pub rotation: [[f64; 3]; 3],
+    /// `T`: the centre of projection in world coordinates, m.
+    pub translation: [f64; 3],
     /// Per checkered rectangle, its inner corners, row by row.
     pub checker_corners: Vec<Vec<Corner>>,
     /// The stages the frame was rendered with.
@@ -46,10 +51,11 @@ pub struct Corner {
 }
 
 /// The truth of `r` rendered with `stages`.
-pub fn truth(r: &Resolved, stages: Vec<String>) -> Truth {
+pub fn truth(r: &Resolved, stages: Vec<String>) -> Result<Truth, String> {
     let rs = RefScene::new(r);
     let s = rs.sensor;
-    Truth {
+    let (rotation, translation) = r.pose.matrix()?;
+    Ok(Truth {
         scene: r.desc.name.clone(),
         width: s.width,
         height: s.height,
@@ -58,6 +64,8 @@ pub fn truth(r: &Resolved, stages: Vec<String>) -> Truth {
         cx: s.ox,
         cy: s.oy,
         distortion: r.desc.camera.distortion,
+        rotation,
+        translation,
         checker_corners: rs
             .checker_corners()
             .into_iter()
@@ -71,46 +79,75 @@ pub fn truth(r: &Resolved, stages: Vec<String>) -> Truth {
             })
             .collect(),
         stages,
-    }
+    })
 }
 
-/// Renders `r` with the core only (the planner's choice, or `variant`) as
-/// frame `frame_id` (the noise's key) and writes `frame.png` and
-/// `truth.json` into `dir`, both or neither.
+/// A frame the core rendered (the planner's choice, or a variant), with
+/// what it is: its plan and its ground truth.
+pub struct Rendered {
+    /// Pixel format.
+    pub format: hilcam::scene::PixelFormat,
+    /// Size, px.
+    pub width: usize,
+    /// Size, px.
+    pub height: usize,
+    /// The core's bytes, line by line (the wire's and the firmware's).
+    pub pixels: Vec<u8>,
+    /// A byte of `FLAG_*` bits a pixel (`hilcam::render::FLAG_OUTSIDE_FIELD`).
+    pub flags: Vec<u8>,
+    /// What the planner chose, its prediction and every candidate.
+    pub plan: crate::harness::PlanReport,
+    /// The frame's ground truth.
+    pub truth: Truth,
+}
+
+/// Renders `r` with the core only (the planner's choice within the default
+/// budget, or `variant`) as frame `frame_id` (the noise's key).
+pub fn render(r: &Resolved, variant: &crate::variant::Variant, frame_id: u32) -> Result<Rendered, String> {
+    /// Collects the frame, its stages and its plan.
+    struct Keep;
+    impl crate::variant::FrameUser for Keep {
+        type Out = (crate::harness::Collect, Vec<String>, crate::harness::PlanReport);
+        fn use_frame<S: hilcam::num::scalar::Scalar>(
+            self,
+            plan: &hilcam::planner::Plan,
+            frame: &hilcam::render::Frame<S>,
+            core: crate::harness::Collect,
+        ) -> Self::Out {
+            let stages = frame.stages().names().iter().map(|s| s.to_string()).collect();
+            let report = crate::harness::plan_report(plan, &hilcam::planner::Budget::default(), frame);
+            (core, stages, report)
+        }
+    }
+    if variant.scalar == crate::variant::ScalarKind::F32 {
+        return Err("--variant: f32 variants are for the sweep (tradeoff), not for frames".into());
+    }
+    let (core, stages, plan) = variant.render_frame(r, &hilcam::planner::Budget::default(), frame_id, Keep)?;
+    Ok(Rendered {
+        format: r.format,
+        width: usize::from(r.desc.camera.width),
+        height: usize::from(r.desc.camera.height),
+        pixels: core.pixels,
+        flags: core.flags,
+        plan,
+        truth: truth(r, stages)?,
+    })
+}
+
+/// Renders `r` ([`render`]) and writes `frame.png` and `truth.json` into
+/// `dir`, both or neither.
 pub fn frame_to(
     dir: &std::path::Path,
     r: &Resolved,
     variant: &crate::variant::Variant,
     frame_id: u32,
 ) -> Result<Truth, String> {
-    /// The frame's PNG and its stages' names.
-    struct Png;
-    impl crate::variant::FrameUser for Png {
-        type Out = Result<(Vec<u8>, Vec<String>), String>;
-        fn use_frame<S: hilcam::num::scalar::Scalar>(
-            self,
-            _: &hilcam::planner::Plan,
-            frame: &hilcam::render::Frame<S>,
-            core: crate::harness::Collect,
-        ) -> Self::Out {
-            let (w, h) = frame.size();
-            let png =
-                crate::frame_png::encode_png(frame.stages().format, w as usize, h as usize, &core.pixels)?;
-            Ok((
-                png,
-                frame.stages().names().iter().map(|s| s.to_string()).collect(),
-            ))
-        }
-    }
-    if variant.scalar == crate::variant::ScalarKind::F32 {
-        return Err("--variant: f32 variants are for the sweep (tradeoff), not for frames".into());
-    }
-    let (png, stages) = variant.render_frame(r, &hilcam::planner::Budget::default(), frame_id, Png)??;
-    let t = truth(r, stages);
-    let json = serde_json::to_vec_pretty(&t).map_err(|e| format!("truth: {e}"))?;
+    let f = render(r, variant, frame_id)?;
+    let png = crate::frame_png::encode_png(f.format, f.width, f.height, &f.pixels)?;
+    let json = serde_json::to_vec_pretty(&f.truth).map_err(|e| format!("truth: {e}"))?;
     let mut out = crate::output::Outputs::prepare(dir)?;
     out.write("frame.png", &png)?;
     out.write("truth.json", &json)?;
     out.commit()?;
-    Ok(t)
+    Ok(f.truth)
 }

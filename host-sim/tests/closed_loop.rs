@@ -6,7 +6,8 @@
 
 use hilcam::link::MAX_SCENE_CHUNK;
 use host_sim::camera_cmd::serve;
-use host_sim::drive_cmd::{drive, poses, spawn_reader, DriveReport, Driver};
+use host_sim::client::{spawn_reader, Client};
+use host_sim::drive_cmd::{drive, poses, DriveReport};
 use host_sim::link::sim::{Faults, FaultyWriter};
 use host_sim::scene_file::load;
 use serialport::SerialPort;
@@ -45,7 +46,7 @@ fn run(
     let camera = std::thread::spawn(move || serve(cam_reader, FaultyWriter::new(cam, &to_host), &scenes));
     let reader = host.try_clone().expect("clone");
     let hangup = host.try_clone().expect("clone");
-    let mut driver = Driver::new(FaultyWriter::new(host, &to_camera), spawn_reader(reader, None));
+    let mut driver = Client::new(FaultyWriter::new(host, &to_camera), spawn_reader(reader, None));
     driver.timeout = Duration::from_millis(300);
     driver.frame_timeout = Duration::from_secs(1);
     driver.batched = batched;
@@ -190,7 +191,7 @@ fn the_command_line_camera_obeys_over_a_pty() {
         .spawn()
         .expect("host-sim camera");
     let reader = master.try_clone_native().expect("clone");
-    let mut driver = Driver::new(master, spawn_reader(reader, None));
+    let mut driver = Client::new(master, spawn_reader(reader, None));
     // Bytes written before the camera has the port open may be flushed by
     // its opening: the driver sends again after a silence.
     driver.timeout = Duration::from_millis(500);

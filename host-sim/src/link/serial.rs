@@ -57,14 +57,69 @@ pub type Duplex = (Box<dyn Read + Send>, Box<dyn std::io::Write + Send>);
 
 /// Opens the serial device at `path` (a real port or a pty) for both
 /// directions: a reader (which times out when idle, every 100 ms) and a
-/// writer.
+/// [`Patient`] writer.
 pub fn open(path: &str, baud: u32) -> Result<Duplex, String> {
+    check_baud(baud)?;
     let port = serialport::new(path, baud)
         .timeout(Duration::from_millis(100))
         .open()
         .map_err(|e| format!("{path}: {e}"))?;
     let reader = port.try_clone().map_err(|e| format!("{path}: {e}"))?;
-    Ok((Box::new(reader), Box::new(port)))
+    Ok((Box::new(reader), Box::new(Patient(port))))
+}
+
+/// The baud rates a serial device is opened at: 50 to 20 000 000.
+pub fn check_baud(baud: u32) -> Result<(), String> {
+    if (50..=20_000_000).contains(&baud) {
+        Ok(())
+    } else {
+        Err(format!("--baud: {baud} is outside 50 to 20000000"))
+    }
+}
+
+/// A serial device's writer that waits out back-pressure: a write or drain
+/// that times out (the reader paused, CTS held off) is tried again, for as
+/// long as it takes; only another error (the other end hung up) ends it.
+pub struct Patient<W>(pub W);
+
+/// Whether `e` says only "not now" (the port's timeout, a full buffer).
+fn not_now(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock | std::io::ErrorKind::Interrupted
+    )
+}
+
+impl<W: std::io::Write> std::io::Write for Patient<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        loop {
+            match self.0.write(buf) {
+                Err(e) if not_now(&e) => std::thread::sleep(Duration::from_millis(1)),
+                r => return r,
+            }
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        loop {
+            match self.0.flush() {
+                Err(e) if not_now(&e) => std::thread::sleep(Duration::from_millis(1)),
+                r => return r,
+            }
+        }
+    }
+}
+
+/// Whether `e` is the other end hanging up (a pty's or a USB port's EIO, a
+/// broken pipe, a reset connection), not a fault of this end.
+pub fn is_hangup(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::BrokenPipe
+            | std::io::ErrorKind::ConnectionReset
+            | std::io::ErrorKind::ConnectionAborted
+            | std::io::ErrorKind::NotConnected
+            | std::io::ErrorKind::UnexpectedEof
+    ) || e.raw_os_error() == Some(5)
 }
 
 /// Reads from the serial device at `path` until the limits say stop; hands
