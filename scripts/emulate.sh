@@ -97,7 +97,7 @@ link_all() {
 stage link link_all
 
 opencv_all() {
-  target/venv/bin/python scripts/opencv-check.py --host-sim "$host_sim" --out out/opencv
+  target/venv/bin/python scripts/opencv-check.py --out out/opencv
   target/venv/bin/python scripts/export-check.py --host-sim "$host_sim" --out out/export
 }
 wait "$venv_install" || { cat out/venv-install.log; echo "the Python environment (target/venv) could not be made" >&2; exit 1; }

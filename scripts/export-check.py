@@ -1,84 +1,87 @@
 #!/usr/bin/env python3
-"""The ground-truth export, checked by OpenCV itself: for every shipped
-scene, `host-sim export` writes opencv.yaml (and ros.yaml, export.json);
-this loads opencv.yaml with cv2.FileStorage, projects the export's world
-points with cv2.projectPoints (the YAML's camera matrix, distortion,
-rotation and translation alone), and compares with the pixels where the
-emulator images them (the contract's model, f64). Each camera must agree
-within the residual its export states (plus 1e-6 px of arithmetic), and
-the largest is reported. Target (issue 15): <= 0.05 px. Exits 1 if a
-camera misses either; writes export-check.json into --out.
+"""The ground-truth export, checked by OpenCV itself, through the hilcam
+Python package: for every shipped scene, `Scene.opencv()` gives the camera
+in OpenCV's conventions; cv2.projectPoints with those values alone images
+the export's world points, compared with the pixels where the emulator
+images them (the contract's model, f64). Each camera must agree within the
+residual its export states (plus 1e-6 px of arithmetic), at most 0.05 px.
+`host-sim export`'s opencv.yaml, read with cv2.FileStorage, must hold the
+same camera. Exits 1 if a camera misses; writes export-check.json into
+--out.
 
-Needs opencv-python-headless and numpy (scripts/emulate.sh installs them in target/venv)."""
+Run it with the virtual environment's Python (target/venv: scripts/lib.sh
+ensure_venv installs hilcam, numpy and opencv-python-headless there)."""
 import argparse
 import json
 import pathlib
 import subprocess
 import sys
 
+import cv2
+import numpy as np
+
+import hilcam
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
-def need(mod, pkg):
-    try:
-        return __import__(mod)
-    except ImportError:
-        sys.exit(
-            f"{pkg} is missing: run this through scripts/emulate.sh, which makes a "
-            "virtual environment with it (target/venv), or install it in yours"
-        )
-
-
-np = need("numpy", "numpy")
-cv2 = need("cv2", "opencv-python-headless")
+def yaml_camera(host_sim, scene, d):
+    """host-sim export's opencv.yaml, as OpenCV reads it."""
+    subprocess.run([str(host_sim), "export", "--scene", str(scene), "--out", str(d)],
+                   check=True, capture_output=True, text=True)
+    fs = cv2.FileStorage(str(d / "opencv.yaml"), cv2.FILE_STORAGE_READ)
+    v = {n: fs.getNode(n).mat() for n in ("camera_matrix", "distortion_coefficients",
+                                          "rotation_matrix", "translation_vector")}
+    v["max_residual_px"] = fs.getNode("max_residual_px").real()
+    fs.release()
+    return v
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "out" / "export"))
-    ap.add_argument("--host-sim", help="a host-sim binary to run (default: the release build, built here)")
+    ap.add_argument("--host-sim", default=str(ROOT / "target" / "release" / "host-sim"),
+                    help="the host-sim binary whose export files are read")
     args = ap.parse_args()
     out = pathlib.Path(args.out)
-    host_sim = args.host_sim
-    if not host_sim:
-        subprocess.run(["cargo", "build", "--release", "-q", "-p", "host-sim"], cwd=ROOT, check=True)
-        host_sim = ROOT / "target" / "release" / "host-sim"
     rows, ok = [], True
-    for scene in sorted((ROOT / "scenes").glob("*.toml")):
-        name = scene.stem
-        d = out / name
-        r = subprocess.run([str(host_sim), "export", "--scene", str(scene), "--out", str(d)],
-                           capture_output=True, text=True)
-        if r.returncode != 0:
-            print(f"{name}: not exported: {r.stderr.strip()}")
-            rows.append({"camera": name, "exported": False, "why": r.stderr.strip()})
+    for path in sorted((ROOT / "scenes").glob("*.toml")):
+        name = path.stem
+        scene = hilcam.Scene.from_toml(path)
+        try:
+            k, dist, rvec, tvec, size = scene.opencv()
+        except hilcam.SceneError as e:
+            print(f"{name}: not exported: {e}")
+            rows.append({"camera": name, "exported": False, "why": str(e)})
             continue
-        fs = cv2.FileStorage(str(d / "opencv.yaml"), cv2.FILE_STORAGE_READ)
-        k = fs.getNode("camera_matrix").mat()
-        dist = fs.getNode("distortion_coefficients").mat()
-        rot = fs.getNode("rotation_matrix").mat()
-        t = fs.getNode("translation_vector").mat()
-        stated = fs.getNode("max_residual_px").real()
-        model = fs.getNode("distortion_model").string()
-        fs.release()
-        e = json.loads((d / "export.json").read_text())
+        e = scene.export()
+        stated = float(e["distortion"]["residual_px"])
+        model = e["distortion"]["model"]
         world = np.array(e["world_points"], dtype=np.float64)
         want = np.array(e["pixels"], dtype=np.float64)
-        rvec, _ = cv2.Rodrigues(rot)
-        got, _ = cv2.projectPoints(world, rvec, t, k, dist)
-        err = np.linalg.norm(got.reshape(-1, 2) - want, axis=1)
-        worst = float(err.max())
-        good = worst <= stated + 1e-6 and stated <= 0.05
+        got, _ = cv2.projectPoints(world, rvec, tvec, k, dist)
+        worst = float(np.linalg.norm(got.reshape(-1, 2) - want, axis=1).max())
+        y = yaml_camera(args.host_sim, path, out / name)
+        same_yaml = (np.allclose(y["camera_matrix"], k, rtol=1e-15, atol=0)
+                     and np.allclose(y["distortion_coefficients"].ravel(), dist, rtol=1e-15, atol=0)
+                     and np.allclose(y["rotation_matrix"], cv2.Rodrigues(rvec)[0], rtol=0, atol=1e-12)
+                     and np.allclose(y["translation_vector"].ravel(), tvec.ravel(), rtol=1e-15, atol=1e-15)
+                     # (The YAML states it to 7 significant digits.)
+                     and abs(y["max_residual_px"] - stated) <= 1e-6 * stated)
+        good = worst <= stated + 1e-6 and stated <= 0.05 and same_yaml
         ok &= good
-        rows.append({"camera": name, "exported": True, "model": model,
+        rows.append({"camera": name, "exported": True, "model": model, "size": list(size),
                      "coefficients": int(dist.size), "stated_residual_px": stated,
-                     "max_projectPoints_error_px": worst, "points": int(len(world)), "ok": good})
+                     "max_projectPoints_error_px": worst, "points": int(len(world)),
+                     "opencv_yaml_same": bool(same_yaml), "ok": good})
         print(f"{name:<20} {model:<20} stated {stated:.2e} px, cv2.projectPoints max "
-              f"{worst:.2e} px over {len(world)} points {'ok' if good else 'FAIL'}")
+              f"{worst:.2e} px over {len(world)} points{'' if same_yaml else ', opencv.yaml DIFFERS'} "
+              f"{'ok' if good else 'FAIL'}")
     out.mkdir(parents=True, exist_ok=True)
     (out / "export-check.json").write_text(json.dumps(rows, indent=2))
     if not ok:
-        print("a camera's export disagrees with OpenCV beyond its stated residual, or states more than 0.05 px")
+        print("a camera's export disagrees with OpenCV beyond its stated residual, states more than 0.05 px, "
+              "or its opencv.yaml differs from the package's")
         sys.exit(1)
 
 

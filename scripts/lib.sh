@@ -56,14 +56,17 @@ build_firmware() {
     cargo build -q --release --target "$target")
 }
 
-# A Python virtual environment in target/venv with what the OpenCV checks
-# and the hilcam Python package need (never the system interpreter's
-# packages).
+# A Python virtual environment in target/venv with the hilcam package
+# (python/, built by maturin from this workspace) and what the OpenCV checks
+# and the package's tests need — never the system interpreter's packages.
 ensure_venv() {
   if [ ! -x target/venv/bin/python ]; then
     mkdir -p target
     python3 -m venv target/venv
   fi
-  target/venv/bin/python -c "import cv2, numpy" >/dev/null 2>&1 ||
-    target/venv/bin/python -m pip install -q numpy opencv-python-headless
+  target/venv/bin/python -c "import cv2, numpy, pytest, maturin" >/dev/null 2>&1 ||
+    target/venv/bin/python -m pip install -q numpy opencv-python-headless pytest "maturin>=1.7,<2"
+  # The package from this tree (its cargo build kept in target/python, so
+  # that an unchanged tree rebuilds in seconds).
+  PATH="$PWD/target/venv/bin:$PATH" CARGO_TARGET_DIR="$PWD/target/python" target/venv/bin/python -m pip install -q --no-build-isolation --force-reinstall --no-deps ./python
 }

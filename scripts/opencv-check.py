@@ -1,55 +1,46 @@
 #!/usr/bin/env python3
 """OpenCV on the calibration-board set (scenes/calibration/, made by
-scripts/calibration-scenes.py): renders every pose with `host-sim frame`
-(the planner's default: pixel-area integration; or --variant), finds the
-corners with findChessboardCorners + cornerSubPix (OpenCV's tutorial
-settings: 11x11 window, 30 iterations or 0.001 px), measures them against
-the true corners host-sim computes from the scene, and calibrates with
-calibrateCamera (k1, k2, k3; no tangential terms) against the true fx, fy,
-cx, cy. Targets (issue 17): corner RMS <= 0.07 px, and fx, fy, cx, cy
-within 0.3 px, with and without barrel distortion. Exits 1 if a target is
-missed; writes opencv.json into --out.
+scripts/calibration-scenes.py), through the hilcam Python package: renders
+every pose with `Scene.render()` (the planner's default: pixel-area
+integration; or --variant), finds the corners with findChessboardCorners +
+cornerSubPix (OpenCV's tutorial settings: 11x11 window, 30 iterations or
+0.001 px), measures them against the frame's true corners, and calibrates
+with calibrateCamera (k1, k2, k3; no tangential terms) against the true fx,
+fy, cx, cy. Targets: corner RMS <= 0.07 px, and fx, fy, cx, cy within
+0.3 px, with and without barrel distortion. Exits 1 if a target is missed;
+writes opencv.json and each view's PNG into --out.
 
-Needs opencv-python-headless and numpy (scripts/emulate.sh installs them in target/venv)."""
+Run it with the virtual environment's Python (target/venv: scripts/lib.sh
+ensure_venv installs hilcam, numpy and opencv-python-headless there)."""
 import argparse
 import glob
 import json
-import os
 import pathlib
-import subprocess
 import sys
 
+import cv2
+import numpy as np
+
+import hilcam
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-
-
-def need(mod, pkg):
-    try:
-        return __import__(mod)
-    except ImportError:
-        sys.exit(
-            f"{pkg} is missing: run this through scripts/emulate.sh, which makes a "
-            "virtual environment with it (target/venv), or install it in yours"
-        )
-
-
-np = need("numpy", "numpy")
-cv2 = need("cv2", "opencv-python-headless")
 
 PATTERN = (9, 7)  # inner corners of the 10x8 board
 CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
 
 
-def measure(kind, host_sim, variant, out):
+def measure(kind, variant, out):
     obj, img, errs = [], [], []
     size = None
     truth0 = None
     for scene in sorted(glob.glob(str(ROOT / "scenes" / "calibration" / f"{kind}-*.toml"))):
-        d = out / kind / pathlib.Path(scene).stem
-        subprocess.run([host_sim, "frame", "--scene", scene, "--out", str(d), "--variant", variant],
-                       check=True, stdout=subprocess.DEVNULL)
-        truth = json.loads((d / "truth.json").read_text())
+        frame = hilcam.Scene.from_toml(scene).render(variant=variant)
+        truth = frame.truth
         truth0 = truth
-        gray = cv2.imread(str(d / "frame.png"), cv2.IMREAD_GRAYSCALE)
+        gray = frame.image
+        d = out / kind
+        d.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(d / f"{pathlib.Path(scene).stem}.png"), gray)
         size = gray.shape[::-1]
         ok, corners = cv2.findChessboardCorners(gray, PATTERN)
         if not ok:
@@ -92,17 +83,12 @@ def main():
     ap.add_argument("--variant", default="planned",
                     help="host-sim variant, e.g. i32f32-s1 for one sample a pixel")
     ap.add_argument("--no-check", action="store_true", help="report without failing on the targets")
-    ap.add_argument("--host-sim", help="a host-sim binary to run (default: the release build, built here)")
     a = ap.parse_args()
-    host_sim = a.host_sim
-    if not host_sim:
-        subprocess.run(["cargo", "build", "--release", "-q", "-p", "host-sim"], cwd=ROOT, check=True)
-        host_sim = str(ROOT / "target" / "release" / "host-sim")
     out = pathlib.Path(a.out)
     res = {"variant": a.variant, "opencv": cv2.__version__}
     ok = True
     for kind in ("plain", "barrel"):
-        r = measure(kind, host_sim, a.variant, out)
+        r = measure(kind, a.variant, out)
         res[kind] = r
         e = r["error_px"]
         print(f"{kind:7} {r['views']} views, {r['corners']} corners: corner RMS {r['corner_rms_px']:.4f} px "

@@ -42,10 +42,14 @@ firmware_build=$!
 # everything else (2026-12-03). The targets run at the end, on idle cores.
 nice -n 19 ./scripts/fuzz.sh --build > target/fuzz-build.log 2>&1 &
 fuzz_build=$!
-trap 'kill "$qemu_install" "$firmware_build" "$fuzz_build" 2>/dev/null || true' EXIT
+# The Python environment with the hilcam package built from this tree.
+ensure_venv > target/venv-install.log 2>&1 &
+venv_install=$!
+trap 'kill "$qemu_install" "$firmware_build" "$fuzz_build" "$venv_install" 2>/dev/null || true' EXIT
 
 echo "== format"
 cargo fmt --all -- --check
+cargo fmt --manifest-path python/Cargo.toml -- --check
 
 echo "== layout: no file over 1 000 lines or function over 150, no import circle (scripts/check-layout.py)"
 python3 scripts/check-layout.py
@@ -78,6 +82,11 @@ echo "   thumbv7em-none-eabihf --features defmt: ok"
 echo "== tests"
 rm -rf target/tmp/accuracy
 cargo test --workspace
+
+echo "== the Python package: clippy, and its tests against host-sim frame and host-sim camera over a pty"
+wait "$venv_install" || { cat target/venv-install.log; echo "the Python environment (target/venv) could not be made"; exit 1; }
+(cd python && CARGO_TARGET_DIR=../target/python cargo clippy -q -- -D warnings)
+HILCAM_HOST_SIM="$PWD/target/debug/host-sim" target/venv/bin/python -m pytest -q python/tests
 
 echo "== firmware builds and their clippy (above)"
 wait "$firmware_build" || { cat target/firmware-build.log; echo "a firmware build or its clippy failed"; exit 1; }

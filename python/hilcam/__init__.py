@@ -197,12 +197,14 @@ class Scene:
         """Sets the pixel format: ``gray8``, ``gray16`` (with ``bits``, 9 to 16) or ``rgb565``."""
         _scene_call(self._n.set_format, format, bits)
 
-    def render(self, frame_id: int = 0) -> Frame:
+    def render(self, frame_id: int = 0, variant: str = "planned") -> Frame:
         """Renders a frame with the planner's choice (the bytes ``host-sim frame`` writes).
 
         ``frame_id`` keys the sensor noise: the same id, the same frame.
+        ``variant`` trades accuracy for speed as ``host-sim frame
+        --variant`` does (e.g. ``i32f32-s1``: one sample a pixel).
         """
-        pixels, flags, truth, plan = _scene_call(self._n.render, int(frame_id))
+        pixels, flags, truth, plan = _scene_call(self._n.render, int(frame_id), variant)
         t = json.loads(truth)
         w, h = self.size
         image, dn = _pixels(pixels, self.format, self.bits, w, h)
@@ -217,15 +219,21 @@ class Scene:
 
         The refit ``host-sim export`` makes (plumb_bob, or rational_polynomial
         where plumb_bob's residual is too large); its residual, px, is
-        :attr:`opencv_residual`. World to camera: ``x_cam = R(rvec) X + tvec``.
+        ``export()["distortion"]["residual_px"]``. World to camera:
+        ``x_cam = R(rvec) X + tvec``.
         """
-        e = json.loads(_scene_call(self._n.export))
-        self.opencv_residual = float(e["distortion"]["residual_px"])
+        e = self.export()
         k = np.array(e["camera_matrix"], dtype=float).reshape(3, 3)
         d = np.array(e["distortion"]["coefficients"], dtype=float)
         rvec = _rodrigues(np.array(e["rotation"], dtype=float).reshape(3, 3))
         tvec = np.array(e["translation"], dtype=float).reshape(3, 1)
         return k, d, rvec, tvec, (int(e["width"]), int(e["height"]))
+
+    def export(self) -> Dict[str, Any]:
+        """``host-sim export``'s export.json: the camera matrix, the refit
+        distortion with its residual, R and t in OpenCV's convention, and
+        world points with the pixels where this camera images them."""
+        return json.loads(_scene_call(self._n.export))
 
     def scene_data(self) -> bytes:
         """The scene as the link's scene data (what ``Camera.load_scene`` sends)."""

@@ -168,15 +168,18 @@ impl NativeScene {
         })
     }
 
-    /// Renders frame `frame_id` with the planner's choice: `(pixels,
-    /// flags, truth JSON, plan JSON)`, the pixels the core's (and the
-    /// wire's) bytes.
+    /// Renders frame `frame_id` with the planner's choice (or `variant`,
+    /// as `host-sim frame --variant` names them): `(pixels, flags, truth
+    /// JSON, plan JSON)`, the pixels the core's (and the wire's) bytes.
+    #[pyo3(signature = (frame_id, variant="planned"))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         frame_id: u32,
+        variant: &str,
     ) -> PyResult<(Bound<'py, PyBytes>, Bound<'py, PyBytes>, String, String)> {
-        let variant = host_sim::variant::Variant::parse("planned").map_err(scene_err)?;
+        let variant =
+            host_sim::variant::Variant::parse(variant).map_err(|e| scene_err(format!("variant: {e}")))?;
         let f = py
             .detach(|| host_sim::truth::render(&self.r, &variant, frame_id))
             .map_err(scene_err)?;
@@ -312,10 +315,7 @@ impl NativeCamera {
         let wait = Duration::try_from_secs_f64(timeout)
             .map_err(|_| PyValueError::new_err(format!("timeout: {timeout} s is not a duration")))?;
         let c = self.client()?;
-        let Some(a) = py
-            .detach(|| c.next_frame(wait))
-            .map_err(LinkError::new_err)?
-        else {
+        let Some(a) = py.detach(|| c.next_frame(wait)).map_err(LinkError::new_err)? else {
             return Ok(None);
         };
         let f = a.frame;
