@@ -66,8 +66,7 @@ def main():
                      and np.allclose(y["distortion_coefficients"].ravel(), dist, rtol=1e-15, atol=0)
                      and np.allclose(y["rotation_matrix"], cv2.Rodrigues(rvec)[0], rtol=0, atol=1e-12)
                      and np.allclose(y["translation_vector"].ravel(), tvec.ravel(), rtol=1e-15, atol=1e-15)
-                     # (The YAML states it to 7 significant digits.)
-                     and abs(y["max_residual_px"] - stated) <= 1e-6 * stated)
+                     and y["max_residual_px"] == stated)
         good = worst <= stated + 1e-6 and stated <= 0.05 and same_yaml
         ok &= good
         rows.append({"camera": name, "exported": True, "model": model, "size": list(size),

@@ -64,8 +64,8 @@ ensure_venv() {
     mkdir -p target
     python3 -m venv target/venv
   fi
-  target/venv/bin/python -c "import cv2, numpy, pytest, maturin" >/dev/null 2>&1 ||
-    target/venv/bin/python -m pip install -q numpy opencv-python-headless pytest "maturin>=1.7,<2"
+  target/venv/bin/python -c "import cv2, numpy, pytest, yaml, maturin" >/dev/null 2>&1 ||
+    target/venv/bin/python -m pip install -q numpy opencv-python-headless pytest pyyaml "maturin>=1.7,<2"
   # The package from this tree (its cargo build kept in target/python, so
   # that an unchanged tree rebuilds in seconds).
   PATH="$PWD/target/venv/bin:$PATH" CARGO_TARGET_DIR="$PWD/target/python" target/venv/bin/python -m pip install -q --no-build-isolation --force-reinstall --no-deps ./python

@@ -196,6 +196,11 @@ pub struct Export {
     pub world_points: Vec<[f64; 3]>,
     /// Where the emulator images each (the contract's model, f64).
     pub pixels: Vec<[f64; 2]>,
+    /// [`RESIDUAL_TOLERANCE_PX`].
+    pub residual_tolerance_px: f64,
+    /// Whether the refit's residual is within it: if not, OpenCV's model
+    /// images this camera less exactly than a calibration test expects.
+    pub within_tolerance: bool,
 }
 
 /// The export of scene `r`'s camera (perspective only: OpenCV's pinhole
@@ -204,8 +209,8 @@ pub fn export(r: &Resolved) -> Result<Export, String> {
     let rs = RefScene::new(r);
     if !matches!(rs.model, RefModel::Perspective) {
         return Err(format!(
-            "{}: an orthographic camera has no OpenCV or ROS pinhole model",
-            r.desc.name
+            "camera.model: {:?}: a camera without perspective has no OpenCV or ROS pinhole model",
+            r.desc.camera.model
         ));
     }
     let s = rs.sensor;
@@ -224,6 +229,7 @@ pub fn export(r: &Resolved) -> Result<Export, String> {
     let r_max = fold.map_or(r_max, |f| r_max.min(f));
     let px = (s.f / s.sx).max(s.f / s.sy);
     let distortion = fit(radial, r_max, px);
+    let within_tolerance = distortion.residual_px <= RESIDUAL_TOLERANCE_PX;
     let pose = rs.pose();
     let flip = [-1.0, -1.0, 1.0];
     let rcv: Vec<[f64; 3]> = (0..3).map(|i| pose.r[i].map(|v| flip[i] * v)).collect();
@@ -266,14 +272,34 @@ pub fn export(r: &Resolved) -> Result<Export, String> {
         translation: tcv,
         world_points,
         pixels,
+        residual_tolerance_px: RESIDUAL_TOLERANCE_PX,
+        within_tolerance,
     })
 }
 
+/// The largest refit residual a calibration tool is told is exact enough,
+/// pixels; a larger one is flagged ([`Export::within_tolerance`]).
+pub const RESIDUAL_TOLERANCE_PX: f64 = 0.05;
+
+/// `x` as a YAML float that YAML 1.1 (PyYAML, OpenCV) and 1.2 both read as
+/// a float, to the nearest f64: a point in the mantissa and a signed
+/// exponent (`3.3333333333333331e+2`).
+pub fn yaml_float(x: f64) -> String {
+    let s = format!("{x:e}");
+    let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
+    let m = if m.contains('.') { m.to_string() } else { format!("{m}.0") };
+    let e = if e.starts_with('-') { e.to_string() } else { format!("+{e}") };
+    format!("{m}e{e}")
+}
+
+/// `s` as a YAML double-quoted scalar (JSON's escapes are YAML's): a name
+/// with a newline or `: ` stays one value.
+pub fn yaml_string(s: &str) -> String {
+    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
+}
+
 fn list(v: &[f64]) -> String {
-    v.iter()
-        .map(|x| format!("{x:.17e}"))
-        .collect::<Vec<_>>()
-        .join(", ")
+    v.iter().map(|&x| yaml_float(x)).collect::<Vec<_>>().join(", ")
 }
 
 fn opencv_matrix(name: &str, rows: usize, cols: usize, data: &[f64]) -> String {
@@ -300,8 +326,9 @@ pub fn opencv_yaml(e: &Export) -> String {
     s += &opencv_matrix("rotation_matrix", 3, 3, &e.rotation);
     s += &opencv_matrix("translation_vector", 3, 1, &e.translation);
     s += &format!(
-        "distortion_model: \"{}\"\nmax_residual_px: {:.6e}\n",
-        d.model, d.residual_px
+        "distortion_model: \"{}\"\nmax_residual_px: {}\n",
+        d.model,
+        yaml_float(d.residual_px)
     );
     s
 }
@@ -320,10 +347,12 @@ pub fn ros_yaml(e: &Export) -> String {
     };
     let mut s = format!(
         "image_width: {}\nimage_height: {}\ncamera_name: {}\n",
-        e.width, e.height, e.camera
+        e.width,
+        e.height,
+        yaml_string(&e.camera)
     );
     s += &block("camera_matrix", 3, 3, k);
-    s += &format!("distortion_model: {}\n", d.model);
+    s += &format!("distortion_model: {}\n", yaml_string(d.model));
     s += &block(
         "distortion_coefficients",
         1,

@@ -1,14 +1,12 @@
-"""Shared by the package's tests: the repository, host-sim, and a pty link."""
+"""Shared by the package's tests: the repository, host-sim, and a camera on a pty link."""
 
 import os
-import select
 import subprocess
-import threading
-import time
-import tty
 from pathlib import Path
 
 import pytest
+
+from hilcam.pty import PtyLink
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -28,61 +26,12 @@ def scenes() -> Path:
     return ROOT / "scenes"
 
 
-class Link:
-    """Two ptys bridged master to master, as a serial cable: each end's
-    slave is a path a program opens as its serial device."""
-
-    def __init__(self):
-        self.ma, sa = os.openpty()
-        self.mb, sb = os.openpty()
-        for fd in (self.ma, self.mb):
-            tty.setraw(fd)
-        self.a, self.b = os.ttyname(sa), os.ttyname(sb)
-        # The slaves stay open here too, so that a master does not see a
-        # hang-up before its program opens its end.
-        self._slaves = (sa, sb)
-        self._stop = threading.Event()
-        self._paused_until = 0.0
-        self._t = threading.Thread(target=self._pump, daemon=True)
-        self._t.start()
-
-    def pause(self, seconds: float):
-        """Stops carrying bytes for ``seconds``: a host that stops reading
-        (and writing) for a moment; the writers' buffers fill."""
-        self._paused_until = time.monotonic() + seconds
-
-    def _pump(self):
-        peer = {self.ma: self.mb, self.mb: self.ma}
-        while not self._stop.is_set():
-            if time.monotonic() < self._paused_until:
-                time.sleep(0.01)
-                continue
-            ready, _, _ = select.select(list(peer), [], [], 0.05)
-            for fd in ready:
-                try:
-                    data = os.read(fd, 1 << 16)
-                except OSError:
-                    continue
-                view = memoryview(data)
-                while view:
-                    try:
-                        view = view[os.write(peer[fd], view):]
-                    except BlockingIOError:
-                        select.select([], [peer[fd]], [], 0.05)
-
-    def close(self):
-        self._stop.set()
-        self._t.join()
-        for fd in (self.ma, self.mb, *self._slaves):
-            os.close(fd)
-
-
 class CameraSession:
     """``host-sim camera`` on one end of a pty link (``link.a``); ``path``
     is the other end, for the client."""
 
     def __init__(self, host_sim, scene):
-        self.link = Link()
+        self.link = PtyLink()
         self.path = self.link.b
         self.proc = subprocess.Popen(
             [host_sim, "camera", "--device", self.link.a, "--scene", str(scene)],
@@ -100,8 +49,7 @@ class CameraSession:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
-        if not self.link._stop.is_set():
-            self.link.close()
+        self.link.close()
 
 
 @pytest.fixture
