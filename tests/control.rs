@@ -262,6 +262,51 @@ fn commands_apply_once_and_in_order() {
     assert_eq!(c.handle(&trig(0), &mut scene, &mut lib), Answer::Ack);
 }
 
+/// A repeat is recognised by its whole content: the last command's number
+/// on another command is refused (`OutOfOrder`, naming `seq`) and not
+/// applied; a true repeat's answer carries the first answer's time stamp,
+/// so that its bytes are the same.
+#[test]
+fn a_repeat_is_the_same_command_and_gets_the_same_answer() {
+    let mut scene = standard();
+    let mut lib = lib();
+    let mut c = Control::new();
+    let k = scene.exposure();
+    assert_eq!(
+        c.handle(&request(7, Command::Trigger { frames: 1 }), &mut scene, &mut lib),
+        Answer::Ack
+    );
+    assert_eq!(c.stamp(1_000), 1_000);
+    // The trigger's number on an exposure: refused, the exposure unchanged.
+    let expose = request(7, Command::SetExposure { k: 3.0 });
+    assert_eq!(
+        c.handle(&expose, &mut scene, &mut lib),
+        Answer::Reject(Reason::OutOfOrder { expected: 8 }, Fault::field("seq"))
+    );
+    assert_eq!(scene.exposure(), k);
+    assert_eq!(c.pending, 1);
+    // The trigger again: the same answer with the first time stamp.
+    assert_eq!(
+        c.handle(&request(7, Command::Trigger { frames: 1 }), &mut scene, &mut lib),
+        Answer::Ack
+    );
+    assert_eq!(c.stamp(5_000), 1_000);
+    assert_eq!(c.pending, 1);
+    // Another trigger count under the same number is another command.
+    assert!(matches!(
+        c.handle(&request(7, Command::Trigger { frames: 2 }), &mut scene, &mut lib),
+        Answer::Reject(Reason::OutOfOrder { .. }, _)
+    ));
+    // The next command is stamped when it is answered.
+    assert_eq!(c.handle(&expose_at(8), &mut scene, &mut lib), Answer::Ack);
+    assert_eq!(c.stamp(9_000), 9_000);
+    assert_ne!(scene.exposure(), k);
+}
+
+fn expose_at(seq: u32) -> Request<'static> {
+    request(seq, Command::SetExposure { k: 3.0 })
+}
+
 /// A refused command names its field and changes nothing: the camera keeps
 /// its last good pose, exposure, mode and scene.
 #[test]
@@ -667,8 +712,17 @@ fn a_bad_scene_is_refused_naming_the_field_and_the_camera_keeps_its_scene() {
     data.materials[1].albedo = hilcam::scene::data::Colour::Gray(1.5);
     let mut buf = vec![0u8; MAX_SCENE_DATA];
     let bad = data.encode(&mut buf).expect("fits").to_vec();
+    // A colour triple in a gray scene, as a scene file's is refused.
+    let mut data = resolved("standard.toml").scene_data().expect("scene data");
+    data.materials[0].albedo = hilcam::scene::data::Colour::Rgb([0.5, 0.2, 0.1]);
+    let rgb_material = data.encode(&mut buf).expect("fits").to_vec();
+    let mut data = resolved("standard.toml").scene_data().expect("scene data");
+    data.background = hilcam::scene::data::Colour::Rgb([0.5, 0.2, 0.1]);
+    let rgb_background = data.encode(&mut buf).expect("fits").to_vec();
     let cases: Vec<(Vec<u8>, u16, Reason, &str)> = vec![
         (bad, 640, Reason::Invalid, "materials[1].albedo"),
+        (rgb_material, 640, Reason::Invalid, "materials[0].albedo"),
+        (rgb_background, 640, Reason::Invalid, "environment.background"),
         // One primitive more than the camera's build holds.
         (one_primitive_too_many(), 640, Reason::Unsupported, "primitives"),
         // 160 pixels wide, the camera's lines 100.

@@ -78,6 +78,36 @@ impl FrameUser for Hash {
     }
 }
 
+/// An RGB scene's colours as gray ones, for its one-channel renders: the
+/// red channel, which is what a one-channel frame of the RGB scene showed
+/// (a scene with colour triples and a gray format is refused as such).
+fn red_as_gray(r: &mut host_sim::scene_file::Resolved) {
+    use host_sim::scene_file::Colour;
+    let gray = |c: &mut Colour| {
+        if let Colour::Rgb(v) = *c {
+            *c = Colour::Gray(v[0]);
+        }
+    };
+    let d = &mut r.desc;
+    gray(&mut d.environment.ambient);
+    gray(&mut d.environment.background);
+    for m in &mut d.materials {
+        gray(&mut m.albedo);
+        gray(&mut m.specular);
+    }
+    for l in &mut d.lights {
+        l.intensity.as_mut().map(gray);
+        l.irradiance.as_mut().map(gray);
+    }
+    use hilcam::scene::data::{Colour as Data, LightData};
+    for l in &mut r.lights {
+        let (LightData::Point { intensity: c, .. } | LightData::Directional { irradiance: c, .. }) = l;
+        if let Data::Rgb(v) = *c {
+            *c = Data::Gray(v[0]);
+        }
+    }
+}
+
 /// `scene format variant` → hash, for every combination.
 fn current() -> BTreeMap<String, String> {
     let mut out = BTreeMap::new();
@@ -86,6 +116,9 @@ fn current() -> BTreeMap<String, String> {
         for (fname, format) in FORMATS {
             let mut r = base.clone();
             r.format = format;
+            if format.channels() == 1 {
+                red_as_gray(&mut r);
+            }
             for v in VARIANTS {
                 let variant = Variant::parse(v).expect("variant name");
                 let hash = variant

@@ -9,7 +9,7 @@ use hilcam::scene::data::{
     load, CameraData, Colour, DataError, FormatData, LightData, MaterialData, NoiseData, PrimitiveData,
     SamplingData, SceneData, SpecularData, MAX_SCENE_DATA,
 };
-use hilcam::scene::{CheckerSpec, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
+use hilcam::scene::{CheckerSpec, Item, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
 use hilcam::{Camera, Extrinsics, IntrinsicsConfig, LensConfig, Model};
 use proptest::prelude::*;
 use std::path::Path;
@@ -43,6 +43,18 @@ fn direct(d: &SceneData) -> Result<Scene, DataError> {
         Some([k1, k2]) => Distortion::new(k1, k2).map_err(cam)?,
         None => Distortion::NONE,
     };
+    // A colour triple in a one-channel format is refused, as a scene file's.
+    let gray = hilcam::scene::PixelFormat::from(d.format).channels() == 1;
+    let one = |c: &hilcam::scene::data::Colour, item, field| match c {
+        hilcam::scene::data::Colour::Rgb(_) if gray => Err(DataError::Scene(hilcam::scene::SceneError {
+            item,
+            field,
+            problem: hilcam::scene::Problem::OutOfRange,
+        })),
+        _ => Ok(()),
+    };
+    one(&d.ambient, Item::Scene, "environment.ambient")?;
+    one(&d.background, Item::Scene, "environment.background")?;
     let mut s = Scene::new(
         camera,
         distortion,
@@ -51,7 +63,11 @@ fn direct(d: &SceneData) -> Result<Scene, DataError> {
         d.ambient.rgb(),
         d.background.rgb(),
     )?;
-    for m in &d.materials {
+    for (i, m) in d.materials.iter().enumerate() {
+        one(&m.albedo, Item::Material(i as u8), "albedo")?;
+        if let Some(sp) = &m.specular {
+            one(&sp.albedo, Item::Material(i as u8), "specular")?;
+        }
         let (sp, mix, e) = m
             .specular
             .map_or(([0.0; 3], 1.0, 0), |s| (s.albedo.rgb(), s.mix, s.exponent));
@@ -60,13 +76,19 @@ fn direct(d: &SceneData) -> Result<Scene, DataError> {
     for p in &d.primitives {
         s.add_primitive(p.shape, p.material, p.checker)?;
     }
-    for l in &d.lights {
+    for (i, l) in d.lights.iter().enumerate() {
         match *l {
-            LightData::Point { position, intensity } => s.add_point_light(position, intensity.rgb())?,
+            LightData::Point { position, intensity } => {
+                one(&intensity, Item::Light(i as u8), "intensity")?;
+                s.add_point_light(position, intensity.rgb())?
+            }
             LightData::Directional {
                 direction,
                 irradiance,
-            } => s.add_directional_light(direction, irradiance.rgb())?,
+            } => {
+                one(&irradiance, Item::Light(i as u8), "irradiance")?;
+                s.add_directional_light(direction, irradiance.rgb())?
+            }
         };
     }
     if let Some(sm) = d.sampling {

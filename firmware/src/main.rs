@@ -410,7 +410,7 @@ use hilcam::link::{Command, MAX_REQUEST};
                     plan.refresh(scene, &control);
                 }
                 let answer = control.handle(&req, scene, &mut library);
-                let sent = enc.send_answer(seq, answer, ns(ticks()), || {
+                let sent = enc.send_answer(seq, answer, control.stamp(ns(ticks())), || {
                     control.describe(scene, &library, frame_id)
                 });
                 if sent.is_err() {

@@ -186,7 +186,7 @@ pub fn serve_from<W: Write>(
                         Answer::Reject(..) => stats.rejects += 1,
                         Answer::Describe => {}
                     }
-                    let sent = enc.send_answer(seq, answer, now_ns(), || {
+                    let sent = enc.send_answer(seq, answer, control.stamp(now_ns()), || {
                         control.describe(&scene, &library, frame_id)
                     });
                     match sent.map_err(|e| stop("answering", e)) {

@@ -164,7 +164,7 @@ impl<W: Write> Client<W> {
         Client {
             writer,
             rx,
-            dec: Decoder::new(1 << 20, 1 << 24),
+            dec: Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES),
             frames: VecDeque::new(),
             started: HashMap::new(),
             seq: 0,

@@ -592,11 +592,16 @@ fn tempfile_dir() -> Result<PathBuf, String> {
 pub struct ReplayReport {
     /// Frames decoded intact.
     pub frames: usize,
-    /// The answers to commands, in order.
+    /// Answers to commands in the capture.
+    pub replies_total: u64,
+    /// The first [`REPLAY_REPLIES`] of them, in order.
     pub replies: Vec<Reply>,
-    /// The decoder's counts.
+    /// The decoder's counts (frames refused, dropped and cut among them).
     pub link: Stats,
 }
+
+/// Answers a replay lists (it counts them all).
+pub const REPLAY_REPLIES: usize = 10_000;
 
 /// One replayed frame's sidecar.
 #[derive(Clone, Debug, Serialize)]
@@ -611,35 +616,66 @@ struct ReplayFrame {
     instructions: Option<u64>,
 }
 
+/// Writes replayed frame `k`: its PNG and its sidecar.
+fn replay_frame(outputs: &mut crate::output::Outputs, k: usize, f: &crate::link::decoder::Frame) -> Result<(), String> {
+    let s = &f.start;
+    let format = s.format.pixel_format();
+    let png = crate::frame_png::encode_png(format, s.width as usize, s.height as usize, &f.pixels)?;
+    outputs.write(&format!("frame-{k:05}.png"), &png)?;
+    let side = ReplayFrame {
+        frame_id: s.frame_id,
+        scene_id: s.scene_id,
+        width: s.width,
+        height: s.height,
+        format: format.name().into(),
+        exposure: s.exposure as f64 / 2f64.powi(32),
+        truth: TruthView::from(&s.truth),
+        instructions: f.end.cost,
+    };
+    let json = serde_json::to_vec_pretty(&side).map_err(|e| e.to_string())?;
+    outputs.write(&format!("frame-{k:05}.json"), &json)
+}
+
 /// Decodes a captured camera stream into `out`: `frame-N.png` and
 /// `frame-N.json` (its header and ground truth) per frame, `replay.json`.
+/// The capture is read as a stream and each frame written as it
+/// completes: memory is one frame (at most the decoder's 16 MiB) and
+/// [`REPLAY_REPLIES`] answers, whatever the capture's length.
 pub fn replay(capture: &Path, out: &Path) -> Result<ReplayReport, String> {
-    let bytes = std::fs::read(capture).map_err(|e| format!("{}: {e}", capture.display()))?;
+    let at = |e: std::io::Error| format!("{}: {e}", capture.display());
+    let mut file = std::fs::File::open(capture).map_err(at)?;
     let mut outputs = crate::output::Outputs::prepare(out)?;
-    let mut dec = Decoder::new(1 << 20, 1 << 24);
-    let mut frames = Vec::new();
-    dec.push(&bytes, &mut |f| frames.push(f));
-    for (k, f) in frames.iter().enumerate() {
-        let s = &f.start;
-        let format = s.format.pixel_format();
-        let png = crate::frame_png::encode_png(format, s.width as usize, s.height as usize, &f.pixels)?;
-        outputs.write(&format!("frame-{k:05}.png"), &png)?;
-        let side = ReplayFrame {
-            frame_id: s.frame_id,
-            scene_id: s.scene_id,
-            width: s.width,
-            height: s.height,
-            format: format.name().into(),
-            exposure: s.exposure as f64 / 2f64.powi(32),
-            truth: TruthView::from(&s.truth),
-            instructions: f.end.cost,
+    let mut dec = Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES);
+    let (mut frames, mut failed, mut replies, mut replies_total) = (0usize, None, Vec::new(), 0u64);
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = match file.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(at(e)),
         };
-        let json = serde_json::to_vec_pretty(&side).map_err(|e| e.to_string())?;
-        outputs.write(&format!("frame-{k:05}.json"), &json)?;
+        dec.push(&buf[..n], &mut |f| {
+            if failed.is_none() {
+                failed = replay_frame(&mut outputs, frames, &f).err();
+                frames += 1;
+            }
+        });
+        if let Some(e) = failed.take() {
+            return Err(e);
+        }
+        for r in dec.replies.drain(..) {
+            replies_total += 1;
+            if replies.len() < REPLAY_REPLIES {
+                replies.push(r);
+            }
+        }
     }
+    dec.finish();
     let report = ReplayReport {
-        frames: frames.len(),
-        replies: dec.replies.drain(..).collect(),
+        frames,
+        replies_total,
+        replies,
         link: dec.stats,
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;

@@ -131,7 +131,7 @@ pub fn hil_variants(
     let qemu_seconds = t.elapsed().as_secs_f64();
     outputs.write("semihosting.txt", text.as_bytes())?;
     let bytes = std::fs::read(&uart).map_err(|e| format!("{}: {e}", uart.display()))?;
-    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    let mut dec = Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES);
     let mut got = Vec::new();
     dec.push(&bytes, &mut |f| got.push(f));
     let mut frames = Vec::new();

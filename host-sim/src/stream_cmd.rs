@@ -84,9 +84,9 @@ pub fn run(base: &[u8], start: FrameStart, n: u32, faults: &Faults) -> Result<Ru
     let mut channel = Channel::new(faults);
     // Each sent message's identity: the CRC-32 of its body, from a clean
     // decode of the sent bytes (in order, one per non-empty message).
-    let mut clean = Decoder::new(1 << 20, 1 << 24);
+    let mut clean = Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES);
     clean.record = true;
-    let mut dec = Decoder::new(1 << 20, 1 << 24);
+    let mut dec = Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES);
     dec.record = true;
     let (mut wire, mut c) = (0u64, Counts::default());
     let (mut out, mut hits) = (Vec::new(), Vec::new());

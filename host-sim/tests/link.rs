@@ -532,3 +532,65 @@ fn out_of_field_flags_travel_with_the_frame() {
         (1, 0, 0)
     );
 }
+
+/// A Gray16 value of `2^bits` or more drops the frame (docs/wire.md,
+/// "Receiving"): counted, never delivered wrapped or clipped.
+#[test]
+fn a_gray16_value_beyond_its_bits_drops_the_frame() {
+    let start = header(4, 2, WireFormat::Gray16 { bits: 12 });
+    let encode = |px: &[u8]| {
+        let mut enc = Encoder::<host_sim::link::sim::Recorder, 64>::new(Default::default()).expect("encoder");
+        enc.begin_frame(start).expect("start");
+        for l in px.chunks_exact(start.line_bytes()) {
+            enc.push_line(l).expect("line");
+        }
+        enc.end_frame(None).expect("end");
+        enc.into_inner().bytes
+    };
+    let mut px = [0xff, 0x0f].repeat(8);
+    assert_eq!(decode_all(&encode(&px)).0.len(), 1);
+    px[6..8].copy_from_slice(&0x1000u16.to_le_bytes());
+    let (got, dec) = decode_all(&encode(&px));
+    assert!(got.is_empty());
+    assert_eq!((dec.stats.frames_dropped_value, dec.stats.frames_lost()), (1, 1));
+}
+
+/// A capture that ends inside a frame counts it as cut.
+#[test]
+fn a_frame_cut_off_by_the_end_of_the_input_is_counted() {
+    let start = header(8, 4, WireFormat::Gray8);
+    let sent = send_frames(&[7u8; 32], start, 1, None).expect("encodes");
+    let cut = &sent.stream[..sent.stream.len() - 10];
+    let (got, mut dec) = decode_all(cut);
+    assert!(got.is_empty());
+    assert!(dec.finish());
+    assert_eq!((dec.stats.frames_cut, dec.stats.frames_lost()), (1, 1));
+    assert!(!dec.finish(), "counted once");
+}
+
+/// A line's `Flags` message twice drops the frame, even where the end's
+/// count agrees (a sender that counted both): flags are never merged.
+#[test]
+fn a_line_flagged_twice_drops_the_frame() {
+    let start = header(8, 2, WireFormat::Gray8);
+    let flags = [hilcam::render::FLAG_OUTSIDE_FIELD, 0, 0, 0, 0, 0, 0, 0];
+    let encode = |twice: bool| {
+        let mut enc = Encoder::<host_sim::link::sim::Recorder, 64>::new(Default::default()).expect("encoder");
+        enc.begin_frame(start).expect("start");
+        for _ in 0..2 {
+            enc.push_line(&[9; 8]).expect("line");
+            enc.push_flags(&flags).expect("flags");
+            if twice {
+                enc.push_flags(&flags).expect("flags again");
+            }
+        }
+        enc.end_frame(None).expect("end");
+        enc.into_inner().bytes
+    };
+    let (got, _) = decode_all(&encode(false));
+    assert_eq!(got.len(), 1);
+    assert_eq!(got[0].flags.iter().filter(|f| **f != 0).count(), 2);
+    let (got, dec) = decode_all(&encode(true));
+    assert!(got.is_empty());
+    assert_eq!(dec.stats.frames_dropped_flags, 1);
+}

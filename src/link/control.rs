@@ -11,8 +11,8 @@
 
 use crate::geom::extrinsics::Extrinsics;
 use crate::link::wire::{
-    check_crc, is_canonical, Command, Description, Mode, Reason, Request, WireFormat, FIELD_MAX, MAX_PENDING,
-    MAX_REQUEST, MAX_SCENE_CHUNK, PROTOCOL_VERSION,
+    check_crc, is_canonical, Command, Description, Mode, Reason, Request, WireFormat, CRC32, FIELD_MAX,
+    MAX_FRAME_BYTES, MAX_PENDING, MAX_REQUEST, MAX_SCENE_CHUNK, PROTOCOL_VERSION,
 };
 use crate::scene::data::DataError;
 use crate::scene::{Item, Scene};
@@ -376,8 +376,14 @@ fn refusal(e: DataError) -> (Reason, Fault) {
 #[inline(never)]
 fn check<const T: usize>(scene: &Scene, max_width: u16) -> Result<(), Fault> {
     use crate::render::RenderError as E;
-    if scene.camera.intrinsics.size().0 > max_width {
+    let (w, h) = scene.camera.intrinsics.size();
+    if w > max_width {
         return Err(Fault::field("camera.width"));
+    }
+    // Frames a receiver takes ([`MAX_FRAME_BYTES`]).
+    // (In u64: 65 535² × 2 bytes does not fit a 32-bit usize.)
+    if u64::from(w) * u64::from(h) * scene.format.bytes_per_pixel() as u64 > MAX_FRAME_BYTES as u64 {
+        return Err(Fault::field("camera.height"));
     }
     crate::planner::check::<T>(scene).map_err(|e| {
         Fault::field(match e {
@@ -397,7 +403,7 @@ fn check<const T: usize>(scene: &Scene, max_width: u16) -> Result<(), Fault> {
 /// was.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Control {
-    last: Option<(u32, Answer)>,
+    last: Option<Last>,
     /// The mode.
     pub mode: Mode,
     /// Frames promised and not yet begun (triggered mode).
@@ -407,6 +413,28 @@ pub struct Control {
     due_ns: u64,
     /// Commands that changed the scene ([`Control::revision`]).
     revision: u32,
+}
+
+/// The last command processed: what a repeat of it must match, and what
+/// it was answered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Last {
+    seq: u32,
+    /// CRC-32 of the command's encoding: a repeat is the same command.
+    digest: u32,
+    answer: Answer,
+    /// When it was first answered ([`Control::stamp`]), ns.
+    at_ns: Option<u64>,
+}
+
+/// CRC-32 of `c`'s postcard encoding (at most [`MAX_REQUEST`] bytes).
+fn digest(c: &Command) -> u32 {
+    let mut buf = [0u8; MAX_REQUEST];
+    match postcard::to_slice(c, &mut buf) {
+        Ok(b) => CRC32.checksum(b),
+        // Nothing that decoded from a request fails to encode back.
+        Err(_) => 0,
+    }
 }
 
 impl Default for Control {
@@ -439,7 +467,17 @@ impl Control {
 
     /// The last command processed.
     pub fn last_command(&self) -> Option<u32> {
-        self.last.map(|(s, _)| s)
+        self.last.map(|l| l.seq)
+    }
+
+    /// The time stamp of the answer to the command just handled: `now_ns`
+    /// for a new command, and for a repeat the first answer's, so that a
+    /// repeat's answer is the same bytes.
+    pub fn stamp(&mut self, now_ns: u64) -> u64 {
+        match &mut self.last {
+            Some(l) => *l.at_ns.get_or_insert(now_ns),
+            None => now_ns,
+        }
     }
 
     /// Processes `req` against `scene` (the scene shown) and the camera's
@@ -461,12 +499,16 @@ impl Control {
         if req.command == Command::Describe {
             return Answer::Describe;
         }
+        let d = digest(&req.command);
         match self.last {
-            Some((s, answer)) if s == req.seq => return answer,
-            Some((s, _)) if s.wrapping_add(1) != req.seq => {
+            // A repeat: the same number and the same command.
+            Some(l) if l.seq == req.seq && l.digest == d => return l.answer,
+            // The last command's number on another command, or a number out
+            // of turn: nothing applied.
+            Some(l) if l.seq.wrapping_add(1) != req.seq => {
                 return Answer::Reject(
                     Reason::OutOfOrder {
-                        expected: s.wrapping_add(1),
+                        expected: l.seq.wrapping_add(1),
                     },
                     Fault::field("seq"),
                 )
@@ -480,7 +522,12 @@ impl Control {
             }
             Err((reason, fault)) => Answer::Reject(reason, fault),
         };
-        self.last = Some((req.seq, answer));
+        self.last = Some(Last {
+            seq: req.seq,
+            digest: d,
+            answer,
+            at_ns: None,
+        });
         answer
     }
 

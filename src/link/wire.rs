@@ -392,6 +392,11 @@ pub fn check_crc(decoded: &[u8]) -> Option<&[u8]> {
 /// [`MAX_SCENE_CHUNK`] bytes) encode to at most 116 bytes.
 pub const MAX_REQUEST: usize = 128;
 
+/// The largest frame a receiver takes, pixel bytes (`width × height ×
+/// bytes per pixel`): 16 MiB. A camera refuses a scene whose frames are
+/// larger (`Unsupported`, `camera.height`).
+pub const MAX_FRAME_BYTES: usize = 1 << 24;
+
 /// Most scene bytes one `LoadScene` carries.
 pub const MAX_SCENE_CHUNK: usize = 96;
 
@@ -409,8 +414,9 @@ pub struct Request<'a> {
     pub version: u8,
     /// Sequence number: a camera applies a command only if it follows the
     /// last one it processed (`seq = last + 1`, wrapping; any value for the
-    /// first), answers a repeat of the last one again without applying it,
-    /// and refuses anything else ([`Reason::OutOfOrder`]). `Describe` is
+    /// first), answers a repeat of the last one (the same number and the
+    /// same command) again, with the same bytes, without applying it, and
+    /// refuses anything else ([`Reason::OutOfOrder`]). `Describe` is
     /// answered whatever its number and does not count.
     pub seq: u32,
     /// What to do.

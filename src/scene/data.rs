@@ -12,8 +12,8 @@
 use crate::geom::distortion::Distortion;
 use crate::geom::lens::{Aperture, LensConfig};
 use crate::scene::{
-    CheckerSpec, Item, PixelFormat, Scene, SceneError, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES,
-    Q,
+    CheckerSpec, Item, PixelFormat, Problem, Scene, SceneError, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS,
+    MAX_PRIMITIVES, Q,
 };
 use crate::{Camera, Error, Extrinsics, Field, IntrinsicsConfig, Model};
 use core::fmt;
@@ -337,17 +337,39 @@ fn head(r: &mut Reader) -> Result<(Camera, Distortion, PixelFormat, (Q, [Q; 3], 
     };
     let format = r.format().ok_or(M)?;
     let (exposure, ambient, background) = (r.f64().ok_or(M)?, r.colour().ok_or(M)?, r.colour().ok_or(M)?);
-    let format = format.into();
+    let format: PixelFormat = format.into();
+    let gray = format.channels() == 1;
+    one_channel(gray, &ambient, Item::Scene, "environment.ambient")?;
+    one_channel(gray, &background, Item::Scene, "environment.background")?;
     let head = Scene::check(&camera, format, exposure, ambient.rgb(), background.rgb())?;
     Ok((camera, distortion, format, head))
+}
+
+/// A colour triple where the format has one channel is refused, as a scene
+/// file's is: a gray frame would show its red channel alone.
+fn one_channel(gray: bool, c: &Colour, item: Item, field: &'static str) -> Result<(), DataError> {
+    match c {
+        Colour::Rgb(_) if gray => Err(DataError::Scene(SceneError {
+            item,
+            field,
+            problem: Problem::OutOfRange,
+        })),
+        _ => Ok(()),
+    }
 }
 
 /// Reads a scene's materials, primitives, lights, sampling and noise into
 /// `s`, checking each as it is added.
 fn fill(r: &mut Reader, s: &mut Scene) -> Result<(), DataError> {
     const M: DataError = DataError::Malformed;
-    for _ in 0..r.len().ok_or(M)? {
+    let gray = s.format.channels() == 1;
+    for i in 0..r.len().ok_or(M)? {
         let m = r.material().ok_or(M)?;
+        let item = Item::Material(i as u8);
+        one_channel(gray, &m.albedo, item, "albedo")?;
+        if let Some(sp) = &m.specular {
+            one_channel(gray, &sp.albedo, item, "specular")?;
+        }
         let (specular, mix, exponent) = m
             .specular
             .map_or(([0.0; 3], 1.0, 0), |s| (s.albedo.rgb(), s.mix, s.exponent));
@@ -357,13 +379,20 @@ fn fill(r: &mut Reader, s: &mut Scene) -> Result<(), DataError> {
         let p = r.primitive().ok_or(M)?;
         s.add_primitive(p.shape, p.material, p.checker)?;
     }
-    for _ in 0..r.len().ok_or(M)? {
+    for i in 0..r.len().ok_or(M)? {
+        let item = Item::Light(i as u8);
         match r.light().ok_or(M)? {
-            LightData::Point { position, intensity } => s.add_point_light(position, intensity.rgb())?,
+            LightData::Point { position, intensity } => {
+                one_channel(gray, &intensity, item, "intensity")?;
+                s.add_point_light(position, intensity.rgb())?
+            }
             LightData::Directional {
                 direction,
                 irradiance,
-            } => s.add_directional_light(direction, irradiance.rgb())?,
+            } => {
+                one_channel(gray, &irradiance, item, "irradiance")?;
+                s.add_directional_light(direction, irradiance.rgb())?
+            }
         };
     }
     // Without the `sensor` feature nothing renders them: refused here,

@@ -76,7 +76,7 @@ pub fn run(args: Args) -> Result<String, String> {
     host_sim::link::serial::check_baud(baud)?;
     let outputs = Outputs::prepare(&out)?;
     host_sim::output::graceful(true);
-    let mut dec = host_sim::link::decoder::Decoder::new(1 << 20, 1 << 24);
+    let mut dec = host_sim::link::decoder::Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES);
     let mut written: Vec<ReceivedFrame> = Vec::new();
     let mut seen: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
     let mut on_frame = |f: host_sim::link::decoder::Frame| -> Result<(), String> {
@@ -101,6 +101,8 @@ pub fn run(args: Args) -> Result<String, String> {
         Ok(())
     };
     let (got, ending) = host_sim::link::serial::receive(&device, baud, limits, &mut dec, &mut on_frame)?;
+    // A frame the input ended inside is counted, not silently left open.
+    dec.finish();
     let report = ReceiveReport {
         device: device.clone(),
         asked: frames,

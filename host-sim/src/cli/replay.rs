@@ -17,14 +17,32 @@ pub struct Args {
 pub fn run(args: Args) -> Result<String, String> {
     let Args { capture, out } = args;
     let r = host_sim::drive_cmd::replay(&capture, &out)?;
-    Ok(format!(
-        "{}: {} frames, {} answers; {} bad messages (COBS {}, CRC {}, other {})",
+    let l = &r.link;
+    let line = format!(
+        "{}: {} frames, {} answers; {} frames not delivered (refused {}, gap {}, unfinished {}, CRC {}, \
+         flags {}, values out of range {}, cut off by the end {}); {} bad messages (COBS {}, CRC {}, other {})",
         capture.display(),
         r.frames,
-        r.replies.len(),
-        r.link.bad_cobs + r.link.bad_crc + r.link.bad_message,
-        r.link.bad_cobs,
-        r.link.bad_crc,
-        r.link.bad_message
-    ))
+        r.replies_total,
+        l.frames_lost(),
+        l.frames_refused,
+        l.frames_dropped_gap,
+        l.frames_dropped_unfinished,
+        l.frames_dropped_crc,
+        l.frames_dropped_flags,
+        l.frames_dropped_value,
+        l.frames_cut,
+        l.bad_cobs + l.bad_crc + l.bad_message,
+        l.bad_cobs,
+        l.bad_crc,
+        l.bad_message
+    );
+    // Complete and right only if every frame begun was delivered.
+    if l.frames_lost() > 0 {
+        return Err(format!(
+            "{line}\nthe frames that were delivered are in {}",
+            out.display()
+        ));
+    }
+    Ok(line)
 }

@@ -71,6 +71,10 @@ pub struct Stats {
     /// Frames refused at their start (size, version, or Gray16 `bits`
     /// outside 9 to 16).
     pub frames_refused: u64,
+    /// Frames dropped because a Gray16 value was `2^bits` or more.
+    pub frames_dropped_value: u64,
+    /// Frames the input ended inside ([`Decoder::finish`]).
+    pub frames_cut: u64,
     /// Answers to commands received (acks, rejects, descriptions).
     pub replies: u64,
 }
@@ -98,8 +102,21 @@ struct Assembly {
     pixels: Vec<u8>,
     broken: bool,
     flags: Vec<u8>,
+    /// Lines whose `Flags` message arrived (a second one drops the frame).
+    flagged: Vec<bool>,
     outside: u32,
     bad_flags: bool,
+}
+
+/// Whether every value of a frame's `pixels` is within its format: a
+/// Gray16 value below `2^bits`.
+fn values_in_range(format: WireFormat, pixels: &[u8]) -> bool {
+    match format {
+        WireFormat::Gray16 { bits } if bits < 16 => pixels
+            .chunks_exact(2)
+            .all(|p| u16::from_le_bytes([p[0], p[1]]) >> bits == 0),
+        _ => true,
+    }
 }
 
 /// The decoder. Feed it bytes with [`Decoder::push`].
@@ -250,6 +267,7 @@ impl Decoder {
                     pixels: Vec::with_capacity(s.frame_bytes()),
                     broken: false,
                     flags: Vec::new(),
+                    flagged: vec![false; usize::from(s.height)],
                     outside: 0,
                     bad_flags: false,
                 });
@@ -278,6 +296,8 @@ impl Decoder {
                         self.stats.frames_dropped_crc += 1;
                     } else if a.bad_flags || a.outside != e.outside {
                         self.stats.frames_dropped_flags += 1;
+                    } else if !values_in_range(a.start.format, &a.pixels) {
+                        self.stats.frames_dropped_value += 1;
                     } else {
                         self.stats.frames_delivered += 1;
                         deliver(Frame {
@@ -306,10 +326,13 @@ impl Decoder {
                         .bits
                         .last()
                         .is_some_and(|b| !w.is_multiple_of(8) && b >> (w % 8) != 0);
-                    if !fits || tail {
+                    // A line's flags twice: the frame is dropped.
+                    let again = a.flagged.get(line).is_none_or(|seen| *seen);
+                    if !fits || tail || again {
                         a.bad_flags = true;
                         return;
                     }
+                    a.flagged[line] = true;
                     if a.flags.is_empty() {
                         a.flags = vec![0; a.start.width as usize * a.start.height as usize];
                     }
@@ -327,8 +350,32 @@ impl Decoder {
     }
 }
 
+impl Stats {
+    /// Frames begun and not delivered, whatever the reason: refused at
+    /// their start, dropped, or cut off by the end of the input.
+    pub fn frames_lost(&self) -> u64 {
+        self.frames_refused
+            + self.frames_dropped_gap
+            + self.frames_dropped_unfinished
+            + self.frames_dropped_crc
+            + self.frames_dropped_flags
+            + self.frames_dropped_value
+            + self.frames_cut
+    }
+}
+
+impl Decoder {
+    /// The input has ended: a frame still open is counted as cut
+    /// ([`Stats::frames_cut`]) and dropped. Returns whether one was.
+    pub fn finish(&mut self) -> bool {
+        let cut = self.open.take().is_some();
+        self.stats.frames_cut += u64::from(cut);
+        cut
+    }
+}
+
 /// Decodes a whole stream from any reader (a file, a pipe, a serial port),
-/// until end of input.
+/// until end of input ([`Decoder::finish`] then).
 pub fn decode_reader<R: Read>(
     mut r: R,
     dec: &mut Decoder,
@@ -337,7 +384,10 @@ pub fn decode_reader<R: Read>(
     let mut buf = vec![0u8; 1 << 16];
     loop {
         match r.read(&mut buf) {
-            Ok(0) => return Ok(()),
+            Ok(0) => {
+                dec.finish();
+                return Ok(());
+            }
             Ok(n) => dec.push(&buf[..n], deliver),
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e),

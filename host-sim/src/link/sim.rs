@@ -11,7 +11,7 @@
 //! Every fault records the offset in the original stream it touched, so that
 //! each frame can be classified as hit or untouched.
 
-use hilcam::link::{Encoder, FrameStart};
+use hilcam::link::{Encoder, FrameStart, WireFormat};
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -401,15 +401,30 @@ pub fn frame_pixels(base: &[u8], line: usize, k: u32) -> Vec<u8> {
         .collect()
 }
 
+/// Keeps every value of `pixels` within `format`: a Gray16 value below
+/// `2^bits`, as a camera sends them (a receiver drops a frame with one
+/// beyond).
+pub fn within_format(format: WireFormat, pixels: &mut [u8]) {
+    if let WireFormat::Gray16 { bits } = format {
+        let mask = u16::MAX >> (16 - bits.clamp(1, 16));
+        for p in pixels.chunks_exact_mut(2) {
+            let v = u16::from_le_bytes([p[0], p[1]]) & mask;
+            p.copy_from_slice(&v.to_le_bytes());
+        }
+    }
+}
+
 /// Encodes `n` frames in memory: frame `k` is `base` with a per-frame pattern added to
-/// every byte (so that no two frames are alike), all with `start`'s header.
+/// every byte (so that no two frames are alike; [`within_format`]), all
+/// with `start`'s header.
 pub fn send_frames(base: &[u8], start: FrameStart, n: u32, cost: Option<u64>) -> Result<Sent, String> {
     let mut enc =
         Encoder::<Recorder, HOST_CHUNK>::new(Recorder::default()).map_err(|e| format!("encoder: {e:?}"))?;
     let line = start.line_bytes();
     let mut frames = Vec::with_capacity(n as usize);
     for k in 0..n {
-        let pixels = frame_pixels(base, line, k);
+        let mut pixels = frame_pixels(base, line, k);
+        within_format(start.format, &mut pixels);
         let begin = enc.writer().bytes.len();
         enc.begin_frame(FrameStart { frame_id: k, ..start })
             .map_err(|e| format!("encoder: {e:?}"))?;

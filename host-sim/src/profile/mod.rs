@@ -747,7 +747,7 @@ pub fn profile(
         let bytes = std::fs::read(&uart).map_err(|e| format!("{}: {e}", uart.display()))?;
         let _ = std::fs::remove_file(&uart);
         costs.clear();
-        Decoder::new(1 << 20, 1 << 24).push(&bytes, &mut |f| costs.push(f.end.cost));
+        Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES).push(&bytes, &mut |f| costs.push(f.end.cost));
         if costs.len() == resolved.len() && costs.iter().all(Option::is_some) {
             break;
         }
