@@ -72,6 +72,8 @@ pub struct Run {
     pub wire_bytes: u64,
     /// Pixel payload bytes.
     pub pixel_bytes: u64,
+    /// The first frame delivered intact: its id and pixels.
+    pub first_delivered: Option<(u32, Vec<u8>)>,
 }
 
 /// Encodes `n` frames of `base` ([`frame_pixels`]: each distinct) with the
@@ -90,9 +92,10 @@ pub fn run(base: &[u8], start: FrameStart, n: u32, faults: &Faults) -> Result<Ru
     dec.record = true;
     let (mut wire, mut c) = (0u64, Counts::default());
     let (mut out, mut hits) = (Vec::new(), Vec::new());
+    let mut first_delivered = None;
     let line = start.line_bytes();
     for k in 0..n {
-        let pixels = frame_pixels(base, line, k);
+        let pixels = frame_pixels(base, line, k, start.format);
         let rec = enc.writer();
         rec.clear();
         enc.begin_frame(FrameStart { frame_id: k, ..start })
@@ -112,9 +115,14 @@ pub fn run(base: &[u8], start: FrameStart, n: u32, faults: &Faults) -> Result<Ru
         channel.send(&rec.bytes, &rec.writes, &mut out, &mut hits);
         dec.received.clear();
         let mut delivered = false;
+        let mut first = first_delivered.is_none();
         dec.push(&out, &mut |f| {
             if f.start.frame_id == k && !delivered && f.pixels == pixels {
                 delivered = true;
+                if first {
+                    first_delivered = Some((k, f.pixels));
+                    first = false;
+                }
             } else {
                 c.corrupted_frames_accepted += 1;
             }
@@ -150,6 +158,7 @@ pub fn run(base: &[u8], start: FrameStart, n: u32, faults: &Faults) -> Result<Ru
         },
         wire_bytes: wire,
         pixel_bytes: enc.pixel_bytes,
+        first_delivered,
     })
 }
 
@@ -180,21 +189,25 @@ pub struct StreamReport {
     pub achievable_fps: f64,
     /// What happened to the frames.
     pub outcome: Outcome,
+    /// The frame `received.png` shows: the first delivered intact (none:
+    /// no frame arrived, and no `received.png` is written).
+    pub received_png_frame: Option<u32>,
 }
 
 /// Renders, encodes `frames` frames, sends them through `link` with
-/// `faults`, decodes, and reports. Also returns the first intact frame.
+/// `faults`, decodes, and reports. Also returns the first frame delivered
+/// intact, as the receiver decoded it.
 pub fn stream(
     r: &Resolved,
     link: Link,
     faults: &Faults,
     frames: u32,
-) -> Result<(StreamReport, Vec<u8>), String> {
+) -> Result<(StreamReport, Option<Vec<u8>>), String> {
     let (pixels, start) = core_frame(r, 0)?;
     let sent = run(&pixels, start, frames, faults)?;
+    let (received_png_frame, first) = sent.first_delivered.map_or((None, None), |(k, p)| (Some(k), Some(p)));
     let wire_per_frame = sent.wire_bytes as f64 / frames.max(1) as f64;
     let secs = link.seconds(wire_per_frame.ceil() as u64);
-    let first = frame_pixels(&pixels, start.line_bytes(), 0);
     Ok((
         StreamReport {
             scene: r.desc.name.clone(),
@@ -209,6 +222,7 @@ pub fn stream(
             seconds_per_frame: secs,
             achievable_fps: 1.0 / secs,
             outcome: sent.outcome,
+            received_png_frame,
         },
         first,
     ))

@@ -33,8 +33,11 @@ pub struct Truth {
     pub rotation: [[f64; 3]; 3],
     /// `T`: the centre of projection in world coordinates, m.
     pub translation: [f64; 3],
-    /// Per checkered rectangle, its inner corners, row by row.
+    /// Per checkered rectangle, its inner corners in view (imaged within
+    /// the frame), row by row; at most [`MAX_CORNERS`] in all.
     pub checker_corners: Vec<Vec<Corner>>,
+    /// Corners in view left out past [`MAX_CORNERS`] (0: the list is whole).
+    pub corners_left_out: u64,
     /// The stages the frame was rendered with.
     pub stages: Vec<String>,
 }
@@ -45,16 +48,38 @@ pub struct Corner {
     /// Texture coordinates `(u, v)`, metres from the texture's origin (the
     /// rectangle's centre): the board's own coordinates.
     pub board: [f64; 2],
-    /// Pixel position (`null` where the corner is behind the camera or
-    /// beyond the lens field's fold).
+    /// Pixel position (pixel centres at integers; within the frame).
     pub pixel: Option<[f64; 2]>,
 }
+
+/// The most checker corners a frame's truth lists (a 1 m board of 1 mm
+/// cells has a million; past the cap they are counted, not listed).
+pub const MAX_CORNERS: usize = 250_000;
 
 /// The truth of `r` rendered with `stages`.
 pub fn truth(r: &Resolved, stages: Vec<String>) -> Result<Truth, String> {
     let rs = RefScene::new(r);
     let s = rs.sensor;
     let (rotation, translation) = r.pose.matrix()?;
+    // Corners in view only: imaged within the frame's edges.
+    let (w, h) = (f64::from(s.width), f64::from(s.height));
+    let mut checker_corners = vec![Vec::new(); rs.checkered_rectangles()];
+    let (mut listed, mut corners_left_out) = (0usize, 0u64);
+    rs.for_each_checker_corner(|k, board, p| {
+        let Some((x, y)) = rs.project(p) else { return };
+        if !(-0.5..w - 0.5).contains(&x) || !(-0.5..h - 0.5).contains(&y) {
+            return;
+        }
+        if listed == MAX_CORNERS {
+            corners_left_out += 1;
+            return;
+        }
+        listed += 1;
+        checker_corners[k].push(Corner {
+            board,
+            pixel: Some([x, y]),
+        });
+    });
     Ok(Truth {
         scene: r.desc.name.clone(),
         width: s.width,
@@ -66,18 +91,8 @@ pub fn truth(r: &Resolved, stages: Vec<String>) -> Result<Truth, String> {
         distortion: r.desc.camera.distortion,
         rotation,
         translation,
-        checker_corners: rs
-            .checker_corners()
-            .into_iter()
-            .map(|pts| {
-                pts.into_iter()
-                    .map(|(board, p)| Corner {
-                        board,
-                        pixel: rs.project(p).map(|(x, y)| [x, y]),
-                    })
-                    .collect()
-            })
-            .collect(),
+        checker_corners,
+        corners_left_out,
         stages,
     })
 }

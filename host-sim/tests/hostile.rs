@@ -1073,3 +1073,84 @@ fn core_errors_use_the_scene_files_names() {
         r.stdout
     );
 }
+
+/// `frame`'s truth lists the checker corners in view, at most
+/// `MAX_CORNERS`, counting the rest: a 1 m board of 1 mm cells (a million
+/// corners, most out of view) ends with bounded output and memory.
+#[test]
+fn frame_truth_lists_the_corners_in_view_within_a_cap() {
+    let dir = scratch("frame-corners");
+    let s = std::fs::read_to_string(repo().join("scenes/calibration-board.toml"))
+        .expect("calibration board")
+        .replacen("cell = 0.03", "cell = 0.001", 1)
+        .replacen("size = [0.27, 0.21]", "size = [1.0, 1.0]", 1);
+    let scene = write_scene(&dir, "fine.toml", &s);
+    let out = dir.join("out");
+    let r = run(&[
+        "frame",
+        "--scene",
+        scene.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let t: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("truth.json")).expect("truth")).expect("json");
+    let (w, h) = (t["width"].as_f64().expect("w"), t["height"].as_f64().expect("h"));
+    let listed: Vec<&serde_json::Value> = t["checker_corners"]
+        .as_array()
+        .expect("list")
+        .iter()
+        .flat_map(|r| r.as_array().expect("rect").iter())
+        .collect();
+    assert!(!listed.is_empty() && listed.len() <= host_sim::truth::MAX_CORNERS);
+    for c in &listed {
+        let p = c["pixel"].as_array().expect("pixel");
+        let (x, y) = (p[0].as_f64().expect("x"), p[1].as_f64().expect("y"));
+        assert!(
+            (-0.5..w - 0.5).contains(&x) && (-0.5..h - 0.5).contains(&y),
+            "{c}"
+        );
+    }
+    eprintln!(
+        "fine board: {} corners listed, {} left out, peak RSS {} KiB",
+        listed.len(),
+        t["corners_left_out"],
+        r.max_rss_kib
+    );
+    assert!(r.max_rss_kib < 512 * 1024, "peak RSS {} KiB", r.max_rss_kib);
+}
+
+/// `stream` writes `received.png` only from a frame the receiver decoded:
+/// with every message dropped no frame arrives, and no picture claims one
+/// did.
+#[test]
+fn stream_writes_no_received_picture_when_nothing_arrived() {
+    let dir = scratch("stream-nothing");
+    let scene = repo().join("scenes/standard.toml");
+    let args = |faults: &'static str, out: &Path| {
+        run(&[
+            "stream",
+            "--scene",
+            scene.to_str().expect("utf-8"),
+            "--frames",
+            "5",
+            "--faults",
+            faults,
+            "--out",
+            out.to_str().expect("utf-8"),
+        ])
+    };
+    let lost = dir.join("lost");
+    let r = args("drop=1", &lost);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert_eq!(entries(&lost), ["stream.json"]);
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(lost.join("stream.json")).expect("json")).expect("json");
+    assert!(j["received_png_frame"].is_null());
+    assert_eq!(j["outcome"]["frames_delivered_intact"], 0);
+    let clean = dir.join("clean");
+    let r = args("none", &clean);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert_eq!(entries(&clean), ["received.png", "stream.json"]);
+}

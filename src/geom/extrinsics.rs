@@ -168,11 +168,20 @@ impl Extrinsics {
     }
 }
 
+/// The largest yaw, pitch or roll taken, radians: ±1000 (about 160 turns);
+/// beyond it an angle's f64 holds too few bits of the fraction of a turn
+/// that sets the pose (at 10³⁰⁰ rad, none).
+pub const MAX_ANGLE: f64 = 1000.0;
+
 /// The `R` (f64, rows: the camera's axes in world coordinates) of yaw,
-/// pitch and roll (radians; see the module docs for the convention): what
-/// [`Extrinsics::from_yaw_pitch_roll`] builds its pose from.
+/// pitch and roll (radians, each within ±[`MAX_ANGLE`]; see the module docs
+/// for the convention): what [`Extrinsics::from_yaw_pitch_roll`] builds its
+/// pose from.
 pub fn yaw_pitch_roll_matrix(yaw: f64, pitch: f64, roll: f64) -> Result<[[f64; 3]; 3], Error> {
     finite3([yaw, pitch, roll], Field::Angle)?;
+    if [yaw, pitch, roll].iter().any(|a| a.abs() > MAX_ANGLE) {
+        return Err(Error::OutOfRange(Field::Angle));
+    }
     let (sy, cy) = (libm::sin(yaw), libm::cos(yaw));
     let (sp, cp) = (libm::sin(-pitch), libm::cos(-pitch));
     let (sr, cr) = (libm::sin(roll), libm::cos(roll));

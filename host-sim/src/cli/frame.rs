@@ -29,13 +29,24 @@ pub fn run(args: Args) -> Result<String, String> {
         variant,
         frame_id,
     } = args;
-    let variant = host_sim::variant::Variant::parse(&variant).map_err(|e| format!("--variant: {e}"))?;
+    let name = variant;
+    let variant = host_sim::variant::Variant::parse(&name).map_err(|e| format!("--variant: {e}"))?;
     let resolved = host_sim::scene_file::load(&scene)?;
-    let t = host_sim::truth::frame_to(&out, &resolved, &variant, frame_id)
-        .map_err(|e| format!("{}: {e}", scene.display()))?;
+    let t =
+        host_sim::truth::frame_to(&out, &resolved, &variant, frame_id).map_err(|e| match name.as_str() {
+            "planned" => format!("{}: {e}", scene.display()),
+            v => format!("{}: --variant {v}: {e}", scene.display()),
+        })?;
     let corners: usize = t.checker_corners.iter().map(Vec::len).sum();
+    let left_out = match t.corners_left_out {
+        0 => String::new(),
+        n => format!(
+            " ({n} more in view not listed: at most {})",
+            host_sim::truth::MAX_CORNERS
+        ),
+    };
     Ok(format!(
-        "{}: {}x{} [{}], {corners} checker corners in truth.json",
+        "{}: {}x{} [{}], {corners} checker corners in view in truth.json{left_out}",
         t.scene,
         t.width,
         t.height,

@@ -6,8 +6,8 @@ use host_sim::output::Outputs;
 const MAX_STREAM_FRAMES: u32 = 10_000_000;
 
 /// Render a scene, encode N frames with the core's encoder, send them
-/// through a simulated link with faults, decode, and report (stream.json,
-/// received.png).
+/// through a simulated link with faults, decode, and report (stream.json;
+/// received.png, the first frame delivered intact, if one was).
 #[derive(clap::Args)]
 pub struct Args {
     /// Scene file.
@@ -46,14 +46,17 @@ pub fn run(args: Args) -> Result<String, String> {
     let (report, first) = host_sim::stream_cmd::stream(&resolved, link, &faults, frames)
         .map_err(|e| format!("{}: {e}", scene.display()))?;
     let json = serde_json::to_vec_pretty(&report).map_err(|e| e.to_string())?;
-    let png = host_sim::frame_png::encode_png(
-        resolved.format,
-        report.width as usize,
-        report.height as usize,
-        &first,
-    )?;
     outputs.write("stream.json", &json)?;
-    outputs.write("received.png", &png)?;
+    // What the receiver decoded, if anything arrived.
+    if let Some(first) = &first {
+        let png = host_sim::frame_png::encode_png(
+            resolved.format,
+            report.width as usize,
+            report.height as usize,
+            first,
+        )?;
+        outputs.write("received.png", &png)?;
+    }
     outputs.commit()?;
     let o = &report.outcome.counts;
     Ok(format!(

@@ -54,7 +54,7 @@ pub fn run(args: Args) -> Result<String, String> {
             let t = std::time::Instant::now();
             let p = hilcam::planner::plan(&s, &budget);
             let f = hilcam::render::Frame::new(&s, &p.options)
-                .map_err(|e| format!("{}: cannot render: {e:?}", scene.display()))?;
+                .map_err(|e| format!("{}: cannot render: {e} ({e:?})", scene.display()))?;
             if parallel {
                 host_sim::harness::collect_into(&f, &mut c)?
             } else {

@@ -296,8 +296,8 @@ pub fn prepare_scene<S: Scalar>(
     options: impl FnOnce(&Plan) -> Options,
 ) -> Result<(Plan, Frame<S>), String> {
     let plan = planner::plan(scene, budget);
-    let frame =
-        Frame::<S>::build(scene, &options(&plan)).map_err(|e| format!("{name}: cannot render: {e:?}"))?;
+    let frame = Frame::<S>::build(scene, &options(&plan))
+        .map_err(|e| format!("{name}: cannot render: {e} ({e:?})"))?;
     Ok((plan, frame))
 }
 

@@ -392,15 +392,6 @@ pub struct Sent {
     pub pixel_bytes: u64,
 }
 
-/// Frame `k` of a test stream: `base` (lines of `line` bytes) with a
-/// per-frame pattern added to every byte, so that no two frames are alike.
-pub fn frame_pixels(base: &[u8], line: usize, k: u32) -> Vec<u8> {
-    base.iter()
-        .enumerate()
-        .map(|(i, b)| b.wrapping_add((k.wrapping_mul(37) as usize).wrapping_add(i / line.max(1) * 13) as u8))
-        .collect()
-}
-
 /// Keeps every value of `pixels` within `format`: a Gray16 value below
 /// `2^bits`, as a camera sends them (a receiver drops a frame with one
 /// beyond).
@@ -414,6 +405,19 @@ pub fn within_format(format: WireFormat, pixels: &mut [u8]) {
     }
 }
 
+/// Frame `k` of a test stream: `base` (lines of `line` bytes) with a
+/// per-frame pattern added to every byte, so that no two frames are alike,
+/// its values kept within `format` ([`within_format`]).
+pub fn frame_pixels(base: &[u8], line: usize, k: u32, format: WireFormat) -> Vec<u8> {
+    let mut px: Vec<u8> = base
+        .iter()
+        .enumerate()
+        .map(|(i, b)| b.wrapping_add((k.wrapping_mul(37) as usize).wrapping_add(i / line.max(1) * 13) as u8))
+        .collect();
+    within_format(format, &mut px);
+    px
+}
+
 /// Encodes `n` frames in memory: frame `k` is `base` with a per-frame pattern added to
 /// every byte (so that no two frames are alike; [`within_format`]), all
 /// with `start`'s header.
@@ -423,8 +427,7 @@ pub fn send_frames(base: &[u8], start: FrameStart, n: u32, cost: Option<u64>) ->
     let line = start.line_bytes();
     let mut frames = Vec::with_capacity(n as usize);
     for k in 0..n {
-        let mut pixels = frame_pixels(base, line, k);
-        within_format(start.format, &mut pixels);
+        let pixels = frame_pixels(base, line, k, start.format);
         let begin = enc.writer().bytes.len();
         enc.begin_frame(FrameStart { frame_id: k, ..start })
             .map_err(|e| format!("encoder: {e:?}"))?;

@@ -308,20 +308,20 @@ impl RefScene {
         Some(self.sensor.normalized_to_pixel(xd, yd))
     }
 
-    /// The inner corners (where four whole cells meet) of each checkered
-    /// rectangle: texture coordinates `(u, v)` (metres from the texture's
-    /// origin) and the world point, row by row along `v`.
-    pub fn checker_corners(&self) -> Vec<Vec<([f64; 2], V3)>> {
-        let mut out = Vec::new();
-        for p in &self.prims {
-            let (Shape::Rect { c, u, v, hu, hv, .. }, Some(ch)) = (p.shape, p.checker) else {
-                continue;
-            };
+    /// Each checkered rectangle's inner corners, rectangle by rectangle and
+    /// row by row: `f(rectangle, texture coordinates (m), world point)`.
+    /// Nothing is held: a board of millions of cells costs time, not
+    /// memory.
+    pub fn for_each_checker_corner(&self, mut f: impl FnMut(usize, [f64; 2], V3)) {
+        let rects = self.prims.iter().filter_map(|p| match (p.shape, p.checker) {
+            (Shape::Rect { c, u, v, hu, hv, .. }, Some(ch)) => Some((c, u, v, hu, hv, ch)),
+            _ => None,
+        });
+        for (index, (c, u, v, hu, hv, ch)) in rects.enumerate() {
             let reach = |h: f64| ((h - ch.cell) / ch.cell + 1e-9).floor() as i64;
             // Enough cells either way for any in-plane texture direction;
             // the test below keeps those inside the rectangle.
             let reach = reach(hu.max(hv)) + 1;
-            let mut pts = Vec::new();
             for l in -reach..=reach {
                 for k in -reach..=reach {
                     let (a, b) = (k as f64 * ch.cell, l as f64 * ch.cell);
@@ -334,13 +334,19 @@ impl RefScene {
                     let inside =
                         dot(rel, u).abs() <= hu - ch.cell + 1e-9 && dot(rel, v).abs() <= hv - ch.cell + 1e-9;
                     if inside {
-                        pts.push(([a, b], q));
+                        f(index, [a, b], q);
                     }
                 }
             }
-            out.push(pts);
         }
-        out
+    }
+
+    /// The number of checkered rectangles.
+    pub fn checkered_rectangles(&self) -> usize {
+        self.prims
+            .iter()
+            .filter(|p| matches!((p.shape, p.checker), (Shape::Rect { .. }, Some(_))))
+            .count()
     }
 
     /// This scene sampled with `pattern`.
