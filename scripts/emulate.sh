@@ -155,6 +155,7 @@ if [ $mode = full ]; then
     "$host_sim" throughput --scene out/throughput/standard-1080p.toml --frames 20 --out out/throughput
   }
   stage throughput throughput
+  stage python-loop target/venv/bin/python scripts/python-loop.py --host-sim "$host_sim" --out out/python-loop
   stage measurements python3 scripts/measurements.py --out out --write docs/measurements.md
 fi
 

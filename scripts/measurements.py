@@ -177,7 +177,7 @@ def main():
                              ", ".join(f"{n} {v:+.2f}" for n, v in e.items())))
         parts.append(section(
             "OpenCV's calibration on the rendered calibration set",
-            "target/venv/bin/python scripts/opencv-check.py --host-sim HOST_SIM --out out/opencv",
+            "target/venv/bin/python scripts/opencv-check.py --out out/opencv",
             table(["set", "views", "corner RMS, px", "reprojection RMS, px", "intrinsics' error, px"], rows)))
         head["opencv"] = j
 
@@ -195,6 +195,30 @@ def main():
             table(["board", "scene", "frames", "bit-exact", "truth matches", "instructions a pixel (mean)",
                    "round trip, instructions (mean)", "flash, B", "peak RAM, B"], rows)))
         head["drive"] = j
+
+    # A test bench's loop in Python, and the camera on a port that stalls
+    # and hangs up.
+    j = load(out / "python-loop" / "python-loop.json")
+    if j:
+        rows = []
+        for size, r in j["sizes"].items():
+            for client in ("python", "native"):
+                c = r[client]
+                rows.append((size, {"python": "hilcam.Camera (numpy frames, truth)",
+                                    "native": "its Rust client's calls alone"}[client],
+                             c["frames"], f'{c["fps"]:.1f}', f'{c["latency_ms_median"]:.2f}',
+                             f'{c["latency_ms_max"]:.2f}'))
+            rows.append((size, "the Python layer adds", "", f'{100 * r["python_overhead"]:.1f} %', "", ""))
+        p, h = j["paused_reader"], j["hang_up_sessions"]
+        parts.append(section(
+            "The Python client against `host-sim camera` over a pty",
+            j["command"],
+            table(["frame", "client", "triggers", "frames/s", "trigger to frame, median ms", "max ms"], rows),
+            f'A reader paused {p["pause_s"]:g} s with {p["frames_triggered"]} frames due: '
+            f'{p["frames_received"]} received, the camera {"still running" if p["camera_alive"] else "ENDED"}. '
+            f'{h["exit_0"]} of {h["sessions"]} sessions hung up after their frames ended with exit 0. '
+            "Each trigger waits for its answer, then its frame: a round trip and a frame a loop."))
+        head["python_loop"] = j
 
     # The speed/accuracy sweep.
     j = load(out / "tradeoff" / "tradeoff.json")
@@ -282,6 +306,12 @@ def write_headline(readme, head, today):
     t = head.get("throughput")
     if t:
         rows.append((f'host, {t["width"]}×{t["height"]}', f'{t["frames_per_second"]:.1f} frames/s on {t["threads"]} threads'))
+    p = head.get("python_loop")
+    if p:
+        s = p["sizes"].get("160x120")
+        if s:
+            rows.append(("Python client loop, 160×120 over a pty", f'{s["python"]["fps"]:.0f} frames/s, '
+                         f'{s["python"]["latency_ms_median"]:.1f} ms trigger to frame'))
     block = (f"{begin}\n| measured ({today}) | figure |\n|---|---|\n"
              + "\n".join(f"| {a} | {b} |" for a, b in rows) + f"\n{end}")
     text = text[: text.index(begin)] + block + text[text.index(end) + len(end):]
