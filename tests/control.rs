@@ -673,6 +673,62 @@ fn a_scene_loaded_in_parts_is_shown() {
     assert_eq!(scene, barrel.core_scene().expect("core scene"));
 }
 
+/// The loaded scene's id stays in the list while another scene's parts
+/// arrive and after another is refused: the camera goes on showing it
+/// under that id, refuses to select it again (`Unsupported`: its bytes are
+/// gone) and selects the others; a scene loaded whole takes the id.
+#[test]
+fn scene_ids_stay_defined_through_an_unfinished_or_refused_load() {
+    let mut scene = standard();
+    let mut lib = lib();
+    let mut c = Control::new();
+    let barrel = resolved("checkerboard-barrel.toml");
+    let bytes = barrel.scene_bytes().expect("scene data");
+    let mut seq = load_parts(&mut c, &mut scene, &mut lib, 0, &bytes, MAX_SCENE_CHUNK).len() as u32;
+    assert_eq!((c.scene_id, lib.count()), (1, 2));
+    // Another scene's first part only, then a bad scene whole.
+    let other = standard_bytes();
+    let first = Command::LoadScene {
+        total: other.len() as u16,
+        offset: 0,
+        bytes: &other[..MAX_SCENE_CHUNK],
+    };
+    let answers = [c.handle(&request(seq, first), &mut scene, &mut lib)];
+    seq += 1;
+    assert_eq!(answers, [Answer::Ack]);
+    let d = c.describe(&scene, &lib, 0);
+    assert!(d.scene_id < d.scenes, "{d:?}");
+    assert_eq!(scene, barrel.core_scene().expect("core scene"));
+    let select = |c: &mut Control, scene: &mut Scene, lib: &mut Library<'_, MAX_SCENE_DATA>, seq, id| {
+        c.handle(&request(seq, Command::SelectScene { id }), scene, lib)
+    };
+    assert_eq!(
+        select(&mut c, &mut scene, &mut lib, seq, 1),
+        Answer::Reject(Reason::Unsupported, Fault::field("scene.id"))
+    );
+    assert_eq!(
+        select(&mut c, &mut scene, &mut lib, seq + 1, 2),
+        Answer::Reject(Reason::Invalid, Fault::field("scene.id"))
+    );
+    seq += 2;
+    let mut bad = resolved("standard.toml").scene_data().expect("scene data");
+    bad.materials[1].albedo = hilcam::scene::data::Colour::Gray(1.5);
+    let mut buf = vec![0u8; MAX_SCENE_DATA];
+    let bad = bad.encode(&mut buf).expect("fits").to_vec();
+    let answers = load_parts(&mut c, &mut scene, &mut lib, seq, &bad, MAX_SCENE_CHUNK);
+    seq += answers.len() as u32;
+    assert!(matches!(answers.last(), Some(Answer::Reject(Reason::Invalid, _))));
+    let d = c.describe(&scene, &lib, 0);
+    assert_eq!((d.scene_id, d.scenes), (1, 2));
+    assert_eq!(select(&mut c, &mut scene, &mut lib, seq, 0), Answer::Ack);
+    assert_eq!(scene, standard());
+    // A scene loaded whole takes the id again.
+    let answers = load_parts(&mut c, &mut scene, &mut lib, seq + 1, &bytes, MAX_SCENE_CHUNK);
+    assert!(answers.iter().all(|a| *a == Answer::Ack));
+    assert_eq!((c.scene_id, lib.count()), (1, 2));
+    assert_eq!(scene, barrel.core_scene().expect("core scene"));
+}
+
 /// The standard scene with [`hilcam::scene::MAX_PRIMITIVES`] + 1 copies of
 /// its first primitive, encoded (SceneData holds at most the maximum: the
 /// encoding of the maximum, its list length raised by one and one more

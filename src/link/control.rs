@@ -238,8 +238,11 @@ pub struct Library<'a, const N: usize, const T: usize = { crate::geom::distortio
     total: usize,
     /// Bytes of it received.
     have: usize,
-    /// The loaded scene is complete and valid.
+    /// A scene was loaded whole: its id (`builtin.len()`) exists, and stays
+    /// in the list while another is received or after one is refused.
     loaded: bool,
+    /// The upload buffer holds that scene (not the parts of another).
+    intact: bool,
     max_width: u16,
 }
 
@@ -253,6 +256,7 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
             total: 0,
             have: 0,
             loaded: false,
+            intact: false,
             max_width,
         }
     }
@@ -262,11 +266,12 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
         self.builtin.len() as u32 + u32::from(self.loaded)
     }
 
-    /// The encoding of scene `id`.
+    /// The encoding of scene `id` (`None` for the loaded scene's id while
+    /// its bytes are being replaced).
     pub fn get(&self, id: u32) -> Option<&[u8]> {
         match self.builtin.get(id as usize) {
             Some(b) => Some(b),
-            None if self.loaded && id as usize == self.builtin.len() => self.upload.get(..self.total),
+            None if self.intact && id as usize == self.builtin.len() => self.upload.get(..self.total),
             None => None,
         }
     }
@@ -291,9 +296,16 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
         self.replace(self.encoding(id)?, shown)
     }
 
-    /// The encoding of scene `id`, or the refusal naming `scene.id`.
+    /// The encoding of scene `id`, or the refusal naming `scene.id`: an id
+    /// outside the list is `Invalid`; the loaded scene's while another
+    /// scene's parts replace its bytes is `Unsupported` (it cannot be built
+    /// again, though a camera showing it goes on showing it).
     fn encoding(&self, id: u32) -> Result<&[u8], (Reason, Fault)> {
-        self.get(id).ok_or((Reason::Invalid, Fault::field("scene.id")))
+        match self.get(id) {
+            Some(b) => Ok(b),
+            None if id < self.count() => Err((Reason::Unsupported, Fault::field("scene.id"))),
+            None => Err((Reason::Invalid, Fault::field("scene.id"))),
+        }
     }
 
     /// Builds the scene encoded in `bytes` and checks it against this
@@ -346,8 +358,9 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
         // (Not `copy_from_slice`: see `link`'s line copy.)
         slot.iter_mut().zip(bytes).for_each(|(d, s)| *d = *s);
         if offset == 0 {
-            // A new scene replaces the one loaded before, whatever follows.
-            self.loaded = false;
+            // A new scene's parts replace the loaded one's bytes; its id
+            // stays in the list (`encoding`).
+            self.intact = false;
             self.total = total;
         }
         self.have = end;
@@ -355,7 +368,7 @@ impl<'a, const N: usize, const T: usize> Library<'a, N, T> {
             return Ok(false);
         }
         self.replace(self.upload.get(..total).unwrap_or_default(), shown)?;
-        self.loaded = true;
+        (self.loaded, self.intact) = (true, true);
         Ok(true)
     }
 }
