@@ -92,6 +92,7 @@ pub fn serve_device(
     scenes: &[Resolved],
     capture: Option<&std::path::Path>,
 ) -> Result<CameraStats, String> {
+    check_held(scenes).map_err(|(id, e)| format!("scene {id} ({}): {e}", scenes[id].desc.name))?;
     let (reader, writer) = crate::link::serial::open(path, baud)?;
     let capture = capture.map(crate::drive_cmd::create_capture).transpose()?;
     serve(
@@ -102,6 +103,34 @@ pub fn serve_device(
         },
         scenes,
     )
+}
+
+/// Checks that the host camera can show every one of `scenes` (lines of at
+/// most one encoder chunk, frames within [`hilcam::link::MAX_FRAME_BYTES`],
+/// what the planner can prepare); else the first that it cannot, and why
+/// (the field and the limit).
+pub fn check_held(scenes: &[Resolved]) -> Result<(), (usize, String)> {
+    let mut blobs = Vec::new();
+    for (id, r) in scenes.iter().enumerate() {
+        blobs.push(r.scene_bytes().map_err(|e| (id, e))?);
+    }
+    let blobs: Vec<&[u8]> = blobs.iter().map(Vec::as_slice).collect();
+    let widest = (DEFAULT_CHUNK / 2) as u16;
+    let library = Library::<MAX_SCENE_DATA>::new(&blobs, widest);
+    for id in 0..scenes.len() {
+        if let Err((reason, f)) = library.scene(id as u32) {
+            return Err((
+                id,
+                format!(
+                    "{}: {reason:?} (this camera renders lines of at most {widest} pixels and frames of at most \
+                     {} MiB)",
+                    f.name(),
+                    hilcam::link::MAX_FRAME_BYTES >> 20
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// What the camera did.
@@ -149,6 +178,7 @@ pub fn serve_from<W: Write>(
     // wider scene is refused when it is loaded.
     let widest = (DEFAULT_CHUNK / 2) as u16;
     let mut library = Library::<MAX_SCENE_DATA>::new(&blobs, widest);
+    check_held(scenes).map_err(|(id, e)| format!("scene {id} ({}): {e}", scenes[id].desc.name))?;
     let mut scene = library
         .scene(0)
         .map_err(|(_, f)| format!("scene 0: {}", f.name()))?;

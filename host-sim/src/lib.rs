@@ -12,6 +12,7 @@
 pub mod boards;
 pub mod link;
 pub mod scene_file;
+pub mod shipped;
 pub mod trajectory;
 
 /// Modules built only with the `cli` feature.

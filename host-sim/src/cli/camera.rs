@@ -11,8 +11,9 @@ pub struct Args {
     /// Baud rate.
     #[arg(long, default_value_t = 115_200)]
     baud: u32,
-    /// The scenes it holds, in SelectScene id order (default: every
-    /// scene in scenes/, sorted by file name, as the firmware).
+    /// The scenes it holds, in SelectScene id order (default: the shipped
+    /// scenes, built into the binary, sorted by file name, as the
+    /// firmware).
     #[arg(long, num_args = 1..)]
     scene: Vec<std::path::PathBuf>,
     /// Write the raw bytes it sends to this file.
@@ -28,15 +29,20 @@ pub fn run(args: Args) -> Result<String, String> {
         scene,
         capture,
     } = args;
-    let paths = if scene.is_empty() {
-        host_sim::qemu::shipped_scenes()?
+    host_sim::link::serial::check_baud(baud)?;
+    let scenes = if scene.is_empty() {
+        host_sim::shipped::shipped()?
     } else {
         scene
+            .iter()
+            .map(|p| host_sim::scene_file::load(p))
+            .collect::<Result<Vec<_>, _>>()?
     };
-    let scenes = paths
-        .iter()
-        .map(|p| host_sim::scene_file::load(p))
-        .collect::<Result<Vec<_>, _>>()?;
+    // A scene it cannot hold, named by its file, before the port opens.
+    host_sim::camera_cmd::check_held(&scenes).map_err(|(id, e)| match scene.get(id) {
+        Some(p) => format!("{}: {e}", p.display()),
+        None => format!("scenes/{}.toml (built in): {e}", host_sim::shipped::SHIPPED[id].0),
+    })?;
     let s = host_sim::camera_cmd::serve_device(&device, baud, &scenes, capture.as_deref())?;
     Ok(format!(
         "camera on {device}: {} requests ({} acknowledged, {} refused), {} frames sent; \
