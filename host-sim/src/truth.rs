@@ -149,20 +149,52 @@ pub fn render(r: &Resolved, variant: &crate::variant::Variant, frame_id: u32) ->
     })
 }
 
-/// Renders `r` ([`render`]) and writes `frame.png` and `truth.json` into
-/// `dir`, both or neither.
+/// Renders `r` as [`render`] does, a line at a time straight into
+/// `frame.png` (memory is a line, whatever the height), and writes
+/// `truth.json` into `dir`: both or neither (a refusal or a failure leaves
+/// nothing, [`crate::output::Outputs`]).
 pub fn frame_to(
     dir: &std::path::Path,
     r: &Resolved,
     variant: &crate::variant::Variant,
     frame_id: u32,
 ) -> Result<Truth, String> {
-    let f = render(r, variant, frame_id)?;
-    let png = crate::frame_png::encode_png(f.format, f.width, f.height, &f.pixels)?;
-    let json = serde_json::to_vec_pretty(&f.truth).map_err(|e| format!("truth: {e}"))?;
+    /// The frame's rows into its PNG.
+    struct Rows<W: std::io::Write + 'static> {
+        png: png::StreamWriter<'static, W>,
+        format: hilcam::scene::PixelFormat,
+        row: Vec<u8>,
+        path: std::path::PathBuf,
+    }
+    impl<W: std::io::Write + 'static> hilcam::render::FrameSink for Rows<W> {
+        type Error = String;
+        fn line(&mut self, _y: u16, pixels: &[u8], _flags: &[u8]) -> Result<(), String> {
+            use std::io::Write;
+            let dn = crate::harness::decode_all(self.format, pixels);
+            crate::frame_png::png_row(self.format, &dn, &mut self.row);
+            self.png
+                .write_all(&self.row)
+                .map_err(|e| format!("{}: {e}", self.path.display()))
+        }
+    }
+    if variant.scalar == crate::variant::ScalarKind::F32 {
+        return Err("--variant: f32 variants are for the sweep (tradeoff), not for frames".into());
+    }
     let mut out = crate::output::Outputs::prepare(dir)?;
-    out.write("frame.png", &png)?;
+    let (w, h) = (usize::from(r.desc.camera.width), usize::from(r.desc.camera.height));
+    let path = out.dir().join("frame.png");
+    let png = crate::frame_png::png_stream(out.create("frame.png")?, w, h, Some(r.format))?;
+    let mut rows = Rows {
+        png,
+        format: r.format,
+        row: Vec::new(),
+        path: path.clone(),
+    };
+    let (_, stages) = variant.render_frame_to(r, &hilcam::planner::Budget::default(), frame_id, &mut rows)?;
+    rows.png.finish().map_err(|e| format!("{}: {e}", path.display()))?;
+    let t = truth(r, stages)?;
+    let json = serde_json::to_vec_pretty(&t).map_err(|e| format!("truth: {e}"))?;
     out.write("truth.json", &json)?;
     out.commit()?;
-    Ok(f.truth)
+    Ok(t)
 }

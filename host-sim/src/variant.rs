@@ -262,6 +262,51 @@ impl Variant {
         })
     }
 
+    /// [`Variant::render_frame`] a line at a time through `sink`, on one
+    /// core as the firmware renders: memory is a line, whatever the height.
+    /// Returns the plan's report and the frame's stages.
+    pub fn render_frame_to<K: hilcam::render::FrameSink<Error = String>>(
+        &self,
+        r: &Resolved,
+        budget: &Budget,
+        frame_id: u32,
+        sink: &mut K,
+    ) -> Result<(crate::harness::PlanReport, Vec<String>), String> {
+        struct Go<'a, K> {
+            r: &'a Resolved,
+            budget: &'a Budget,
+            variant: Variant,
+            frame_id: u32,
+            sink: &'a mut K,
+        }
+        impl<K: hilcam::render::FrameSink<Error = String>> WithScalar for Go<'_, K> {
+            type Out = Result<(crate::harness::PlanReport, Vec<String>), String>;
+            fn run<S: Scalar>(self) -> Self::Out {
+                let (_, plan, mut frame) =
+                    crate::harness::prepare::<S>(self.r, self.budget, |p| self.variant.options(p))?;
+                frame.set_frame_id(self.frame_id);
+                let w = usize::from(frame.size().0);
+                let (mut line, mut flags, mut keys) =
+                    (vec![0u8; frame.line_bytes()], vec![0u8; w], vec![0u64; w + 1]);
+                crate::harness::render_carried(&frame, &mut line, &mut flags, &mut keys, self.sink).map_err(
+                    |e| match e {
+                        hilcam::render::FrameError::Sink(e) => e,
+                        e => format!("{}: {e}", self.r.desc.name),
+                    },
+                )?;
+                let stages = frame.stages().names().iter().map(|s| s.to_string()).collect();
+                Ok((crate::harness::plan_report(&plan, self.budget, &frame), stages))
+            }
+        }
+        self.scalar.dispatch(Go {
+            r,
+            budget,
+            variant: *self,
+            frame_id,
+            sink,
+        })
+    }
+
     /// The sample pattern the reference applies to compare with this
     /// variant: its own grid or aperture, or the scene's.
     pub fn pattern(&self, r: &Resolved) -> crate::reference::sampling::Pattern {

@@ -1181,3 +1181,34 @@ fn camera_refuses_what_it_cannot_hold_before_opening_the_port() {
     let r = run(&["camera", "--device", "/nonexistent/port", "--baud", "3"]);
     assert!(r.failed_cleanly() && r.stderr.contains("--baud"), "{}", r.stderr);
 }
+
+/// `frame` memory is O(width): a 2048×2048 frame peaks within 8 MiB of a
+/// 2048×64 one (it renders a line at a time straight into frame.png).
+#[test]
+fn frame_memory_does_not_grow_with_height() {
+    let dir = scratch("frame-memory");
+    let peak = |h: u32| {
+        let s = standard()
+            .replacen("width = 160", "width = 2048", 1)
+            .replacen("height = 120", &format!("height = {h}"), 1)
+            .replacen("pitch = 12e-6", "pitch = 1e-6", 1);
+        let scene = write_scene(&dir, &format!("h{h}.toml"), &s);
+        let out = dir.join(format!("out{h}"));
+        let r = run(&[
+            "frame",
+            "--scene",
+            scene.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+        ]);
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        assert_eq!(entries(&out), ["frame.png", "truth.json"]);
+        r.max_rss_kib
+    };
+    let (short, tall) = (peak(64), peak(2048));
+    eprintln!("frame peak RSS: 2048x64 {short} KiB, 2048x2048 {tall} KiB");
+    assert!(
+        tall <= short + 8 * 1024,
+        "2048x64 {short} KiB, 2048x2048 {tall} KiB"
+    );
+}

@@ -181,7 +181,7 @@ pub fn collect_into<S: Scalar>(frame: &Frame<S>, core: &mut Collect) -> Result<(
 
 /// Renders a prepared frame into memory a line at a time through the
 /// core's [`FrameSink`] (one core), as the firmware does: the sampled
-/// loop's corner keys carried from line to line ([`Frame::render_carried`]).
+/// loop's corner keys carried from line to line ([`render_carried`]).
 pub fn collect_serial<S: Scalar>(frame: &Frame<S>) -> Result<Collect, String> {
     let mut core = Collect::default();
     collect_serial_into(frame, &mut core)?;
