@@ -566,6 +566,8 @@ fn message_max_bounds_every_header_and_answer() {
             pitch: [i64::MIN; 2],
             principal_point: [i32::MIN; 2],
             distortion: [i64::MIN; 2],
+            lens: [i64::MIN; 2],
+            model_scale: i64::MIN,
             plan: WirePlan {
                 arithmetic: u8::MAX,
                 model: u8::MAX,

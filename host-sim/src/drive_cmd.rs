@@ -39,6 +39,13 @@ pub struct TruthView {
     pub principal_point: [f64; 2],
     /// `(k1, k2)`, camera-model.md §3.
     pub distortion: [f64; 2],
+    /// Aperture diameter `D`, m.
+    pub aperture: f64,
+    /// Focus distance, m.
+    pub focus_distance: f64,
+    /// Weak perspective's mean depth `Z̄` (m) or orthographic's scale `m`
+    /// (`plan.model` 1 or 2); 0 for perspective.
+    pub model_scale: f64,
     /// The plan.
     pub plan: hilcam::link::WirePlan,
     /// The values as the wire carries them.
@@ -57,6 +64,13 @@ impl From<&Truth> for TruthView {
             pitch: t.pitch.map(|v| s(v, 60)),
             principal_point: t.principal_point.map(|v| s(i64::from(v), 16)),
             distortion: t.distortion.map(|v| s(v, 48)),
+            aperture: s(t.lens[0], 40),
+            focus_distance: s(t.lens[1], 40),
+            model_scale: match t.plan.model {
+                1 => s(t.model_scale, 40),
+                2 => s(t.model_scale, 48),
+                _ => 0.0,
+            },
             plan: t.plan,
             raw: *t,
         }

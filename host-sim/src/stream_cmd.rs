@@ -326,6 +326,8 @@ fn example_truth() -> Truth {
         pitch: [hilcam::num::Pitch::from_num(5e-6).to_bits(); 2],
         principal_point: [3 << 15, 1 << 15],
         distortion: [0, 0],
+        lens: [hilcam::num::Len::from_num(0.002).to_bits(), 3 << 40],
+        model_scale: 0,
         plan: WirePlan {
             samples: 1,
             ..WirePlan::default()

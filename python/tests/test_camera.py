@@ -34,6 +34,10 @@ def test_the_camera_obeys_and_its_frames_match_a_host_render(camera_link, scenes
             assert trig == seq + 1
             (frame,) = list(cam.frames(timeout=10, count=1))
             assert frame.truth["command"] == trig
+            # Enough to render it again: the lens and the projection too.
+            assert abs(frame.truth["focus_distance"] - 3.0) < 1e-9
+            assert abs(frame.truth["aperture"] - 2.4e-3 / 2.0) < 1e-9
+            assert frame.truth["model_scale"] == 0.0
             assert np.allclose(frame.truth["T"], t, atol=1e-6)
             scene.set_pose(R, t)
             host = scene.render(frame_id=frame.frame_id)

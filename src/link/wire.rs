@@ -9,8 +9,9 @@ use serde::{Deserialize, Serialize};
 
 /// The protocol version this crate speaks (`docs/wire.md`): 2 adds the
 /// frame's ground truth and the host → camera commands
-/// ([`crate::link::control`]).
-pub const PROTOCOL_VERSION: u8 = 2;
+/// ([`crate::link::control`]); 3 the lens and the projection's value to the
+/// truth, enough to render the frame again.
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// CRC-32/ISO-HDLC (the zlib/Ethernet CRC): polynomial 0x04C11DB7 reflected,
 /// initial value and final XOR 0xFFFFFFFF; check value 0xCBF43926.
@@ -25,10 +26,10 @@ pub const CHUNK_HEADER_MAX: usize = 1 + 5 + 3 + 5 + 5;
 pub const DEFAULT_CHUNK: usize = 2048;
 
 /// Largest body of any message but a [`Chunk`], bytes: a [`FrameStart`]
-/// with every varint at its longest (30 bytes of header, 208 of truth).
+/// with every varint at its longest (30 bytes of header, 238 of truth).
 /// Replies are shorter (a [`Reject`] names a field of at most
 /// [`crate::link::FIELD_MAX`] bytes).
-pub const MESSAGE_MAX: usize = 238;
+pub const MESSAGE_MAX: usize = 268;
 
 /// The encoded size a chunk buffer of `chunk` bytes needs: the largest
 /// message (a chunk's, or [`MESSAGE_MAX`]), its CRC, COBS's overhead, and
@@ -141,6 +142,13 @@ pub struct Truth {
     /// Radial distortion `(k1, k2)` of camera-model.md §3 (distorted →
     /// undistorted), I16F48: value / 2⁴⁸; `(0, 0)` without distortion.
     pub distortion: [i64; 2],
+    /// The thin lens (§4): aperture diameter `D` and focus distance, I24F40:
+    /// metres = value / 2⁴⁰.
+    pub lens: [i64; 2],
+    /// The projection's own value ([`WirePlan::model`]): weak perspective's
+    /// mean depth `Z̄`, I24F40 (metres = value / 2⁴⁰); orthographic's scale
+    /// `m`, I16F48 (value / 2⁴⁸); 0 for perspective.
+    pub model_scale: i64,
     /// How the frame was rendered.
     pub plan: WirePlan,
 }
@@ -215,6 +223,15 @@ impl Truth {
             pitch: [sx.to_bits(), sy.to_bits()],
             principal_point: [ox.to_bits(), oy.to_bits()],
             distortion: [k1.to_bits(), k2.to_bits()],
+            lens: [
+                cam.lens().diameter().to_bits(),
+                cam.lens().focus_distance().to_bits(),
+            ],
+            model_scale: match cam.model() {
+                crate::Model::Perspective => 0,
+                crate::Model::WeakPerspective { mean_depth } => mean_depth.to_bits(),
+                crate::Model::Orthographic { scale } => scale.to_bits(),
+            },
             plan: WirePlan::from(stages),
         }
     }
