@@ -4,7 +4,11 @@
 //! disk, a file-size limit) removes what was staged; SIGINT, SIGTERM or
 //! SIGHUP ([`install_signal_handler`]) removes it too and exits. A set of
 //! outputs is never left half-written, and files from an earlier run are
-//! only replaced by complete new ones.
+//! only replaced by complete new ones. Each committed run lists its files
+//! in [`MANIFEST`]; a run removes the files of the run before it that it
+//! did not write again (a drive of 10 frames after one of 30 leaves 10), so
+//! that a directory holds one run's outputs, never a mix. Files hilcam did
+//! not write are never touched.
 
 use std::fs::File;
 use std::io::Write;
@@ -51,10 +55,16 @@ pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::SeqCst)
 }
 
+/// The file naming a directory's outputs: one name a line, those of the
+/// last run committed into it.
+pub const MANIFEST: &str = "hilcam-outputs.txt";
+
 /// A set of files being written into one directory.
 pub struct Outputs {
     dir: PathBuf,
     staged: Vec<(PathBuf, PathBuf)>,
+    /// Names already put in place by [`Outputs::write_now`].
+    now: std::cell::RefCell<Vec<String>>,
 }
 
 impl Outputs {
@@ -65,6 +75,7 @@ impl Outputs {
         let mut o = Outputs {
             dir: dir.to_path_buf(),
             staged: Vec::new(),
+            now: Default::default(),
         };
         o.create(".probe")?;
         o.discard();
@@ -98,14 +109,52 @@ impl Outputs {
         let mut one = Outputs {
             dir: self.dir.clone(),
             staged: Vec::new(),
+            now: Default::default(),
         };
         one.write(name, bytes)?;
-        one.commit()
+        one.rename_into_place()?;
+        self.now.borrow_mut().push(name.to_string());
+        Ok(())
+    }
+
+    /// Syncs every staged file to disk and renames them into place; then
+    /// removes what the directory's previous run wrote and this one did
+    /// not, and lists this run's files in [`MANIFEST`]. On an error the
+    /// files not yet renamed are removed.
+    pub fn commit(mut self) -> Result<(), String> {
+        let mut names: Vec<String> = self.now.borrow().clone();
+        names.extend(
+            self.staged
+                .iter()
+                .filter_map(|(_, t)| t.file_name()?.to_str().map(str::to_string)),
+        );
+        self.rename_into_place()?;
+        let manifest = self.dir.join(MANIFEST);
+        if let Ok(old) = std::fs::read_to_string(&manifest) {
+            for stale in old.lines().filter(|n| !n.starts_with('#') && !names.iter().any(|m| m == n)) {
+                // Only plain names this crate wrote into this directory.
+                if !stale.is_empty() && !stale.contains('/') && stale != MANIFEST {
+                    let _ = std::fs::remove_file(self.dir.join(stale));
+                }
+            }
+        }
+        let mut list = String::from("# the files of the last hilcam run in this directory\n");
+        for n in &names {
+            list.push_str(n);
+            list.push('\n');
+        }
+        let mut m = Outputs {
+            dir: self.dir.clone(),
+            staged: Vec::new(),
+            now: Default::default(),
+        };
+        m.write(MANIFEST, list.as_bytes())?;
+        m.rename_into_place()
     }
 
     /// Syncs every staged file to disk and renames them into place. On an
     /// error the files not yet renamed are removed.
-    pub fn commit(mut self) -> Result<(), String> {
+    fn rename_into_place(&mut self) -> Result<(), String> {
         for (tmp, target) in &self.staged {
             File::open(tmp)
                 .and_then(|f| f.sync_all())

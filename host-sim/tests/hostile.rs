@@ -134,6 +134,7 @@ fn entries(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .map(|d| {
             d.map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+                .filter(|n| n != host_sim::output::MANIFEST)
                 .collect()
         })
         .unwrap_or_default();
@@ -1310,5 +1311,46 @@ fn impossible_variants_and_angles_say_what_and_why() {
         r.stderr.contains("yaw.toml") && r.stderr.contains("camera.pose.yaw_pitch_roll"),
         "{}",
         r.stderr
+    );
+}
+
+/// A run's outputs are only this run's: a replay of one frame into the
+/// directory of a replay of three leaves one frame (the earlier run's
+/// other files removed, as the manifest names them), and a file hilcam did
+/// not write stays.
+#[test]
+fn a_new_run_leaves_no_stale_outputs_of_the_last() {
+    let dir = scratch("stale");
+    let start = FrameStart {
+        version: PROTOCOL_VERSION,
+        frame_id: 0,
+        width: 8,
+        height: 2,
+        format: WireFormat::Gray8,
+        scene_id: 0,
+        exposure: 1 << 32,
+        truth: Default::default(),
+    };
+    let out = dir.join("out");
+    let replay = |n: u32| {
+        let sent = send_frames(&[5u8; 16], start, n, None).expect("encodes");
+        let cap = dir.join(format!("cap{n}.bin"));
+        std::fs::write(&cap, &sent.stream).expect("capture");
+        let r = run(&[
+            "replay",
+            "--capture",
+            cap.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+        ]);
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+    };
+    replay(3);
+    std::fs::write(out.join("notes.txt"), "mine").expect("user file");
+    assert_eq!(entries(&out).len(), 3 * 2 + 2);
+    replay(1);
+    assert_eq!(
+        entries(&out),
+        ["frame-00000.json", "frame-00000.png", "notes.txt", "replay.json"]
     );
 }
