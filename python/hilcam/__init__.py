@@ -29,6 +29,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from typing import Any, Dict, Iterator, Optional, Sequence, Tuple, Union
 
@@ -52,11 +53,13 @@ class SceneError(ValueError):
 
     def __init__(self, message: str):
         super().__init__(message)
-        head = message.split(": ", 1)[0]
-        # "line N: key: why" (TOML) or "key: why".
-        if head.startswith("line ") and ": " in message:
-            head = message.split(": ", 2)[1]
-        self.field = head if head and " " not in head else ""
+        # "[file: ][line N: ]key: why": the first part shaped as a key
+        # that is not the file.
+        parts = [p for p in message.split(": ")[:-1] if not p.endswith(".toml")]
+        self.field = next((p for p in parts if _KEY.fullmatch(p)), "")
+
+
+_KEY = re.compile(r"[a-z_]+(\[\d+\])?(\.[a-z_0-9]+(\[\d+\])?)*")
 
 
 def _scene_call(f, *args):
@@ -143,7 +146,7 @@ class Scene:
     @classmethod
     def from_toml(cls, source: Union[str, os.PathLike]) -> "Scene":
         """A scene from a file path or from TOML text."""
-        if isinstance(source, os.PathLike) or ("\n" not in source and "=" not in source):
+        if isinstance(source, os.PathLike) or os.path.exists(source) or ("\n" not in source and "=" not in source):
             return cls(_scene_call(_hilcam.NativeScene.load, os.fspath(source)))
         return cls(_scene_call(_hilcam.NativeScene.parse, source))
 

@@ -73,7 +73,7 @@ def test_exposure_scales_the_frame(scenes):
     assert b.mean() < 0.6 * a.mean()
 
 
-def test_bad_values_raise_naming_the_field_and_leave_the_scene(scenes):
+def test_bad_values_raise_naming_the_field_and_leave_the_scene(scenes, tmp_path):
     s = hilcam.Scene.from_toml(scenes / "standard.toml")
     before = s.render().image
     with pytest.raises(hilcam.SceneError) as e:
@@ -93,6 +93,11 @@ def test_bad_values_raise_naming_the_field_and_leave_the_scene(scenes):
     assert np.array_equal(s.render().image, before)
     with pytest.raises(hilcam.SceneError) as e:
         hilcam.Scene.from_toml("name = 'x'\n[camera]\nwidth = 0\n")
+    bad = tmp_path / "bad.toml"
+    bad.write_text((scenes / "standard.toml").read_text().replace("exposure = 800.0", "exposure = -1.0", 1))
+    with pytest.raises(hilcam.SceneError) as e:
+        hilcam.Scene.from_toml(bad)
+    assert e.value.field == "output.exposure" and "bad.toml" in str(e.value), str(e.value)
     with pytest.raises(hilcam.SceneError) as e:
         hilcam.Scene.from_toml(scenes / "no-such-scene.toml")
     assert "no-such-scene.toml" in str(e.value)
