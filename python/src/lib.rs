@@ -231,28 +231,11 @@ impl NativeCamera {
         Ok(NativeCamera { c: Some(c) })
     }
 
-    /// The camera's description as JSON.
+    /// The camera's description as JSON (docs/wire.md, `Description`).
     fn describe(&mut self, py: Python<'_>) -> PyResult<String> {
         let c = self.client()?;
         let d = py.detach(|| c.describe()).map_err(client_err)?;
-        Ok(format!(
-            concat!(
-                "{{\"version\":{},\"scenes\":{},\"scene_id\":{},\"width\":{},\"height\":{},",
-                "\"format\":\"{:?}\",\"mode\":\"{:?}\",\"pending\":{},\"next_frame\":{},",
-                "\"max_request\":{},\"max_scene\":{}}}"
-            ),
-            d.version,
-            d.scenes,
-            d.scene_id,
-            d.width,
-            d.height,
-            d.format,
-            d.mode,
-            d.pending,
-            d.next_frame,
-            d.max_request,
-            d.max_scene
-        ))
+        serde_json::to_string(&d).map_err(|e| LinkError::new_err(e.to_string()))
     }
 
     /// Returns the command's sequence number.
