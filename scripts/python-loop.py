@@ -32,13 +32,7 @@ def camera(host_sim, scene, link):
 
 
 def connect(path):
-    deadline = time.monotonic() + 30
-    while True:
-        try:
-            return hilcam.Camera(path, timeout=0.5)
-        except hilcam.LinkError:
-            if time.monotonic() > deadline:
-                raise
+    return hilcam.Camera.when_ready(path)
 
 
 def loop(host_sim, scene, frames):

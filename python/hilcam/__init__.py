@@ -271,6 +271,21 @@ class Camera:
     def __init__(self, port: str, baud: int = 921_600, timeout: float = 10.0):
         self._n = _hilcam.NativeCamera(port, int(baud), float(timeout))
 
+    @classmethod
+    def when_ready(cls, port: str, baud: int = 921_600, timeout: float = 0.5, within: float = 30.0) -> "Camera":
+        """Opens the camera on ``port`` once it answers: for a camera that is
+        still starting (a process just launched, a board booting). Raises
+        :class:`LinkError` if it has not answered within ``within`` s."""
+        import time
+
+        deadline = time.monotonic() + within
+        while True:
+            try:
+                return cls(port, baud, timeout)
+            except LinkError:
+                if time.monotonic() > deadline:
+                    raise
+
     def __enter__(self) -> "Camera":
         return self
 

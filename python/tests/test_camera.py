@@ -1,8 +1,6 @@
 """hilcam.Camera against `host-sim camera` over a pty link: commands,
 refusals, frames with their truth, the same pixels as a host render."""
 
-import time
-
 import numpy as np
 import pytest
 
@@ -10,14 +8,8 @@ import hilcam
 
 
 def open_camera(path):
-    # The camera opens its end after it starts: retry until it answers.
-    deadline = time.monotonic() + 30
-    while True:
-        try:
-            return hilcam.Camera(path, timeout=0.5)
-        except hilcam.LinkError:
-            if time.monotonic() > deadline:
-                raise
+    # The camera opens its end after it starts.
+    return hilcam.Camera.when_ready(path)
 
 
 def test_the_camera_obeys_and_its_frames_match_a_host_render(camera_link, scenes):
