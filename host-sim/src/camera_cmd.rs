@@ -107,22 +107,22 @@ pub fn serve_device(
 
 /// Checks that the host camera can show every one of `scenes` (lines of at
 /// most one encoder chunk, frames within [`hilcam::link::MAX_FRAME_BYTES`],
-/// what the planner can prepare); else the first that it cannot, and why
-/// (the field and the limit).
-pub fn check_held(scenes: &[Resolved]) -> Result<(), (usize, String)> {
-    let mut blobs = Vec::new();
+/// what the planner can prepare) and returns them as scene data, as a
+/// firmware holds them; else the first that it cannot, and why (the field
+/// and the limit).
+pub fn check_held(scenes: &[Resolved]) -> Result<Vec<Vec<u8>>, (usize, String)> {
+    let mut held = Vec::new();
     for (id, r) in scenes.iter().enumerate() {
-        blobs.push(r.scene_bytes().map_err(|e| (id, e))?);
+        held.push(r.scene_bytes().map_err(|e| (id, e))?);
     }
-    let blobs: Vec<&[u8]> = blobs.iter().map(Vec::as_slice).collect();
-    let widest = (DEFAULT_CHUNK / 2) as u16;
-    let library = Library::<MAX_SCENE_DATA>::new(&blobs, widest);
+    let blobs: Vec<&[u8]> = held.iter().map(Vec::as_slice).collect();
+    let library = Library::<MAX_SCENE_DATA>::new(&blobs, WIDEST);
     for id in 0..scenes.len() {
         if let Err((reason, f)) = library.scene(id as u32) {
             return Err((
                 id,
                 format!(
-                    "{}: {reason:?} (this camera renders lines of at most {widest} pixels and frames of at most \
+                    "{}: {reason:?} (this camera renders lines of at most {WIDEST} pixels and frames of at most \
                      {} MiB)",
                     f.name(),
                     hilcam::link::MAX_FRAME_BYTES >> 20
@@ -130,8 +130,12 @@ pub fn check_held(scenes: &[Resolved]) -> Result<(), (usize, String)> {
             ));
         }
     }
-    Ok(())
+    Ok(held)
 }
+
+/// The host camera's widest line: one encoder chunk, two bytes a pixel at
+/// most (a wider scene is refused when it is loaded).
+const WIDEST: u16 = (DEFAULT_CHUNK / 2) as u16;
 
 /// What the camera did.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
@@ -168,17 +172,10 @@ pub fn serve_from<W: Write>(
     writer: W,
     scenes: &[Resolved],
 ) -> Result<CameraStats, String> {
-    // The scenes as data, as a firmware holds them.
-    let blobs = scenes
-        .iter()
-        .map(Resolved::scene_bytes)
-        .collect::<Result<Vec<_>, _>>()?;
-    let blobs: Vec<&[u8]> = blobs.iter().map(Vec::as_slice).collect();
-    // Lines of at most one encoder chunk (two bytes a pixel at most): a
-    // wider scene is refused when it is loaded.
-    let widest = (DEFAULT_CHUNK / 2) as u16;
-    let mut library = Library::<MAX_SCENE_DATA>::new(&blobs, widest);
-    check_held(scenes).map_err(|(id, e)| format!("scene {id} ({}): {e}", scenes[id].desc.name))?;
+    // The scenes as data, as a firmware holds them, each one it can show.
+    let held = check_held(scenes).map_err(|(id, e)| format!("scene {id} ({}): {e}", scenes[id].desc.name))?;
+    let blobs: Vec<&[u8]> = held.iter().map(Vec::as_slice).collect();
+    let mut library = Library::<MAX_SCENE_DATA>::new(&blobs, WIDEST);
     let mut scene = library
         .scene(0)
         .map_err(|(_, f)| format!("scene 0: {}", f.name()))?;

@@ -886,11 +886,11 @@ fn an_unwritable_out_is_named_before_any_work() {
 // ---------------------------------------------------------------------------
 // Resources
 
-/// `render` memory is O(width): a 2048×2048 frame peaks within 8 MiB of a
-/// 2048×64 one (the whole-frame version held about 63 B/pixel, 264 MB).
-#[test]
-fn render_memory_does_not_grow_with_height() {
-    let dir = scratch("render-memory");
+/// The peak memory of `command --scene S --out O` for the standard scene
+/// 2048 pixels wide and 64, then 2048, lines high; each run must write
+/// exactly `outputs`.
+fn peaks_by_height(command: &str, outputs: &[&str]) -> (i64, i64) {
+    let dir = scratch(&format!("{command}-memory"));
     let peak = |h: u32| {
         let s = standard()
             .replacen("width = 160", "width = 2048", 1)
@@ -899,21 +899,29 @@ fn render_memory_does_not_grow_with_height() {
         let scene = write_scene(&dir, &format!("h{h}.toml"), &s);
         let out = dir.join(format!("out{h}"));
         let r = run(&[
-            "render",
+            command,
             "--scene",
             scene.to_str().expect("utf-8"),
             "--out",
             out.to_str().expect("utf-8"),
         ]);
         assert_eq!(r.code, Some(0), "{}", r.stderr);
-        assert_eq!(
-            entries(&out),
-            ["diff.png", "frame.png", "metrics.json", "reference.png"]
-        );
+        assert_eq!(entries(&out), outputs);
         r.max_rss_kib
     };
     let (short, tall) = (peak(64), peak(2048));
-    eprintln!("render peak RSS: 2048x64 {short} KiB, 2048x2048 {tall} KiB");
+    eprintln!("{command} peak RSS: 2048x64 {short} KiB, 2048x2048 {tall} KiB");
+    (short, tall)
+}
+
+/// `render` memory is O(width): a 2048×2048 frame peaks within 8 MiB of a
+/// 2048×64 one (the whole-frame version held about 63 B/pixel, 264 MB).
+#[test]
+fn render_memory_does_not_grow_with_height() {
+    let (short, tall) = peaks_by_height(
+        "render",
+        &["diff.png", "frame.png", "metrics.json", "reference.png"],
+    );
     assert!(
         tall <= short + 8 * 1024,
         "2048x64 {short} KiB, 2048x2048 {tall} KiB"
@@ -1187,27 +1195,7 @@ fn camera_refuses_what_it_cannot_hold_before_opening_the_port() {
 /// 2048×64 one (it renders a line at a time straight into frame.png).
 #[test]
 fn frame_memory_does_not_grow_with_height() {
-    let dir = scratch("frame-memory");
-    let peak = |h: u32| {
-        let s = standard()
-            .replacen("width = 160", "width = 2048", 1)
-            .replacen("height = 120", &format!("height = {h}"), 1)
-            .replacen("pitch = 12e-6", "pitch = 1e-6", 1);
-        let scene = write_scene(&dir, &format!("h{h}.toml"), &s);
-        let out = dir.join(format!("out{h}"));
-        let r = run(&[
-            "frame",
-            "--scene",
-            scene.to_str().expect("utf-8"),
-            "--out",
-            out.to_str().expect("utf-8"),
-        ]);
-        assert_eq!(r.code, Some(0), "{}", r.stderr);
-        assert_eq!(entries(&out), ["frame.png", "truth.json"]);
-        r.max_rss_kib
-    };
-    let (short, tall) = (peak(64), peak(2048));
-    eprintln!("frame peak RSS: 2048x64 {short} KiB, 2048x2048 {tall} KiB");
+    let (short, tall) = peaks_by_height("frame", &["frame.png", "truth.json"]);
     assert!(
         tall <= short + 8 * 1024,
         "2048x64 {short} KiB, 2048x2048 {tall} KiB"
