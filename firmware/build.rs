@@ -32,9 +32,13 @@ fn main() {
     std::fs::write(
         out.join("board.rs"),
         format!(
-            "/// UART0's base address ({name}).\nconst UART_BASE: usize = {:#x};\n/// SysTick's period, ps.\npub const SYSTICK_PS: u64 = {};\n",
+            "/// UART0's base address ({name}).\nconst UART_BASE: usize = {:#x};\n/// SysTick's period, ps.\npub const SYSTICK_PS: u64 = {};\n\
+             /// The board this firmware is built for, read from the ELF by the host\n\
+             /// (`host_sim::qemu::check_elf`) before QEMU runs it.\n\
+             #[used]\n#[unsafe(no_mangle)]\npub static HILCAM_BOARD: [u8; {}] = *b\"{name}\";\n",
             spec.uart_base,
-            board.systick_ps()
+            board.systick_ps(),
+            name.len()
         ),
     )
     .expect("board.rs");

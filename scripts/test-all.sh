@@ -92,6 +92,14 @@ echo "== firmware builds and their clippy (above)"
 wait "$firmware_build" || { cat target/firmware-build.log; echo "a firmware build or its clippy failed"; exit 1; }
 cat target/firmware-build.log
 echo "   $(boards | tr '\n' ' '); clippy of the default firmware and the driven camera: ok"
+# An ELF built for one board, given to hil for another: refused naming
+# both, before QEMU runs it (it would run silent until the timeout).
+if target/debug/host-sim hil --board mps2-an505 --elf firmware/target/thumbv7m-none-eabi/release/hilcam-firmware \
+  --out target/hil/wrong-board > target/hil-wrong-board.log 2>&1 ||
+  ! grep -q "built for board lm3s6965evb, not --board mps2-an505" target/hil-wrong-board.log; then
+  cat target/hil-wrong-board.log; echo "hil ran an ELF built for another board"; exit 1
+fi
+echo "   an M3 ELF given to hil --board mps2-an505: refused naming both boards"
 
 echo "== the main job, short (README's first command): renders, links, OpenCV, every board in QEMU, the drive, tiny sweep"
 # host-sim as the tests above built and ran it (the test profile,
@@ -194,7 +202,7 @@ echo "== fuzz smoke run: every cargo-fuzz target for 15 s (nightly + cargo-fuzz,
 wait "$fuzz_build" || { cat target/fuzz-build.log; echo "the fuzz targets' build failed"; exit 1; }
 ./scripts/fuzz.sh "" 15 | tee target/fuzz-smoke.log
 if grep -qE "ERROR|panicked|SUMMARY" target/fuzz-smoke.log; then echo "fuzzing found a failure"; exit 1; fi
-[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 4 ] || { echo "a fuzz target did not run"; exit 1; }
+[ "$(grep -c '^Done' target/fuzz-smoke.log)" -ge 5 ] || { echo "a fuzz target did not run"; exit 1; }
 
 echo "== largest errors measured by the property tests (core vs f64 reference)"
 cat target/tmp/accuracy/*.txt

@@ -452,6 +452,8 @@ pub fn rust_const(name: &str, m: &CostModel) -> String {
 /// the points through the aperture are measured; the others are that
 /// file's.
 pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, String> {
+    // The kept points read before anything is written.
+    let kept = keep.map(load_calibration).transpose()?;
     let mut outputs = crate::output::Outputs::prepare(out)?;
     let work = out.join("work");
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
@@ -476,8 +478,8 @@ pub fn run(board: Board, out: &Path, keep: Option<&Path>) -> Result<String, Stri
             .collect()
     };
     let mut points = Vec::new();
-    if let Some(keep) = keep {
-        points = load_calibration(keep)?.points;
+    if let Some(kept) = kept {
+        points = kept.points;
         points.retain(|p| p.samples.aperture == 0.0);
     } else {
         // (mix32-nomean: the closed plane without its mean, beside each

@@ -656,36 +656,39 @@ fn replay_frame(outputs: &mut crate::output::Outputs, k: usize, f: &crate::link:
 /// completes: memory is one frame (at most the decoder's 16 MiB) and
 /// [`REPLAY_REPLIES`] answers, whatever the capture's length.
 pub fn replay(capture: &Path, out: &Path) -> Result<ReplayReport, String> {
+    use std::os::unix::fs::FileTypeExt;
     let at = |e: std::io::Error| format!("{}: {e}", capture.display());
-    let mut file = std::fs::File::open(capture).map_err(at)?;
+    let file = std::fs::File::open(capture).map_err(at)?;
+    // A capture is a file or a pipe that ends; a device (a serial port,
+    // /dev/zero) never does: `receive` reads devices, with its deadline.
+    let kind = file.metadata().map_err(at)?.file_type();
+    if !(kind.is_file() || kind.is_fifo()) {
+        return Err(format!(
+            "{}: not a capture file (a device or a directory); a serial port is read by `host-sim receive`",
+            capture.display()
+        ));
+    }
     let mut outputs = crate::output::Outputs::prepare(out)?;
     let mut dec = Decoder::new(1 << 20, hilcam::link::MAX_FRAME_BYTES);
-    let (mut frames, mut failed, mut replies, mut replies_total) = (0usize, None, Vec::new(), 0u64);
-    let mut buf = vec![0u8; 1 << 16];
-    loop {
-        let n = match file.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(at(e)),
-        };
-        dec.push(&buf[..n], &mut |f| {
-            if failed.is_none() {
-                failed = replay_frame(&mut outputs, frames, &f).err();
-                frames += 1;
-            }
-        });
-        if let Some(e) = failed.take() {
-            return Err(e);
-        }
-        for r in dec.replies.drain(..) {
+    let (mut frames, mut replies, mut replies_total) = (0usize, Vec::new(), 0u64);
+    crate::link::decoder::read_capture(
+        file,
+        &mut dec,
+        &mut |f| {
+            frames += 1;
+            replay_frame(&mut outputs, frames - 1, &f)
+        },
+        &mut |r| {
             replies_total += 1;
             if replies.len() < REPLAY_REPLIES {
                 replies.push(r);
             }
-        }
-    }
-    dec.finish();
+        },
+    )
+    .map_err(|e| match e {
+        crate::link::decoder::CaptureError::Read(e) => at(e),
+        crate::link::decoder::CaptureError::Frame(e) => e,
+    })?;
     let report = ReplayReport {
         frames,
         replies_total,

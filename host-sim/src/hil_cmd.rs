@@ -123,9 +123,9 @@ pub fn hil_variants(
             &built
         }
     };
+    crate::qemu::check_elf(board, elf)?;
     let (flash, ram) = elf_sizes(elf)?;
-    let uart = out.join("uart.bin");
-    let _ = std::fs::remove_file(&uart);
+    let uart = outputs.scratch("uart.bin");
     let t = Instant::now();
     let text = run_qemu(board, elf, &uart, Duration::from_secs(600))?;
     let qemu_seconds = t.elapsed().as_secs_f64();

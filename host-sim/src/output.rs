@@ -65,6 +65,8 @@ pub struct Outputs {
     staged: Vec<(PathBuf, PathBuf)>,
     /// Names already put in place by [`Outputs::write_now`].
     now: std::cell::RefCell<Vec<String>>,
+    /// Paths of [`Outputs::scratch`].
+    scratch: Vec<PathBuf>,
 }
 
 impl Outputs {
@@ -76,6 +78,7 @@ impl Outputs {
             dir: dir.to_path_buf(),
             staged: Vec::new(),
             now: Default::default(),
+            scratch: Vec::new(),
         };
         o.create(".probe")?;
         o.discard();
@@ -98,6 +101,16 @@ impl Outputs {
         Ok(StagedFile { f, path: target })
     }
 
+    /// A path in the directory for a file another program writes (QEMU's
+    /// UART log) that is not an output: removed when these outputs are
+    /// dropped or committed, and by the signal handler.
+    pub fn scratch(&mut self, name: &str) -> PathBuf {
+        let tmp = self.dir.join(format!(".{name}.scratch-{}", std::process::id()));
+        STAGED.lock().unwrap_or_else(|p| p.into_inner()).push(tmp.clone());
+        self.scratch.push(tmp.clone());
+        tmp
+    }
+
     /// Writes the whole file `name`.
     pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), String> {
         self.create(name)?.write_all(bytes)
@@ -110,6 +123,7 @@ impl Outputs {
             dir: self.dir.clone(),
             staged: Vec::new(),
             now: Default::default(),
+            scratch: Vec::new(),
         };
         one.write(name, bytes)?;
         one.rename_into_place()?;
@@ -147,6 +161,7 @@ impl Outputs {
             dir: self.dir.clone(),
             staged: Vec::new(),
             now: Default::default(),
+            scratch: Vec::new(),
         };
         m.write(MANIFEST, list.as_bytes())?;
         m.rename_into_place()
@@ -175,10 +190,11 @@ impl Outputs {
         result
     }
 
-    /// Removes every staged file.
+    /// Removes every staged file (and every scratch file).
     pub fn discard(&mut self) {
         let mut staged = STAGED.lock().unwrap_or_else(|p| p.into_inner());
-        for (tmp, _) in self.staged.drain(..) {
+        let scratch = self.scratch.drain(..).map(|p| (p, PathBuf::new()));
+        for (tmp, _) in self.staged.drain(..).chain(scratch) {
             let _ = std::fs::remove_file(&tmp);
             staged.retain(|p| *p != tmp);
         }

@@ -191,6 +191,45 @@ pub fn elf_panic_symbols(elf: &Path) -> Result<Vec<String>, String> {
         .collect())
 }
 
+/// Checks, before QEMU runs it, that `elf` is a firmware built for
+/// `board`: a 32-bit ARM ELF whose `HILCAM_BOARD` symbol (written by the
+/// firmware's build script) names the board. An ELF for another board
+/// would run with its UART at an address the machine does not have and
+/// send nothing; anything else QEMU would refuse with a register dump.
+pub fn check_elf(board: Board, elf: &Path) -> Result<(), String> {
+    use object::{Object, ObjectSection, ObjectSymbol};
+    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*data).map_err(|e| format!("{}: not an ELF file ({e})", elf.display()))?;
+    if file.architecture() != object::Architecture::Arm || file.is_64() {
+        return Err(format!(
+            "{}: not a Cortex-M firmware (an ELF for {:?}); --elf takes a firmware built for --board {}",
+            elf.display(),
+            file.architecture(),
+            board.machine()
+        ));
+    }
+    let symbol = file.symbols().find(|s| s.name() == Ok("HILCAM_BOARD")).ok_or_else(|| {
+        format!(
+            "{}: not a hilcam firmware (no HILCAM_BOARD symbol naming its board)",
+            elf.display()
+        )
+    })?;
+    let built_for = symbol
+        .section_index()
+        .and_then(|i| file.section_by_index(i).ok())
+        .and_then(|s| s.data_range(symbol.address(), symbol.size()).ok().flatten())
+        .map(String::from_utf8_lossy)
+        .ok_or_else(|| format!("{}: its HILCAM_BOARD symbol holds no name", elf.display()))?;
+    if built_for != board.machine() {
+        return Err(format!(
+            "{}: built for board {built_for}, not --board {} (its UART would not answer on this machine)",
+            elf.display(),
+            board.machine()
+        ));
+    }
+    Ok(())
+}
+
 /// QEMU's binary, if installed.
 pub fn qemu() -> Option<PathBuf> {
     std::env::var_os("PATH").and_then(|paths| {
@@ -218,6 +257,7 @@ pub fn spawn_qemu_with(
     icount: bool,
 ) -> Result<std::process::Child, String> {
     let qemu = qemu().ok_or("qemu-system-arm is not installed (apt-get install qemu-system-arm)")?;
+    check_elf(board, elf)?;
     Command::new(qemu)
         .args(["-cpu", board.cpu(), "-machine", board.machine()])
         .args(["-display", "none", "-monitor", "none"])
@@ -264,9 +304,16 @@ pub fn run_qemu(board: Board, elf: &Path, uart: &Path, timeout: Duration) -> Res
     let stderr = stderr.join().unwrap_or_default();
     let status = status?;
     if !status.success() {
+        // QEMU's first words say why (a lockup, a fault); its register
+        // dump after them is for whoever debugs the firmware.
+        let stderr = String::from_utf8_lossy(&stderr);
+        let why: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).take(3).collect();
         return Err(format!(
-            "firmware exited with {status}:\n{text}{}",
-            String::from_utf8_lossy(&stderr)
+            "{}: the firmware stopped on {} ({status}): {}{}",
+            elf.display(),
+            board.machine(),
+            why.join(" / "),
+            if text.is_empty() { String::new() } else { format!("\n{text}") }
         ));
     }
     Ok(text)

@@ -45,6 +45,28 @@ pub struct SceneDesc {
     pub trajectory: Vec<crate::trajectory::Keyframe>,
 }
 
+/// Longest scene `name`, characters.
+pub const MAX_NAME: usize = 64;
+
+/// A scene's `name` names files (`hil`'s `NAME.png`) and report lines: 1 to
+/// [`MAX_NAME`] letters, digits, `-`, `_` and `.`, not starting with `.`.
+fn check_name(name: &str) -> Result<(), String> {
+    let ok = (1..=MAX_NAME).contains(&name.len())
+        && !name.starts_with('.')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    if ok {
+        return Ok(());
+    }
+    let shown: String = name.chars().take(MAX_NAME).collect();
+    Err(format!(
+        "name: {shown:?}{} is not a scene name: 1 to {MAX_NAME} letters, digits, '-', '_' or '.', not starting with '.' \
+         (it names output files)",
+        if name.chars().count() > MAX_NAME { "…" } else { "" }
+    ))
+}
+
 /// `[sampling]`.
 #[derive(Clone, Copy, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -570,6 +592,7 @@ pub fn resolve(desc: SceneDesc) -> Result<Resolved, String> {
             )
         }
     };
+    check_name(&desc.name)?;
     let names: Vec<&str> = desc.materials.iter().map(|m| m.name.as_str()).collect();
     for (i, n) in names.iter().enumerate() {
         if let Some(j) = names[..i].iter().position(|m| m == n) {

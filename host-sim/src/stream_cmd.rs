@@ -17,6 +17,36 @@ pub fn core_frame(r: &Resolved, scene_id: u32) -> Result<(Vec<u8>, FrameStart), 
     Ok((core.pixels, start))
 }
 
+/// Whether the link carries the scene's frames, checked before anything
+/// is rendered: a line within the encoder's chunk ([`HOST_CHUNK`] bytes, as
+/// the host camera sends it) and a frame within
+/// [`hilcam::link::MAX_FRAME_BYTES`], the most a receiver takes. So a
+/// stream's memory is bounded by that cap, whatever the scene asks.
+pub fn link_carries(r: &Resolved) -> Result<(), String> {
+    let c = &r.desc.camera;
+    let bpp = r.format.bytes_per_pixel();
+    let line = c.width as usize * bpp;
+    if line > HOST_CHUNK {
+        return Err(format!(
+            "camera.width: {} pixels of {} make a line of {line} B; the link carries lines of at most {HOST_CHUNK} B ({} pixels)",
+            c.width,
+            r.format.name(),
+            HOST_CHUNK / bpp
+        ));
+    }
+    let frame = line as u64 * u64::from(c.height);
+    if frame > hilcam::link::MAX_FRAME_BYTES as u64 {
+        return Err(format!(
+            "camera.height: a {}x{} {} frame is {frame} B; the link carries frames of at most {} B",
+            c.width,
+            c.height,
+            r.format.name(),
+            hilcam::link::MAX_FRAME_BYTES
+        ));
+    }
+    Ok(())
+}
+
 /// What happened to the frames and messages sent through a link.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Counts {
@@ -203,6 +233,7 @@ pub fn stream(
     faults: &Faults,
     frames: u32,
 ) -> Result<(StreamReport, Option<Vec<u8>>), String> {
+    link_carries(r)?;
     let (pixels, start) = core_frame(r, 0)?;
     let sent = run(&pixels, start, frames, faults)?;
     let (received_png_frame, first) = sent.first_delivered.map_or((None, None), |(k, p)| (Some(k), Some(p)));

@@ -39,7 +39,7 @@ pub fn run(args: Args) -> Result<String, String> {
     } else {
         boards
             .split(',')
-            .map(host_sim::qemu::Board::parse)
+            .map(|b| host_sim::qemu::Board::parse(b).map_err(|e| e.replacen("--board:", "--boards:", 1)))
             .collect::<Result<Vec<_>, _>>()?
     };
     let cfg = if tiny {

@@ -374,23 +374,49 @@ impl Decoder {
     }
 }
 
-/// Decodes a whole stream from any reader (a file, a pipe, a serial port),
-/// until end of input ([`Decoder::finish`] then).
-pub fn decode_reader<R: Read>(
+/// Why [`read_capture`] stopped before the end of its input.
+#[derive(Debug)]
+pub enum CaptureError<E> {
+    /// Reading failed.
+    Read(std::io::Error),
+    /// The frame handler refused a frame (e.g. its file could not be
+    /// written).
+    Frame(E),
+}
+
+/// Reads a captured stream (a file, a pipe) to its end, as it comes: each
+/// frame goes to `frame` as it completes, each answer to `reply` (in
+/// order), then [`Decoder::finish`] counts a frame left open as cut. Memory
+/// is the decoder's one frame and a 64 KiB buffer, whatever the input's
+/// length. Stops at the first error `frame` returns.
+pub fn read_capture<R: Read, E>(
     mut r: R,
     dec: &mut Decoder,
-    deliver: &mut impl FnMut(Frame),
-) -> std::io::Result<()> {
+    frame: &mut impl FnMut(Frame) -> Result<(), E>,
+    reply: &mut impl FnMut(Reply),
+) -> Result<(), CaptureError<E>> {
     let mut buf = vec![0u8; 1 << 16];
+    let mut failed = None;
     loop {
-        match r.read(&mut buf) {
+        let n = match r.read(&mut buf) {
             Ok(0) => {
                 dec.finish();
                 return Ok(());
             }
-            Ok(n) => dec.push(&buf[..n], deliver),
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(CaptureError::Read(e)),
+        };
+        dec.push(buf.get(..n).unwrap_or_default(), &mut |f| {
+            if failed.is_none() {
+                failed = frame(f).err();
+            }
+        });
+        for r in dec.replies.drain(..) {
+            reply(r);
+        }
+        if let Some(e) = failed.take() {
+            return Err(CaptureError::Frame(e));
         }
     }
 }

@@ -702,8 +702,9 @@ pub fn profile(
             &built
         }
     };
+    crate::qemu::check_elf(board, elf)?;
     let marks = frame_marks(elf)?;
-    let uart = out.join("uart.bin");
+    let uart = outputs.scratch("uart.bin");
     let mut child = spawn_qemu_with(
         board,
         elf,
