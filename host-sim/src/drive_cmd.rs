@@ -466,14 +466,26 @@ fn report<W: Write>(
     }
 }
 
+/// The largest poses file read, bytes: a million keyframes.
+pub const MAX_POSES_BYTES: u64 = 64 << 20;
+
 /// The poses of a drive: `poses_file` (JSON or CSV lines, see
 /// [`Trajectory::parse`]) sampled at `frames` points, else the scene's
 /// `[[trajectory]]`, else the scene's pose wobbled ([`Trajectory::wobble`]).
 pub fn poses(r: &Resolved, poses_file: Option<&Path>, frames: usize) -> Result<Vec<Pose>, String> {
     let traj = match poses_file {
         Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-            Trajectory::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?
+            use std::io::Read;
+            let at = |e: String| format!("{}: {e}", p.display());
+            let mut bytes = Vec::new();
+            std::fs::File::open(p)
+                .and_then(|f| f.take(MAX_POSES_BYTES + 1).read_to_end(&mut bytes))
+                .map_err(|e| at(e.to_string()))?;
+            if bytes.len() as u64 > MAX_POSES_BYTES {
+                return Err(at(format!("larger than {MAX_POSES_BYTES} bytes: not a poses file")));
+            }
+            let text = String::from_utf8(bytes).map_err(|e| at(format!("not UTF-8 text: {e}")))?;
+            Trajectory::parse(&text).map_err(at)?
         }
         None => match &r.trajectory {
             Some(t) => t.clone(),

@@ -167,7 +167,7 @@ pub fn slerp(a: [f64; 4], b: [f64; 4], s: f64) -> [f64; 4] {
 
 impl Trajectory {
     /// From keyframes: at least one, times finite and strictly increasing,
-    /// positions finite, quaternions finite and non-zero. Errors name the
+    /// positions within ±1000 m, quaternions finite and non-zero. Errors name the
     /// keyframe and the field.
     pub fn new(mut keys: Vec<Keyframe>) -> Result<Trajectory, String> {
         if keys.is_empty() {
@@ -177,8 +177,12 @@ impl Trajectory {
             if !k.t.is_finite() {
                 return Err(format!("trajectory keyframe {i}: t: not finite"));
             }
-            if !k.position.iter().all(|v| v.is_finite()) {
-                return Err(format!("trajectory keyframe {i}: position: not finite"));
+            // (As every scene position: docs/scenes.md.)
+            if !k.position.iter().all(|v| v.is_finite() && v.abs() <= 1000.0) {
+                return Err(format!(
+                    "trajectory keyframe {i}: position: {:?} is not within ±1000 m of the origin",
+                    k.position
+                ));
             }
             k.quaternion = normalize(k.quaternion)
                 .ok_or_else(|| format!("trajectory keyframe {i}: quaternion: zero or not finite"))?;

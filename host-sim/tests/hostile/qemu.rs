@@ -95,3 +95,55 @@ fn qemu_commands_name_a_bad_board_file_or_count() {
         );
     }
 }
+
+/// `drive --poses`: a keyframe beyond ±1000 m, an endless file and bytes
+/// that are not text are named (file, keyframe, field) before a firmware
+/// is built: the camera's bare `Reject` used to be all that was said, and
+/// `/dev/zero` was read until memory ran out.
+#[test]
+fn drive_names_a_bad_poses_file_before_building() {
+    let dir = scratch("drive-poses");
+    let far = dir.join("far.jsonl");
+    std::fs::write(
+        &far,
+        "{\"t\": 0.0, \"position\": [1e300, 0, 0], \"quaternion\": [1, 0, 0, 0]}\n",
+    )
+    .expect("poses");
+    let binary = dir.join("binary.csv");
+    std::fs::write(&binary, [0xffu8, 0xfe, 0x00, 0x80]).expect("poses");
+    let standard = repo().join("scenes/standard.toml");
+    for (poses, said) in [
+        (far.to_str().expect("utf-8"), "keyframe 0: position"),
+        (binary.to_str().expect("utf-8"), "not UTF-8"),
+        ("/dev/zero", "not a poses file"),
+    ] {
+        let out = dir.join("out");
+        let t = Instant::now();
+        let r = run(&[
+            "drive",
+            "--board",
+            "lm3s6965evb",
+            "--scene",
+            standard.to_str().expect("utf-8"),
+            "--poses",
+            poses,
+            "--frames",
+            "2",
+            "--out",
+            out.to_str().expect("utf-8"),
+        ]);
+        assert!(r.failed_cleanly(), "{poses}: {}", r.stderr);
+        assert!(
+            r.stderr.contains(poses) && r.stderr.contains(said),
+            "{poses}: {}",
+            r.stderr
+        );
+        assert!(
+            t.elapsed() < Duration::from_secs(20),
+            "{poses}: {:?}",
+            t.elapsed()
+        );
+        assert!(r.max_rss_kib < 200 * 1024, "{poses}: {} KiB", r.max_rss_kib);
+        assert!(entries(&out).is_empty(), "{poses}: {:?}", entries(&out));
+    }
+}
