@@ -35,6 +35,10 @@ struct Report {
     ns_per_pixel_one_thread: f64,
 }
 
+/// The largest frame `throughput` times, pixel bytes (its memory is about
+/// twice that: the pixels and their flags).
+const MAX_FRAME_BYTES: u64 = 64 << 20;
+
 /// Runs the command: the line it prints, or the error.
 pub fn run(args: Args) -> Result<String, String> {
     let Args { scene, frames, out } = args;
@@ -42,6 +46,20 @@ pub fn run(args: Args) -> Result<String, String> {
         return Err("--frames: must be 1 to 10000".into());
     }
     let r = host_sim::scene_file::load(&scene)?;
+    // Frames are rendered whole into memory (as a camera's frame buffer):
+    // capped, so that memory is bounded whatever the scene asks.
+    let c = &r.desc.camera;
+    let bytes = u64::from(c.width) * u64::from(c.height) * r.format.bytes_per_pixel() as u64;
+    if bytes > MAX_FRAME_BYTES {
+        return Err(format!(
+            "{}: camera.height: a {}x{} {} frame is {bytes} B of pixels; throughput times frames of at most {MAX_FRAME_BYTES} B \
+             (e.g. 8192x8192 gray8)",
+            scene.display(),
+            c.width,
+            c.height,
+            r.format.name()
+        ));
+    }
     let s = r.core_scene()?;
     let budget = hilcam::planner::Budget::default();
     // A stream of frames: each planned, prepared and rendered into

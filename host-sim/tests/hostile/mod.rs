@@ -24,6 +24,7 @@ mod render;
 mod replay;
 mod scene_files;
 mod stream;
+mod throughput;
 
 const BIN: &str = env!("CARGO_BIN_EXE_host-sim");
 
