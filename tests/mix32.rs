@@ -240,14 +240,28 @@ intensity = 20.0
 }
 
 /// The path renders a line in chunks of 32 pixels: widths below one chunk
-/// and with a partial last chunk (in one and in three channels) render
-/// every pixel, the hits of every primitive pass, within the targets.
+/// and with a partial last chunk (in one and in three channels, one sample
+/// a pixel and the sampled loop's 4×4 grid) render every pixel, the hits of
+/// every primitive pass, within the targets. (The sampled loop handed the
+/// byte writer its whole 32-word buffer: in Gray8 a last chunk's final
+/// `len mod 4` pixels were left 0 — width 17's last column, 31's last
+/// three.)
 #[test]
 fn lines_that_are_not_whole_chunks() {
-    for width in ["7", "45", "71"] {
+    let sampled = "\n[sampling]\nedge_error = 0.125\n";
+    for (width, sampling) in [
+        ("7", ""),
+        ("45", ""),
+        ("71", ""),
+        ("1", sampled),
+        ("2", sampled),
+        ("17", sampled),
+        ("31", sampled),
+        ("33", sampled),
+    ] {
         for fmt in ["format = \"gray8\"", "format = \"rgb565\""] {
             let r = scene(
-                &format!("{CHECKER_FLOOR}{TANGENT_SPHERE}{POINT_LIGHT}"),
+                &format!("{CHECKER_FLOOR}{TANGENT_SPHERE}{POINT_LIGHT}{sampling}"),
                 &[
                     ("width = 96", &format!("width = {width}")),
                     ("format = \"gray8\"", fmt),
@@ -258,10 +272,16 @@ fn lines_that_are_not_whole_chunks() {
                 ],
             );
             let (m, _) = mix(&r).expect("renders");
+            assert_eq!(
+                m.stages.iter().any(|s| s.starts_with("sample:")),
+                !sampling.is_empty(),
+                "{width} {fmt}: {:?}",
+                m.stages
+            );
             meets_targets(&m);
             assert!(
                 m.exact_fraction >= 0.99,
-                "{width} {fmt}: exact {}",
+                "{width} {fmt}{sampling}: exact {}",
                 m.exact_fraction
             );
         }

@@ -20,11 +20,18 @@ def export(host_sim, scene, out):
 def test_ros_and_opencv_yaml_are_typed_under_yaml_1_1(host_sim, scenes, tmp_path):
     yaml = pytest.importorskip("yaml")
     cv2 = pytest.importorskip("cv2")
-    # A name that would inject keys unquoted.
-    text = (scenes / "checkerboard-barrel.toml").read_text()
-    name = 'evil: name\nimage_width: 1 # "quoted"'
-    text = text.replace('name = "checkerboard-barrel"', "name = " + json.dumps(name), 1)
-    scene_file = tmp_path / "evil.toml"
+    base = (scenes / "checkerboard-barrel.toml").read_text()
+    # A name that would inject keys is not a scene name: refused naming it.
+    evil = tmp_path / "evil.toml"
+    evil.write_text(base.replace('name = "checkerboard-barrel"',
+                                 "name = " + json.dumps('evil: name\nimage_width: 1 # "quoted"'), 1))
+    with pytest.raises(hilcam.SceneError) as e:
+        hilcam.Scene.from_toml(evil)
+    assert e.value.field == "name", str(e.value)
+    # A name YAML would read as a number unquoted: it stays a string.
+    name = "1e5"
+    text = base.replace('name = "checkerboard-barrel"', "name = " + json.dumps(name), 1)
+    scene_file = tmp_path / "numeric.toml"
     scene_file.write_text(text)
     scene = hilcam.Scene.from_toml(scene_file)
     assert scene.name == name

@@ -280,7 +280,10 @@ pub(super) fn word<const C: usize>(n: usize, dn: [u32; 3]) -> u16 {
 #[inline(always)]
 pub(super) fn put(words: &[u16], reversed: bool, bytes_per_pixel: usize, out: &mut [u8]) {
     if bytes_per_pixel == 1 {
-        quads(words, reversed, out);
+        // The chunk's words: a caller may hand its whole buffer ([`CHUNK`]
+        // words) for a shorter chunk, whose last pixels `quads` would
+        // otherwise pair with the buffer's unused words.
+        quads(words.get(..out.len()).unwrap_or(words), reversed, out);
     } else {
         let (out, _) = out.as_chunks_mut::<2>();
         if reversed {
