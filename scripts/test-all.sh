@@ -185,10 +185,16 @@ echo "== the compact loops (the driven camera's: one copy serves one and three c
 echo "== firmware built for size (opt-level z, no status): the M3 image within 64 KiB of flash, still bit-exact"
 # Without the fast arithmetic (the core's mix32 feature): the wide one, which
 # the host renders as the variant i32f32-poly. Without the sensor stages too
-# (the core's sensor feature), so it embeds the scenes that ask for neither
-# [sampling] nor [noise] and are not defocused (shallow-dof's content lies
-# outside its depth of field).
-small_scenes=$(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v shallow-dof)
+# (the core's sensor feature), so it embeds the scenes without [noise] that
+# are not defocused (shallow-dof's content lies outside its depth of field),
+# each asking for one sample a pixel (a scene without [sampling] gets the
+# sensor's area integration, a stage this build leaves out).
+mkdir -p target/scenes-point
+rm -f target/scenes-point/*.toml
+for s in $(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v shallow-dof); do
+  printf '\n[sampling]\nedge_error = 0.5\n' | cat "$s" - > "target/scenes-point/$(basename "$s")"
+done
+small_scenes=$(ls target/scenes-point/*.toml)
 (cd firmware && HILCAM_SCENES="$(for s in $small_scenes; do echo "$PWD/../$s"; done)" HILCAM_VARIANTS=i32f32-poly \
   CARGO_PROFILE_RELEASE_OPT_LEVEL=z \
   cargo build -q --release --no-default-features --target thumbv7m-none-eabi)

@@ -574,7 +574,7 @@ fn a_point_lit_plane_in_closed_form_within_the_prediction() {
             let y = h - (nx * x + nz * z);
             t += &format!("[[lights]]\nkind = \"point\"\nposition = [{x}, {y}, {z}]\nintensity = {i}\n");
         }
-        let r = host_sim::scene_file::parse(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
+        let r = crate::common::parse_point(&t).unwrap_or_else(|e| panic!("{e}:\n{t}"));
         let v = Variant::parse("mix32-poly").expect("variant");
         let budget = Budget::default();
         let (_, plan, frame) = prepare::<I32F32>(&r, &budget, |p| v.options(p)).map_err(TestCaseError::fail)?;

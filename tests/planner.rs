@@ -12,13 +12,13 @@
 
 use crate::common;
 
+use crate::common::parse_point as parse;
 use common::Max;
 use hilcam::planner::{plan, Budget};
 use hilcam::render::{Arithmetic, ClosedMean, Frame, Override};
 use host_sim::harness::render_skipping_stage_errors;
 use host_sim::reference::lens::ThinLens;
 use host_sim::reference::render::{RefModel, RefScene};
-use host_sim::scene_file::parse;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 use std::cell::Cell;

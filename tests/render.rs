@@ -29,6 +29,13 @@ fn scene(name: &str) -> Resolved {
     .expect("loads")
 }
 
+/// A shipped scene with one sample a pixel (`[sampling] edge_error =
+/// 0.5`), for the tests of the stages and loops a centre sample takes.
+fn point_scene(name: &str) -> Resolved {
+    let path = format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    crate::common::parse_point(&std::fs::read_to_string(path).expect("reads")).expect("loads")
+}
+
 fn metrics(r: &Resolved) -> Metrics {
     render_skipping_stage_errors(r, &Budget::default())
         .expect("renders")
@@ -117,7 +124,7 @@ fn standard_scene_is_as_specified() {
 /// by less than `planner::WEAK_MARGIN`).
 #[test]
 fn stages_follow_what_the_scene_needs() {
-    let names = |n: &str| metrics(&scene(n)).stages;
+    let names = |n: &str| metrics(&point_scene(n)).stages;
     let std = names("standard");
     assert!(std.contains(&"distortion-polynomial".to_string()));
     assert!(std.contains(&"arithmetic:fast".to_string()));
@@ -127,11 +134,11 @@ fn stages_follow_what_the_scene_needs() {
     assert!(spec.contains(&"shade:specular".to_string()));
     assert!(!spec.contains(&"distortion-lut".to_string()));
     assert!(names("wide-vignetting").contains(&"vignetting:cos4".to_string()));
-    let shallow = metrics(&scene("shallow-target"));
+    let shallow = metrics(&point_scene("shallow-target"));
     assert!(shallow.stages.contains(&"rays:perspective".to_string()));
     assert!(shallow.plan.candidates.iter().any(|c| c.name == "fast-weak"));
     for n in ["standard", "spheres-specular", "checkerboard-barrel"] {
-        assert!(!metrics(&scene(n))
+        assert!(!metrics(&point_scene(n))
             .plan
             .candidates
             .iter()
@@ -451,7 +458,7 @@ fn a_frame_whose_line_loop_is_left_out_is_refused_before_the_sink_sees_it() {
             Ok(())
         }
     }
-    let s = scene("standard").core_scene().expect("valid");
+    let s = point_scene("standard").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
     assert_eq!(
         p.options.arithmetic,

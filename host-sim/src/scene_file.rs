@@ -30,9 +30,10 @@ pub struct SceneDesc {
     pub lights: Vec<LightEntry>,
     /// Primitives.
     pub primitives: Vec<PrimitiveDesc>,
-    /// Pixel-area integration (camera-model.md §7); without it a pixel is
-    /// one sample at its centre.
-    #[serde(default)]
+    /// Pixel-area integration (camera-model.md §7); without it, the
+    /// sensor's default ([`SamplingDesc::DEFAULT`]: edges within 1/8 px).
+    /// One sample at each pixel's centre is `edge_error = 0.5`.
+    #[serde(default = "SamplingDesc::default_some")]
     pub sampling: Option<SamplingDesc>,
     /// Sensor noise (camera-model.md §9); off without it.
     #[serde(default)]
@@ -82,6 +83,26 @@ pub struct SamplingDesc {
 
 fn yes() -> bool {
     true
+}
+
+impl SamplingDesc {
+    /// What a scene without `[sampling]` gets (camera-model.md §7): the
+    /// sensor's area integration, edges placed within 1/8 px, the grid
+    /// only where a pixel's corners and centre disagree.
+    pub const DEFAULT: SamplingDesc = SamplingDesc {
+        edge_error: 0.125,
+        adaptive: true,
+    };
+
+    fn default_some() -> Option<SamplingDesc> {
+        Some(Self::DEFAULT)
+    }
+
+    /// One sample at each pixel's centre: an edge error of half a pixel
+    /// (the largest allowed; anything else goes to the core's checks).
+    pub fn is_point(&self) -> bool {
+        self.edge_error == 0.5
+    }
 }
 
 /// `[noise]`: the EMVA 1288 linear camera model.
@@ -867,10 +888,16 @@ impl Resolved {
             materials: heapless::Vec::new(),
             primitives: heapless::Vec::new(),
             lights: heapless::Vec::new(),
-            sampling: self.desc.sampling.map(|s| SamplingData {
-                edge_error: s.edge_error,
-                adaptive: s.adaptive,
-            }),
+            // (One sample a pixel asks for no sampling stage: a build
+            // without it takes the scene.)
+            sampling: self
+                .desc
+                .sampling
+                .filter(|s| !s.is_point())
+                .map(|s| SamplingData {
+                    edge_error: s.edge_error,
+                    adaptive: s.adaptive,
+                }),
             noise: self.desc.noise.map(|n| NoiseData {
                 saturation: n.saturation,
                 dark_noise: n.dark_noise,

@@ -47,6 +47,11 @@ pub fn try_scene(extra: &str, replace: &[(&str, &str)]) -> Result<Resolved, Stri
         assert!(text.contains(a), "fixture lacks {a:?}");
         text = text.replacen(a, b, 1);
     }
+    // One sample a pixel unless the test asks for a pattern (a scene
+    // without `[sampling]` gets the sensor's 1/8 px default).
+    if !text.contains("[sampling]") {
+        text.push_str("\n[sampling]\nedge_error = 0.5\n");
+    }
     parse(&text)
 }
 

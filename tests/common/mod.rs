@@ -151,3 +151,15 @@ pub fn pixel_in(w: u16, h: u16) -> impl Strategy<Value = (f64, f64)> {
     let (w, h) = (w as f64, h as f64);
     (-0.5f64..1.5, -0.5f64..1.5).prop_map(move |(u, v)| (u * w, v * h))
 }
+
+/// [`host_sim::scene_file::parse`] with one sample a pixel where the text
+/// asks for no pattern: the tests of other stages keep the centre sample (a
+/// scene without `[sampling]` gets the sensor's 1/8 px default).
+#[allow(dead_code)] // not every test binary parses its own scenes
+pub fn parse_point(text: &str) -> Result<host_sim::scene_file::Resolved, String> {
+    if text.contains("[sampling]") {
+        host_sim::scene_file::parse(text)
+    } else {
+        host_sim::scene_file::parse(&format!("{text}\n[sampling]\nedge_error = 0.5\n"))
+    }
+}
