@@ -1224,3 +1224,53 @@ fn a_distant_target_seen_off_axis_plans_fast_within_its_predictions() {
         assert!(m.max_abs_lsb_smooth as f64 <= budget.max_lsb, "{pose}");
     }
 }
+
+/// Every shipped scene as it is shipped (the default sampling where it
+/// says none): the chosen candidate's measured share of edge pixels that
+/// differ from the reference is within its prediction. (The prediction is
+/// the budget's test; every candidate's is printed: `cargo test --test
+/// core_tests planner::shipped_plans -- --ignored --nocapture`.)
+///
+/// Fails today, hence ignored: shallow-target's chosen wide-weak plan
+/// measures 5.2e-5 against a prediction of 8.9e-6 (one pixel, the same for
+/// every candidate and absent with one sample a pixel: the flat target's
+/// cell lines fall on pixel corners, where the adaptive rule's keys are
+/// decided by rounding, which the prediction's `2 · geom` per look does
+/// not cover); the table candidates measure 3.6–37× over theirs
+/// (checkerboard-barrel wide-lut64 0.036 against 0.00099), and the fast
+/// ones 6–11× under theirs.
+#[test]
+#[ignore = "the edge prediction misses aligned cell lines under the adaptive rule and table error; see the doc comment"]
+fn shipped_plans_differ_at_edges_within_their_prediction() {
+    let dir = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
+    for n in [
+        "standard",
+        "checkerboard-barrel",
+        "shallow-target",
+        "calibration-board",
+    ] {
+        let t = std::fs::read_to_string(dir.join(format!("{n}.toml"))).expect("reads");
+        let r = host_sim::scene_file::parse(&t).expect("parses");
+        let scene = r.core_scene().expect("core scene");
+        let budget = Budget::default();
+        let p = plan(&scene, &budget);
+        for (k, c) in p.candidates.iter().enumerate().filter(|(_, c)| c.fits.is_ok()) {
+            let measured = render_candidate(&r, &budget, c)
+                .expect("renders")
+                .edge_pixels_differing_fraction;
+            eprintln!(
+                "{n} {}: measured {measured:.6} predicted {:.6}",
+                c.name(),
+                c.edge_differing
+            );
+            if k == p.chosen {
+                assert!(
+                    measured <= c.edge_differing,
+                    "{n} {}: {measured} against {}",
+                    c.name(),
+                    c.edge_differing
+                );
+            }
+        }
+    }
+}
