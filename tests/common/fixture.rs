@@ -2,7 +2,7 @@
 //! materials, one directional light, no primitives), and a checkered floor.
 
 use host_sim::harness::Metrics;
-use host_sim::scene_file::{parse, Resolved};
+use host_sim::scene_file::Resolved;
 
 /// The base scene (no primitives).
 pub const BASE: &str = r#"
@@ -47,12 +47,8 @@ pub fn try_scene(extra: &str, replace: &[(&str, &str)]) -> Result<Resolved, Stri
         assert!(text.contains(a), "fixture lacks {a:?}");
         text = text.replacen(a, b, 1);
     }
-    // One sample a pixel unless the test asks for a pattern (a scene
-    // without `[sampling]` gets the sensor's 1/8 px default).
-    if !text.contains("[sampling]") {
-        text.push_str("\n[sampling]\nedge_error = 0.5\n");
-    }
-    parse(&text)
+    // One sample a pixel unless the test asks for a pattern.
+    super::parse_point(&text)
 }
 
 /// An infinite checkered floor at y = 0.

@@ -155,7 +155,6 @@ pub fn pixel_in(w: u16, h: u16) -> impl Strategy<Value = (f64, f64)> {
 /// [`host_sim::scene_file::parse`] with one sample a pixel where the text
 /// asks for no pattern: the tests of other stages keep the centre sample (a
 /// scene without `[sampling]` gets the sensor's 1/8 px default).
-#[allow(dead_code)] // not every test binary parses its own scenes
 pub fn parse_point(text: &str) -> Result<host_sim::scene_file::Resolved, String> {
     if text.contains("[sampling]") {
         host_sim::scene_file::parse(text)
