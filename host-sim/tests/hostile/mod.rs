@@ -161,8 +161,8 @@ fn write_scene(dir: &Path, name: &str, text: &str) -> PathBuf {
 }
 
 /// `render` of `text` must fail naming the file and every one of `fields`,
-/// writing nothing.
-fn refused(test: &str, text: &str, fields: &[&str]) {
+/// writing nothing; what ran, for a test's further checks.
+fn refused(test: &str, text: &str, fields: &[&str]) -> Ran {
     let dir = scratch(test);
     let scene = write_scene(&dir, "scene.toml", text);
     let out = dir.join("out");
@@ -193,6 +193,7 @@ fn refused(test: &str, text: &str, fields: &[&str]) {
         "{test}: something was written: {:?}",
         entries(&out)
     );
+    r
 }
 
 /// `host-sim receive --device PTY --out DIR/out EXTRA…` started on a fresh

@@ -118,14 +118,10 @@ fn an_unwritable_out_is_named_before_any_work() {
 fn a_new_run_leaves_no_stale_outputs_of_the_last() {
     let dir = scratch("stale");
     let start = FrameStart {
-        version: PROTOCOL_VERSION,
-        frame_id: 0,
         width: 8,
         height: 2,
-        format: WireFormat::Gray8,
         scene_id: 0,
-        exposure: 1 << 32,
-        truth: Default::default(),
+        ..header(WireFormat::Gray8)
     };
     let out = dir.join("out");
     let replay = |n: u32| {

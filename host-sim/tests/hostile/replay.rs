@@ -9,14 +9,10 @@ use super::*;
 fn replay_memory_is_one_frame_and_losses_fail_it() {
     let dir = scratch("replay");
     let start = FrameStart {
-        version: PROTOCOL_VERSION,
-        frame_id: 0,
         width: 160,
         height: 120,
-        format: WireFormat::Gray16 { bits: 12 },
         scene_id: 0,
-        exposure: 1 << 32,
-        truth: Default::default(),
+        ..header(WireFormat::Gray16 { bits: 12 })
     };
     let base = vec![0x12u8; start.frame_bytes()];
     let peak = |n: u32| {
