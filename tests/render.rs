@@ -607,7 +607,7 @@ fn a_fast_frame_whose_lobe_is_left_out_is_refused() {
 #[test]
 fn carried_corner_keys_change_no_byte() {
     use hilcam::render::{Image, LineLoop};
-    let s = scene("calibration-board").core_scene().expect("valid");
+    let s = scene("checkerboard-barrel").core_scene().expect("valid");
     let p = plan(&s, &Budget::default());
     let frame = Frame::new(&s, &p.options).expect("frame");
     assert_eq!(frame.line_loop(), LineLoop::FastGrayPerspectiveSampled);

@@ -456,7 +456,7 @@ impl Geometry {
     /// The expected fraction of pixels at which a look sees the other side
     /// of one of the cell lines of `p` (a checkered plane, disc or
     /// rectangle), for `looks` a pixel placed within `geom` pixels by
-    /// arithmetic `a`: the mean over the field box of `min(1, looks Σ 2
+    /// arithmetic `a`: the mean over the field box of `min(1, looks Σ
     /// δu/c)`, `δu` a family's coordinate error where the plane is seen and
     /// within the box of a disc's or rectangle's image ([`Cells::seen`],
     /// counted as covered throughout; 0 elsewhere; other primitives in
@@ -472,19 +472,17 @@ impl Geometry {
     /// absolute), on `â·d` (`ε_a`) and where `t` and the coordinate are
     /// stored (`δ`, metres): `δu ≤ (|â·d| ε_t + ε_a)/w + |â·d| ε_w/(|dist|
     /// w²) + (|â·d| + 1/2 + 2⁻⁵) δ` ([`HitError`]). The placement's error
-    /// is a bound of either sign: a look within it of a line may cross it,
-    /// `2 geom |∇u| / c` of the looks. The arithmetic's crosses a line at
-    /// `|δu| / c` of them, and its roundings average half their bounds: the
-    /// estimate takes half of `δu` (on random hits the fast arithmetic's
-    /// averaged 0.26 of `δu`, its largest 0.93, in
-    /// `mix32::tests::a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error`;
-    /// taking the whole bound twice over, as the placement's, sent
-    /// calibration-board, predicted 0.31 % of its pixels against a
-    /// measured 0.008 %, to the wide arithmetic). Toward the horizon (`w →
-    /// 0`) the cells pass a pixel apart and the sum passes 1. `w` is linear in the slopes: the box is
-    /// cut into strips across the axis along which `w` changes more, and
-    /// cells along it; in each cell the coefficients are taken at its
-    /// centre and `min(1, A/w + B/w² + C)` is integrated along that axis in
+    /// moves a look by at most `geom |∇u|` in `u`: it crosses a line that
+    /// passes between its two positions, `geom |∇u| / c` of the looks. The
+    /// arithmetic's crosses a line at `|δu| / c` of them, and its roundings
+    /// average half their bounds: the estimate takes half of `δu` (on random
+    /// hits the fast arithmetic's averaged 0.26 of `δu`, its largest 0.93,
+    /// in `a_hit_s_texture_coordinate_is_within_the_planner_s_hit_error`).
+    /// Toward the horizon (`w → 0`) the cells pass a pixel apart and the sum
+    /// passes 1. `w` is linear in the slopes: the box is cut into strips
+    /// across the axis along which `w` changes more, and cells along it; in
+    /// each cell the coefficients are taken at its centre and
+    /// `min(1, A/w + B/w² + C)` is integrated along that axis in
     /// closed form ([`capped_mean`]).
     // Out of line: planning runs once a frame; keeping it small saves flash.
     #[inline(never)]
@@ -513,10 +511,10 @@ impl Geometry {
         let e = HitError::of(a, self.unit, libm::fabs(dist));
         let (fx, fy) = (self.f_row.max(1e-300), self.f_col.max(1e-300));
         let hyp = |x: f64, y: f64| libm::sqrt(x * x + y * y);
-        // Per look, both families: 2 δu / c for the placement (`geom` a
-        // bound, of either sign), the arithmetic's mean `|δu|` / c (half
-        // its bound) for the hit's.
-        let (k, kh) = (2.0 * looks / cell, 0.5 * looks / cell);
+        // Per look, both families: δu / c for the placement (`geom` a
+        // bound on the move), the arithmetic's mean `|δu|` / c (half its
+        // bound) for the hit's.
+        let (k, kh) = (looks / cell, 0.5 * looks / cell);
         let alpha = k * geom * (hyp(a_u[0] / fx, a_u[1] / fy) + hyp(a_v[0] / fx, a_v[1] / fy));
         let beta = (k * geom * hyp(n[0] / fx, n[1] / fy) + kh * e.w) / libm::fabs(dist);
         // `w = w0 + wx x̂ + wy ŷ`; `s` runs along the axis of the larger

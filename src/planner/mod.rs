@@ -156,14 +156,16 @@ pub struct Candidate {
     /// its bound on the sum and, with noise, on `σ z` (`noise_moved`).
     pub mean_lsb: f64,
     /// Predicted fraction of all pixels that are edge pixels whose value
-    /// differs from the reference's: a look (sample, corner, centre)
-    /// within the geometric error of an edge can see the other side. The
-    /// expected count, not a bound: edge length per pixel area
-    /// (`edge_fraction`'s estimate) × 2 × `geom_err_px` × looks per pixel
-    /// area (`n²`, with the adaptive rule `+ 5`: a corner decides for four
-    /// pixels, the centre for one); a checkered plane's cells integrated
-    /// over the field instead, with the arithmetic's error in the texture
-    /// coordinate (`Geometry::cells_differing`).
+    /// differs from the reference's: a look (sample, corner, centre) moved
+    /// by `e` off the reference's sees the other side of an edge when the
+    /// edge passes between the two, a strip `|e·n̂| ≤ geom_err_px` wide on
+    /// one side of the look. The expected count over where edges fall, not a
+    /// bound: edge length per pixel area (`edge_fraction`'s estimate) ×
+    /// `geom_err_px` × looks per pixel area (`n²`, with the adaptive rule
+    /// `+ 5`: a corner decides for four pixels, the centre for one); a
+    /// checkered plane's cells integrated over the field instead, with the
+    /// arithmetic's error in the texture coordinate
+    /// (`Geometry::cells_differing`).
     pub edge_differing: f64,
 }
 

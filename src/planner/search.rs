@@ -263,7 +263,7 @@ pub(super) fn model_candidates(
                 m3_instructions_per_pixel: cost,
                 closed_mean,
                 mean_lsb,
-                edge_differing: (edge_looks * 2.0 * geom + cells(arithmetic, geom)).min(1.0),
+                edge_differing: (edge_looks * geom + cells(arithmetic, geom)).min(1.0),
             });
         }
     }
