@@ -270,8 +270,9 @@ fn options_literal(o: &hilcam::render::Options) -> String {
     };
     format!(
         "Options {{ model: {model}, lut_entries: {}, distortion_eval: DistortionEval::{:?}, keep_all_stages: {}, \
-         arithmetic: Arithmetic::{:?}, samples: {}, adaptive: {}, aperture: {}, closed_mean: hilcam::render::ClosedMean::{:?} }}",
-        o.lut_entries, o.distortion_eval, o.keep_all_stages, o.arithmetic, o.samples, o.adaptive, o.aperture,
-        o.closed_mean
+         arithmetic: Arithmetic::{:?}, relative_illumination: {}, samples: {}, adaptive: {}, aperture: {}, \
+         closed_mean: hilcam::render::ClosedMean::{:?} }}",
+        o.lut_entries, o.distortion_eval, o.keep_all_stages, o.arithmetic, o.relative_illumination, o.samples,
+        o.adaptive, o.aperture, o.closed_mean
     )
 }

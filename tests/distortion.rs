@@ -188,3 +188,47 @@ fn distortion_rejects_bad_coefficients() {
     let d = Distortion::new(-0.5, 0.0).expect("ok");
     assert!((d.fold_u().expect("folds").to_num::<f64>() - 2.0 / 3.0).abs() < 1e-12);
 }
+
+/// The relative illumination (camera-model.md §5): the reference's area
+/// factor `J` is the area the undistortion maps a small distorted square
+/// to over the square's (the shoelace area of its four corners' images,
+/// side 2⁻¹², within the fold) — the contract's definition, measured on
+/// the mapping, not its formula — and the core's `J` in I32F32 is the
+/// reference's within 10⁻⁶ relative.
+#[test]
+fn the_area_factor_is_the_area_the_mapping_gathers() {
+    let strategy = (ks(), 0.0f64..0.95, -std::f64::consts::PI..std::f64::consts::PI);
+    check(strategy, |((k1, k2), frac, angle)| {
+        let d = Distortion::new(k1, k2).expect("in range");
+        let r = radial(&d);
+        let rd = frac * r.fold_u().map_or(2.0, f64::sqrt);
+        let (xd, yd) = (rd * angle.cos(), rd * angle.sin());
+        let h = 1.0 / 8192.0;
+        let corners = [(-h, -h), (h, -h), (h, h), (-h, h)].map(|(a, b)| r.undistort(xd + a, yd + b));
+        let Some(p) = corners.iter().copied().collect::<Option<Vec<_>>>() else {
+            return Ok(());
+        };
+        let area: f64 = (0..4)
+            .map(|i| {
+                let (a, b) = (p[i], p[(i + 1) % 4]);
+                a.0 * b.1 - b.0 * a.1
+            })
+            .sum::<f64>()
+            / 2.0;
+        let j = r.area_factor(xd, yd);
+        let measured = area / (4.0 * h * h);
+        prop_assert!(
+            (measured - j).abs() <= 1e-5 * j.abs().max(1.0),
+            "J {j} against the mapped area {measured} at ({xd}, {yd})"
+        );
+        let q = |v: f64| I32F32::from_num(v);
+        let (c1, c2) = d.coefficients();
+        let k = [q(c1.to_num()), q(c2.to_num())];
+        let core = hilcam::render::vignetting::area_factor(q(xd), q(yd), k).to_num::<f64>();
+        prop_assert!(
+            (core - j).abs() <= 1e-6 * j.abs().max(1.0),
+            "core J {core} against {j}"
+        );
+        Ok(())
+    });
+}

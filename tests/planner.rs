@@ -824,6 +824,7 @@ fn render_candidate(
             o.lut_entries = c.lut_entries;
         }
         o.closed_mean = c.closed_mean;
+        o.relative_illumination = c.relative_illumination;
         o
     })?;
     Ok(out.metrics)
@@ -1258,4 +1259,54 @@ fn shipped_plans_differ_at_edges_within_their_prediction() {
             c.edge_differing
         );
     }
+}
+
+/// The distortion's relative illumination (camera-model.md §5) is left
+/// out where `|J − 1| DN_max` keeps the LSB budget and a tenth of the edge
+/// budget, and rendered where it does not: the standard scene with its
+/// lens scaled by `s`, gray8 (a barrel of k1 = 0.15 s, k2 = 0.05 s). Each
+/// plan measured against the reference keeps its predicted LSB and edge
+/// share; the weakest lens leaves it out.
+#[test]
+fn relative_illumination_is_left_out_only_within_the_budget() {
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/standard.toml")).expect("reads");
+    let budget = Budget::default();
+    let mut seen = [false; 2];
+    assert!(text.contains("distortion = [0.15, 0.05]"), "the scene's lens");
+    for s in [1.0, 1e-3, 1e-7] {
+        let t = text.replace(
+            "distortion = [0.15, 0.05]",
+            &format!("distortion = [{}, {}]", 0.15 * s, 0.05 * s),
+        );
+        let r = host_sim::scene_file::parse(&t).expect("parses");
+        let scene = r.core_scene().expect("core scene");
+        let p = plan(&scene, &budget);
+        let on = p.options.relative_illumination;
+        seen[usize::from(on)] = true;
+        let m = render_skipping_stage_errors(&r, &budget)
+            .expect("renders")
+            .metrics;
+        assert!(
+            m.stages.iter().any(|n| n == "relative-illumination") == on,
+            "scale {s}: {:?}",
+            m.stages
+        );
+        assert!(
+            m.max_abs_lsb_smooth as f64 <= p.predicted_lsb.floor() + 1.0
+                && m.max_abs_lsb_smooth as f64 <= budget.max_lsb,
+            "scale {s} (J {}): smooth pixels {} LSB off, predicted {}",
+            if on { "on" } else { "off" },
+            m.max_abs_lsb_smooth,
+            p.predicted_lsb
+        );
+        assert!(
+            m.edge_pixels_differing_fraction <= p.candidates[p.chosen].edge_differing,
+            "scale {s}: {} of the pixels differ at edges, predicted {}",
+            m.edge_pixels_differing_fraction,
+            p.candidates[p.chosen].edge_differing
+        );
+        assert_eq!(on, s > 1e-6, "scale {s}");
+    }
+    assert_eq!(seen, [true, true]);
 }

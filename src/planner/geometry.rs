@@ -36,6 +36,11 @@ pub(super) struct Geometry {
     /// Largest `g` and `|k1| + |k2| u` over `[0, u_max]`.
     pub(super) g_max: f64,
     pub(super) s_max: f64,
+    /// Largest `g + 2u g'` (the area factor's, camera-model.md §5).
+    pub(super) h_max: f64,
+    /// Largest `|J − 1|` of the area factor over the field (0 without
+    /// distortion).
+    pub(super) area_dev: f64,
     /// Largest |undistorted slope|.
     pub(super) slope: f64,
     /// Parallel rays' origin scale, metres (`None`: perspective).
@@ -620,7 +625,7 @@ impl Geometry {
         if self.slope_d[0].max(self.slope_d[1]) >= 31.0 || self.slope + shift > 15.9 {
             return Err(Unfit::FieldTooWide);
         }
-        if !scene.distortion.is_none() && (self.s_max >= 7.9 || self.g_max >= 7.9) {
+        if !scene.distortion.is_none() && (self.s_max >= 7.9 || self.g_max >= 7.9 || self.h_max >= 7.9) {
             return Err(Unfit::Distortion);
         }
         if let Some(k) = self.origin_scale {

@@ -26,6 +26,12 @@
 //!   error of an edge may see the other side, so the fast arithmetic's
 //!   larger error weighs with the sample count (an 8×8 grid of a fine
 //!   checkerboard goes to the wide one).
+//! - **Relative illumination.** With distortion, irradiance is times its
+//!   area factor `J` (camera-model.md §5); left out where `|J − 1| DN_max`
+//!   over the field, added to the LSB error, keeps the budget and stays
+//!   within a tenth of the edge budget (a value moved by `δ` LSB rounds the
+//!   other way in up to `δ` of the pixels; added to `edge_differing`)
+//!   ([`Candidate::relative_illumination`]).
 //! - **Cost** ([`CostModel`]): M3 instructions a pixel, linear in the
 //!   scene's features (primitives by kind, their sampled screen coverage,
 //!   lights per shaded pixel, the lobe per pixel that sees it, distortion,
@@ -96,7 +102,8 @@ pub enum Unfit {
     /// A sphere, disc radius or checker cell below 2⁻¹⁰ of the frame's
     /// length unit (the content's extent / 8).
     TooSmall,
-    /// The distortion factor `g` or `k1 + k2 u` leaves ±8 over the sensor.
+    /// The distortion factor `g`, `k1 + k2 u` or the area factor's `g + 2u g'`
+    /// leaves ±8 over the sensor.
     Distortion,
     /// A distorted slope of 32 or more, or an undistorted one beyond 16.
     FieldTooWide,
@@ -152,6 +159,11 @@ pub struct Candidate {
     /// How the closed plane's rays between those shaded take interpolated
     /// sums (`Options::closed_mean`; its bound is in `lsb`).
     pub closed_mean: ClosedMean,
+    /// Whether the distortion's area factor is rendered
+    /// ([`crate::render::Options::relative_illumination`]): left out where
+    /// `|J − 1| DN_max` keeps the LSB budget and a tenth of the edge budget
+    /// (it is then in `lsb` and `edge_differing`).
+    pub relative_illumination: bool,
     /// What the mean alone moves a value by at most, LSB (0 without it):
     /// its bound on the sum and, with noise, on `σ z` (`noise_moved`).
     pub mean_lsb: f64,

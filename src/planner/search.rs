@@ -127,6 +127,7 @@ pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan 
         lsb: f64::INFINITY,
         m3_instructions_per_pixel: f64::INFINITY,
         closed_mean: ClosedMean::Off,
+        relative_illumination: true,
         mean_lsb: 0.0,
         edge_differing: 1.0,
     });
@@ -142,6 +143,7 @@ pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan 
     let meets = c.meets(budget) && (!wp_used || wp.is_some_and(|(e, _)| e <= half));
     let mut options = Options::new(model, c.lut_entries.max(2));
     options.closed_mean = c.closed_mean;
+    options.relative_illumination = c.relative_illumination;
     options.distortion_eval = c.distortion.unwrap_or(DistortionEval::Polynomial);
     options.arithmetic = c.arithmetic;
     options.samples = samples;
@@ -241,6 +243,19 @@ pub(super) fn model_candidates(
         let (closed_mean, (moved, mean_lsb)) =
             mean.unwrap_or_else(|| (ClosedMean::Off, (noise_moved(scene, g, lsb), 0.0)));
         let lsb = moved + noise_draw_lsb(scene, g);
+        // The distortion's area factor (camera-model.md §5) left out where
+        // what that moves a value, at most `|J − 1| DN_max`, keeps the LSB
+        // budget and a tenth of the edge budget: a value moved by `δ` LSB
+        // rounds the other way in up to `δ` of the pixels (of which the
+        // edge pixels count).
+        let omit = g.area_dev * g.dn_max;
+        let relative_illumination =
+            omit > 0.0 && (lsb + omit + 0.5 > budget.max_lsb || omit > 0.1 * budget.max_edge_differing);
+        let (lsb, flips) = if relative_illumination {
+            (lsb, 0.0)
+        } else {
+            (lsb + omit, omit)
+        };
         for (distortion, entries) in evals {
             let geom = match distortion {
                 Some(DistortionEval::Linear) | Some(DistortionEval::Nearest) => {
@@ -262,8 +277,9 @@ pub(super) fn model_candidates(
                 lsb,
                 m3_instructions_per_pixel: cost,
                 closed_mean,
+                relative_illumination,
                 mean_lsb,
-                edge_differing: (edge_looks * geom + cells(arithmetic, geom)).min(1.0),
+                edge_differing: (edge_looks * geom + cells(arithmetic, geom) + flips).min(1.0),
             });
         }
     }

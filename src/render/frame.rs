@@ -214,6 +214,7 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
             dy: p.dy,
             distortion: p.distortion.map(|d| (d.k, d.limit)),
             vignetting: p.stages.vignetting,
+            relative_illumination: p.stages.relative_illumination,
             origin_scale: p.origin_scale,
             specular_all: opts.keep_all_stages,
             scene,

@@ -249,6 +249,10 @@ pub struct Options {
     pub keep_all_stages: bool,
     /// The per-pixel arithmetic.
     pub arithmetic: Arithmetic,
+    /// With distortion, its relative illumination (the area factor `J`,
+    /// camera-model.md §5; [`crate::render::vignetting::area_factor`]):
+    /// the planner leaves it out where `J` stays within the LSB budget.
+    pub relative_illumination: bool,
     /// Pixel-area integration: the side `n` of the `n×n` sample grid
     /// ([`crate::render::sensor::sampling`]; 1, 2, 4, 8 or 16; 1 is the centre alone).
     pub samples: u8,
@@ -392,6 +396,7 @@ impl Options {
             distortion_eval: DistortionEval::Linear,
             keep_all_stages: false,
             arithmetic: Arithmetic::Wide,
+            relative_illumination: true,
             samples: 1,
             adaptive: false,
             aperture: 0,
@@ -597,6 +602,8 @@ pub struct Stages {
     pub distortion_lut: Option<usize>,
     /// cos⁴ fall-off.
     pub vignetting: bool,
+    /// The distortion's area factor `J` (its relative illumination).
+    pub relative_illumination: bool,
     /// Specular lobe.
     pub specular: bool,
     /// Output format.
@@ -620,6 +627,7 @@ impl Stages {
         distortion: None,
         distortion_lut: None,
         vignetting: false,
+        relative_illumination: false,
         specular: false,
         format: PixelFormat::Gray8,
         arithmetic: Arithmetic::Wide,
@@ -630,7 +638,7 @@ impl Stages {
     };
 
     /// Stage names, in pipeline order.
-    pub fn names(&self) -> heapless::Vec<&'static str, 12> {
+    pub fn names(&self) -> heapless::Vec<&'static str, 13> {
         let mut v = heapless::Vec::new();
         let _ = v.push(match self.arithmetic {
             Arithmetic::Fast => "arithmetic:fast",
@@ -672,6 +680,9 @@ impl Stages {
         }
         if self.vignetting {
             let _ = v.push("vignetting:cos4");
+        }
+        if self.relative_illumination {
+            let _ = v.push("relative-illumination");
         }
         if self.noise {
             let _ = v.push("noise:emva1288");

@@ -203,6 +203,7 @@ impl Prepared {
             distortion: None,
             distortion_lut: None,
             vignetting: !matches!(opts.model, RenderModel::Orthographic { .. }),
+            relative_illumination: false,
             specular: scene.has_specular() || opts.keep_all_stages,
             format: scene.format,
             arithmetic: opts.arithmetic,
@@ -241,6 +242,7 @@ impl Prepared {
                 _ => (u_corner, Q::MAX),
             };
             stages.distortion = Some(opts.distortion_eval);
+            stages.relative_illumination = opts.relative_illumination;
             let (k1, k2) = dist.coefficients();
             let k = [k1, k2].map(Q::saturating_from_num);
             distortion = Some(Poly { k, limit, u_max });

@@ -2,7 +2,8 @@
 //! [`Scalar`] (I32F32 by default).
 //!
 //! `E = L π/4 (d/f)² cos⁴α`, `cos⁴α = 1 / (1 + x̂² + ŷ²)²` for the
-//! undistorted normalized point (no root, no trigonometry);
+//! undistorted normalized point (no root, no trigonometry), times the
+//! distortion's area factor `J` where there is distortion ([`area_factor`]);
 //! `DN = min(DN_max, floor(K E + 1/2))`. Telecentric (orthographic) cameras
 //! have no `cos⁴` fall-off: the renderer leaves the stage out.
 
@@ -23,6 +24,21 @@ pub fn cos4<S: Scalar>(x: S, y: S) -> S {
 #[inline(always)]
 pub(crate) fn cos4_of<S: Scalar>(a: S) -> S {
     S::ONE.div(a.mul(a)).unwrap_or(S::ZERO)
+}
+
+/// The relative illumination under radial distortion (camera-model.md §5):
+/// the area factor `J = g (g + 2u g')` of the distorted slopes `(x̂_d,
+/// ŷ_d)`, `u = x̂_d² + ŷ_d²`, `g = 1 + k1 u + k2 u²`, `g' = k1 + 2 k2 u`.
+/// Irradiance is `E(x̂, ŷ) · J`: barrel corners (`J > 1`) gather the light
+/// of a larger undistorted area.
+#[inline(always)]
+pub fn area_factor<S: Scalar>(xd: S, yd: S, [k1, k2]: [S; 2]) -> S {
+    let u = xd.mul(xd).add(yd.mul(yd));
+    let k2u = u.mul(k2);
+    let g = S::ONE.add(u.mul(k1.add(k2u)));
+    let dg = k1.add(k2u).add(k2u);
+    let ug = u.mul(dg);
+    g.mul(g.add(ug).add(ug))
 }
 
 /// The per-frame gain `K π/4 (d/f)² · num/den`: DN per unit radiance on the

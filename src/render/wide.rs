@@ -32,7 +32,8 @@ pub(crate) struct WideFrame<S: Scalar, const T: usize> {
     pub(crate) lut: Option<Lut<T>>,
     /// [`Lut::scale`] in `S`.
     pub(crate) lut_scale: S,
-    /// `k1`, `k2` for [`DistortionEval::Polynomial`].
+    /// `k1`, `k2`: [`DistortionEval::Polynomial`]'s, and the relative
+    /// illumination's under any evaluation.
     pub(crate) poly: [S; 2],
     /// `u = r_d²` beyond which a pixel is outside the lens field.
     pub(crate) limit: S,
@@ -188,9 +189,8 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     #[inline(always)]
     fn distortion(&mut self, d: &Poly, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
         self.limit = S::from_q(d.limit);
-        if opts.distortion_eval == DistortionEval::Polynomial {
-            self.poly = d.k.map(S::from_q);
-        } else {
+        self.poly = d.k.map(S::from_q);
+        if opts.distortion_eval != DistortionEval::Polynomial {
             if opts.lut_entries.clamp(2, MAX_LUT) > T {
                 return Err(RenderError::TableTooLarge);
             }
@@ -419,6 +419,14 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             (false, _) => S::ONE,
             (true, true) => vignetting::cos4_of(a),
             (true, false) => vignetting::cos4(x, y),
+        };
+        // Distortion spreads or gathers the light (§5): times its area
+        // factor at the distorted slopes.
+        let cos4 = if self.stages.relative_illumination {
+            let (xd, yd) = (S::from_q(from_acc(xacc)), S::from_q(from_acc(yacc)));
+            cos4.mul(vignetting::area_factor(xd, yd, self.poly))
+        } else {
+            cos4
         };
         let mut e = [S::ZERO; 3];
         for ((dst, l), g) in e

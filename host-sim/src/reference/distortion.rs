@@ -38,6 +38,18 @@ impl Radial {
             .fold(None, |m, u| Some(m.map_or(u, |m: f64| m.min(u))))
     }
 
+    /// The relative illumination at distorted `(x̂_d, ŷ_d)` (camera-model.md
+    /// §5): `J = det ∂(x̂, ŷ)/∂(x̂_d, ŷ_d)`, the undistorted area a unit of
+    /// distorted area receives the flux of. From the mapping's partial
+    /// derivatives, `∂x̂/∂x̂_d = g + 2 x̂_d² g'`, `∂x̂/∂ŷ_d = ∂ŷ/∂x̂_d =
+    /// 2 x̂_d ŷ_d g'`, `∂ŷ/∂ŷ_d = g + 2 ŷ_d² g'` (`g' = dg/du`).
+    pub fn area_factor(&self, xd: f64, yd: f64) -> f64 {
+        let u = xd * xd + yd * yd;
+        let (g, dg) = (self.g(u), self.k1 + 2.0 * self.k2 * u);
+        let (a, b, d) = (g + 2.0 * xd * xd * dg, 2.0 * xd * yd * dg, g + 2.0 * yd * yd * dg);
+        a * d - b * b
+    }
+
     /// Distorted → undistorted; `None` beyond the fold.
     pub fn undistort(&self, xd: f64, yd: f64) -> Option<(f64, f64)> {
         let u = xd * xd + yd * yd;

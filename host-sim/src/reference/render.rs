@@ -530,9 +530,18 @@ impl RefScene {
             let (o, d) = self.ray(x, y);
             self.radiance(o, d)
         };
+        // §5: cos⁴α of the undistorted point (none for a telecentric
+        // camera), times the distortion's area factor where there is one.
         let cos4 = match self.model {
             RefModel::Orthographic(_) => 1.0,
             RefModel::Perspective => vignetting::cos4(x, y),
+        };
+        let cos4 = match self.radial {
+            Some(r) => {
+                let (xd, yd) = self.sensor.pixel_to_normalized(xi, yi);
+                cos4 * r.area_factor(xd, yd)
+            }
+            None => cos4,
         };
         let mut v = [0.0; 3];
         for (c, v) in v.iter_mut().enumerate().take(self.format.channels()) {

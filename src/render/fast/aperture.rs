@@ -212,11 +212,13 @@ impl Mix32 {
             for ((q, r), s) in chief.iter_mut().enumerate().zip(sums.iter_mut()) {
                 let xd = (acc >> 32) as i32;
                 acc -= self.dx;
-                let Some((x, y)) = self.undistort(xd, yd, yd2) else {
+                let Some((x, y, j)) = self.undistort_j(xd, yd, yd2) else {
                     *r = Ray::OUTSIDE;
                     continue;
                 };
-                *r = Ray::new::<true>(x, y, 0).with_c4(KEEP_C4_SAMPLED && self.vignetting);
+                *r = Ray::new::<true>(x, y, 0)
+                    .with_c4((KEEP_C4_SAMPLED || self.area.is_some()) && self.vignetting)
+                    .with_area(self.area.is_some(), j);
                 let through = if self.uniform_on {
                     self.uniform(&ap, r)
                 } else {

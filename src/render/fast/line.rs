@@ -10,7 +10,7 @@ use super::expose::{noisy, store, vignette_dn, vignette_dn_lo, word};
 use super::intersect::{fine_normal, moved_point, MixPrim, MixShape};
 #[cfg(target_arch = "x86_64")]
 use super::rays::fill_lanes;
-use super::rays::{cos4, fill_rays, undistort_k, ChunkBufs, Key, Ray, AWAY, CHUNK, NO_HIT};
+use super::rays::{cos4, fill_rays, undistort_k, undistort_kj, ChunkBufs, Key, Ray, AWAY, CHUNK, NO_HIT};
 use super::shade::{directional_w, dot30, lobe_pf, KCache};
 use super::{chans, each, lobe_built, Carry, Hit, Mix32, MixLight};
 use crate::render::{LineLoop, Lines, FLAG_OUTSIDE_FIELD};
@@ -210,7 +210,14 @@ impl Mix32 {
                     #[cfg(target_arch = "x86_64")]
                     () if LANES && PERSP => {
                         let u = (self.k, self.limit);
-                        fill_lanes(rays, &mut acc, self.dx, (yd, yd2), u, self.vignetting)
+                        fill_lanes(
+                            rays,
+                            &mut acc,
+                            self.dx,
+                            (yd, yd2),
+                            u,
+                            (self.vignetting, self.area),
+                        )
                     }
                     () => self.rays::<PERSP>(
                         rays,
@@ -267,8 +274,9 @@ impl Mix32 {
 
     /// [`fill_rays`] of a row of slopes (`ŷ_d` fixed) with this frame's
     /// undistortion (a frame without distortion has a loop without its
-    /// test). With `keep_c4`, each ray's `cos⁴α` ([`Ray::c4`], for
-    /// [`Mix32::c4`]); without `ra`, on the M0, perspective rays without
+    /// test). With `keep_c4`, each ray's `cos⁴α` times the distortion's
+    /// area factor ([`Ray::c4`], for [`Mix32::c4`]; a distorted frame's
+    /// shaded rays keep it in every loop); without `ra`, on the M0, perspective rays without
     /// their `1/a` ([`Ray::flat`]: rays that are not shaded, in a frame
     /// without a sphere).
     #[inline(always)]
@@ -281,6 +289,7 @@ impl Mix32 {
     ) -> ([i32; 2], bool) {
         let korigin = self.parallel.unwrap_or(0);
         let vignette = keep_c4 && self.vignetting;
+        let area = self.area.filter(|_| keep_c4);
         // (Not in the M0's `compact` build: the flash it takes there is worth
         // more than the little it saves.)
         let mono = !M0_COMPACT;
@@ -292,18 +301,22 @@ impl Mix32 {
                 korigin,
                 xd,
                 row,
-                |xd, yd, yd2| undistort_k(k, self.limit, xd, yd, yd2),
-                (vignette, ra, mono && k[0] >= 0 && k[1] >= 0, || {
-                    undistort_k(k, self.limit, 0, row.0, row.1).map(|(_, y)| y)
-                }),
+                |xd, yd, yd2| undistort_kj(k, self.limit, (xd, yd, yd2), area),
+                (
+                    vignette,
+                    area.is_some(),
+                    ra,
+                    mono && k[0] >= 0 && k[1] >= 0,
+                    || undistort_k(k, self.limit, 0, row.0, row.1).map(|(_, y)| y),
+                ),
             ),
             None => fill_rays::<PERSP>(
                 rays,
                 korigin,
                 xd,
                 row,
-                |xd, yd, _| Some((xd, yd)),
-                (vignette, ra, mono, || Some(row.0)),
+                |xd, yd, _| Some((xd, yd, 1 << 31)),
+                (vignette, false, ra, mono, || Some(row.0)),
             ),
         }
     }
@@ -481,14 +494,17 @@ impl Mix32 {
         }
     }
 
-    /// A shaded ray's `cos⁴α` (S31): if `KEPT` (always in the one-sample
-    /// loop, [`KEEP_C4_SAMPLED`] in the others), as [`fill_rays`] set it.
+    /// A shaded ray's `cos⁴α` (S31, times the distortion's area factor over
+    /// `2^e`): if `KEPT` (always in the one-sample loop, [`KEEP_C4_SAMPLED`]
+    /// in the others) or the frame is distorted, as [`fill_rays`] set it.
     #[inline(always)]
     pub(super) fn c4<const KEPT: bool>(&self, r: &Ray) -> u32 {
         if KEPT {
             r.c4
-        } else if self.vignetting {
+        } else if self.cos4_of_ra {
             cos4(r.ra)
+        } else if self.area.is_some() {
+            r.c4
         } else {
             1 << 31
         }

@@ -370,6 +370,15 @@ pub struct Mix32 {
     dy: i128,
     /// `k1`, `k2` (S28) if distortion is modelled; `u` limit (S20).
     k: Option<[i32; 2]>,
+    /// With distortion, the `e` of `2^e`, a bound of its area factor `J`
+    /// over the field (camera-model.md §5): the gain carries `2^e` and a
+    /// shaded ray's [`Ray::c4`] `J/2^e` ([`undistort_kj`]), so that
+    /// `cos⁴α J/2^e` keeps `cos⁴α`'s S31.
+    area: Option<u32>,
+    /// A loop that does not keep [`Ray::c4`] computes `cos⁴α` from the
+    /// ray's `1/a` ([`Mix32::c4`]): the frame vignettes and is not
+    /// distorted (a distorted frame's shaded rays keep it, with `J`).
+    cos4_of_ra: bool,
     limit: i32,
     /// How far (S26) a chunk's `x̂` may lie beyond the row's ends
     /// ([`Mix32::passes`]): twice `undistort`'s rounding.
@@ -431,6 +440,8 @@ pub(crate) struct Input<'a> {
     /// `k1`, `k2` and the `u` limit, if distortion is modelled (polynomial).
     pub distortion: Option<([Q; 2], Q)>,
     pub vignetting: bool,
+    /// The distortion's area factor ([`Mix32::area`]).
+    pub relative_illumination: bool,
     /// Parallel rays' origin scale (`Z̄` or `f/m`, metres), or `None` for
     /// perspective rays.
     pub origin_scale: Option<Q>,

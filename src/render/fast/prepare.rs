@@ -5,7 +5,7 @@
 use super::aperture::aperture_terms;
 use super::arith::{isqrt_q, len_s, recip_len, recip_z, sat32, shl_q, unit_s30, wmul, zip3, Pf};
 use super::intersect::{Inner, MixChecker, MixPrim, MixShape};
-use super::rays::undistort_k;
+use super::rays::{undistort_k, undistort_kj};
 use super::shade::lobe_below;
 use super::{Aperture, Input, Mix32, MixLight, ALONG_S42};
 use crate::num::{div_q, from_acc, mul_sat};
@@ -182,16 +182,17 @@ fn frame_unit(f: &Input) -> Result<(Q, i32, (Q, Q)), RenderError> {
 }
 
 /// The frame's slopes in the fast formats: the distortion polynomial's
-/// coefficients (S28), the `u` limit, the slope box's margin and the
-/// parallel rays' origin scale (S24 U); refused where the slopes, `g` or
-/// the origins leave their formats.
+/// coefficients (S28), the `u` limit, the slope box's margin, the
+/// parallel rays' origin scale (S24 U) and, with distortion, the `e` of
+/// the `2^e` that bounds its area factor ([`Mix32::area`]); refused where
+/// the slopes, `g`, `g + 2u g'` or the origins leave their formats.
 #[inline(always)]
 #[allow(clippy::type_complexity)]
 fn fast_slopes(
     f: &Input,
     e: i32,
     (ap_r, ap_z): (Q, Q),
-) -> Result<(Option<[i32; 2]>, i32, i32, Option<i32>), RenderError> {
+) -> Result<(Option<[i32; 2]>, i32, i32, Option<i32>, Option<u32>), RenderError> {
     let bad = RenderError::OutsideFormat;
     // Slopes: |x̂_d|, |ŷ_d| < 32 at the corners (they are monotonic in
     // the pixel index), |g| < 8 and |x̂|, |ŷ| ≤ 16.
@@ -205,15 +206,23 @@ fn fast_slopes(
     if xm.saturating_add(step) >= Q::from_num(32) || ym >= Q::from_num(32) {
         return Err(bad);
     }
-    let (k, limit, gmax, margin) = match f.distortion {
+    let (k, limit, gmax, margin, area) = match f.distortion {
         Some(([k1, k2], limit)) => {
             let u_corner = mul_sat(xm, xm).saturating_add(mul_sat(ym, ym));
             let u_max = u_corner.min(limit);
             let s = k1.abs().saturating_add(mul_sat(k2.abs(), u_max));
             let g = Q::ONE.saturating_add(mul_sat(s, u_max));
-            if s >= Q::from_num(8) || g >= Q::from_num(8) {
+            // The area factor's `h = g + 2u g'`, `g' = k1 + 2 k2 u`, and
+            // `J = g h`, bounded over the field by the coefficients'
+            // magnitudes (a margin of 2⁻⁸ for the rounding); `2^e ≥ J`.
+            let dg = s.saturating_add(mul_sat(k2.abs(), u_max));
+            let h = g.saturating_add(mul_sat(dg, u_max).saturating_mul_int(2));
+            if s >= Q::from_num(8) || g >= Q::from_num(8) || h >= Q::from_num(8) {
                 return Err(bad);
             }
+            let jb = mul_sat(g, h).saturating_add(Q::from_bits(1 << 24));
+            let area = (jb.to_bits() - 1).max(0) as u64;
+            let area = (64 - area.leading_zeros()).saturating_sub(32);
             let s28 = |q: Q| sat32(q.to_bits() >> 4);
             // `undistort`'s x̂ within E units of S26 of the polynomial of
             // the exact k1, k2 (monotone in the field): g to 2⁻²⁸ (1 + u)²
@@ -228,9 +237,15 @@ fn fast_slopes(
                 .saturating_mul_int(2)
                 .saturating_ceil()
                 .saturating_to_num::<i32>();
-            (Some([s28(k1), s28(k2)]), sat32(limit.to_bits() >> 12), g, margin)
+            (
+                Some([s28(k1), s28(k2)]),
+                sat32(limit.to_bits() >> 12),
+                g,
+                margin,
+                f.relative_illumination.then_some(area),
+            )
         }
-        None => (None, i32::MAX, Q::ONE, 2),
+        None => (None, i32::MAX, Q::ONE, 2, None),
     };
     // (Aperture rays' slopes are the chief ray's shifted by up to d/(2Z̃):
     // d/2 ≤ (16 − slope) Z̃.)
@@ -250,7 +265,7 @@ fn fast_slopes(
             Some(k24)
         }
     };
-    Ok((k, limit, margin, parallel))
+    Ok((k, limit, margin, parallel, area))
 }
 
 impl Mix32 {
@@ -263,6 +278,8 @@ impl Mix32 {
         y0: 0,
         dy: 0,
         k: None,
+        area: None,
+        cos4_of_ra: false,
         limit: 0,
         box_margin: 0,
         vignetting: false,
@@ -293,8 +310,8 @@ impl Mix32 {
         let (z0, e, ap) = frame_unit(f)?;
         self.fill_prims(f, z0, e, ap)?;
         self.fill_lights(f, z0, e);
-        self.fill_materials(f);
-        let (k, limit, margin, parallel) = fast_slopes(f, e, ap)?;
+        let (k, limit, margin, parallel, area) = fast_slopes(f, e, ap)?;
+        self.fill_materials(f, area.unwrap_or(0));
         self.parallel = parallel;
         self.width = f.width;
         self.format = f.format;
@@ -303,9 +320,11 @@ impl Mix32 {
         self.y0 = f.y0;
         self.dy = f.dy;
         self.k = k;
+        self.area = area;
         self.limit = limit;
         self.box_margin = margin.max(2);
         self.vignetting = f.vignetting;
+        self.cos4_of_ra = f.vignetting && area.is_none();
         self.noise_spec = f.scene.noise;
         if !matches!(f.samples, 1 | 2 | 4 | 8 | 16) {
             return Err(RenderError::Degenerate);
@@ -515,11 +534,14 @@ impl Mix32 {
         }
     }
 
-    /// The materials' constants times the exposure's gain (and the
-    /// background's), and which spheres take the fine normal.
+    /// The materials' constants times the exposure's gain times `2^area`
+    /// (the bound of the distortion's area factor, [`Mix32::area`]) (and
+    /// the background's), and which spheres take the fine normal.
     #[inline(always)]
-    fn fill_materials(&mut self, f: &Input) {
-        let gain = f.gain.map(Pf::of_q);
+    fn fill_materials(&mut self, f: &Input, area: u32) {
+        let gain = f
+            .gain
+            .map(|g| Pf::new(g.to_bits().max(0) as u64, area as i32 - 32));
         self.kd = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
         self.ka = [[0u64; 3]; crate::scene::MAX_MATERIALS];
         self.ks = [[Pf::default(); 3]; crate::scene::MAX_MATERIALS];
@@ -585,6 +607,16 @@ impl Mix32 {
         match self.k {
             Some(k) => undistort_k(k, self.limit, xd, yd, yd2),
             None => Some((xd, yd)),
+        }
+    }
+
+    /// [`Mix32::undistort`] with the distortion's area factor over `2^e`
+    /// (S31, [`undistort_kj`]; 1 without distortion).
+    #[inline(always)]
+    pub(super) fn undistort_j(&self, xd: i32, yd: i32, yd2: i64) -> Option<(i32, i32, u32)> {
+        match self.k {
+            Some(k) => undistort_kj(k, self.limit, (xd, yd, yd2), self.area),
+            None => Some((xd, yd, 1 << 31)),
         }
     }
 

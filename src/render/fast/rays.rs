@@ -168,6 +168,16 @@ impl Ray {
         self
     }
 
+    /// The ray with its [`Ray::c4`] times `j` (S31): the distortion's area
+    /// factor over the frame's `2^e` ([`undistort_kj`]), if `area`.
+    #[inline(always)]
+    pub(super) fn with_area(mut self, area: bool, j: u32) -> Ray {
+        if area {
+            self.c4 = times_s31(self.c4, j);
+        }
+        self
+    }
+
     /// The ray of the column mirrored about the principal point (`x̂`,
     /// `o_x` negated — perspective rays' is 0; `a` and `1/a` are even in
     /// `x̂`), its hit forgotten. A ray outside the field (`t = 0`) stays
@@ -444,22 +454,68 @@ pub(super) fn unhit(rays: &[Ray]) -> bool {
 /// [`Mix32::undistort`] by `k1`, `k2` (S28) within the field's `u` limit
 /// (S20).
 #[inline(always)]
-pub(super) fn undistort_k([k1, k2]: [i32; 2], limit: i32, xd: i32, yd: i32, yd2: i64) -> Option<(i32, i32)> {
+pub(super) fn undistort_k(k: [i32; 2], limit: i32, xd: i32, yd: i32, yd2: i64) -> Option<(i32, i32)> {
+    undistort_kj(k, limit, (xd, yd, yd2), None).map(|(x, y, _)| (x, y))
+}
+
+/// [`undistort_k`] and, with `area = Some(e)`, the distortion's area factor
+/// `J = g (g + 2u g')` (camera-model.md §5) over `2^e` in S31 (at most 1:
+/// `2^e` bounds `J` over the frame, whose gain carries it,
+/// [`Mix32::area`]); without, 1.
+#[inline(always)]
+pub(super) fn undistort_kj(
+    [k1, k2]: [i32; 2],
+    limit: i32,
+    (xd, yd, yd2): (i32, i32, i64),
+    area: Option<u32>,
+) -> Option<(i32, i32, u32)> {
     // u S20 = (xd² + yd²) S52 >> 32.
     let u = ((wsq(xd) as i64 + yd2) >> 32) as i32;
     if u > limit {
         return None;
     }
     // g − 1 = u (k1 + k2 u), S28; bounded per frame.
-    let s = k1 + ((wmul_px(k2, u)) >> 20) as i32;
+    let k2u = ((wmul_px(k2, u)) >> 20) as i32;
+    let s = k1 + k2u;
     let g = (1 << 28) + ((wmul_px(s, u)) >> 20) as i32;
-    Some((((wmul_px(xd, g)) >> 28) as i32, ((wmul_px(yd, g)) >> 28) as i32))
+    let j = match area {
+        // g' = s + k2 u (S28).
+        Some(e) => area_factor(g, s.wrapping_add(k2u), u, e),
+        None => 1 << 31,
+    };
+    Some((
+        ((wmul_px(xd, g)) >> 28) as i32,
+        ((wmul_px(yd, g)) >> 28) as i32,
+        j,
+    ))
+}
+
+/// `a b` of two S31 values, S31 (truncated). Out of line in a `compact`
+/// build (flash).
+#[cfg_attr(feature = "compact", inline(never))]
+#[cfg_attr(not(feature = "compact"), inline(always))]
+fn times_s31(a: u32, b: u32) -> u32 {
+    (umul(a, b) >> 31) as u32
+}
+
+/// `J / 2^e` (S31) from `g`, `g'` (S28) and `u` (S20): `h = g + 2u g'` over
+/// `2^e` (S28; below 8 per frame), `g h` (S56) to S31 — below 1 − 2⁻¹⁴
+/// (`2^e` bounds `J` with a margin of 2⁻⁸) and at least 0 (`J` reaches 0
+/// at the fold). Out of line in a `compact` build (flash: the driven M0
+/// camera's fill loops each held a copy).
+#[cfg_attr(feature = "compact", inline(never))]
+#[cfg_attr(not(feature = "compact"), inline(always))]
+fn area_factor(g: i32, dg: i32, u: i32, e: u32) -> u32 {
+    let t = ((wmul_px(dg, u)) >> 20) as i32;
+    let h = g.wrapping_add(t).wrapping_add(t) >> e;
+    ((wmul_px(g, h) >> 25) as i32).max(0) as u32
 }
 
 /// Fills `rays` with the rays of a row's distorted slopes `(x̂_d, ŷ_d)`,
 /// `x̂_d = xd()` for each ray in turn and `(ŷ_d, ŷ_d²)` fixed (S26, S26,
 /// S52), undistorted by `undistort` (`korigin`: [`Ray::new`]'s `k`; with
-/// `vignette`, each ray's [`Ray::c4`]; without `ra`, on the M0,
+/// `vignette`, each ray's [`Ray::c4`], times the area factor `undistort`
+/// gives with it if `area` ([`Ray::with_area`]); without `ra`, on the M0,
 /// perspective rays without their `1/a`, [`Ray::flat`]): the rays'
 /// `[ŷ_lo, ŷ_hi]` (rays
 /// outside the field count as 0) and whether any is outside the field.
@@ -477,8 +533,8 @@ pub(super) fn fill_rays<const PERSP: bool>(
     korigin: i32,
     mut xd: impl FnMut() -> i32,
     (yd, yd2): (i32, i64),
-    undistort: impl Fn(i32, i32, i64) -> Option<(i32, i32)>,
-    (vignette, ra, mono, centre): (bool, bool, bool, impl FnOnce() -> Option<i32>),
+    undistort: impl Fn(i32, i32, i64) -> Option<(i32, i32, u32)>,
+    (vignette, area, ra, mono, centre): (bool, bool, bool, bool, impl FnOnce() -> Option<i32>),
 ) -> ([i32; 2], bool) {
     let mut outside = false;
     let _ = ra;
@@ -488,8 +544,10 @@ pub(super) fn fill_rays<const PERSP: bool>(
             // On the M0 alone: elsewhere the arm, though never taken, moved
             // the loops' layout, `Mix32::trace_row`.)
             #[cfg(hilcam_m0)]
-            Some((x, y)) if PERSP && !ra => Ray::flat(x, y),
-            Some((x, y)) => Ray::new::<PERSP>(x, y, korigin).with_c4(vignette),
+            Some((x, y, _)) if PERSP && !ra => Ray::flat(x, y),
+            Some((x, y, j)) => Ray::new::<PERSP>(x, y, korigin)
+                .with_c4(vignette)
+                .with_area(area, j),
             None => {
                 outside = true;
                 Ray::OUTSIDE
@@ -517,7 +575,8 @@ pub(super) fn fill_rays<const PERSP: bool>(
 /// ray `q` at `x̂_d = acc − q·dx` (S58;
 /// `acc` is moved past the chunk) and `(ŷ_d, ŷ_d²)`, undistorted by `(k,
 /// limit)` if `k` ([`undistort_k`]), with [`Ray::new`]'s `a` and `1/a`
-/// ([`recip`]) and, if `vignette`, its `cos⁴α` ([`cos4`]); the same bits
+/// ([`recip`]) and, if `vignette`, its `cos⁴α` ([`cos4`]), times the area
+/// factor over `2^e` if `area = Some(e)` ([`undistort_kj`]); the same bits
 /// (the test `ray_lanes_are_fill_rays`). Lanes outside the field or past
 /// the chunk compute on what they hold (wrapping) and are not read.
 #[cfg(target_arch = "x86_64")]
@@ -528,9 +587,10 @@ pub(super) fn fill_lanes(
     dx: i64,
     (yd, yd2): (i32, i64),
     (k, limit): (Option<[i32; 2]>, i32),
-    vignette: bool,
+    (vignette, area): (bool, Option<u32>),
 ) -> ([i32; 2], bool) {
     let (mut x, mut y, mut inside) = ([0i32; CHUNK], [yd; CHUNK], [true; CHUNK]);
+    let mut jn = [1u32 << 31; CHUNK];
     for (q, x) in x.iter_mut().enumerate() {
         // (Wrapping: lanes past the row run on past its ends.)
         *x = (acc.wrapping_sub((q as i64).wrapping_mul(dx)) >> 32) as i32;
@@ -541,10 +601,16 @@ pub(super) fn fill_lanes(
             let xd = x[q];
             let u = (((xd as i64 * xd as i64) + yd2) >> 32) as i32;
             inside[q] = u <= limit;
-            let s = k1.wrapping_add(((k2 as i64 * u as i64) >> 20) as i32);
+            let k2u = ((k2 as i64 * u as i64) >> 20) as i32;
+            let s = k1.wrapping_add(k2u);
             let g = (1i32 << 28).wrapping_add(((s as i64 * u as i64) >> 20) as i32);
             x[q] = ((xd as i64 * g as i64) >> 28) as i32;
             y[q] = ((yd as i64 * g as i64) >> 28) as i32;
+            if let Some(e) = area {
+                let t = ((s.wrapping_add(k2u) as i64 * u as i64) >> 20) as i32;
+                let h = g.wrapping_add(t).wrapping_add(t) >> e;
+                jn[q] = (((g as i64 * h as i64) >> 25) as i32).max(0) as u32;
+            }
         }
     }
     let (mut a, mut r, mut z, mut c4) = ([0i32; CHUNK], [0u32; CHUNK], [0u32; CHUNK], [1u32 << 31; CHUNK]);
@@ -568,6 +634,9 @@ pub(super) fn fill_lanes(
         r[q] = (((1u32 << 31).wrapping_sub(vr) as u64 * sq) >> 14) as u32;
         if vignette {
             c4[q] = cos4((r[q], z[q]));
+        }
+        if area.is_some() {
+            c4[q] = ((c4[q] as u64 * jn[q] as u64) >> 31) as u32;
         }
     }
     let (mut y0, mut y1, mut outside) = (i32::MAX, i32::MIN, false);

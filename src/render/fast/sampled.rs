@@ -269,7 +269,13 @@ impl Mix32 {
         k: &mut KCache,
     ) -> u32 {
         let mut grid = u32::MAX;
-        self.trace_row::<PERSP>(rays, x, self.dx, yd, (KEEP_C4_SAMPLED, true));
+        self.trace_row::<PERSP>(
+            rays,
+            x,
+            self.dx,
+            yd,
+            (KEEP_C4_SAMPLED || self.area.is_some(), true),
+        );
         for (q, ((r, c), (out, flag))) in rays
             .iter()
             .zip(corners)
@@ -376,7 +382,7 @@ impl Mix32 {
                 xc - off_x(0),
                 step,
                 (yd, wmul(yd, yd)),
-                (KEEP_C4_SAMPLED, true),
+                (KEEP_C4_SAMPLED || self.area.is_some(), true),
             );
             for r in row.iter() {
                 if r.t == 0 {

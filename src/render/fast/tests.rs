@@ -7,7 +7,7 @@ use super::expose::{
     mul_nonneg, noisy_dn, round_c4_words, sigma_z, sigma_z16, store, vignette_dn, vignette_dn_words,
 };
 use super::intersect::{fine_normal, passes_beyond, Inner, MixPrim, MixShape};
-use super::rays::{cos4, fill_lanes, fill_rays, undistort_k, Ray, Rays, AWAY, CHUNK, NO_HIT};
+use super::rays::{cos4, fill_lanes, fill_rays, undistort_k, undistort_kj, Ray, Rays, AWAY, CHUNK, NO_HIT};
 use super::shade::{lobe_below, lobe_pf};
 use super::{Aperture, Mix32, ALONG_S42};
 use crate::num::scalar::shr_sat;
@@ -392,6 +392,9 @@ fn ray_lanes_are_fill_rays() {
         let k = (case % 3 != 0).then(|| [r(-(1 << 26), 1 << 26) as i32, r(-(1 << 26), 1 << 26) as i32]);
         let limit = r(1 << 18, 1 << 21) as i32;
         let vignette = case % 2 == 0;
+        // The area factor over 2^e (e 0 to 6, some below J: the frame's
+        // bound is not checked here, and both forms wrap alike).
+        let area = k.and_then(|_| (case % 5 < 3).then(|| r(0, 6) as u32));
         let count = r(1, CHUNK as i64) as usize;
         let (mut lanes, mut scalar) = (Rays::default(), Rays::default());
         let (Some(lanes), Some(scalar)) = (lanes.first(count), scalar.first(count)) else {
@@ -418,8 +421,8 @@ fn ray_lanes_are_fill_rays() {
                     0,
                     xd,
                     (yd, yd2),
-                    |x, y, y2| undistort_k(k, limit, x, y, y2),
-                    (vignette, true, mono, || {
+                    |x, y, y2| undistort_kj(k, limit, (x, y, y2), area),
+                    (vignette, area.is_some(), true, mono, || {
                         undistort_k(k, limit, 0, yd, yd2).map(|(_, y)| y)
                     }),
                 ),
@@ -428,8 +431,8 @@ fn ray_lanes_are_fill_rays() {
                     0,
                     xd,
                     (yd, yd2),
-                    |x, y, _| Some((x, y)),
-                    (vignette, true, mono, || Some(yd)),
+                    |x, y, _| Some((x, y, 1 << 31)),
+                    (vignette, false, true, mono, || Some(yd)),
                 ),
             };
             if !mono {
@@ -448,7 +451,7 @@ fn ray_lanes_are_fill_rays() {
             assert!(got == want || across, "case {case}: {got:?} for {want:?}");
             centred += usize::from(across && got != want);
         }
-        let got = fill_lanes(lanes, &mut acc, dx, (yd, yd2), (k, limit), vignette);
+        let got = fill_lanes(lanes, &mut acc, dx, (yd, yd2), (k, limit), (vignette, area));
         assert_eq!(got, want, "case {case}");
         assert_eq!(acc, a2, "case {case}");
         for (q, (l, w)) in lanes.iter().zip(scalar.iter()).enumerate() {
