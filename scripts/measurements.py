@@ -285,8 +285,10 @@ def write_headline(readme, head, today):
     rows = []
     s = head.get("standard")
     if s:
+        # (PSNR is null where every pixel is the reference's.)
+        psnr = "identical" if s["psnr_db"] is None else f'{s["psnr_db"]:.1f} dB'
         rows.append(("standard scene vs the f64 reference", f'{s["max_geom_err_px"]:.1e} px, '
-                     f'{s["max_abs_lsb_smooth"]} LSB, {s["psnr_db"]:.1f} dB'))
+                     f'{s["max_abs_lsb_smooth"]} LSB, {psnr}'))
     for b, j in (head.get("hil") or {}).items():
         core = dict(boards_order()).get(b, b)
         st = next((f for f in j["frames"] if f["scene"] == "standard"), None)
