@@ -172,13 +172,15 @@ def main():
         for k in ("plain", "barrel"):
             c = j.get(k)
             if c:
-                e = c.get("error_px", {})
+                e, sd = c.get("error_px", {}), c.get("sigma_px", {})
                 rows.append((k, c["views"], f'{c["corner_rms_px"]:.3f}', f'{c["reprojection_rms_px"]:.3f}',
-                             ", ".join(f"{n} {v:+.2f}" for n, v in e.items())))
+                             ", ".join(f"{n} {v:+.2f}" for n, v in e.items()),
+                             ", ".join(f"{n} {v:.2f}" for n, v in sd.items()) or "–"))
         parts.append(section(
             "OpenCV's calibration on the rendered calibration set",
             "target/venv/bin/python scripts/opencv-check.py --out out/opencv",
-            table(["set", "views", "corner RMS, px", "reprojection RMS, px", "intrinsics' error, px"], rows)))
+            table(["set", "views", "corner RMS, px", "reprojection RMS, px", "intrinsics' error, px",
+                   "OpenCV's 1σ, px"], rows)))
         head["opencv"] = j
 
     # The closed loop.

@@ -6,9 +6,11 @@ integration; or --variant), finds the corners with findChessboardCorners +
 cornerSubPix (OpenCV's tutorial settings: 11x11 window, 30 iterations or
 0.001 px), measures them against the frame's true corners, and calibrates
 with calibrateCamera (k1, k2, k3; no tangential terms) against the true fx,
-fy, cx, cy. Targets: corner RMS <= 0.07 px, and fx, fy, cx, cy within
-0.3 px, with and without barrel distortion. Exits 1 if a target is missed;
-writes opencv.json and each view's PNG into --out.
+fy, cx, cy, beside OpenCV's own standard deviations of them
+(calibrateCameraExtended). Targets: corner RMS <= 0.07 px, and fx, fy,
+cx, cy within 0.3 px, with and without barrel distortion (whether each is
+within OpenCV's 1 sigma is reported, not checked). Exits 1 if a target is
+missed; writes opencv.json and each view's PNG into --out.
 
 Run it with the virtual environment's Python (target/venv: scripts/lib.sh
 ensure_venv installs hilcam, numpy and opencv-python-headless there)."""
@@ -61,9 +63,11 @@ def measure(kind, variant, out):
         img.append(corners.astype(np.float32))
     rms_px = float(np.sqrt(np.mean(np.square(errs)))) if errs else float("inf")
     flags = cv2.CALIB_ZERO_TANGENT_DIST
-    rep, k, dist, _, _ = cv2.calibrateCamera(obj, img, size, None, None, flags=flags)
+    rep, k, dist, _, _, sd, _, _ = cv2.calibrateCameraExtended(obj, img, size, None, None, flags=flags)
     got = {"fx": k[0, 0], "fy": k[1, 1], "cx": k[0, 2], "cy": k[1, 2]}
     err = {n: float(got[n] - truth0[n]) for n in got}
+    # OpenCV's own standard deviations of fx, fy, cx, cy (the first four).
+    sigma = {n: float(v) for n, v in zip(got, sd.ravel()[:4])}
     return {
         "views": len(obj),
         "corners": len(errs),
@@ -73,6 +77,8 @@ def measure(kind, variant, out):
         "calibrated": {n: float(v) for n, v in got.items()},
         "true": {n: truth0[n] for n in got},
         "error_px": err,
+        "sigma_px": sigma,
+        "within_sigma": all(abs(err[n]) <= sigma[n] for n in err),
         "opencv_distortion": [float(v) for v in dist.ravel()],
     }
 
@@ -93,7 +99,9 @@ def main():
         e = r["error_px"]
         print(f"{kind:7} {r['views']} views, {r['corners']} corners: corner RMS {r['corner_rms_px']:.4f} px "
               f"(max {r['corner_max_px']:.3f}); calibrateCamera fx {e['fx']:+.3f} fy {e['fy']:+.3f} "
-              f"cx {e['cx']:+.3f} cy {e['cy']:+.3f} px from the truth (reprojection {r['reprojection_rms_px']:.4f} px)")
+              f"cx {e['cx']:+.3f} cy {e['cy']:+.3f} px from the truth (OpenCV's 1 sigma "
+              f"{', '.join(f'{v:.3f}' for v in r['sigma_px'].values())}: "
+              f"{'within' if r['within_sigma'] else 'NOT within'}; reprojection {r['reprojection_rms_px']:.4f} px)")
         ok &= r["corner_rms_px"] <= 0.07 and all(abs(v) <= 0.3 for v in e.values()) and r["views"] >= 15
     out.mkdir(parents=True, exist_ok=True)
     (out / "opencv.json").write_text(json.dumps(res, indent=2))
