@@ -38,8 +38,8 @@ pub(super) struct Geometry {
     pub(super) s_max: f64,
     /// Largest `g + 2u g'` (the area factor's, camera-model.md §5).
     pub(super) h_max: f64,
-    /// Largest `|J − 1|` of the area factor over the field (0 without
-    /// distortion).
+    /// A bound of `|J − 1|`, the area factor's, over the field
+    /// (`g_max h_max − 1`; 0 without distortion).
     pub(super) area_dev: f64,
     /// Largest |undistorted slope|.
     pub(super) slope: f64,
