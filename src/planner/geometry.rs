@@ -1,7 +1,6 @@
 //! What the planner knows of a scene's geometry in the camera frame:
 //! each primitive's reach, screen coverage and depths (f64).
 
-use super::Unfit;
 use crate::geom::projection::{weak_perspective_bound, DepthBox};
 use crate::num::FixedF64;
 use crate::render::Arithmetic;
@@ -33,11 +32,8 @@ pub(super) struct Geometry {
     /// The undistorted field's box of slopes, half-widths (x, y)
     /// ([`crate::render::prepare::field_box`]).
     pub(super) field: (f64, f64),
-    /// Largest `g` and `|k1| + |k2| u` over `[0, u_max]`.
+    /// Largest `g` over `[0, u_max]`.
     pub(super) g_max: f64,
-    pub(super) s_max: f64,
-    /// Largest `g + 2u g'` (the area factor's, camera-model.md §5).
-    pub(super) h_max: f64,
     /// A bound of `|J − 1|`, the area factor's, over the field
     /// (`g_max h_max − 1`; 0 without distortion).
     pub(super) area_dev: f64,
@@ -191,8 +187,6 @@ pub(super) struct PrimGeom {
     pub(super) n: [f64; 3],
     /// Radius (sphere, disc), half-diagonal (rectangle), 0 (plane).
     pub(super) r: f64,
-    /// The smallest length the fast path represents for it.
-    pub(super) smallest: f64,
     /// Largest diffuse and specular constants (n ρ/π, (1−n) ρ_s (s+2)/2π)
     /// over its materials, and the largest exponent of a lobe.
     pub(super) kd: f64,
@@ -328,17 +322,17 @@ impl PrimGeom {
         // A disc's or rectangle's centre and in-plane half-axes (a
         // disc's bounding square, along its checker's axes).
         let mut flat: Option<([f64; 3], [f64; 3], f64, f64)> = None;
-        let (c, n, r, mut smallest, reach) = match p.shape {
+        let (c, n, r, reach) = match p.shape {
             Shape::Plane { point, normal } => {
                 let c = cam_pt(point);
                 let n = cam_dir(normal);
                 // The fast path holds the plane's distance n·c.
-                (c, n, 0.0, f64::INFINITY, Reach::Plane(libm::fabs(dot3(n, c))))
+                (c, n, 0.0, Reach::Plane(libm::fabs(dot3(n, c))))
             }
             Shape::Sphere { centre, radius } => {
                 let c = cam_pt(centre);
                 let r = radius.f64();
-                (c, [0.0; 3], r, r, Reach::Around(c, r))
+                (c, [0.0; 3], r, Reach::Around(c, r))
             }
             Shape::Disc {
                 centre,
@@ -347,7 +341,7 @@ impl PrimGeom {
             } => {
                 let c = cam_pt(centre);
                 let r = radius.f64();
-                (c, cam_dir(normal), r, f64::INFINITY, Reach::Around(c, r))
+                (c, cam_dir(normal), r, Reach::Around(c, r))
             }
             Shape::Rectangle {
                 centre,
@@ -365,7 +359,7 @@ impl PrimGeom {
                 ];
                 let r = libm::sqrt(a * a + b * b);
                 flat = Some((u, v, a, b));
-                (c, n, r, f64::INFINITY, Reach::Around(c, a + b))
+                (c, n, r, Reach::Around(c, a + b))
             }
         };
         let reach = (reach, p.checker.map(|_| c));
@@ -388,7 +382,6 @@ impl PrimGeom {
         let mut cells = None;
         if let Some(k) = &p.checker {
             take(mat(k.material));
-            smallest = smallest.min(k.cell.f64());
             let (ku, kv) = (cam_dir(k.u_axis), cam_dir(k.v_axis));
             let seen = match p.shape {
                 Shape::Plane { .. } => Some(None),
@@ -408,7 +401,6 @@ impl PrimGeom {
             c,
             n,
             r,
-            smallest,
             kd,
             ks,
             exponent,
@@ -603,37 +595,6 @@ impl Geometry {
             self.slope_d[0].max(self.slope_d[1]) * (deriv * du + dg)
         };
         core::f64::consts::SQRT_2 * self.f_px * (dist + dx)
-    }
-
-    /// Whether the fast arithmetic's formats hold the scene (the checks
-    /// [`crate::render::fast`] makes when a frame is prepared, in f64).
-    // Out of line: planning runs once a frame; keeping it small saves flash.
-    #[inline(never)]
-    pub(super) fn fast_fits(&self, scene: &Scene) -> Result<(), Unfit> {
-        if !cfg!(feature = "mix32") {
-            return Err(Unfit::NotBuilt);
-        }
-        if self.fast_extent > libm::ldexp(8.0, 20) {
-            return Err(Unfit::TooFar);
-        }
-        // 2^-10 U, with a margin for the rounding of the prepared values.
-        let small = libm::ldexp(self.unit, -10) * 1.01;
-        if self.prims.iter().any(|p| p.smallest < small) {
-            return Err(Unfit::TooSmall);
-        }
-        let shift = self.aperture.map_or(0.0, |(_, rz)| rz);
-        if self.slope_d[0].max(self.slope_d[1]) >= 31.0 || self.slope + shift > 15.9 {
-            return Err(Unfit::FieldTooWide);
-        }
-        if !scene.distortion.is_none() && (self.s_max >= 7.9 || self.g_max >= 7.9 || self.h_max >= 7.9) {
-            return Err(Unfit::Distortion);
-        }
-        if let Some(k) = self.origin_scale {
-            if k <= 0.0 || k >= 127.0 * self.unit || self.slope * k > 63.0 * self.unit {
-                return Err(Unfit::OriginsTooFar);
-            }
-        }
-        Ok(())
     }
 }
 

@@ -63,6 +63,7 @@ mod tests;
 use cost::{fast_shares, Shares};
 use search::{plan_with, prepares};
 
+pub use crate::render::Unfit;
 pub use cost::APERTURE_STRIDE;
 pub use cost::{CostModel, Features, SampleCost, Samples, COST_TERMS, FAST_COST, WIDE_COST};
 pub use error_model::{Boundary, ErrorModel};
@@ -90,48 +91,6 @@ impl Default for Budget {
             max_lsb: 1.0,
             max_table_entries: crate::geom::distortion::MAX_LUT,
             max_edge_differing: 0.0005,
-        }
-    }
-}
-
-/// Why a candidate cannot render a scene on its arithmetic.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Unfit {
-    /// Content (primitives, point lights) farther than 8·2²⁰ m.
-    TooFar,
-    /// A sphere, disc radius or checker cell below 2⁻¹⁰ of the frame's
-    /// length unit (the content's extent / 8).
-    TooSmall,
-    /// The distortion factor `g`, `k1 + k2 u` or the area factor's `g + 2u g'`
-    /// leaves ±8 over the sensor.
-    Distortion,
-    /// A distorted slope of 32 or more, or an undistorted one beyond 16.
-    FieldTooWide,
-    /// Parallel rays whose origins leave ±64 units.
-    OriginsTooFar,
-    /// The fast arithmetic is not built in (the core's `mix32` feature is
-    /// off).
-    NotBuilt,
-    /// The scene needs defocus and a sample grid: the fast arithmetic's
-    /// aperture loop (`mix32::line_d`) takes pixel centres only. (Through
-    /// the aperture, a ray next to a sphere's silhouette is decided exactly
-    /// there, since nothing marks its pixel as an edge: decided only
-    /// approximately, pixels at a blurred silhouette differ from the
-    /// reference by 2 LSB.)
-    Defocus,
-}
-
-impl Unfit {
-    /// Why, in words.
-    pub const fn reason(self) -> &'static str {
-        match self {
-            Unfit::TooFar => "content beyond the 32-bit formats' range",
-            Unfit::TooSmall => "a radius or checker cell below 2^-10 of the frame's length unit",
-            Unfit::Distortion => "the distortion factor leaves +-8",
-            Unfit::FieldTooWide => "slopes beyond the 32-bit formats",
-            Unfit::OriginsTooFar => "parallel-ray origins beyond 64 length units",
-            Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
-            Unfit::Defocus => "defocus with a sample grid: the fast aperture loop takes pixel centres only",
         }
     }
 }

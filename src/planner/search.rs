@@ -37,6 +37,29 @@ pub(super) fn prepares<const T: usize>(
     crate::render::Frame::<crate::scene::Q, T>::empty().prepare(scene, opts)
 }
 
+/// Whether the fast arithmetic renders `scene` with ray model `model`,
+/// `aperture` points and the sample grid: the formats' own rule
+/// (`render::fast::fits`), not a prediction of it.
+fn fast_fits(
+    scene: &Scene,
+    model: RenderModel,
+    aperture: u16,
+    (samples, adaptive): (u8, bool),
+) -> Result<(), Unfit> {
+    #[cfg(feature = "mix32")]
+    {
+        let mut opts = crate::render::Options::new(model, 2).with_arithmetic(Arithmetic::Fast);
+        opts.distortion_eval = DistortionEval::Polynomial;
+        (opts.samples, opts.adaptive, opts.aperture) = (samples, adaptive, aperture);
+        crate::render::fast::fits(scene, &opts)
+    }
+    #[cfg(not(feature = "mix32"))]
+    {
+        let _ = (scene, model, aperture, samples, adaptive);
+        Err(Unfit::NotBuilt)
+    }
+}
+
 /// [`plan`] with the fast arithmetic's aperture `shares`.
 #[inline(never)]
 pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan {
@@ -213,9 +236,7 @@ pub(super) fn model_candidates(
         }
         // What the distortion evaluation does not change, once.
         let fits = match arithmetic {
-            // (The fast aperture loop takes pixel centres only.)
-            Arithmetic::Fast if df.points > 0 && samples > 1 => Err(Unfit::Defocus),
-            Arithmetic::Fast => g.fast_fits(scene),
+            Arithmetic::Fast => fast_fits(scene, model, df.points, (samples, adaptive)),
             Arithmetic::Wide => Ok(()),
         };
         // (Aperture rays' slopes: the chief ray's, shifted to 1.5·2⁻²⁶.)

@@ -193,39 +193,12 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
     }
 
     /// The fast arithmetic's state ([`crate::render::fast`]) filled from
-    /// the frame's preparation `p`: what its formats cannot hold refused.
+    /// the frame's preparation `p`: what its formats cannot hold
+    /// ([`crate::render::Unfit`]) refused.
     #[cfg(feature = "mix32")]
     #[inline(never)]
     fn prepare_fast(&mut self, scene: &Scene, opts: &Options, p: &Prepared) -> Result<(), RenderError> {
-        let table = p.stages.distortion.is_some()
-            && opts.distortion_eval != crate::render::options::DistortionEval::Polynomial;
-        // Defocus runs in the fast arithmetic for pixel centres only.
-        let sampled = p.stages.samples > 1;
-        if table || (opts.aperture > 0 && sampled) {
-            return Err(RenderError::OutsideFormat);
-        }
-        let input = crate::render::fast::Input {
-            width: p.width,
-            height: p.height,
-            format: scene.format,
-            x0: p.x0,
-            dx: p.dx,
-            y0: p.y0,
-            dy: p.dy,
-            distortion: p.distortion.map(|d| (d.k, d.limit)),
-            vignetting: p.stages.vignetting,
-            relative_illumination: p.stages.relative_illumination,
-            origin_scale: p.origin_scale,
-            specular_all: opts.keep_all_stages,
-            scene,
-            background: scene.background,
-            gain: p.gain,
-            samples: p.stages.samples,
-            adaptive: p.stages.adaptive,
-            aperture: opts.aperture,
-            closed_mean: opts.closed_mean,
-            centred: p.centred,
-        };
+        let input = crate::render::fast::Input::of(scene, opts, p);
         self.path = Path::Fast(crate::render::fast::Mix32::EMPTY);
         let Path::Fast(m) = &mut self.path else {
             return Err(RenderError::OutsideFormat);

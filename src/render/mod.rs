@@ -40,6 +40,6 @@ pub use fast::ApertureClasses;
 pub use frame::Frame;
 pub use options::{
     AllLines, Arithmetic, ClosedMean, DistortionEval, FrameError, LineLoop, Lines, Options, Override,
-    PlannedLines, RenderError, RenderModel, Stages, FLAG_OUTSIDE_FIELD, MAX_SLOPE,
+    PlannedLines, RenderError, RenderModel, Stages, Unfit, FLAG_OUTSIDE_FIELD, MAX_SLOPE,
 };
 pub use sink::{FrameInfo, FrameSink, Image, ImageTooSmall, LineBuffers, Timed};

@@ -70,9 +70,11 @@
 //!
 //! Defocus (camera-model.md §8) traces each pixel centre's aperture rays
 //! through the same passes (`aperture`). A distortion table, aperture rays
-//! with pixel-area sampling, and scenes outside the formats are refused when
-//! the frame is prepared ([`crate::render::RenderError::OutsideFormat`]);
-//! the wide arithmetic renders them. Accuracy and cost: `host-sim tradeoff`
+//! with pixel-area sampling, and scenes outside the formats are refused by
+//! one rule (`prepare::layout` and `prims_fit`, reasons [`crate::render::Unfit`]), which
+//! the planner asks of each fast candidate and the preparation follows
+//! ([`crate::render::RenderError::OutsideFormat`]); the wide arithmetic
+//! renders them. Accuracy and cost: `host-sim tradeoff`
 //! (`mix32-poly`).
 //!
 //! Modules by stage: `rays` (slopes, undistortion, `cos⁴α`), `intersect`
@@ -107,6 +109,7 @@ pub use aperture::ApertureClasses;
 pub(crate) use arith::Pf;
 use arith::*;
 use intersect::*;
+pub(crate) use prepare::fits;
 pub use rays::ChunkBufs;
 
 /// What a frame's lines, rendered in order, pass from one to the next
@@ -439,6 +442,8 @@ pub(crate) struct Input<'a> {
     pub dy: i128,
     /// `k1`, `k2` and the `u` limit, if distortion is modelled (polynomial).
     pub distortion: Option<([Q; 2], Q)>,
+    /// The options ask for a distortion table ([`Unfit::Table`]).
+    pub table: bool,
     pub vignetting: bool,
     /// The distortion's area factor ([`Mix32::area`]).
     pub relative_illumination: bool,

@@ -10,7 +10,7 @@ use super::shade::lobe_below;
 use super::{Aperture, Input, Mix32, MixLight, ALONG_S42};
 use crate::num::{div_q, from_acc, mul_sat};
 use crate::render::shading::{Brdf, ShadingLight, V3};
-use crate::render::RenderError;
+use crate::render::{RenderError, Unfit};
 use crate::scene::{PixelFormat, Q};
 
 impl Input<'_> {
@@ -156,8 +156,7 @@ pub(super) fn v_len(v: V3) -> Q {
 /// aperture's radius and focus distance ([`Aperture::lens`]); refused
 /// where no `e` in [−20, 20] holds the content.
 #[inline(always)]
-fn frame_unit(f: &Input) -> Result<(Q, i32, (Q, Q)), RenderError> {
-    let bad = RenderError::OutsideFormat;
+fn frame_unit(f: &Input) -> Result<(Q, i32, (Q, Q)), Unfit> {
     // The unit: content within 8 U of where the rays start.
     let z0 = parallel_start(f);
     let (here, moved) = content_extent(f, z0);
@@ -176,7 +175,7 @@ fn frame_unit(f: &Input) -> Result<(Q, i32, (Q, Q)), RenderError> {
         e += 1;
     }
     if extent > shl_q(8, e) {
-        return Err(bad);
+        return Err(Unfit::TooFar);
     }
     Ok((z0, e, (ap_r, ap_z)))
 }
@@ -187,13 +186,7 @@ fn frame_unit(f: &Input) -> Result<(Q, i32, (Q, Q)), RenderError> {
 /// the `2^e` that bounds its area factor ([`Mix32::area`]); refused where
 /// the slopes, `g`, `g + 2u g'` or the origins leave their formats.
 #[inline(always)]
-#[allow(clippy::type_complexity)]
-fn fast_slopes(
-    f: &Input,
-    e: i32,
-    (ap_r, ap_z): (Q, Q),
-) -> Result<(Option<[i32; 2]>, i32, i32, Option<i32>, Option<u32>), RenderError> {
-    let bad = RenderError::OutsideFormat;
+fn fast_slopes(f: &Input, e: i32, (ap_r, ap_z): (Q, Q)) -> Result<Slopes, Unfit> {
     // Slopes: |x̂_d|, |ŷ_d| < 32 at the corners (they are monotonic in
     // the pixel index), |g| < 8 and |x̂|, |ŷ| ≤ 16.
     let corner = |a: i128, d: i128, n: u16| -> Q {
@@ -204,7 +197,7 @@ fn fast_slopes(
     // (and one step past the last column: the accumulator takes it).
     let step = from_acc(f.dx).abs();
     if xm.saturating_add(step) >= Q::from_num(32) || ym >= Q::from_num(32) {
-        return Err(bad);
+        return Err(Unfit::FieldTooWide);
     }
     let (k, limit, gmax, margin, area) = match f.distortion {
         Some(([k1, k2], limit)) => {
@@ -218,7 +211,7 @@ fn fast_slopes(
             let dg = s.saturating_add(mul_sat(k2.abs(), u_max));
             let h = g.saturating_add(mul_sat(dg, u_max).saturating_mul_int(2));
             if s >= Q::from_num(8) || g >= Q::from_num(8) || h >= Q::from_num(8) {
-                return Err(bad);
+                return Err(Unfit::Distortion);
             }
             let jb = mul_sat(g, h).saturating_add(Q::from_bits(1 << 24));
             let area = (jb.to_bits() - 1).max(0) as u64;
@@ -251,7 +244,7 @@ fn fast_slopes(
     // d/2 ≤ (16 − slope) Z̃.)
     let slope = mul_sat(xm.max(ym), gmax);
     if slope > Q::from_num(16) || ap_r > mul_sat(Q::from_num(16) - slope, ap_z) {
-        return Err(bad);
+        return Err(Unfit::FieldTooWide);
     }
     // Parallel rays: origins within 64 U (so that n·o and the sphere's
     // offsets keep their formats), the scale in S24.
@@ -260,12 +253,129 @@ fn fast_slopes(
         Some(k) => {
             let k24 = len_s(k, e, 24);
             if k <= Q::ZERO || k24 == i32::MAX || mul_sat(slope, k) > shl_q(64, e) {
-                return Err(bad);
+                return Err(Unfit::OriginsTooFar);
             }
             Some(k24)
         }
     };
-    Ok((k, limit, margin, parallel, area))
+    Ok(Slopes {
+        k,
+        limit,
+        margin,
+        parallel,
+        area,
+    })
+}
+
+/// The frame's slopes in the fast formats ([`fast_slopes`]).
+struct Slopes {
+    /// The distortion polynomial's `k1`, `k2` (S28), if distorted.
+    k: Option<[i32; 2]>,
+    /// The `u` limit.
+    limit: i32,
+    /// The slope box's margin.
+    margin: i32,
+    /// Parallel rays' origin scale, S24 U.
+    parallel: Option<i32>,
+    /// The `e` of the `2^e` that bounds the area factor ([`Mix32::area`]).
+    area: Option<u32>,
+}
+
+/// A sphere's `1/r` in its format ([`recip_len`]): refused for a radius
+/// below `2^-10 U`.
+fn inv_radius(r: Q, e: i32) -> Result<(u32, u32), Unfit> {
+    recip_len(r, e).ok_or(Unfit::TooSmall)
+}
+
+/// A checker's `1/cell` (its cell `1/inv_cell` metres) as
+/// [`MixChecker::inv_cell`] holds it: refused for a cell below `2^-10 U`.
+fn inv_cell(inv_cell: Q, e: i32) -> Result<(u32, u32), Unfit> {
+    div_q(Q::ONE, inv_cell)
+        .and_then(|cell| recip_len(cell, e))
+        .and_then(|(m, sh)| Some((m, (sh + 30).checked_sub(32).filter(|k| *k < 32)?)))
+        .ok_or(Unfit::TooSmall)
+}
+
+/// How the fast formats hold frame `f`: its length unit, where its rays
+/// start and its slopes; or why they cannot ([`Unfit`]). With
+/// [`prims_fit`], the fast arithmetic's one rule: [`Mix32::fill`] follows
+/// it (its primitives through the same [`inv_radius`] and [`inv_cell`])
+/// and the planner asks it of every fast candidate ([`fits`]).
+#[inline(never)]
+fn layout(f: &Input) -> Result<(Q, i32, (Q, Q), Slopes), Unfit> {
+    if f.table {
+        return Err(Unfit::Table);
+    }
+    if f.aperture > 0 && f.samples > 1 {
+        return Err(Unfit::Defocus);
+    }
+    let (z0, e, ap) = frame_unit(f)?;
+    Ok((z0, e, ap, fast_slopes(f, e, ap)?))
+}
+
+/// Whether the primitives' radii and checker cells hold in a frame of
+/// unit `U = 2^e` ([`Mix32::fill_prims`] refuses the same).
+fn prims_fit(f: &Input, e: i32) -> Result<(), Unfit> {
+    for p in f.shapes() {
+        if let crate::render::prepare::CamShapeQ::Sphere { r2, .. } = p.shape {
+            inv_radius(isqrt_q(r2), e)?;
+        }
+        if let Some(k) = &p.checker {
+            inv_cell(k.inv_cell, e)?;
+        }
+    }
+    Ok(())
+}
+
+/// Whether the fast arithmetic renders `scene` with `opts` ([`layout`],
+/// [`prims_fit`]); a scene that does not prepare at all is not the
+/// formats' to refuse (building its frame says why, on either
+/// arithmetic). Out of line: planning runs once a frame.
+#[inline(never)]
+pub(crate) fn fits(scene: &crate::scene::Scene, opts: &crate::render::Options) -> Result<(), Unfit> {
+    match crate::render::prepare::Prepared::new(scene, opts) {
+        Ok(p) => {
+            let f = Input::of(scene, opts, &p);
+            prims_fit(&f, layout(&f)?.1)
+        }
+        Err(_) => Ok(()),
+    }
+}
+
+impl<'a> Input<'a> {
+    /// What the fast arithmetic takes of `scene` prepared (`p`) for `opts`.
+    /// Out of line: one copy for the planner and the preparation.
+    #[inline(never)]
+    pub(crate) fn of(
+        scene: &'a crate::scene::Scene,
+        opts: &crate::render::Options,
+        p: &crate::render::prepare::Prepared,
+    ) -> Input<'a> {
+        Input {
+            table: p.stages.distortion.is_some()
+                && opts.distortion_eval != crate::render::DistortionEval::Polynomial,
+            width: p.width,
+            height: p.height,
+            format: scene.format,
+            x0: p.x0,
+            dx: p.dx,
+            y0: p.y0,
+            dy: p.dy,
+            distortion: p.distortion.map(|d| (d.k, d.limit)),
+            vignetting: p.stages.vignetting,
+            relative_illumination: p.stages.relative_illumination,
+            origin_scale: p.origin_scale,
+            specular_all: opts.keep_all_stages,
+            scene,
+            background: scene.background,
+            gain: p.gain,
+            samples: p.stages.samples,
+            adaptive: p.stages.adaptive,
+            aperture: opts.aperture,
+            closed_mean: opts.closed_mean,
+            centred: p.centred,
+        }
+    }
 }
 
 impl Mix32 {
@@ -304,13 +414,20 @@ impl Mix32 {
     };
 
     /// Converts a prepared frame in place (the path's state is kilobytes:
-    /// no copies of it on the stack); refuses what the formats cannot
-    /// hold, leaving `self` partly filled — the caller drops it then.
+    /// no copies of it on the stack) as [`layout`] says; refuses what the
+    /// formats cannot hold, leaving `self` partly filled — the caller drops
+    /// it then.
     pub(crate) fn fill(&mut self, f: &Input) -> Result<(), RenderError> {
-        let (z0, e, ap) = frame_unit(f)?;
+        let (z0, e, ap, slopes) = layout(f).map_err(|_| RenderError::OutsideFormat)?;
+        let Slopes {
+            k,
+            limit,
+            margin,
+            parallel,
+            area,
+        } = slopes;
         self.fill_prims(f, z0, e, ap)?;
         self.fill_lights(f, z0, e);
-        let (k, limit, margin, parallel, area) = fast_slopes(f, e, ap)?;
         self.fill_materials(f, area.unwrap_or(0));
         self.parallel = parallel;
         self.width = f.width;
@@ -325,7 +442,9 @@ impl Mix32 {
         self.box_margin = margin.max(2);
         self.vignetting = f.vignetting;
         self.cos4_of_ra = f.vignetting && area.is_none();
-        self.noise_spec = f.scene.noise;
+        // (Rebuilt from its fields: copied whole, the M3 build links
+        // `memmove` for it, 1.6 KB of flash.)
+        self.noise_spec = f.scene.noise.map(|n| crate::scene::Noise { ..n });
         if !matches!(f.samples, 1 | 2 | 4 | 8 | 16) {
             return Err(RenderError::Degenerate);
         }
@@ -333,8 +452,8 @@ impl Mix32 {
         self.adaptive = f.adaptive && f.samples > 1;
         self.aperture = match f.aperture {
             0 => None,
-            // Pixel centres through the aperture, perspective rays.
-            _ if f.samples > 1 || parallel.is_some() => return Err(RenderError::Degenerate),
+            // Perspective rays through the aperture.
+            _ if parallel.is_some() => return Err(RenderError::Degenerate),
             m => Some(Aperture::new(f, m, e)?),
         };
         self.mirror = f.centred && self.samples == 1 && self.aperture.is_none();
@@ -402,7 +521,7 @@ impl Mix32 {
                         r2: r18 * r18,
                         r24: l24(r),
                         fine: false,
-                        inv_r: recip_len(r, e).ok_or(bad)?,
+                        inv_r: inv_radius(r, e).map_err(|_| bad)?,
                     }
                 }
                 S::Disc { n, dist, c, r2 } => {
@@ -454,16 +573,13 @@ impl Mix32 {
                     // than a hit's own rounding (`planner::HitError`).
                     let o = k.origin.map(l24);
                     let (u, v) = (u3(k.u), u3(k.v));
-                    let cell = div_q(Q::ONE, k.inv_cell).ok_or(bad)?;
                     let half = 1i64 << (29 - along);
                     Some(MixChecker {
                         u,
                         v,
                         ou: (dot48(o, u) >> (along + 6)) - half,
                         ov: (dot48(o, v) >> (along + 6)) - half,
-                        inv_cell: recip_len(cell, e)
-                            .and_then(|(m, sh)| Some((m, (sh + 30).checked_sub(32).filter(|k| *k < 32)?)))
-                            .ok_or(bad)?,
+                        inv_cell: inv_cell(k.inv_cell, e).map_err(|_| bad)?,
                         material: k.material,
                     })
                 }
