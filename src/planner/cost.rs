@@ -289,13 +289,16 @@ impl Samples {
     /// The terms of `scene` rendered with `opts` (what `host-sim costfit`
     /// records with each measurement).
     pub fn of_options(scene: &Scene, opts: &Options) -> Samples {
-        let s = Samples::of(
-            scene,
-            &Geometry::of(scene, opts.model),
-            opts.samples,
-            opts.adaptive,
-            opts.aperture,
-        );
+        let g = Geometry::of(scene, opts.model);
+        let blur_px = if opts.aperture > 0 {
+            let edge_budget = scene
+                .sampling
+                .map_or(0.5, |s| crate::num::FixedF64::f64(s.edge_error_px));
+            super::error_model::defocus(scene, &g, edge_budget).blur_px
+        } else {
+            0.0
+        };
+        let s = Samples::of(scene, &g, (opts.samples, opts.adaptive), (opts.aperture, blur_px));
         let shares = match opts.arithmetic {
             Arithmetic::Fast => fast_shares(scene, opts),
             Arithmetic::Wide => Shares::TRACED,
@@ -303,12 +306,24 @@ impl Samples {
         s.with(opts.arithmetic, shares)
     }
 
-    pub(super) fn of(scene: &Scene, g: &Geometry, n: u8, adaptive: bool, aperture: u16) -> Samples {
+    /// The terms of an `n×n` grid (`adaptive`: under the adaptive rule)
+    /// with `aperture` points, content blurred by up to `blur_px`: through
+    /// the aperture the rule takes the grid wherever the blur circle
+    /// reaches an edge, a band `1 + blur_px` pixels wide along it. Out of
+    /// line: planning runs once a frame; keeping it small saves flash.
+    #[inline(never)]
+    pub(super) fn of(
+        scene: &Scene,
+        g: &Geometry,
+        (n, adaptive): (u8, bool),
+        (aperture, blur_px): (u16, f64),
+    ) -> Samples {
         let n2 = f64::from(n) * f64::from(n);
+        let widen = if aperture > 0 { 1.0 + blur_px.min(1e6) } else { 1.0 };
         let (grid, corners) = match (n, adaptive) {
             (0 | 1, _) => (1.0, 0.0),
             (_, false) => (n2, 0.0),
-            (_, true) => (1.0 + n2 * edge_fraction(scene, g, false), 1.0),
+            (_, true) => (1.0 + n2 * (edge_fraction(scene, g, false) * widen).min(1.0), 1.0),
         };
         // (Not for one sample through the pinhole, whose cost is the
         // features' alone.)

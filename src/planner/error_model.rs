@@ -105,6 +105,15 @@ pub(super) fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defoc
         return Defocus::NONE;
     }
     let blur_px = d * g.f_px * libm::fabs(hi - inv_focus).max(libm::fabs(lo - inv_focus));
+    // The least blur of content outside the depth of field: at least the
+    // tolerable blur (px), more where all content lies on one side of
+    // focus beyond it.
+    let least = if lo > inv_focus || hi < inv_focus {
+        d * g.f_px * libm::fabs(lo - inv_focus).min(libm::fabs(hi - inv_focus))
+    } else {
+        0.0
+    };
+    let least_blur_px = least.max(b * g.f_px / f);
     let outside_dof = hi > inv_near || lo < inv_far;
     let points = if outside_dof && matches!(scene.camera.model, Model::Perspective) {
         crate::render::sensor::defocus::points_for(blur_px, edge_budget_px)
@@ -113,6 +122,7 @@ pub(super) fn defocus(scene: &Scene, g: &Geometry, edge_budget_px: f64) -> Defoc
     };
     Defocus {
         blur_px,
+        least_blur_px,
         outside_dof,
         points,
         err_px: if points > 0 {

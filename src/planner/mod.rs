@@ -239,6 +239,10 @@ pub struct Defocus {
     /// the field): infinite if content reaches the lens plane, 0 without
     /// content.
     pub blur_px: f64,
+    /// The least blur of content outside the depth of field, pixels (at
+    /// least the tolerable blur `b̃`): what the sample grid must resolve
+    /// ([`crate::render::sensor::sampling::grid_for_blur`]).
+    pub least_blur_px: f64,
     /// Some content in view lies outside the depth of field (`b > b̃`).
     pub outside_dof: bool,
     /// Aperture pattern points (0: the chief ray alone).
@@ -254,6 +258,7 @@ impl Defocus {
     /// No content: nothing blurs, the chief ray alone.
     pub const NONE: Defocus = Defocus {
         blur_px: 0.0,
+        least_blur_px: 0.0,
         outside_dof: false,
         points: 0,
         err_px: 0.0,

@@ -69,11 +69,11 @@ pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan 
     let both =
         matches!(first, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);
     let edge_budget = scene.sampling.map_or(0.5, |s| s.edge_error_px.f64());
-    let (samples, adaptive) = crate::render::sensor::sampling::of_scene(scene);
+    let (asked, adaptive) = crate::render::sensor::sampling::of_scene(scene);
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     // Each model's sample terms and defocus (a geometry at a time: it is
     // large, and the M0's planning stack small).
-    let mut per_model: heapless::Vec<(RenderModel, Samples, Defocus), 2> = heapless::Vec::new();
+    let mut per_model: heapless::Vec<(RenderModel, Samples, Defocus, u8), 2> = heapless::Vec::new();
     for mut model in [Some(first), both.then_some(RenderModel::Perspective)]
         .into_iter()
         .flatten()
@@ -92,8 +92,21 @@ pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan 
         if df.points > 0 {
             g.through_aperture(scene);
         }
-        let terms = Samples::of(scene, &g, samples, adaptive, df.points);
-        let _ = per_model.push((model, terms, df));
+        // Through the aperture, a grid fine enough to resolve the least
+        // blur within the spread budget (an edge's measured blur within
+        // 2 % of its blur circle), where the scene asks for area
+        // integration at all.
+        let samples = if df.points > 0 && asked > 1 {
+            let blur = crate::render::sensor::sampling::grid_for_blur(
+                df.least_blur_px,
+                crate::render::sensor::defocus::SPREAD_BUDGET,
+            );
+            asked.max(blur)
+        } else {
+            asked
+        };
+        let terms = Samples::of(scene, &g, (samples, adaptive), (df.points, df.blur_px));
+        let _ = per_model.push((model, terms, df, samples));
         model_candidates(
             scene,
             &g,
@@ -155,11 +168,11 @@ pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan 
         edge_differing: 1.0,
     });
     let model = c.model;
-    let (terms, df) = per_model
+    let (terms, df, samples) = per_model
         .iter()
         .find(|m| m.0 == model)
-        .map_or((Samples::ONE, Defocus::NONE), |m| {
-            (m.1.with(c.arithmetic, shares), m.2)
+        .map_or((Samples::ONE, Defocus::NONE, asked), |m| {
+            (m.1.with(c.arithmetic, shares), m.2, m.3)
         });
     let wp_used =
         matches!(model, RenderModel::WeakPerspective { .. }) && matches!(cam.model, Model::Perspective);

@@ -352,7 +352,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         let right = [self.key::<R>(xc - hx, top), self.key::<R>(xc - hx, bottom)];
         let centre = self.sample::<L, R>(xc, yc);
         let uniform = match centre {
-            Some((_, k)) => left.iter().chain(right.iter()).all(|c| *c == Some(k)),
+            Some((_, k)) => k != Key::MIXED && left.iter().chain(right.iter()).all(|c| *c == Some(k)),
             None => false,
         };
         *left = right;
@@ -403,7 +403,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         let PixelRay { o, d, a, xy: (x, y) } = self.ray::<R>(xacc, yacc)?;
         #[cfg(feature = "sensor")]
         let (radiance, key) = if L::WIDE_APERTURE && R == PINHOLE && self.stages.aperture > 0 {
-            self.through_aperture::<L>((x, y), a)
+            self.through_aperture::<L>((x, y))
         } else if L::WIDE_SPECULAR && self.stages.specular {
             self.trace::<true, R>(o, d, a, (x, y))
         } else {
@@ -440,36 +440,32 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         Some((e, key))
     }
 
-    /// The radiance of the chief ray of undistorted slopes `(x̂, ŷ)` (`a =
-    /// 1 + x̂² + ŷ²`) through the aperture (camera-model.md §8): the mean
+    /// The radiance of the chief ray of undistorted slopes `(x̂, ŷ)` through
+    /// the aperture (camera-model.md §8): the mean
     /// over the pattern's points `A` of the radiance along the ray from `A`
-    /// through `Z̃ (x̂, ŷ, 1)`; and, for the adaptive rule, what the chief
-    /// ray sees.
+    /// through `Z̃ (x̂, ŷ, 1)`; and, for the adaptive rule, what the point
+    /// sees through the aperture ([`WideFrame::blurred_key`]).
     #[cfg(feature = "sensor")]
     #[inline(never)]
-    fn through_aperture<L: Lines>(&self, (x, y): (S, S), a: S) -> (V3<S>, Key) {
+    fn through_aperture<L: Lines>(&self, (x, y): (S, S)) -> (V3<S>, Key) {
         let mut sum = [S::ZERO; 3];
         let channels = self.format.channels();
         for p in crate::render::sensor::defocus::SPIRAL
             .iter()
             .take(self.stages.aperture as usize)
         {
-            let ux = S::from_q(Q::from_bits(i64::from(p[0]) << self.ap_shift));
-            let uy = S::from_q(Q::from_bits(i64::from(p[1]) << self.ap_shift));
-            let o = [ux.mul(self.ap_r), uy.mul(self.ap_r), S::ZERO];
-            let d = [x.sub(ux.mul(self.ap_rz)), y.sub(uy.mul(self.ap_rz)), S::ONE];
+            let u = p.map(|c| i64::from(c) << self.ap_shift);
             let (l, _) = if L::WIDE_SPECULAR && self.stages.specular {
-                self.trace::<true, APERTURE>(o, d, dot(d, d), (x, y))
+                self.aperture_trace::<true>(u, (x, y))
             } else {
-                self.trace::<false, APERTURE>(o, d, dot(d, d), (x, y))
+                self.aperture_trace::<false>(u, (x, y))
             };
             for (s, v) in sum.iter_mut().zip(l).take(channels) {
                 *s = s.add(v);
             }
         }
         let key = if L::WIDE_SAMPLED && self.stages.adaptive {
-            let chief = self.look::<PINHOLE>([S::ZERO; 3], [x, y, S::ONE], a, (x, y));
-            chief.map_or(Key::NOTHING, |s| s.key)
+            self.blurred_key((x, y))
         } else {
             Key::NOTHING
         };
@@ -477,12 +473,50 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     }
 
     /// What the ray at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw) sees
-    /// (through the aperture: its chief ray); `None` beyond the fold.
+    /// (through the aperture: [`WideFrame::blurred_key`]); `None` beyond
+    /// the fold.
     #[cfg(feature = "sensor")]
     #[inline(never)]
     fn key<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<Key> {
         let PixelRay { o, d, a, xy } = self.ray::<R>(xacc, yacc)?;
+        if R == PINHOLE && self.stages.aperture > 0 {
+            return Some(self.blurred_key(xy));
+        }
         Some(self.look::<R>(o, d, a, xy).map_or(Key::NOTHING, |s| s.key))
+    }
+
+    /// What the point of undistorted slopes `(x̂, ŷ)` sees through the
+    /// aperture, for the adaptive rule: its chief ray's
+    /// key if the rays from the aperture's rim ([`RIM`]) through the same
+    /// point in focus see the same, else [`Key::MIXED`]. The rim's rays
+    /// bound the blur circle at every depth, so the rule follows the
+    /// blurred extent of content, not its sharp edge (camera-model.md §7).
+    #[cfg(feature = "sensor")]
+    #[inline(never)]
+    fn blurred_key(&self, (x, y): (S, S)) -> Key {
+        // (Traced as the aperture's rays are, shading and all, the chief
+        // ray as the one from the aperture's centre: a look of their own
+        // would be another copy of the primitives' passes in flash.)
+        let chief = self.aperture_trace::<false>([0, 0], (x, y)).1;
+        if RIM
+            .iter()
+            .any(|u| self.aperture_trace::<false>(*u, (x, y)).1 != chief)
+        {
+            return Key::MIXED;
+        }
+        chief
+    }
+
+    /// What the ray from aperture point `u d/2` (`u` on the unit disc,
+    /// I32F32 bits) through the focused point of undistorted slopes
+    /// `(x̂, ŷ)` sees: its radiance and key (camera-model.md §8).
+    #[cfg(feature = "sensor")]
+    #[inline(never)]
+    fn aperture_trace<const SPEC: bool>(&self, u: [i64; 2], (x, y): (S, S)) -> (V3<S>, Key) {
+        let [ux, uy] = u.map(|c| S::from_q(Q::from_bits(c)));
+        let o = [ux.mul(self.ap_r), uy.mul(self.ap_r), S::ZERO];
+        let d = [x.sub(ux.mul(self.ap_rz)), y.sub(uy.mul(self.ap_rz)), S::ONE];
+        self.trace::<SPEC, APERTURE>(o, d, dot(d, d), (x, y))
     }
 
     /// The mean of the `n×n` grid of the pixel centred at `(xc, yc)`
@@ -611,7 +645,35 @@ impl Key {
         prim: u8::MAX,
         cell: (0, 0),
     };
+    /// Through the aperture, a point whose rim rays see something else
+    /// than its chief ray ([`WideFrame::blurred_key`]): never uniform. (No
+    /// primitive has index 254: scenes hold at most
+    /// [`crate::scene::MAX_PRIMITIVES`].)
+    #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+    const MIXED: Key = Key {
+        prim: u8::MAX - 1,
+        cell: (0, 0),
+    };
 }
+
+/// The aperture's rim at the angles `kπ/4`, `k = 0…7`, on the unit circle
+/// (I32F32 bits; `√½` rounded): the rays the adaptive rule traces through
+/// the aperture ([`WideFrame::blurred_key`]; docs/sensor.md).
+#[cfg_attr(not(feature = "sensor"), allow(dead_code))]
+const RIM: [[i64; 2]; 8] = {
+    const ONE: i64 = 1 << 32;
+    const H: i64 = 3_037_000_500;
+    [
+        [ONE, 0],
+        [H, H],
+        [0, ONE],
+        [-H, H],
+        [-ONE, 0],
+        [-H, -H],
+        [0, -ONE],
+        [H, -H],
+    ]
+};
 
 /// A ray's nearest hit with the material there.
 struct Seen<S> {

@@ -79,6 +79,10 @@ pub struct Key {
     pub prim: Option<usize>,
     /// Texture cell, if the primitive is textured.
     pub cell: Option<(i64, i64)>,
+    /// Through the aperture: a ray through its rim sees another primitive
+    /// or cell than the chief ray (the point lies within the blurred
+    /// extent of an edge; docs/sensor.md).
+    pub mixed: bool,
 }
 
 /// A scene in f64.
@@ -445,26 +449,52 @@ impl RefScene {
         ))
     }
 
-    /// What the ray through pixel position `(xi, yi)` sees.
+    /// What the ray through pixel position `(xi, yi)` sees; through the
+    /// aperture under the adaptive rule, also whether the rays from its rim
+    /// at the eight angles `kπ/4` through the same point in focus see the
+    /// same (docs/sensor.md, "Defocus and the adaptive rule").
     pub fn key(&self, xi: f64, yi: f64) -> Key {
         let Some((x, y)) = self.undistorted(xi, yi) else {
             return Key {
                 in_field: false,
                 prim: None,
                 cell: None,
+                mixed: false,
             };
         };
         let (o, d) = self.ray(x, y);
+        let key = self.key_along(o, d);
+        // (Only the adaptive rule asks: with one sample, or the grid on
+        // every pixel, nothing is decided at a blurred extent.)
+        let adaptive = self.pattern.n > 1 && self.pattern.adaptive;
+        if self.model != RefModel::Perspective || self.spiral.is_empty() || !adaptive {
+            return key;
+        }
+        let f = [self.focus * x, self.focus * y, self.focus];
+        let r = self.aperture / 2.0;
+        let mixed = (0..8).any(|k| {
+            let t = f64::from(k) * std::f64::consts::FRAC_PI_4;
+            let a = [r * t.cos(), r * t.sin(), 0.0];
+            let (o, d) = self.to_world(a, sub(f, a));
+            self.key_along(o, d) != key
+        });
+        Key { mixed, ..key }
+    }
+
+    /// What the world-frame ray `o + t d` sees (in the field).
+    fn key_along(&self, o: V3, d: V3) -> Key {
         match self.hit(o, d) {
             None => Key {
                 in_field: true,
                 prim: None,
                 cell: None,
+                mixed: false,
             },
             Some((t, i, _)) => Key {
                 in_field: true,
                 prim: Some(i),
                 cell: self.cell(i, at(o, d, t)),
+                mixed: false,
             },
         }
     }
@@ -599,7 +629,7 @@ impl RefScene {
     /// Whether the pattern takes the grid at pixel `(i, j)`: always with
     /// more than one sample, unless the adaptive rule finds its four
     /// corners and its centre in the field and seeing the same primitive
-    /// and texture cell.
+    /// and texture cell (through the aperture, with their rims too).
     pub fn takes_grid(&self, i: usize, j: usize) -> bool {
         let (x, y) = (i as f64, j as f64);
         let p = self.pattern;
@@ -611,7 +641,7 @@ impl RefScene {
         }
         let centre = self.key(x, y);
         let corners = [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)];
-        !(centre.in_field && corners.iter().all(|(a, b)| self.key(x + a, y + b) == centre))
+        !(centre.in_field && !centre.mixed && corners.iter().all(|(a, b)| self.key(x + a, y + b) == centre))
     }
 
     /// Pixel `(i, j)`'s values per channel (§7 and §9), and whether it is in

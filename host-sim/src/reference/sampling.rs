@@ -57,19 +57,25 @@ impl Pattern {
     }
 
     /// The pattern a scene file's `[sampling]` asks for (one sample at the
-    /// centre without it), through the aperture the core's plan samples
-    /// (the planner's rule of docs/sensor.md decides it, as the contract
-    /// has the plan report it).
+    /// centre without it), through the aperture the core's plan samples,
+    /// with the grid the plan raises it to there (the planner's rules of
+    /// docs/sensor.md decide both, as the contract has the plan report
+    /// them).
     pub fn of_scene(r: &crate::scene_file::Resolved) -> Pattern {
         let grid = r.desc.sampling.map_or(Pattern::CENTRE, |s| {
             Pattern::for_edge_error(s.edge_error, s.adaptive)
         });
-        let aperture = r.core_scene().map_or(0, |s| {
-            hilcam::planner::plan(&s, &hilcam::planner::Budget::default())
-                .options
-                .aperture
-        });
-        Pattern { aperture, ..grid }
+        let planned = r
+            .core_scene()
+            .map(|s| hilcam::planner::plan(&s, &hilcam::planner::Budget::default()).options);
+        match planned {
+            Ok(o) if o.aperture > 0 => Pattern {
+                aperture: o.aperture,
+                n: grid.n.max(o.samples),
+                ..grid
+            },
+            _ => grid,
+        }
     }
 
     /// Offsets of the grid's cell centres from the pixel centre, pixels.
