@@ -131,15 +131,11 @@ struct Spread {
     points: u16,
 }
 
-/// Renders the edge at depth `z` and the bright field, and fits the disc
-/// diameter of the edge's spread (least squares over the pixels within
-/// reach of the edge, each at its distance from the edge's pinhole image).
-fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
-    let text = scene(z, tolerable_blur, true);
-    let (edge, points, predicted_px) = render(&text, None);
-    let (white, _, _) = render(&scene(z, tolerable_blur, false), Some(0));
-    // The edge's pinhole image: two of its points, projected.
-    let rs = RefScene::new(&parse(&text).expect("scene"));
+/// The signed distance, pixels, of pixel position `(x, y)` from the pinhole
+/// image of the edge of [`scene`] at depth `z` (`rs`), positive towards the
+/// bright side (the image's unit normal, from two of its points and one
+/// inside, projected).
+fn edge_side(rs: &RefScene, z: f64) -> impl Fn(f64, f64) -> f64 {
     let (c, s) = (5f64.to_radians().cos(), 5f64.to_radians().sin());
     let at = |t: f64| {
         rs.project([-0.05 * z * s * t, 0.05 * z * c * t, z])
@@ -149,13 +145,24 @@ fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
     let inside = rs.project([0.05 * z * c, 0.05 * z * s, z]).expect("in view");
     let (dx, dy) = (q.0 - p.0, q.1 - p.1);
     let len = dx.hypot(dy);
-    let side = |x: f64, y: f64| ((x - p.0) * dy - (y - p.1) * dx) / len;
-    let sign = side(inside.0, inside.1).signum();
+    let sign = (((inside.0 - p.0) * dy - (inside.1 - p.1) * dx) / len).signum();
+    let (nx, ny) = (sign * dy / len, -sign * dx / len);
+    move |x, y| nx * (x - p.0) + ny * (y - p.1)
+}
+
+/// Renders the edge at depth `z` and the bright field, and fits the disc
+/// diameter of the edge's spread (least squares over the pixels within
+/// reach of the edge, each at its distance from the edge's pinhole image).
+fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
+    let text = scene(z, tolerable_blur, true);
+    let (edge, points, predicted_px) = render(&text, None);
+    let (white, _, _) = render(&scene(z, tolerable_blur, false), Some(0));
+    let side = edge_side(&RefScene::new(&parse(&text).expect("scene")), z);
     let reach = 0.75 * expected_px + 3.0;
     let mut pts = Vec::new();
     for j in 0..HEIGHT {
         for i in 0..WIDTH {
-            let d = sign * side(i as f64, j as f64);
+            let d = side(i as f64, j as f64);
             let k = j * WIDTH + i;
             if d.abs() <= reach && white[k] > 1000.0 {
                 pts.push((d, edge[k] / white[k]));
@@ -646,22 +653,14 @@ fn area_integrated_edges_spread_over_the_blur_circle() {
             let text = scene(z, tolerable, true);
             let (edge, plan) = render_as_asked(&text);
             let (white, _) = render_as_asked(&scene(z, tolerable, false));
-            let resolved = host_sim::scene_file::parse(&text).expect("scene");
-            let rs = RefScene::new(&resolved);
-            // The edge's pinhole image and its unit normal (towards the
-            // bright side) in pixel coordinates.
-            let (c, s) = (5f64.to_radians().cos(), 5f64.to_radians().sin());
-            let at = |t: f64| {
-                rs.project([-0.05 * z * s * t, 0.05 * z * c * t, z])
-                    .expect("in view")
-            };
-            let (p, q) = (at(-1.0), at(1.0));
-            let inside = rs.project([0.05 * z * c, 0.05 * z * s, z]).expect("in view");
-            let (dx, dy) = (q.0 - p.0, q.1 - p.1);
-            let len = dx.hypot(dy);
-            let sign = (((inside.0 - p.0) * dy - (inside.1 - p.1) * dx) / len).signum();
-            let (nx, ny) = (sign * dy / len, -sign * dx / len);
-            let side_of = |x: f64, y: f64| nx * (x - p.0) + ny * (y - p.1);
+            let rs = RefScene::new(&host_sim::scene_file::parse(&text).expect("scene"));
+            let side_of = edge_side(&rs, z);
+            // The pixel square's offsets along the edge normal: the side
+            // of `(x, y)` and of `(x + 1, y)`, `(x, y + 1)`.
+            let (nx, ny) = (
+                side_of(1.0, 0.0) - side_of(0.0, 0.0),
+                side_of(0.0, 1.0) - side_of(0.0, 0.0),
+            );
             // The disc's edge-spread function averaged over the pixel
             // square (64×64 points).
             let area_esf = |b: f64, d: f64| {
