@@ -83,8 +83,17 @@ size = [{}, {}]
 /// (`points`: forced, else the planner's), with the planner's predicted
 /// placement error, px.
 fn render(text: &str, points: Option<u16>) -> (Vec<f64>, u16, f64) {
-    let r = parse(text).expect("scene");
-    let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |p| match points {
+    let (v, aperture, plan) = render_resolved(&parse(text).expect("scene"), points);
+    (v, aperture, plan.defocus.err_px)
+}
+
+/// [`render`] of a parsed scene: the values, the aperture points and the
+/// plan.
+fn render_resolved(
+    r: &host_sim::scene_file::Resolved,
+    points: Option<u16>,
+) -> (Vec<f64>, u16, hilcam::planner::Plan) {
+    let (_, plan, f) = prepare::<I32F32>(r, &Budget::default(), |p| match points {
         Some(points) => p.options.with(Override::Aperture { points }),
         None => p.options,
     })
@@ -95,7 +104,7 @@ fn render(text: &str, points: Option<u16>) -> (Vec<f64>, u16, f64) {
         .chunks_exact(2)
         .map(|b| f64::from(u16::from_le_bytes([b[0], b[1]])))
         .collect();
-    (v, f.stages().aperture, plan.defocus.err_px)
+    (v, f.stages().aperture, plan)
 }
 
 /// The uniform disc's edge-spread function, diameter `b` px, at `s` px
@@ -150,15 +159,10 @@ fn edge_side(rs: &RefScene, z: f64) -> impl Fn(f64, f64) -> f64 {
     move |x, y| nx * (x - p.0) + ny * (y - p.1)
 }
 
-/// Renders the edge at depth `z` and the bright field, and fits the disc
-/// diameter of the edge's spread (least squares over the pixels within
-/// reach of the edge, each at its distance from the edge's pinhole image).
-fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
-    let text = scene(z, tolerable_blur, true);
-    let (edge, points, predicted_px) = render(&text, None);
-    let (white, _, _) = render(&scene(z, tolerable_blur, false), Some(0));
-    let side = edge_side(&RefScene::new(&parse(&text).expect("scene")), z);
-    let reach = 0.75 * expected_px + 3.0;
+/// The pixels within `reach` px of the edge (`side`, [`edge_side`]) where
+/// the bright field is lit: each pixel's distance and its level, the
+/// edge frame over the bright one.
+fn edge_points(edge: &[f64], white: &[f64], side: &impl Fn(f64, f64) -> f64, reach: f64) -> Vec<(f64, f64)> {
     let mut pts = Vec::new();
     for j in 0..HEIGHT {
         for i in 0..WIDTH {
@@ -169,10 +173,20 @@ fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
             }
         }
     }
-    let cost = |b: f64| pts.iter().map(|(d, v)| (v - esf(b, *d)).powi(2)).sum::<f64>();
-    let (mut lo, mut hi) = (0.3 * expected_px, 2.0 * expected_px);
+    pts
+}
+
+/// The diameter `b` in `(lo, hi)` whose `model(b, distance)` fits the
+/// points' levels in least squares (golden-section search, `steps` steps).
+fn fit_diameter(
+    pts: &[(f64, f64)],
+    (mut lo, mut hi): (f64, f64),
+    steps: u32,
+    model: impl Fn(f64, f64) -> f64,
+) -> f64 {
+    let cost = |b: f64| pts.iter().map(|(d, v)| (v - model(b, *d)).powi(2)).sum::<f64>();
     let g = (5f64.sqrt() - 1.0) / 2.0;
-    for _ in 0..100 {
+    for _ in 0..steps {
         let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
         if cost(a) < cost(b) {
             hi = b;
@@ -180,6 +194,19 @@ fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
             lo = a;
         }
     }
+    0.5 * (lo + hi)
+}
+
+/// Renders the edge at depth `z` and the bright field, and fits the disc
+/// diameter of the edge's spread (least squares over the pixels within
+/// reach of the edge, each at its distance from the edge's pinhole image).
+fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
+    let text = scene(z, tolerable_blur, true);
+    let (edge, points, predicted_px) = render(&text, None);
+    let (white, _, _) = render(&scene(z, tolerable_blur, false), Some(0));
+    let side = edge_side(&RefScene::new(&parse(&text).expect("scene")), z);
+    let pts = edge_points(&edge, &white, &side, 0.75 * expected_px + 3.0);
+    let measured_px = fit_diameter(&pts, (0.3 * expected_px, 2.0 * expected_px), 100, esf);
     let placement_px = pts
         .iter()
         .map(|(d, v)| {
@@ -194,7 +221,7 @@ fn measure(z: f64, tolerable_blur: f64, expected_px: f64) -> Spread {
         })
         .fold(0.0, f64::max);
     Spread {
-        measured_px: 0.5 * (lo + hi),
+        measured_px,
         placement_px,
         predicted_px,
         points,
@@ -621,14 +648,7 @@ fn parse(text: &str) -> Result<host_sim::scene_file::Resolved, String> {
 /// The frame of `text` as its scene file asks (no `[sampling]`: the
 /// default, sensor-like pattern), 16-bit values, with the plan.
 fn render_as_asked(text: &str) -> (Vec<f64>, hilcam::planner::Plan) {
-    let r = host_sim::scene_file::parse(text).expect("scene");
-    let (_, plan, f) = prepare::<I32F32>(&r, &Budget::default(), |p| p.options).expect("prepares");
-    let c = collect(&f).expect("renders");
-    let v = c
-        .pixels
-        .chunks_exact(2)
-        .map(|b| f64::from(u16::from_le_bytes([b[0], b[1]])))
-        .collect();
+    let (v, _, plan) = render_resolved(&host_sim::scene_file::parse(text).expect("scene"), None);
     (v, plan)
 }
 
@@ -678,32 +698,8 @@ fn area_integrated_edges_spread_over_the_blur_circle() {
                 sum / (k * k) as f64
             };
             let reach = 0.5 * b + 1.5;
-            let mut pts = Vec::new();
-            for j in 0..HEIGHT {
-                for i in 0..WIDTH {
-                    let d = side_of(i as f64, j as f64);
-                    let k = j * WIDTH + i;
-                    if d.abs() <= reach && white[k] > 1000.0 {
-                        pts.push((d, edge[k] / white[k]));
-                    }
-                }
-            }
-            let cost = |bb: f64| {
-                pts.iter()
-                    .map(|(d, v)| (v - area_esf(bb, *d)).powi(2))
-                    .sum::<f64>()
-            };
-            let (mut lo, mut hi) = (0.5 * b, 1.5 * b);
-            let g = (5f64.sqrt() - 1.0) / 2.0;
-            for _ in 0..40 {
-                let (x1, x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-                if cost(x1) < cost(x2) {
-                    hi = x2;
-                } else {
-                    lo = x1;
-                }
-            }
-            let fitted = 0.5 * (lo + hi);
+            let pts = edge_points(&edge, &white, &side_of, reach);
+            let fitted = fit_diameter(&pts, (0.5 * b, 1.5 * b), 40, area_esf);
             let err = fitted / b - 1.0;
             // Against the converged reference on three rows (the slant
             // puts the edge at a different phase on each).
