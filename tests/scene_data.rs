@@ -3,11 +3,12 @@
 //! called directly; truncated, padded and non-canonical encodings refused;
 //! the largest scene's size.
 
+use hilcam::geom::calibrated::Calibrated;
 use hilcam::geom::distortion::Distortion;
 use hilcam::geom::lens::Aperture;
 use hilcam::scene::data::{
-    load, CameraData, Colour, DataError, FormatData, LightData, MaterialData, NoiseData, PrimitiveData,
-    SamplingData, SceneData, SpecularData, MAX_SCENE_DATA,
+    load, CameraData, Colour, DataError, FormatData, LensData, LightData, MaterialData, NoiseData,
+    PrimitiveData, SamplingData, SceneData, SpecularData, MAX_SCENE_DATA,
 };
 use hilcam::scene::{CheckerSpec, Item, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
 use hilcam::{Camera, Extrinsics, IntrinsicsConfig, LensConfig, Model};
@@ -97,6 +98,14 @@ fn direct(d: &SceneData) -> Result<Scene, DataError> {
     if let Some(n) = d.noise {
         s.set_noise(n.saturation, n.dark_noise, n.dark_offset, u64::from(n.seed))?;
     }
+    if let Some(l) = d.lens {
+        let lens = match l {
+            LensData::OpenCv(c) => Calibrated::opencv(c),
+            LensData::Fisheye(c) => Calibrated::fisheye(c),
+        };
+        s.set_calibrated(Some(lens.map_err(DataError::Camera)?))
+            .map_err(DataError::Camera)?;
+    }
     Ok(s)
 }
 
@@ -171,7 +180,10 @@ fn scene() -> impl Strategy<Value = SceneData> {
         ),
         proptest::collection::vec((any::<bool>(), arr::<3>(), colour()), 0..3),
         proptest::option::of((num(), any::<bool>())),
-        proptest::option::of((num(), num(), num(), any::<u32>())),
+        (
+            proptest::option::of((num(), num(), num(), any::<u32>())),
+            proptest::option::of((any::<bool>(), any::<bool>(), arr::<12>())),
+        ),
         (
             any::<u16>(),
             any::<u16>(),
@@ -181,7 +193,7 @@ fn scene() -> impl Strategy<Value = SceneData> {
         0u8..20,
     )
         .prop_map(
-            move |(i, ambient, mats, prims, lights, sampling, noise, cam, bits)| {
+            move |(i, ambient, mats, prims, lights, sampling, (noise, lens), cam, bits)| {
                 let mut d = base[i].1.clone();
                 if let Some(a) = ambient {
                     d.ambient = a;
@@ -232,6 +244,15 @@ fn scene() -> impl Strategy<Value = SceneData> {
                     dark_noise: n.abs(),
                     dark_offset: o.abs(),
                     seed,
+                });
+                // A lens with radial distortion beside it is refused: drawn
+                // with and without.
+                if let Some((_, true, _)) = lens {
+                    d.camera.distortion = None;
+                }
+                d.lens = lens.map(|(fisheye, _, c)| match fisheye {
+                    true => LensData::Fisheye([c[0], c[1], c[2], c[3]]),
+                    false => LensData::OpenCv(c),
                 });
                 let (w, h, pp, small) = cam;
                 if small {
@@ -355,6 +376,7 @@ fn largest(m: usize, p: usize, l: usize) -> SceneData {
         dark_offset: 1.0,
         seed: u32::MAX,
     });
+    d.lens = Some(LensData::OpenCv([0.0; 12]));
     d
 }
 

@@ -228,7 +228,24 @@ pub fn export(r: &Resolved) -> Result<Export, String> {
         .fold(0.0, f64::max);
     let r_max = fold.map_or(r_max, |f| r_max.min(f));
     let px = (s.f / s.sx).max(s.f / s.sy);
-    let distortion = fit(radial, r_max, px);
+    // A calibrated lens is OpenCV's own: its coefficients as given.
+    let distortion = match r.desc.camera.lens()? {
+        Some(lens) => {
+            let (model, coefficients) = match (lens, &r.desc.camera.opencv_distortion) {
+                (hilcam::scene::data::LensData::Fisheye(k), _) => ("equidistant", k.to_vec()),
+                (_, Some(c)) if c.len() <= 5 => ("plumb_bob", c.clone()),
+                (_, c) => ("rational_polynomial", c.clone().unwrap_or_default()),
+            };
+            Fit {
+                model,
+                coefficients,
+                residual_px: 0.0,
+                r_max,
+                plumb_bob_residual_px: 0.0,
+            }
+        }
+        None => fit(radial, r_max, px),
+    };
     let within_tolerance = distortion.residual_px <= RESIDUAL_TOLERANCE_PX;
     let pose = rs.pose();
     let flip = [-1.0, -1.0, 1.0];
@@ -245,12 +262,8 @@ pub fn export(r: &Resolved) -> Result<Export, String> {
             if fold.is_some_and(|f| xd.hypot(yd) > f) {
                 continue;
             }
-            let (x, y) = match radial {
-                Some(rad) => match rad.undistort(xd, yd) {
-                    Some(p) => p,
-                    None => continue,
-                },
-                None => (xd, yd),
+            let Some((x, y)) = rs.undistorted(xi, yi) else {
+                continue;
             };
             for z in [0.5, 2.0, 8.0] {
                 world_points.push(pose.camera_to_world([x * z, y * z, z]));

@@ -10,6 +10,7 @@
 //! and the link's decoder are built (what the fuzz targets need).
 
 pub mod boards;
+pub mod calibration;
 pub mod link;
 pub mod scene_file;
 pub mod shipped;

@@ -4,7 +4,7 @@
 
 use hilcam::geom::lens::Aperture;
 use hilcam::scene::data::{
-    CameraData, MaterialData, NoiseData, PrimitiveData, SamplingData, SceneData, SpecularData,
+    CameraData, LensData, MaterialData, NoiseData, PrimitiveData, SamplingData, SceneData, SpecularData,
 };
 use hilcam::scene::{CheckerSpec, PixelFormat, Scene, ShapeSpec, MAX_LIGHTS, MAX_MATERIALS, MAX_PRIMITIVES};
 use serde::Deserialize;
@@ -164,8 +164,53 @@ pub struct CameraDesc {
     /// `[k1, k2]` (default none).
     #[serde(default, deserialize_with = "exact::opt")]
     pub distortion: Option<[f64; 2]>,
+    /// OpenCV's standard model, its coefficients in its order: 4, 5, 8,
+    /// 12 or 14 (`k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, τx,
+    /// τy]]]]`; a tilted sensor, `τ ≠ 0`, is refused).
+    #[serde(default)]
+    pub opencv_distortion: Option<Vec<f64>>,
+    /// OpenCV's fisheye model `[k1, k2, k3, k4]`.
+    #[serde(default, deserialize_with = "exact::opt")]
+    pub fisheye_distortion: Option<[f64; 4]>,
     /// The pose.
     pub pose: PoseDesc,
+}
+
+impl CameraDesc {
+    /// The calibrated lens the camera gives, if any, as the core takes it.
+    pub fn lens(&self) -> Result<Option<LensData>, String> {
+        match (
+            &self.distortion,
+            &self.opencv_distortion,
+            &self.fisheye_distortion,
+        ) {
+            (_, None, None) => Ok(None),
+            (None, Some(c), None) => {
+                if !matches!(c.len(), 4 | 5 | 8 | 12 | 14) {
+                    return Err(format!(
+                        "camera.opencv_distortion: {} coefficients; OpenCV's model has 4, 5, 8, 12 or 14",
+                        c.len()
+                    ));
+                }
+                if c.len() == 14 && (c[12] != 0.0 || c[13] != 0.0) {
+                    return Err(
+                        "camera.opencv_distortion: a tilted sensor (tauX, tauY not 0) is not modelled".into(),
+                    );
+                }
+                let mut k = [0.0; 12];
+                for (d, v) in k.iter_mut().zip(c) {
+                    *d = *v;
+                }
+                Ok(Some(LensData::OpenCv(k)))
+            }
+            (None, None, Some(k)) => Ok(Some(LensData::Fisheye(*k))),
+            _ => Err(
+                "camera.distortion, camera.opencv_distortion, camera.fisheye_distortion: give at most one \
+                      lens model"
+                    .into(),
+            ),
+        }
+    }
 }
 
 fn perspective() -> String {
@@ -451,12 +496,28 @@ pub fn load(path: &Path) -> Result<Resolved, String> {
         )));
     }
     let text = String::from_utf8(bytes).map_err(|e| at(format!("not UTF-8 text: {e}")))?;
-    parse(&text).map_err(at)
+    parse_in(&text, path.parent()).map_err(at)
 }
 
-/// Parses and checks scene text.
+/// Parses and checks scene text (a `camera.calibration` path relative to
+/// the current directory).
 pub fn parse(text: &str) -> Result<Resolved, String> {
-    let desc: SceneDesc = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
+    parse_in(text, None)
+}
+
+/// [`parse`], a relative `camera.calibration` path starting in `dir`.
+pub fn parse_in(text: &str, dir: Option<&Path>) -> Result<Resolved, String> {
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
+    let camera = table.get_mut("camera").and_then(|c| c.as_table_mut());
+    let desc: SceneDesc = match camera {
+        Some(c) if c.contains_key("calibration") => {
+            crate::calibration::merge(c, dir)?;
+            table
+                .try_into()
+                .map_err(|e: toml::de::Error| e.to_string().trim_end().to_string())?
+        }
+        _ => toml::from_str(text).map_err(|e| toml_error(text, &e))?,
+    };
     resolve(desc)
 }
 
@@ -904,6 +965,7 @@ impl Resolved {
                 dark_offset: n.dark_offset,
                 seed: n.seed,
             }),
+            lens: c.lens()?,
         };
         for m in &self.desc.materials {
             // Lambertian (the defaults) without a lobe: the same values.

@@ -432,6 +432,7 @@ pub fn example_scene_data() -> hilcam::scene::data::SceneData {
         lights: heapless::Vec::new(),
         sampling: None,
         noise: None,
+        lens: None,
     };
     let _ = d.materials.push(MaterialData {
         albedo: Colour::Gray(0.5),

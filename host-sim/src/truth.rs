@@ -198,3 +198,24 @@ pub fn frame_to(
     out.commit()?;
     Ok(t)
 }
+
+/// The ray each pixel's centre images in the frame the planner picks for
+/// `r`, as the core computes it (`Frame::undistorted`, the pixel loop's own
+/// code): OpenCV's normalized `(x, y)` (the point `(x, y, 1)` in its camera
+/// frame, x right and y down), row by row; NaN outside the lens field.
+pub fn pixel_rays(r: &Resolved) -> Result<Vec<[f64; 2]>, String> {
+    let scene = r.core_scene()?;
+    let plan = hilcam::planner::plan(&scene, &hilcam::planner::Budget::default());
+    let frame = hilcam::render::Frame::new(&scene, &plan.options).map_err(|e| format!("camera: {e:?}"))?;
+    let (w, h) = frame.size();
+    let mut out = Vec::with_capacity(usize::from(w) * usize::from(h));
+    for j in 0..h {
+        for i in 0..w {
+            out.push(match frame.undistorted(i, j) {
+                Some((x, y)) => [-x.to_num::<f64>(), -y.to_num::<f64>()],
+                None => [f64::NAN; 2],
+            });
+        }
+    }
+    Ok(out)
+}

@@ -232,6 +232,16 @@ class Scene:
         tvec = np.array(e["translation"], dtype=float).reshape(3, 1)
         return k, d, rvec, tvec, (int(e["width"]), int(e["height"]))
 
+    def pixel_rays(self) -> np.ndarray:
+        """The ray each pixel's centre images, as the renderer computes it:
+        an (H, W, 2) array of OpenCV's normalized (x, y) — the point
+        (x, y, 1) in OpenCV's camera frame, x right, y down — NaN outside
+        the lens field. ``cv2.projectPoints`` of these with the camera's
+        own calibration gives back each pixel's position."""
+        w, h = self.size
+        rays = _scene_call(self._n.pixel_rays)
+        return np.asarray(rays, dtype=np.float64).reshape(h, w, 2)
+
     def export(self) -> Dict[str, Any]:
         """``host-sim export``'s export.json: the camera matrix, the refit
         distortion with its residual, R and t in OpenCV's convention, and

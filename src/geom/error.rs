@@ -46,6 +46,8 @@ pub enum Field {
     Point,
     /// Radial distortion coefficients `k1`, `k2`.
     Distortion,
+    /// A calibrated lens's coefficients (OpenCV's models).
+    Calibrated,
 }
 
 impl Field {
@@ -72,6 +74,7 @@ impl Field {
             Field::OrthographicScale => "orthographic_scale",
             Field::Point => "point",
             Field::Distortion => "distortion",
+            Field::Calibrated => "calibration",
         }
     }
 }

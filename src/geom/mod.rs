@@ -1,6 +1,7 @@
 //! Geometry: coordinate frames as types, the pose, the projection models,
 //! the pixel grid, the thin lens and radial distortion (camera-model.md §1–§5).
 
+pub mod calibrated;
 pub mod camera;
 pub mod distortion;
 pub mod error;

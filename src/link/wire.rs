@@ -10,8 +10,9 @@ use serde::{Deserialize, Serialize};
 /// The protocol version this crate speaks (`docs/wire.md`): 2 adds the
 /// frame's ground truth and the host → camera commands
 /// ([`crate::link::control`]); 3 the lens and the projection's value to the
-/// truth, enough to render the frame again.
-pub const PROTOCOL_VERSION: u8 = 3;
+/// truth, enough to render the frame again; 4 a calibrated lens to the
+/// scene data.
+pub const PROTOCOL_VERSION: u8 = 4;
 
 /// CRC-32/ISO-HDLC (the zlib/Ethernet CRC): polynomial 0x04C11DB7 reflected,
 /// initial value and final XOR 0xFFFFFFFF; check value 0xCBF43926.

@@ -37,6 +37,9 @@ pub(super) struct Geometry {
     /// A bound of `|J − 1|`, the area factor's, over the field
     /// (`g_max h_max − 1`; 0 without distortion).
     pub(super) area_dev: f64,
+    /// A calibrated lens's solve error over the field, normalized units
+    /// ([`crate::geom::calibrated::Calibrated::solve_bound`]; 0 without).
+    pub(super) solve_err: f64,
     /// Largest |undistorted slope|.
     pub(super) slope: f64,
     /// Parallel rays' origin scale, metres (`None`: perspective).
@@ -587,7 +590,11 @@ impl Geometry {
                 libm::ldexp(2.0, -32),
             ),
         };
-        let dist = if scene.distortion.is_none() {
+        let dist = if scene.calibrated().is_some() {
+            // A calibrated lens's solve: its rounding through the inverse's
+            // gain, the largest over the field.
+            self.solve_err
+        } else if scene.distortion.is_none() {
             0.0
         } else {
             let (k1, k2) = scene.distortion.coefficients();

@@ -237,12 +237,14 @@ pub(super) fn model_candidates(
     };
     for arithmetic in [Arithmetic::Fast, Arithmetic::Wide] {
         let mut evals: heapless::Vec<(Option<DistortionEval>, usize), 2> = heapless::Vec::new();
-        if scene.distortion.is_none() {
+        if scene.distortion.is_none() && scene.calibrated().is_none() {
             let _ = evals.push((None, 0));
         } else {
             let _ = evals.push((Some(DistortionEval::Polynomial), 0));
-            // (Only the wide arithmetic reads a table.)
-            let entries = (arithmetic == Arithmetic::Wide).then(|| table_entries(scene, g, half));
+            // (Only the wide arithmetic reads a table; a calibrated lens
+            // is solved per sample.)
+            let entries = (arithmetic == Arithmetic::Wide && scene.calibrated().is_none())
+                .then(|| table_entries(scene, g, half));
             if let Some(entries) = entries.filter(|e| *e <= budget.max_table_entries) {
                 let _ = evals.push((Some(DistortionEval::Linear), entries));
             }

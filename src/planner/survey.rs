@@ -228,6 +228,14 @@ impl Geometry {
             g_max * h_max - 1.0
         };
         let slope = slope_d[0].max(slope_d[1]) * g_max;
+        // A calibrated lens: its field surveyed by its own solve.
+        let (g_max, area_dev, slope, solve_err) = match scene.calibrated() {
+            Some(c) => {
+                let e = c.extent((slope_d[0], slope_d[1]));
+                (e.gain, e.area_dev, e.slopes.0.max(e.slopes.1), e.solve_err)
+            }
+            None => (g_max, area_dev, slope, 0.0),
+        };
         let origin_scale = match model {
             RenderModel::Perspective => None,
             RenderModel::WeakPerspective { mean_depth } => Some(mean_depth.f64()),
@@ -293,6 +301,7 @@ impl Geometry {
             field,
             g_max,
             area_dev,
+            solve_err,
             slope,
             origin_scale,
             extent,

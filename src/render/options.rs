@@ -584,6 +584,9 @@ pub enum Unfit {
     Defocus,
     /// A distortion table: the fast arithmetic evaluates the polynomial.
     Table,
+    /// A calibrated lens (OpenCV's models): solved per sample by the wide
+    /// arithmetic only.
+    Calibrated,
 }
 
 impl Unfit {
@@ -598,6 +601,7 @@ impl Unfit {
             Unfit::NotBuilt => "the fast arithmetic is not built in (feature mix32)",
             Unfit::Defocus => "defocus with a sample grid: the fast aperture loop takes pixel centres only",
             Unfit::Table => "a distortion table: the fast arithmetic evaluates the polynomial",
+            Unfit::Calibrated => "a calibrated lens: solved per sample by the wide arithmetic only",
         }
     }
 }

@@ -229,7 +229,8 @@ impl Prepared {
         // every stage kept, a lens without distortion runs the identity
         // (`k1 = k2 = 0`, g = 1).
         let mut distortion = None;
-        if !scene.distortion.is_none() || opts.keep_all_stages {
+        let calibrated = scene.calibrated().is_some();
+        if !scene.distortion.is_none() || calibrated || opts.keep_all_stages {
             let dist = scene.distortion;
             let mut u_corner = Q::ZERO;
             for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)] {
@@ -241,7 +242,12 @@ impl Prepared {
                 Some(f) if f < u_corner => (f, f),
                 _ => (u_corner, Q::MAX),
             };
-            stages.distortion = Some(opts.distortion_eval);
+            // A calibrated lens is solved per sample (its `k` stay 0 here).
+            stages.distortion = Some(if calibrated {
+                DistortionEval::Polynomial
+            } else {
+                opts.distortion_eval
+            });
             stages.relative_illumination = opts.relative_illumination;
             let (k1, k2) = dist.coefficients();
             let k = [k1, k2].map(Q::saturating_from_num);
@@ -273,8 +279,9 @@ impl Prepared {
             gain,
             centred: intr.is_centred_x(),
         };
-        // A table's corners are checked where the table is built.
-        if opts.distortion_eval == DistortionEval::Polynomial || p.distortion.is_none() {
+        // A table's corners are checked where the table is built; a
+        // calibrated lens's field ends within reach (geom::calibrated).
+        if !calibrated && (opts.distortion_eval == DistortionEval::Polynomial || p.distortion.is_none()) {
             p.corners_within()?;
         }
         Ok(p)
@@ -424,6 +431,9 @@ pub(crate) fn field_box(scene: &Scene) -> (f64, f64) {
     let (ox, oy) = intr.principal_point();
     let far = |o: f64, n: u16| libm::fabs(o).max(libm::fabs(o - (f64::from(n) - 1.0))) + 0.5;
     let (x, y) = (far(ox.f64(), w) / fx, far(oy.f64(), h) / fy);
+    if let Some(c) = scene.calibrated() {
+        return c.extent((x, y)).slopes;
+    }
     let u = x * x + y * y;
     let (k1, k2) = scene.distortion.coefficients();
     let gain = 1.0 + (libm::fabs(k1.f64()) + libm::fabs(k2.f64()) * u) * u;

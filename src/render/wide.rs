@@ -37,6 +37,9 @@ pub(crate) struct WideFrame<S: Scalar, const T: usize> {
     pub(crate) poly: [S; 2],
     /// `u = r_d²` beyond which a pixel is outside the lens field.
     pub(crate) limit: S,
+    /// A calibrated lens, solved per sample in place of the polynomial.
+    #[cfg(feature = "calibrated")]
+    pub(crate) calibrated: Option<crate::geom::calibrated::Model<S>>,
     /// Parallel-ray origin scale: `Z̄` or `f/m`.
     pub(crate) k_origin: S,
     pub(crate) prims: heapless::Vec<CamPrim<S>, { crate::scene::MAX_PRIMITIVES }>,
@@ -92,6 +95,8 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             lut_scale: S::ZERO,
             poly: [S::ZERO; 2],
             limit: S::MAX,
+            #[cfg(feature = "calibrated")]
+            calibrated: None,
             k_origin: S::ZERO,
             prims: heapless::Vec::new(),
             lights: heapless::Vec::new(),
@@ -131,6 +136,10 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         self.lut_scale = S::ZERO;
         self.poly = [S::ZERO; 2];
         self.limit = S::MAX;
+        #[cfg(feature = "calibrated")]
+        {
+            self.calibrated = scene.calibrated().map(|c| c.to());
+        }
         self.prims.clear();
         self.lights.clear();
         self.materials = [Brdf::ZERO; crate::scene::MAX_MATERIALS];
@@ -190,7 +199,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     fn distortion(&mut self, d: &Poly, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
         self.limit = S::from_q(d.limit);
         self.poly = d.k.map(S::from_q);
-        if opts.distortion_eval != DistortionEval::Polynomial {
+        if opts.distortion_eval != DistortionEval::Polynomial && scene.calibrated().is_none() {
             if opts.lut_entries.clamp(2, MAX_LUT) > T {
                 return Err(RenderError::TableTooLarge);
             }
@@ -240,16 +249,23 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     pub(crate) fn undistorted(&self, i: u16, j: u16) -> Option<(S, S)> {
         let (xd, yd) = (S::from_q(self.xd_q(i)), S::from_q(self.yd_q(j)));
         match self.stages.distortion {
-            Some(_) => self.undistort(xd, yd),
+            Some(_) => self.undistort(xd, yd).map(|(x, y, _)| (x, y)),
             None => Some((xd, yd)),
         }
     }
 
-    /// `(x̂_d, ŷ_d) g(u)`, or `None` beyond the fold.
+    /// `(x̂_d, ŷ_d) g(u)`, or `None` beyond the fold; with a calibrated
+    /// lens, its solve, and its area factor `J` (else 1: the polynomial's
+    /// is [`vignetting::area_factor`]).
     #[inline(always)]
-    fn undistort(&self, xd: S, yd: S) -> Option<(S, S)> {
+    fn undistort(&self, xd: S, yd: S) -> Option<(S, S, S)> {
+        #[cfg(feature = "calibrated")]
+        if let Some(m) = &self.calibrated {
+            return m.undistort(xd, yd);
+        }
+        let with_one = |(x, y)| (x, y, S::ONE);
         if self.stages.distortion == Some(DistortionEval::Polynomial) {
-            return undistort_poly(xd, yd, self.poly, self.limit);
+            return undistort_poly(xd, yd, self.poly, self.limit).map(with_one);
         }
         let u = xd.mul(xd).add(yd.mul(yd));
         if u > self.limit {
@@ -261,7 +277,16 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             }
             _ => self.lut.as_ref().map_or(S::ONE, |l| l.linear(u, self.lut_scale)),
         };
-        Some((xd.mul(g), yd.mul(g)))
+        Some((xd.mul(g), yd.mul(g), S::ONE))
+    }
+
+    /// Whether a calibrated lens is solved per sample.
+    #[inline(always)]
+    fn is_calibrated(&self) -> bool {
+        #[cfg(feature = "calibrated")]
+        return self.calibrated.is_some();
+        #[cfg(not(feature = "calibrated"))]
+        false
     }
 
     /// Sets the frame id the noise is keyed by.
@@ -367,10 +392,10 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     #[inline(always)]
     fn ray<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<PixelRay<S>> {
         let (xd, yd) = (S::from_q(from_acc(xacc)), S::from_q(from_acc(yacc)));
-        let (x, y) = if self.stages.distortion.is_some() {
+        let (x, y, j) = if self.stages.distortion.is_some() {
             self.undistort(xd, yd)?
         } else {
-            (xd, yd)
+            (xd, yd, S::ONE)
         };
         // Pinhole rays are also the chief rays of aperture samples.
         let (o, d) = if R != PARALLEL {
@@ -384,7 +409,13 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         // d·d (1 for parallel rays); for perspective rays also the
         // 1 + x̂² + ŷ² of cos⁴α (equal in fixed point, where sums are exact).
         let a = if R != PARALLEL { dot(d, d) } else { S::ONE };
-        Some(PixelRay { o, d, a, xy: (x, y) })
+        Some(PixelRay {
+            o,
+            d,
+            a,
+            xy: (x, y),
+            j,
+        })
     }
 
     /// One sample at the distorted slopes `(x̂_d, ŷ_d)` (I64F64 raw): `K E`
@@ -400,7 +431,13 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// [`WideFrame::sample`], inlined.
     #[inline(always)]
     fn sample_inline<L: Lines, const R: u8>(&self, xacc: i128, yacc: i128) -> Option<(V3<S>, Key)> {
-        let PixelRay { o, d, a, xy: (x, y) } = self.ray::<R>(xacc, yacc)?;
+        let PixelRay {
+            o,
+            d,
+            a,
+            xy: (x, y),
+            j,
+        } = self.ray::<R>(xacc, yacc)?;
         #[cfg(feature = "sensor")]
         let (radiance, key) = if L::WIDE_APERTURE && R == PINHOLE && self.stages.aperture > 0 {
             self.through_aperture::<L>((x, y))
@@ -422,11 +459,13 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         };
         // Distortion spreads or gathers the light (§5): times its area
         // factor at the distorted slopes.
-        let cos4 = if self.stages.relative_illumination {
+        let cos4 = if !self.stages.relative_illumination {
+            cos4
+        } else if self.is_calibrated() {
+            cos4.mul(j)
+        } else {
             let (xd, yd) = (S::from_q(from_acc(xacc)), S::from_q(from_acc(yacc)));
             cos4.mul(vignetting::area_factor(xd, yd, self.poly))
-        } else {
-            cos4
         };
         let mut e = [S::ZERO; 3];
         for ((dst, l), g) in e
@@ -478,7 +517,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     #[cfg(feature = "sensor")]
     #[inline(never)]
     fn key<const R: u8>(&self, xacc: i128, yacc: i128) -> Option<Key> {
-        let PixelRay { o, d, a, xy } = self.ray::<R>(xacc, yacc)?;
+        let PixelRay { o, d, a, xy, .. } = self.ray::<R>(xacc, yacc)?;
         if R == PINHOLE && self.stages.aperture > 0 {
             return Some(self.blurred_key(xy));
         }
@@ -624,12 +663,14 @@ pub(crate) const PARALLEL: u8 = 1;
 #[cfg_attr(not(feature = "sensor"), allow(dead_code))]
 const APERTURE: u8 = 2;
 
-/// A sample's ray: origin, direction, `d·d`, and the undistorted slopes.
+/// A sample's ray: origin, direction, `d·d`, the undistorted slopes, and
+/// a calibrated lens's area factor there (1 otherwise).
 struct PixelRay<S> {
     o: V3<S>,
     d: V3<S>,
     a: S,
     xy: (S, S),
+    j: S,
 }
 
 /// What a ray sees, for the adaptive sampling rule: the primitive (255:

@@ -9,6 +9,8 @@
 //! ([`MAX_MATERIALS`], [`MAX_PRIMITIVES`], [`MAX_LIGHTS`]), and an encoded
 //! scene is at most [`MAX_SCENE_DATA`] bytes.
 
+#[cfg(feature = "calibrated")]
+use crate::geom::calibrated::Calibrated;
 use crate::geom::distortion::Distortion;
 use crate::geom::lens::{Aperture, LensConfig};
 use crate::scene::{
@@ -27,7 +29,7 @@ use serde::Serialize;
 /// lengths; 62 a material (an RGB albedo and lobe), 124 a primitive (a
 /// checkered rectangle), 50 a light.
 pub const fn max_bytes(materials: usize, primitives: usize, lights: usize) -> usize {
-    297 + 62 * materials + 124 * primitives + 50 * lights
+    395 + 62 * materials + 124 * primitives + 50 * lights
 }
 
 /// The largest encoded [`SceneData`] this build holds ([`max_bytes`] of
@@ -57,6 +59,19 @@ pub struct SceneData {
     pub sampling: Option<SamplingData>,
     /// Sensor noise (camera-model.md §9), if asked for.
     pub noise: Option<NoiseData>,
+    /// A calibrated lens in place of `camera.distortion`, if given.
+    pub lens: Option<LensData>,
+}
+
+/// A calibrated lens (geom::calibrated): OpenCV's coefficients in its
+/// order.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum LensData {
+    /// Tag 0: OpenCV's standard model, `[k1, k2, p1, p2, k3, k4, k5, k6,
+    /// s1, s2, s3, s4]` (a shorter calibration's missing terms 0).
+    OpenCv([f64; 12]),
+    /// Tag 1: OpenCV's fisheye model, `[k1, k2, k3, k4]`.
+    Fisheye([f64; 4]),
 }
 
 /// The camera (`[camera]` of a scene file).
@@ -241,7 +256,10 @@ impl fmt::Display for DataError {
                 e.why(f)
             }
             DataError::Scene(e) => e.fmt(f),
-            DataError::NotBuilt { key } => write!(f, "{key}: not in this build (the core's sensor feature)"),
+            DataError::NotBuilt { key } => write!(
+                f,
+                "{key}: not in this build (a feature of the core it leaves out)"
+            ),
         }
     }
 }
@@ -415,6 +433,22 @@ fn fill(r: &mut Reader, s: &mut Scene) -> Result<(), DataError> {
             return Err(DataError::NotBuilt { key: "noise" });
         }
     }
+    #[cfg(feature = "calibrated")]
+    if let Some(l) = r.option(Reader::lens).ok_or(M)? {
+        let lens = match l {
+            LensData::OpenCv(c) => Calibrated::opencv(c),
+            LensData::Fisheye(c) => Calibrated::fisheye(c),
+        };
+        let lens = lens.map_err(DataError::Camera)?;
+        s.set_calibrated(Some(lens)).map_err(DataError::Camera)?;
+    }
+    // Without the feature, a lens is refused unread.
+    #[cfg(not(feature = "calibrated"))]
+    if r.bool().ok_or(M)? {
+        return Err(DataError::NotBuilt {
+            key: "camera.calibration",
+        });
+    }
     if !r.0.is_empty() {
         return Err(M);
     }
@@ -442,6 +476,7 @@ pub(crate) fn camera_key(field: Field) -> &'static str {
         Field::TolerableBlur => "camera.tolerable_blur",
         Field::OrthographicScale => "camera.orthographic_scale",
         Field::Distortion => "camera.distortion",
+        Field::Calibrated => "camera.calibration",
         Field::MeanDepth | Field::Point => "camera",
     }
 }
@@ -577,6 +612,14 @@ impl Reader<'_> {
             dark_noise: self.f64()?,
             dark_offset: self.f64()?,
             seed: self.varint(u32::MAX)?,
+        })
+    }
+
+    #[cfg(feature = "calibrated")]
+    fn lens(&mut self) -> Option<LensData> {
+        Some(match self.varint(1)? {
+            0 => LensData::OpenCv(self.f64s()?),
+            _ => LensData::Fisheye(self.f64s()?),
         })
     }
 

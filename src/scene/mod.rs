@@ -11,6 +11,7 @@
 
 pub mod data;
 
+use crate::geom::calibrated::Calibrated;
 use crate::geom::camera::Camera;
 use crate::geom::distortion::Distortion;
 use crate::geom::frame::WorldPoint;
@@ -352,6 +353,10 @@ pub struct Scene {
     pub(crate) camera: Camera,
     /// Radial distortion.
     pub(crate) distortion: Distortion,
+    /// A calibrated lens (OpenCV's models), in place of the radial
+    /// distortion ([`Scene::set_calibrated`]).
+    #[cfg(feature = "calibrated")]
+    pub(crate) calibrated: Option<Calibrated>,
     /// Output format.
     pub(crate) format: PixelFormat,
     /// Exposure `K`, DN per W/m² of image irradiance.
@@ -546,6 +551,31 @@ impl Scene {
         &self.distortion
     }
 
+    /// The calibrated lens, if the scene gives one.
+    #[inline(always)]
+    pub fn calibrated(&self) -> Option<&Calibrated> {
+        // (A constant `None` where the feature is off: no code follows it.)
+        #[cfg(feature = "calibrated")]
+        return self.calibrated.as_ref();
+        #[cfg(not(feature = "calibrated"))]
+        None
+    }
+
+    /// Images through a calibrated lens (OpenCV's models) instead of the
+    /// radial distortion, which must then be none
+    /// ([`Error::OutOfRange`]`(Field::Distortion)` otherwise: a lens has one
+    /// model).
+    #[cfg(feature = "calibrated")]
+    pub fn set_calibrated(&mut self, lens: Option<Calibrated>) -> Result<(), crate::geom::error::Error> {
+        if lens.is_some() && !self.distortion.is_none() {
+            return Err(crate::geom::error::Error::OutOfRange(
+                crate::geom::error::Field::Distortion,
+            ));
+        }
+        self.calibrated = lens;
+        Ok(())
+    }
+
     /// Output format.
     pub fn format(&self) -> PixelFormat {
         self.format
@@ -627,6 +657,8 @@ impl Scene {
         Scene {
             camera,
             distortion,
+            #[cfg(feature = "calibrated")]
+            calibrated: None,
             format,
             exposure: head.0,
             ambient: head.1,

@@ -7,7 +7,7 @@
 //! camera model is used (the core may render an approximation the planner
 //! chose).
 
-use super::distortion::Radial;
+use super::distortion::{Lens, Radial};
 use super::extrinsics::Pose;
 use super::intrinsics::Sensor;
 use super::noise::NoiseModel;
@@ -94,6 +94,8 @@ pub struct RefScene {
     /// Declared model.
     pub model: RefModel,
     radial: Option<Radial>,
+    /// A calibrated lens and its valid field's radius.
+    lens: Option<(Lens, f64)>,
     materials: Vec<Material>,
     prims: Vec<Prim>,
     lights: Vec<Light>,
@@ -174,6 +176,12 @@ impl RefScene {
             _ => RefModel::Perspective,
         };
         let radial = c.distortion.map(|[k1, k2]| Radial { k1, k2 });
+        let lens = match c.lens() {
+            Ok(Some(hilcam::scene::data::LensData::OpenCv(k))) => Some(Lens::OpenCv(k)),
+            Ok(Some(hilcam::scene::data::LensData::Fisheye(k))) => Some(Lens::Fisheye(k)),
+            _ => None,
+        }
+        .map(|l| (l, l.valid_radius()));
         let materials = r
             .desc
             .materials
@@ -273,6 +281,7 @@ impl RefScene {
             pose,
             model,
             radial,
+            lens,
             materials,
             prims,
             lights,
@@ -305,9 +314,16 @@ impl RefScene {
             RefModel::Perspective => return None,
             RefModel::Orthographic(m) => (m * c[0] / self.sensor.f, m * c[1] / self.sensor.f),
         };
-        let (xd, yd) = match self.radial {
-            Some(r) => r.distort(x, y)?,
-            None => (x, y),
+        let (xd, yd) = match (self.radial, self.lens) {
+            (Some(r), _) => r.distort(x, y)?,
+            (None, Some((l, r_max))) => {
+                if x.hypot(y) > r_max {
+                    return None;
+                }
+                let (xd, yd) = l.forward_cv(-x, -y);
+                (-xd, -yd)
+            }
+            (None, None) => (x, y),
         };
         Some(self.sensor.normalized_to_pixel(xd, yd))
     }
@@ -373,9 +389,10 @@ impl RefScene {
     /// lens field.
     pub fn undistorted(&self, xi: f64, yi: f64) -> Option<(f64, f64)> {
         let (xd, yd) = self.sensor.pixel_to_normalized(xi, yi);
-        match self.radial {
-            Some(r) => r.undistort(xd, yd),
-            None => Some((xd, yd)),
+        match (self.radial, self.lens) {
+            (Some(r), _) => r.undistort(xd, yd),
+            (None, Some((l, r_max))) => l.undistort(xd, yd, r_max).map(|(x, y, _)| (x, y)),
+            (None, None) => Some((xd, yd)),
         }
     }
 
@@ -509,6 +526,11 @@ impl RefScene {
         self.radial
     }
 
+    /// The calibrated lens, if any, and its valid field's radius.
+    pub fn lens(&self) -> Option<(Lens, f64)> {
+        self.lens
+    }
+
     /// The camera-frame depth `z` of what the chief ray through pixel
     /// position `(xi, yi)` hits; `None` outside the lens field or if it
     /// hits nothing.
@@ -566,12 +588,11 @@ impl RefScene {
             RefModel::Orthographic(_) => 1.0,
             RefModel::Perspective => vignetting::cos4(x, y),
         };
-        let cos4 = match self.radial {
-            Some(r) => {
-                let (xd, yd) = self.sensor.pixel_to_normalized(xi, yi);
-                cos4 * r.area_factor(xd, yd)
-            }
-            None => cos4,
+        let (xd, yd) = self.sensor.pixel_to_normalized(xi, yi);
+        let cos4 = match (self.radial, self.lens) {
+            (Some(r), _) => cos4 * r.area_factor(xd, yd),
+            (None, Some((l, r_max))) => cos4 * l.undistort(xd, yd, r_max).map_or(1.0, |(_, _, j)| j),
+            (None, None) => cos4,
         };
         let mut v = [0.0; 3];
         for (c, v) in v.iter_mut().enumerate().take(self.format.channels()) {

@@ -306,6 +306,9 @@ fn layout(f: &Input) -> Result<(Q, i32, (Q, Q), Slopes), Unfit> {
     if f.table {
         return Err(Unfit::Table);
     }
+    if f.scene.calibrated().is_some() {
+        return Err(Unfit::Calibrated);
+    }
     if f.aperture > 0 && f.samples > 1 {
         return Err(Unfit::Defocus);
     }
