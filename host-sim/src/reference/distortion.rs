@@ -250,7 +250,7 @@ impl Lens {
                     let (a, c) = ((px - mx) / (2.0 * h), (py - my) / (2.0 * h));
                     let (b, d) = ((qx - nx) / (2.0 * h), (qy - ny) / (2.0 * h));
                     let det = a * d - b * c;
-                    if !(det > 0.0) {
+                    if det.is_nan() || det <= 0.0 {
                         return None;
                     }
                     let (sx, sy) = ((d * ex - b * ey) / det, (a * ey - c * ex) / det);
