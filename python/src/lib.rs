@@ -196,7 +196,8 @@ impl NativeScene {
     /// The ray each pixel's centre images, as the renderer computes it:
     /// OpenCV's normalized `(x, y)`, row by row, NaN outside the lens field.
     fn pixel_rays(&self, py: Python<'_>) -> PyResult<Vec<[f64; 2]>> {
-        py.detach(|| host_sim::truth::pixel_rays(&self.r)).map_err(scene_err)
+        py.detach(|| host_sim::truth::pixel_rays(&self.r))
+            .map_err(scene_err)
     }
 
     /// The OpenCV export (`host-sim export`) as JSON.
