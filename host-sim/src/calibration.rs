@@ -326,3 +326,39 @@ pub fn merge(camera: &mut toml::Table, dir: Option<&Path>) -> Result<(), String>
     }
     Ok(())
 }
+
+/// The calibrated lens of a scene's `[camera]` keys, as the core takes it:
+/// `opencv_distortion` (4, 5, 8, 12 or 14 coefficients; τx = τy = 0) or
+/// `fisheye_distortion`, at most one lens model in all (`radial`: whether
+/// `distortion` is given).
+pub fn lens(
+    radial: bool,
+    opencv: &Option<Vec<f64>>,
+    fisheye: &Option<[f64; 4]>,
+) -> Result<Option<hilcam::scene::data::LensData>, String> {
+    use hilcam::scene::data::LensData;
+    match (radial, opencv, fisheye) {
+        (_, None, None) => Ok(None),
+        (false, Some(c), None) => {
+            if !matches!(c.len(), 4 | 5 | 8 | 12 | 14) {
+                return Err(format!(
+                    "camera.opencv_distortion: {} coefficients; OpenCV's model has 4, 5, 8, 12 or 14",
+                    c.len()
+                ));
+            }
+            if c.len() == 14 && (c[12] != 0.0 || c[13] != 0.0) {
+                return Err("camera.opencv_distortion: a tilted sensor (tauX, tauY not 0) is not modelled".into());
+            }
+            let mut k = [0.0; 12];
+            for (d, v) in k.iter_mut().zip(c) {
+                *d = *v;
+            }
+            Ok(Some(LensData::OpenCv(k)))
+        }
+        (false, None, Some(k)) => Ok(Some(LensData::Fisheye(*k))),
+        _ => Err(
+            "camera.distortion, camera.opencv_distortion, camera.fisheye_distortion: give at most one lens model"
+                .into(),
+        ),
+    }
+}

@@ -164,52 +164,23 @@ pub struct CameraDesc {
     /// `[k1, k2]` (default none).
     #[serde(default, deserialize_with = "exact::opt")]
     pub distortion: Option<[f64; 2]>,
-    /// OpenCV's standard model, its coefficients in its order: 4, 5, 8,
-    /// 12 or 14 (`k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, τx,
-    /// τy]]]]`; a tilted sensor, `τ ≠ 0`, is refused).
+    /// OpenCV's standard model's coefficients ([`crate::calibration::lens`]).
     #[serde(default)]
     pub opencv_distortion: Option<Vec<f64>>,
-    /// OpenCV's fisheye model `[k1, k2, k3, k4]`.
-    #[serde(default, deserialize_with = "exact::opt")]
+    #[serde(default, deserialize_with = "exact::opt")] // fisheye [k1, k2, k3, k4]
     pub fisheye_distortion: Option<[f64; 4]>,
     /// The pose.
     pub pose: PoseDesc,
 }
 
 impl CameraDesc {
-    /// The calibrated lens the camera gives, if any, as the core takes it.
+    /// The camera's calibrated lens, if any, as the core takes it.
     pub fn lens(&self) -> Result<Option<LensData>, String> {
-        match (
-            &self.distortion,
+        crate::calibration::lens(
+            self.distortion.is_some(),
             &self.opencv_distortion,
             &self.fisheye_distortion,
-        ) {
-            (_, None, None) => Ok(None),
-            (None, Some(c), None) => {
-                if !matches!(c.len(), 4 | 5 | 8 | 12 | 14) {
-                    return Err(format!(
-                        "camera.opencv_distortion: {} coefficients; OpenCV's model has 4, 5, 8, 12 or 14",
-                        c.len()
-                    ));
-                }
-                if c.len() == 14 && (c[12] != 0.0 || c[13] != 0.0) {
-                    return Err(
-                        "camera.opencv_distortion: a tilted sensor (tauX, tauY not 0) is not modelled".into(),
-                    );
-                }
-                let mut k = [0.0; 12];
-                for (d, v) in k.iter_mut().zip(c) {
-                    *d = *v;
-                }
-                Ok(Some(LensData::OpenCv(k)))
-            }
-            (None, None, Some(k)) => Ok(Some(LensData::Fisheye(*k))),
-            _ => Err(
-                "camera.distortion, camera.opencv_distortion, camera.fisheye_distortion: give at most one \
-                      lens model"
-                    .into(),
-            ),
-        }
+        )
     }
 }
 
@@ -476,8 +447,7 @@ pub struct Resolved {
     pub trajectory: Option<crate::trajectory::Trajectory>,
 }
 
-/// The largest scene file read, bytes (docs/scenes.md): a scene of the
-/// most materials, lights and primitives the core holds is under 8 KiB.
+/// The largest scene file read, bytes (docs/scenes.md; the fullest scene is under 8 KiB).
 pub const MAX_SCENE_BYTES: u64 = 1 << 20;
 
 /// Reads and checks a scene file of at most [`MAX_SCENE_BYTES`]. Errors
@@ -499,8 +469,7 @@ pub fn load(path: &Path) -> Result<Resolved, String> {
     parse_in(&text, path.parent()).map_err(at)
 }
 
-/// Parses and checks scene text (a `camera.calibration` path relative to
-/// the current directory).
+/// Parses and checks scene text (`camera.calibration` from `.`).
 pub fn parse(text: &str) -> Result<Resolved, String> {
     parse_in(text, None)
 }

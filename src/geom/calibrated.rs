@@ -33,7 +33,7 @@
 use crate::geom::error::{Error, Field};
 use crate::num::scalar::Scalar;
 use crate::num::{from_f64, FixedF64, Norm};
-use crate::scene::Q;
+use fixed::types::I32F32 as Q;
 
 /// Largest `|coefficient|` accepted (OpenCV's calibrations of real lenses
 /// stay far below; rational models' `k4`–`k6` reach the hundreds).
@@ -472,168 +472,191 @@ impl<S: Scalar> Model<S> {
     #[inline(never)]
     pub fn undistort(&self, xd: S, yd: S) -> Option<(S, S, S)> {
         match self {
-            Model::OpenCv { k, p, s, u_valid } => {
-                let (tx, ty) = (xd.neg(), yd.neg());
-                let two = S::from_int(2);
-                // The model and its Jacobian at (x, y): `None` where the
-                // denominator or the Jacobian's determinant is not
-                // positive, or beyond the valid field (the fold side).
-                let eval = |x: S, y: S| -> Option<(S, S, [S; 4], S)> {
-                    let u = x.mul(x).add(y.mul(y));
-                    if u > *u_valid {
-                        return None;
-                    }
-                    let n = S::ONE.add(u.mul(k[0].add(u.mul(k[1].add(u.mul(k[2]))))));
-                    let d = S::ONE.add(u.mul(k[3].add(u.mul(k[4].add(u.mul(k[5]))))));
-                    if d <= S::ZERO {
-                        return None;
-                    }
-                    let r = n.div(d)?;
-                    let dn = k[0].add(u.mul(k[1].add(k[1]).add(S::from_int(3).mul(k[2]).mul(u))));
-                    let dd = k[3].add(u.mul(k[4].add(k[4]).add(S::from_int(3).mul(k[5]).mul(u))));
-                    // R' = (N' − R D')/D.
-                    let dr = dn.sub(r.mul(dd)).div(d)?;
-                    let xy = x.mul(y);
-                    let sx = s[0].add(two.mul(s[1]).mul(u));
-                    let sy = s[2].add(two.mul(s[3]).mul(u));
-                    let fx = x
-                        .mul(r)
-                        .add(two.mul(p[0]).mul(xy))
-                        .add(p[1].mul(u.add(two.mul(x).mul(x))))
-                        .add(s[0].mul(u))
-                        .add(s[1].mul(u).mul(u));
-                    let fy = y
-                        .mul(r)
-                        .add(p[0].mul(u.add(two.mul(y).mul(y))))
-                        .add(two.mul(p[1]).mul(xy))
-                        .add(s[2].mul(u))
-                        .add(s[3].mul(u).mul(u));
-                    let cross = two.mul(xy).mul(dr).add(two.mul(p[0].mul(x).add(p[1].mul(y))));
-                    let a = r
-                        .add(two.mul(x).mul(x).mul(dr))
-                        .add(two.mul(p[0]).mul(y))
-                        .add(S::from_int(6).mul(p[1]).mul(x))
-                        .add(two.mul(x).mul(sx));
-                    let b = cross.add(two.mul(y).mul(sx));
-                    let c = cross.add(two.mul(x).mul(sy));
-                    let e = r
-                        .add(two.mul(y).mul(y).mul(dr))
-                        .add(S::from_int(6).mul(p[0]).mul(y))
-                        .add(two.mul(p[1]).mul(x))
-                        .add(two.mul(y).mul(sy));
-                    let det = a.mul(e).sub(b.mul(c));
-                    if det <= S::ZERO {
-                        return None;
-                    }
-                    Some((fx, fy, [a, b, c, e], S::ONE.div(det)?))
-                };
-                // Newton's method from the radial part's own solve
-                // ([`radial_start`]; halved towards the axis while it lies
-                // past the fold); a step that lands
-                // where the model folds is halved back towards the last
-                // good point. The step after a small one ends it: the
-                // Jacobian (and `J`) then at the solution within rounding.
-                let (mut x, mut y) = radial_start(k, *u_valid, tx, ty);
-                let (mut gx, mut gy, mut hx, mut hy) = (x, y, S::ZERO, S::ZERO);
-                let mut last = false;
-                for _ in 0..2 * NEWTON_STEPS {
-                    let Some((fx, fy, [a, b, c, e], inv_det)) = eval(x, y) else {
-                        // (A start past the fold: halved towards the axis.)
-                        (hx, hy) = (hx.mul(S::HALF), hy.mul(S::HALF));
-                        (x, y, last) = match hx == S::ZERO && hy == S::ZERO {
-                            true => (x.mul(S::HALF), y.mul(S::HALF), false),
-                            false => (gx.add(hx), gy.add(hy), false),
-                        };
-                        continue;
-                    };
-                    if last {
-                        return Some((x.neg(), y.neg(), inv_det));
-                    }
-                    let (ex, ey) = (tx.sub(fx), ty.sub(fy));
-                    hx = e.mul(ex).sub(b.mul(ey)).mul(inv_det);
-                    hy = a.mul(ey).sub(c.mul(ex)).mul(inv_det);
-                    (gx, gy) = (x, y);
-                    (x, y) = (x.add(hx), y.add(hy));
-                    last = Self::small(hx.abs().add(hy.abs()), x.abs().add(y.abs()));
-                }
-                None
-            }
+            Model::OpenCv { k, p, s, u_valid } => opencv_undistort(k, p, s, *u_valid, xd, yd),
             Model::Fisheye {
                 k,
                 theta_valid,
                 theta_d_valid,
-            } => {
-                let rd2 = xd.mul(xd).add(yd.mul(yd));
-                let td = rd2.sqrt()?;
-                if td > *theta_d_valid {
-                    return None;
-                }
-                // Newton's method kept within a bracket of the root on
-                // [0, θ_valid], where θ_d(θ) increases: a step that would
-                // leave it, or a start past the fold (θ_d > θ there), bisects
-                // instead.
-                let (mut lo, mut hi) = (S::ZERO, *theta_valid);
-                let mut t = if td < hi { td } else { hi };
-                let mut done = false;
-                // dθ_d/dθ = 1 + 3 k1 θ² + 5 k2 θ⁴ + 7 k3 θ⁶ + 9 k4 θ⁸.
-                let slope =
-                    |t: S| {
-                        let t2 = t.mul(t);
-                        S::ONE.add(t2.mul(S::from_int(3).mul(k[0]).add(
-                            t2.mul(
-                                S::from_int(5).mul(k[1]).add(
-                                    t2.mul(S::from_int(7).mul(k[2]).add(t2.mul(S::from_int(9).mul(k[3])))),
-                                ),
-                            ),
-                        )))
-                    };
-                for _ in 0..2 * NEWTON_STEPS {
-                    let t2 = t.mul(t);
-                    let p =
-                        t.mul(S::ONE.add(t2.mul(k[0].add(t2.mul(k[1].add(t2.mul(k[2].add(t2.mul(k[3])))))))));
-                    if p < td {
-                        lo = t;
-                    } else {
-                        hi = t;
-                    }
-                    let dp = slope(t);
-                    let newton = if dp > S::ZERO {
-                        td.sub(p).div(dp).map(|s| t.add(s))
-                    } else {
-                        None
-                    };
-                    let next = match newton {
-                        Some(n) if n >= lo && n <= hi => n,
-                        _ => lo.add(hi).mul(S::HALF),
-                    };
-                    let step = next.sub(t);
-                    t = next;
-                    if Self::small(step.abs(), t) {
-                        done = true;
-                        break;
-                    }
-                }
-                if !done || t > *theta_valid || t < S::ZERO {
-                    return None;
-                }
-                let dp = slope(t);
-                if dp <= S::ZERO {
-                    return None;
-                }
-                let (sin, cos) = sin_cos(t);
-                let ru = sin.div(cos)?;
-                // x̂ = x̂_d h, h = r_u/θ_d (→ 1/P'(0) = 1 on the axis).
-                let h = if td > S::from_fixed_bits(1, 16) {
-                    ru.div(td)?
-                } else {
-                    S::ONE
-                };
-                // J = h · dr_u/dθ_d = h (1 + r_u²) / P'(θ).
-                let j = h.mul(S::ONE.add(ru.mul(ru))).div(dp)?;
-                Some((xd.mul(h), yd.mul(h), j))
-            }
+            } => fisheye_undistort(k, *theta_valid, *theta_d_valid, xd, yd),
         }
     }
+}
+
+/// [`Model::undistort`] of OpenCV's standard model.
+#[inline(always)]
+fn opencv_undistort<S: Scalar>(
+    k: &[S; 6],
+    p: &[S; 2],
+    s: &[S; 4],
+    u_valid: S,
+    xd: S,
+    yd: S,
+) -> Option<(S, S, S)> {
+    let (tx, ty) = (xd.neg(), yd.neg());
+    let two = S::from_int(2);
+    // The model and its Jacobian at (x, y): `None` where the
+    // denominator or the Jacobian's determinant is not
+    // positive, or beyond the valid field (the fold side).
+    let eval = |x: S, y: S| -> Option<(S, S, [S; 4], S)> {
+        let u = x.mul(x).add(y.mul(y));
+        if u > u_valid {
+            return None;
+        }
+        let n = S::ONE.add(u.mul(k[0].add(u.mul(k[1].add(u.mul(k[2]))))));
+        let d = S::ONE.add(u.mul(k[3].add(u.mul(k[4].add(u.mul(k[5]))))));
+        if d <= S::ZERO {
+            return None;
+        }
+        let r = n.div(d)?;
+        let dn = k[0].add(u.mul(k[1].add(k[1]).add(S::from_int(3).mul(k[2]).mul(u))));
+        let dd = k[3].add(u.mul(k[4].add(k[4]).add(S::from_int(3).mul(k[5]).mul(u))));
+        // R' = (N' − R D')/D.
+        let dr = dn.sub(r.mul(dd)).div(d)?;
+        let xy = x.mul(y);
+        let sx = s[0].add(two.mul(s[1]).mul(u));
+        let sy = s[2].add(two.mul(s[3]).mul(u));
+        let fx = x
+            .mul(r)
+            .add(two.mul(p[0]).mul(xy))
+            .add(p[1].mul(u.add(two.mul(x).mul(x))))
+            .add(s[0].mul(u))
+            .add(s[1].mul(u).mul(u));
+        let fy = y
+            .mul(r)
+            .add(p[0].mul(u.add(two.mul(y).mul(y))))
+            .add(two.mul(p[1]).mul(xy))
+            .add(s[2].mul(u))
+            .add(s[3].mul(u).mul(u));
+        let cross = two.mul(xy).mul(dr).add(two.mul(p[0].mul(x).add(p[1].mul(y))));
+        let a = r
+            .add(two.mul(x).mul(x).mul(dr))
+            .add(two.mul(p[0]).mul(y))
+            .add(S::from_int(6).mul(p[1]).mul(x))
+            .add(two.mul(x).mul(sx));
+        let b = cross.add(two.mul(y).mul(sx));
+        let c = cross.add(two.mul(x).mul(sy));
+        let e = r
+            .add(two.mul(y).mul(y).mul(dr))
+            .add(S::from_int(6).mul(p[0]).mul(y))
+            .add(two.mul(p[1]).mul(x))
+            .add(two.mul(y).mul(sy));
+        let det = a.mul(e).sub(b.mul(c));
+        if det <= S::ZERO {
+            return None;
+        }
+        Some((fx, fy, [a, b, c, e], S::ONE.div(det)?))
+    };
+    // Newton's method from the radial part's own solve
+    // ([`radial_start`]; halved towards the axis while it lies
+    // past the fold); a step that lands
+    // where the model folds is halved back towards the last
+    // good point. The step after a small one ends it: the
+    // Jacobian (and `J`) then at the solution within rounding.
+    let (mut x, mut y) = radial_start(k, u_valid, tx, ty);
+    let (mut gx, mut gy, mut hx, mut hy) = (x, y, S::ZERO, S::ZERO);
+    let mut last = false;
+    for _ in 0..2 * NEWTON_STEPS {
+        let Some((fx, fy, [a, b, c, e], inv_det)) = eval(x, y) else {
+            // (A start past the fold: halved towards the axis.)
+            (hx, hy) = (hx.mul(S::HALF), hy.mul(S::HALF));
+            (x, y, last) = match hx == S::ZERO && hy == S::ZERO {
+                true => (x.mul(S::HALF), y.mul(S::HALF), false),
+                false => (gx.add(hx), gy.add(hy), false),
+            };
+            continue;
+        };
+        if last {
+            return Some((x.neg(), y.neg(), inv_det));
+        }
+        let (ex, ey) = (tx.sub(fx), ty.sub(fy));
+        hx = e.mul(ex).sub(b.mul(ey)).mul(inv_det);
+        hy = a.mul(ey).sub(c.mul(ex)).mul(inv_det);
+        (gx, gy) = (x, y);
+        (x, y) = (x.add(hx), y.add(hy));
+        last = Model::<S>::small(hx.abs().add(hy.abs()), x.abs().add(y.abs()));
+    }
+    None
+}
+
+/// [`Model::undistort`] of the fisheye model.
+#[inline(always)]
+fn fisheye_undistort<S: Scalar>(
+    k: &[S; 4],
+    theta_valid: S,
+    theta_d_valid: S,
+    xd: S,
+    yd: S,
+) -> Option<(S, S, S)> {
+    let rd2 = xd.mul(xd).add(yd.mul(yd));
+    let td = rd2.sqrt()?;
+    if td > theta_d_valid {
+        return None;
+    }
+    // Newton's method kept within a bracket of the root on
+    // [0, θ_valid], where θ_d(θ) increases: a step that would
+    // leave it, or a start past the fold (θ_d > θ there), bisects
+    // instead.
+    let (mut lo, mut hi) = (S::ZERO, theta_valid);
+    let mut t = if td < hi { td } else { hi };
+    let mut done = false;
+    // dθ_d/dθ = 1 + 3 k1 θ² + 5 k2 θ⁴ + 7 k3 θ⁶ + 9 k4 θ⁸.
+    let slope = |t: S| {
+        let t2 = t.mul(t);
+        S::ONE.add(
+            t2.mul(
+                S::from_int(3).mul(k[0]).add(
+                    t2.mul(
+                        S::from_int(5)
+                            .mul(k[1])
+                            .add(t2.mul(S::from_int(7).mul(k[2]).add(t2.mul(S::from_int(9).mul(k[3]))))),
+                    ),
+                ),
+            ),
+        )
+    };
+    for _ in 0..2 * NEWTON_STEPS {
+        let t2 = t.mul(t);
+        let p = t.mul(S::ONE.add(t2.mul(k[0].add(t2.mul(k[1].add(t2.mul(k[2].add(t2.mul(k[3])))))))));
+        if p < td {
+            lo = t;
+        } else {
+            hi = t;
+        }
+        let dp = slope(t);
+        let newton = if dp > S::ZERO {
+            td.sub(p).div(dp).map(|s| t.add(s))
+        } else {
+            None
+        };
+        let next = match newton {
+            Some(n) if n >= lo && n <= hi => n,
+            _ => lo.add(hi).mul(S::HALF),
+        };
+        let step = next.sub(t);
+        t = next;
+        if Model::<S>::small(step.abs(), t) {
+            done = true;
+            break;
+        }
+    }
+    if !done || t > theta_valid || t < S::ZERO {
+        return None;
+    }
+    let dp = slope(t);
+    if dp <= S::ZERO {
+        return None;
+    }
+    let (sin, cos) = sin_cos(t);
+    let ru = sin.div(cos)?;
+    // x̂ = x̂_d h, h = r_u/θ_d (→ 1/P'(0) = 1 on the axis).
+    let h = if td > S::from_fixed_bits(1, 16) {
+        ru.div(td)?
+    } else {
+        S::ONE
+    };
+    // J = h · dr_u/dθ_d = h (1 + r_u²) / P'(θ).
+    let j = h.mul(S::ONE.add(ru.mul(ru))).div(dp)?;
+    Some((xd.mul(h), yd.mul(h), j))
 }
 
 #[cfg(test)]
