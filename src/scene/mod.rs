@@ -563,7 +563,7 @@ impl Scene {
 
     /// Images through a calibrated lens (OpenCV's models) instead of the
     /// radial distortion, which must then be none
-    /// ([`Error::OutOfRange`]`(Field::Distortion)` otherwise: a lens has one
+    /// ([`crate::geom::error::Error::OutOfRange`]`(Field::Distortion)` otherwise: a lens has one
     /// model).
     #[cfg(feature = "calibrated")]
     pub fn set_calibrated(&mut self, lens: Option<Calibrated>) -> Result<(), crate::geom::error::Error> {
