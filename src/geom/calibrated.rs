@@ -373,7 +373,7 @@ pub enum Model<S> {
     },
 }
 
-/// `v / 2^n`-free constants: `1/n` as I32F32 bits, rounded.
+/// `1/n` as I32F32 bits, rounded (the series' factors).
 const fn inv(n: i64) -> Q {
     Q::from_bits(((1i64 << 32) + n / 2) / n)
 }
