@@ -17,3 +17,4 @@ mod projection;
 mod render;
 mod scene_data;
 mod shading;
+mod shadows;

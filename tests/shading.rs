@@ -107,7 +107,7 @@ fn shading_matches_reference() {
                     },
                 })
                 .collect();
-            let got = radiance::<Q, true>(&brdf, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
+            let got = radiance::<Q, true>(&brdf, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3, 0);
             let want = rs::radiance(
                 &rs::Material {
                     albedo,
@@ -117,9 +117,8 @@ fn shading_matches_reference() {
                 },
                 &ref_lights,
                 ambient,
-                [0.0; 3],
-                n,
-                v,
+                ([0.0; 3], n, v),
+                0,
             );
             // The documented bound: 10⁻⁶, plus the Phong lobe's conditioning on
             // the I32F32 rounding of r² (2⁻³² absolute) for the nearest point
@@ -147,8 +146,8 @@ fn shading_matches_reference() {
             // with the general path (checked against the reference above)
             // within the same documented bound.
             let lambertian = Brdf::new(&Material { mix: Q::ONE, ..m }, q3(ambient));
-            let general = radiance::<Q, true>(&lambertian, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
-            let lean = radiance::<Q, false>(&lambertian, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3);
+            let general = radiance::<Q, true>(&lambertian, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3, 0);
+            let lean = radiance::<Q, false>(&lambertian, &core_lights, [Q::ZERO; 3], q3(n), q3(v), 3, 0);
             for c in 0..3 {
                 let e = rel(lean[c].to_num(), general[c].to_num(), 1e-3);
                 LEAN.record(e / tol);

@@ -61,6 +61,10 @@ pub struct Spec {
     /// Rustc flags the driven camera is built with besides.
     #[serde(default)]
     pub camera_rustflags: Option<String>,
+    /// The driven camera's firmware features ("camera,mix32,sensor,status,shadows"
+    /// if absent).
+    #[serde(default)]
+    pub camera_features: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -157,6 +161,14 @@ impl Board {
             self.0.target.to_uppercase().replace(['-', '.'], "_")
         );
         Some((var, flags.clone()))
+    }
+
+    /// The driven camera's firmware features.
+    pub fn camera_features(self) -> &'static str {
+        self.0
+            .camera_features
+            .as_deref()
+            .unwrap_or("camera,mix32,sensor,status,shadows")
     }
 
     /// Picoseconds a SysTick tick.

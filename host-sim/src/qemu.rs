@@ -67,20 +67,26 @@ pub fn build_firmware_as(
     camera: bool,
     sent: &[PathBuf],
 ) -> Result<BuiltElf, String> {
-    let held = if scenes.is_empty() {
-        shipped_scenes()?
-    } else {
-        scenes.to_vec()
+    // A camera built without cast shadows (boards.toml camera_features)
+    // holds the scenes it is sent alone: every shipped scene asks for them.
+    let unshadowed = camera && !board.camera_features().split(',').any(|f| f == "shadows");
+    let held = match (scenes.is_empty(), unshadowed) {
+        (true, true) => sent.to_vec(),
+        (true, false) => shipped_scenes()?,
+        (false, _) => scenes.to_vec(),
     };
     let caps = capacities(&held, sent)?;
     // The driven camera with status lines (it reports its stack peak after
     // each frame); the one-shot firmware with its default features.
-    let features = camera.then_some(["--no-default-features", "--features", "camera,mix32,sensor,status"]);
+    let features = camera.then_some(["--no-default-features", "--features", board.camera_features()]);
     let dir = repo_root().join("firmware");
     // Where cargo puts it: CARGO_TARGET_DIR (relative to firmware/, where
     // cargo runs) if set, else firmware/target.
     let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| dir.join("target"), |t| dir.join(t));
-    let list: Vec<String> = scenes
+    // (None given: every shipped scene, as the build script takes an
+    // empty list; a camera without shadows, the scenes it is sent.)
+    let listed = if unshadowed { &held[..] } else { scenes };
+    let list: Vec<String> = listed
         .iter()
         .map(|p| {
             std::fs::canonicalize(p)

@@ -90,6 +90,12 @@ pub fn plan_text(p: &PlanReport) -> String {
             n = p.samples
         ));
     }
+    if p.predicted_shadow_tests > 0.0 {
+        s.push_str(&format!(
+            "  shadows: {:.2} tests a sample, {:.0} M3 instructions a pixel of the cost (predicted)\n",
+            p.predicted_shadow_tests, p.predicted_shadow_m3
+        ));
+    }
     if p.samples > 1 || p.aperture_points > 0 {
         s.push_str(&format!(
             "  a pixel's samples cost {:.2}x one sample's (the fitted SampleCost, in the costs above)\n",

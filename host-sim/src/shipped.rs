@@ -5,7 +5,7 @@ use crate::scene_file::{parse, Resolved};
 
 /// File stem and text of each shipped scene, in file-name order (the
 /// firmware's scene ids).
-pub const SHIPPED: [(&str, &str); 8] = [
+pub const SHIPPED: [(&str, &str); 9] = [
     (
         "calibration-board",
         include_str!("../../scenes/calibration-board.toml"),
@@ -15,6 +15,7 @@ pub const SHIPPED: [(&str, &str); 8] = [
         include_str!("../../scenes/checkerboard-barrel.toml"),
     ),
     ("low-light", include_str!("../../scenes/low-light.toml")),
+    ("shadows", include_str!("../../scenes/shadows.toml")),
     ("shallow-dof", include_str!("../../scenes/shallow-dof.toml")),
     ("shallow-target", include_str!("../../scenes/shallow-target.toml")),
     (

@@ -433,6 +433,7 @@ pub fn example_scene_data() -> hilcam::scene::data::SceneData {
         sampling: None,
         noise: None,
         lens: None,
+        shadows: true,
     };
     let _ = d.materials.push(MaterialData {
         albedo: Colour::Gray(0.5),

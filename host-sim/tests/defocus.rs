@@ -407,11 +407,12 @@ fn random_defocused(
     } else {
         ("0.8", "0.12")
     };
+    // (Shadows off: the fast aperture loop these exercise takes none.)
     let mut t = format!(
         "name = \"random-defocus\"\n[output]\n{format}\nexposure = 300.0\n[camera]\nwidth = 64\nheight = 48\n\
          focal_length = 16e-3\npitch = 10e-6\nf_number = {n}\nfocus_distance = 1.0\ntolerable_blur = 10e-6\n\
          pose = {{ eye = [0.0, 0.0, 0.0], target = [0.0, 0.0, 1.0], up = [0.0, 1.0, 0.0] }}\n\
-         [environment]\nambient = 0.1\nbackground = 0.05\n\
+         [environment]\nambient = 0.1\nbackground = 0.05\nshadows = false\n\
          [[materials]]\nname = \"a\"\nalbedo = {a}\n[[materials]]\nname = \"b\"\nalbedo = {b}\n\
          [[lights]]\nkind = \"directional\"\ndirection = [0.3, 0.4, -1.0]\nirradiance = 5.0\n"
     );

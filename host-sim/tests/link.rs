@@ -267,7 +267,7 @@ fn wire_doc_example_is_current() {
     }
     // The example scene is one a camera takes.
     let data = postcard::to_stdvec(&host_sim::stream_cmd::example_scene_data()).expect("encodes");
-    assert_eq!(data.len(), 262, "docs/wire.md says 262 bytes");
+    assert_eq!(data.len(), 263, "docs/wire.md says 263 bytes");
     hilcam::scene::data::load(&data).expect("the example scene loads");
 }
 

@@ -493,6 +493,24 @@ pub const WIDE_COST: CostModel = CostModel {
     },
 };
 
+/// The wide arithmetic's shadow stage (the fast one refuses a frame that
+/// takes it): M3 instructions a shadow test (one occluder, one light, one
+/// sample) and a shaded pixel's overhead where any surface takes one,
+/// from QEMU counts of the `shadows` scene with and without its tests
+/// (docs/measurements.md, "Shadows").
+pub const SHADOW_COST: [f64; 2] = [SHADOW_TEST, SHADOW_PIXEL];
+const SHADOW_TEST: f64 = 400.0;
+const SHADOW_PIXEL: f64 = 100.0;
+
+/// [`SHADOW_COST`] of a frame's geometry `g`, M3 instructions a sample.
+pub(super) fn shadow_cost(g: &Geometry) -> f64 {
+    if cfg!(feature = "shadows") && g.shadows {
+        SHADOW_TEST * g.shadow_tests + SHADOW_PIXEL * g.coverage
+    } else {
+        0.0
+    }
+}
+
 /// Through the aperture, the shares of the frame's pixels whose aperture
 /// rays the fast loop traces through every primitive and tests against
 /// one rectangle alone ([`Samples::traced`], [`Samples::only`]).

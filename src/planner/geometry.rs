@@ -90,6 +90,11 @@ pub(super) struct Geometry {
     pub(super) flat_area: f64,
     /// ... and that plane's.
     pub(super) closed_flat_area: f64,
+    /// Some surface takes a shadow test ([`crate::render::shadows`]).
+    pub(super) shadows: bool,
+    /// Shadow tests a pixel takes on average (each surface's share of the
+    /// sensor, from the coverage grid, times its occluders over the lights).
+    pub(super) shadow_tests: f64,
     /// That plane's index among the primitives.
     pub(super) closed: Option<usize>,
 }

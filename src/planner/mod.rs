@@ -65,7 +65,7 @@ use search::{plan_with, prepares};
 
 pub use crate::render::Unfit;
 pub use cost::APERTURE_STRIDE;
-pub use cost::{CostModel, Features, SampleCost, Samples, COST_TERMS, FAST_COST, WIDE_COST};
+pub use cost::{CostModel, Features, SampleCost, Samples, COST_TERMS, FAST_COST, SHADOW_COST, WIDE_COST};
 pub use error_model::{Boundary, ErrorModel};
 
 /// What the renderer may get wrong.
@@ -138,6 +138,13 @@ pub struct Candidate {
     /// arithmetic's error in the texture coordinate
     /// (`Geometry::cells_differing`).
     pub edge_differing: f64,
+    /// Shadow tests a sample takes on average (each surface's share of the
+    /// sensor times the occluders it is tested against under each light;
+    /// 0 where the planner proves none is needed), and the M3
+    /// instructions a pixel they add to the cost ([`SHADOW_COST`]).
+    pub shadow_tests: f64,
+    /// The shadow tests' share of `m3_instructions_per_pixel`.
+    pub shadow_m3: f64,
 }
 
 impl Candidate {

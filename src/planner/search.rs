@@ -2,7 +2,7 @@
 //! evaluation the scene allows, predicted and compared against the budget.
 
 use super::closed_mean::{closed_mean_err, closed_mean_factor};
-use super::cost::{CostModel, Features, Samples, Shares};
+use super::cost::{shadow_cost, CostModel, Features, Samples, Shares};
 use super::error_model::{
     defocus, edge_fraction, noise_draw_lsb, noise_moved, table_entries, table_geom_err, ErrorModel,
 };
@@ -166,6 +166,8 @@ pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan 
         relative_illumination: true,
         mean_lsb: 0.0,
         edge_differing: 1.0,
+        shadow_tests: 0.0,
+        shadow_m3: 0.0,
     });
     let model = c.model;
     let (terms, df, samples) = per_model
@@ -301,8 +303,15 @@ pub(super) fn model_candidates(
             };
             let cost_model = CostModel::of(arithmetic);
             let fast = arithmetic == Arithmetic::Fast;
-            let one = cost_model.predict(&Features::of(scene, g, distortion, fast, closed, closed_mean));
+            let shadows = shadow_cost(g);
+            let one =
+                cost_model.predict(&Features::of(scene, g, distortion, fast, closed, closed_mean)) + shadows;
             let cost = cost_model.samples.cost(one, &terms.with(arithmetic, shares));
+            let per_one = if cfg!(feature = "shadows") && shadows > 0.0 {
+                cost_model.samples.factor(cost, &terms.with(arithmetic, shares))
+            } else {
+                0.0
+            };
             let _ = cands.push(Candidate {
                 model,
                 arithmetic,
@@ -316,6 +325,16 @@ pub(super) fn model_candidates(
                 relative_illumination,
                 mean_lsb,
                 edge_differing: (edge_looks * geom + cells(arithmetic, geom) + flips).min(1.0),
+                shadow_tests: if cfg!(feature = "shadows") && g.shadows {
+                    g.shadow_tests
+                } else {
+                    0.0
+                },
+                shadow_m3: if cfg!(feature = "shadows") {
+                    shadows * per_one
+                } else {
+                    0.0
+                },
             });
         }
     }

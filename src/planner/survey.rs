@@ -70,6 +70,8 @@ pub(super) struct Coverage {
     pub(super) closed_facing_hits: u32,
     pub(super) flat_hits: u32,
     pub(super) closed_flat_hits: u32,
+    /// Grid rays whose nearest hit is each primitive.
+    pub(super) nearest: [u32; crate::scene::MAX_PRIMITIVES],
 }
 
 impl Coverage {
@@ -82,7 +84,7 @@ impl Coverage {
         prims: &[PrimGeom],
         lights: &[Option<[f64; 3]>],
         origin_scale: Option<f64>,
-        closed: Option<usize>,
+        (closed, tested): (Option<usize>, u16),
     ) -> Coverage {
         let intr = &scene.camera.intrinsics;
         let (fx, fy) = intr.focal_px();
@@ -142,7 +144,15 @@ impl Coverage {
                         *k = p.seen_from(o);
                     }
                 }
-                cov.ray(prims, &at, &facing, closed, directional, (d, dd, y), origin_scale);
+                cov.ray(
+                    prims,
+                    &at,
+                    &facing,
+                    (closed, tested),
+                    directional,
+                    (d, dd, y),
+                    origin_scale,
+                );
             }
         }
         cov
@@ -157,13 +167,13 @@ impl Coverage {
         prims: &[PrimGeom],
         at: &[FromOrigin],
         facing: &[bool],
-        closed: Option<usize>,
+        (closed, tested): (Option<usize>, u16),
         directional: bool,
         (d, dd, y): ([f64; 3], f64, f64),
         origin_scale: Option<f64>,
     ) {
         let (mut any, mut others) = (false, false);
-        let mut nearest: Option<(f64, &PrimGeom)> = None;
+        let mut nearest: Option<(f64, &PrimGeom, usize)> = None;
         for (i, (p, k)) in prims.iter().zip(at).enumerate() {
             let vd = match origin_scale {
                 None => (k.vx + k.v[1] * y) + k.v[2],
@@ -180,16 +190,24 @@ impl Coverage {
                     }
                 }
                 others |= closed != Some(i);
-                if nearest.is_none_or(|(tn, _)| t < tn) {
-                    nearest = Some((t, p));
+                if nearest.is_none_or(|(tn, _, _)| t < tn) {
+                    nearest = Some((t, p, i));
                 }
             }
         }
         self.hits += any as u32;
         self.closed_hits += (any && !others) as u32;
-        self.lobe_hits += nearest.is_some_and(|(_, p)| p.ks > 0.0) as u32;
+        self.lobe_hits += nearest.is_some_and(|(_, p, _)| p.ks > 0.0) as u32;
+        if let Some(c) = nearest
+            .filter(|_| cfg!(feature = "shadows"))
+            .and_then(|(_, _, i)| self.nearest.get_mut(i))
+        {
+            *c += 1;
+        }
         if directional
-            && nearest.is_some_and(|(_, p)| p.ks == 0.0 && !matches!(p.shape, Shape::Sphere { .. }))
+            && nearest.is_some_and(|(_, p, i)| {
+                p.ks == 0.0 && !matches!(p.shape, Shape::Sphere { .. }) && tested & (1 << i) == 0
+            })
         {
             if any && !others {
                 self.closed_flat_hits += 1;
@@ -274,23 +292,51 @@ impl Geometry {
         // checker or a lobe, perspective rays, the camera and every point
         // light off it by 2⁻¹⁰ of the fast unit or more.
         let unit = libm::ldexp(1.0, e);
+        // The shadow tests: a surface that takes one is shaded point by
+        // point (neither in closed form nor as a flat sum).
+        let occ = crate::render::shadows::occluders(
+            scene,
+            // (Parallel rays stay parallel whatever their scale: a NaN's
+            // conversion would panic.)
+            origin_scale.map(|k| crate::num::from_f64(k).unwrap_or(crate::scene::Q::MAX)),
+            None,
+            true,
+        );
+        let mut tested = 0u16;
+        for i in (0..prims.len()).filter(|_| cfg!(feature = "shadows")) {
+            if occ.tests_of(i) > 0 {
+                tested |= 1 << i;
+            }
+        }
         let closed = (origin_scale.is_none())
             .then(|| {
-                prims.iter().zip(&scene.primitives).position(|(p, sp)| {
-                    matches!(p.shape, Shape::Plane { .. })
-                        && !p.unseen
-                        && sp.checker.is_none()
-                        && p.ks == 0.0
-                        && libm::fabs(dot3(p.c, p.n)) >= unit / 1024.0
-                        && lights
-                            .iter()
-                            .flatten()
-                            .all(|l| prim_light_distance(p, *l) >= unit / 1024.0)
-                })
+                prims
+                    .iter()
+                    .zip(&scene.primitives)
+                    .enumerate()
+                    .position(|(i, (p, sp))| {
+                        matches!(p.shape, Shape::Plane { .. })
+                            && tested & (1 << i) == 0
+                            && !p.unseen
+                            && sp.checker.is_none()
+                            && p.ks == 0.0
+                            && libm::fabs(dot3(p.c, p.n)) >= unit / 1024.0
+                            && lights
+                                .iter()
+                                .flatten()
+                                .all(|l| prim_light_distance(p, *l) >= unit / 1024.0)
+                    })
             })
             .flatten();
-        let cov = Coverage::of(scene, &prims, &lights, origin_scale, closed);
+        let cov = Coverage::of(scene, &prims, &lights, origin_scale, (closed, tested));
         let n = (COVERAGE_GRID.0 * COVERAGE_GRID.1) as f64;
+        // (Each surface's share of the sensor times the occluders it is
+        // tested against.)
+        let shadow_tests = (0..prims.len())
+            .filter(|_| cfg!(feature = "shadows"))
+            .map(|i| cov.nearest.get(i).map_or(0.0, |h| f64::from(*h)) * f64::from(occ.tests_of(i)))
+            .sum::<f64>()
+            / n;
         Geometry {
             f_px: fx.max(fy),
             f_row: fx,
@@ -320,6 +366,8 @@ impl Geometry {
             closed_facing_area: cov.closed_facing_hits as f64 / n,
             flat_area: cov.flat_hits as f64 / n,
             closed_flat_area: cov.closed_flat_hits as f64 / n,
+            shadows: occ.any(),
+            shadow_tests,
         }
     }
 }

@@ -8,6 +8,7 @@ use crate::render::options::{
     AllLines, Arithmetic, FrameError, LineLoop, Lines, Options, RenderError, RenderModel, Stages,
 };
 use crate::render::prepare::Prepared;
+use crate::render::shadows::Occluders;
 use crate::render::sink::{FrameInfo, FrameSink, LineBuffers};
 use crate::render::wide::{WideFrame, PARALLEL, PINHOLE};
 use crate::scene::{PixelFormat, Scene, Q};
@@ -171,10 +172,12 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
     #[inline(never)]
     fn prepare_inner(&mut self, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
         // Prepared once, whichever arithmetic renders the frame.
-        let p = Prepared::new(scene, opts)?;
+        let mut p = Prepared::new(scene, opts)?;
+        let occ = crate::render::shadows::of_frame(scene, opts, p.origin_scale);
+        p.stages.shadows = occ.any();
         (self.width, self.height, self.format, self.stages) = (p.width, p.height, scene.format, p.stages);
         match opts.arithmetic {
-            Arithmetic::Fast => self.prepare_fast(scene, opts, &p),
+            Arithmetic::Fast => self.prepare_fast(scene, opts, (&p, &occ)),
             Arithmetic::Wide => {
                 if !matches!(self.path, Path::Wide(_)) {
                     self.path = Path::Wide(WideFrame::empty());
@@ -185,7 +188,7 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
                 else {
                     return Err(RenderError::Degenerate);
                 };
-                let r = w.fill(&p, scene, opts);
+                let r = w.fill((&p, &occ), scene, opts);
                 self.stages = w.stages;
                 r
             }
@@ -197,8 +200,13 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
     /// ([`crate::render::Unfit`]) refused.
     #[cfg(feature = "mix32")]
     #[inline(never)]
-    fn prepare_fast(&mut self, scene: &Scene, opts: &Options, p: &Prepared) -> Result<(), RenderError> {
-        let input = crate::render::fast::Input::of(scene, opts, p);
+    fn prepare_fast(
+        &mut self,
+        scene: &Scene,
+        opts: &Options,
+        (p, occ): (&Prepared, &Occluders),
+    ) -> Result<(), RenderError> {
+        let input = crate::render::fast::Input::of(scene, opts, p, *occ);
         self.path = Path::Fast(crate::render::fast::Mix32::EMPTY);
         let Path::Fast(m) = &mut self.path else {
             return Err(RenderError::OutsideFormat);
@@ -208,7 +216,12 @@ impl<S: Scalar, const T: usize, L: Lines> Frame<S, T, L> {
 
     /// Without the `mix32` feature the fast arithmetic is not built in.
     #[cfg(not(feature = "mix32"))]
-    fn prepare_fast(&mut self, _: &Scene, _: &Options, _: &Prepared) -> Result<(), RenderError> {
+    fn prepare_fast(
+        &mut self,
+        _: &Scene,
+        _: &Options,
+        _: (&Prepared, &Occluders),
+    ) -> Result<(), RenderError> {
         Err(RenderError::OutsideFormat)
     }
 

@@ -31,6 +31,7 @@ mod options;
 pub(crate) mod prepare;
 pub mod sensor;
 pub mod shading;
+pub mod shadows;
 mod sink;
 pub mod vignetting;
 mod wide;

@@ -587,6 +587,9 @@ pub enum Unfit {
     /// A calibrated lens (OpenCV's models): solved per sample by the wide
     /// arithmetic only.
     Calibrated,
+    /// Cast shadows the planner could not prove unneeded: tested per
+    /// sample by the wide arithmetic only.
+    Shadows,
 }
 
 impl Unfit {
@@ -602,6 +605,7 @@ impl Unfit {
             Unfit::Defocus => "defocus with a sample grid: the fast aperture loop takes pixel centres only",
             Unfit::Table => "a distortion table: the fast arithmetic evaluates the polynomial",
             Unfit::Calibrated => "a calibrated lens: solved per sample by the wide arithmetic only",
+            Unfit::Shadows => "cast shadows: tested per sample by the wide arithmetic only",
         }
     }
 }
@@ -669,6 +673,10 @@ pub struct Stages {
     pub aperture: u16,
     /// Sensor noise.
     pub noise: bool,
+    /// Cast shadows: some surface is tested against an occluder under
+    /// some light ([`crate::render::shadows`]; the tests the planner could
+    /// not prove unneeded).
+    pub shadows: bool,
 }
 
 impl Stages {
@@ -686,10 +694,11 @@ impl Stages {
         adaptive: false,
         aperture: 0,
         noise: false,
+        shadows: false,
     };
 
     /// Stage names, in pipeline order.
-    pub fn names(&self) -> heapless::Vec<&'static str, 13> {
+    pub fn names(&self) -> heapless::Vec<&'static str, 14> {
         let mut v = heapless::Vec::new();
         let _ = v.push(match self.arithmetic {
             Arithmetic::Fast => "arithmetic:fast",
@@ -725,6 +734,9 @@ impl Stages {
             }
         }
         let _ = v.push("intersect");
+        if self.shadows {
+            let _ = v.push("shadows");
+        }
         let _ = v.push("shade:lambertian");
         if self.specular {
             let _ = v.push("shade:specular");

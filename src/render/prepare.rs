@@ -211,6 +211,9 @@ impl Prepared {
             adaptive: opts.adaptive && opts.samples > 1,
             aperture: opts.aperture,
             noise: scene.noise.is_some(),
+            // (Set where the frame's shadow tests are proved:
+            // `render::shadows::of_frame`.)
+            shadows: false,
         };
         if !matches!(stages.samples, 1 | 2 | 4 | 8 | 16) {
             return Err(RenderError::Degenerate);

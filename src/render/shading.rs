@@ -170,8 +170,9 @@ impl Brdf {
 
 /// Radiance per channel leaving `point` (unit `normal`, facing the viewer)
 /// towards the viewer (unit `view`), for the first `channels` channels (the
-/// others are left at the ambient term). With `SPEC = false` the specular
-/// lobe is left out (the scene has none).
+/// others are left at the ambient term), without the lights of bit set in
+/// `shadowed` ([`crate::render::shadows`]). With `SPEC = false` the
+/// specular lobe is left out (the scene has none).
 ///
 /// In I32F32 the relative error is ≤ 10⁻⁶ + (s + 2)·10⁻⁹ / r², `r`
 /// (metres) the distance to the nearest point light: the Phong lobe turns
@@ -185,9 +186,13 @@ pub fn radiance<S: Scalar, const SPEC: bool>(
     normal: V3<S>,
     view: V3<S>,
     channels: usize,
+    shadowed: u8,
 ) -> V3<S> {
     let mut l = mat.ka;
-    for light in lights {
+    for (li, light) in lights.iter().enumerate() {
+        if shadowed & (1 << li) != 0 {
+            continue;
+        }
         // The light's direction, a factor k and its per-channel strength:
         // irradiance E_c = k · strength_c (computed per rendered channel).
         let (ldir, k, strength) = match *light {

@@ -11,6 +11,7 @@ use crate::render::prepare::{
     cam_prim, lens_blur, shading_light, undistort_poly, CamPrim, CamShape, Poly, Prepared,
 };
 use crate::render::shading::{axpy, dot, dot_k, from_q3, scale3, sub3, Brdf, ShadingLight, V3};
+use crate::render::shadows::Occluders;
 use crate::render::vignetting;
 use crate::scene::{PixelFormat, Scene, Q};
 
@@ -44,6 +45,8 @@ pub(crate) struct WideFrame<S: Scalar, const T: usize> {
     pub(crate) k_origin: S,
     pub(crate) prims: heapless::Vec<CamPrim<S>, { crate::scene::MAX_PRIMITIVES }>,
     pub(crate) lights: heapless::Vec<ShadingLight<S>, { crate::scene::MAX_LIGHTS }>,
+    /// The shadow tests each surface takes under each light.
+    pub(crate) occluders: Occluders,
     pub(crate) materials: [Brdf<S>; crate::scene::MAX_MATERIALS],
     pub(crate) background: V3<S>,
     /// `K π/4 (d/f)²` per channel (with the channel's full-scale factor):
@@ -100,6 +103,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             k_origin: S::ZERO,
             prims: heapless::Vec::new(),
             lights: heapless::Vec::new(),
+            occluders: Occluders::NONE,
             materials: [Brdf::ZERO; crate::scene::MAX_MATERIALS],
             background: [S::ZERO; 3],
             gain: [S::ZERO; 3],
@@ -121,7 +125,12 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
     /// table or polynomial in `S`, and the scene's materials, primitives and
     /// lights in the camera frame.
     #[inline(never)]
-    pub(crate) fn fill(&mut self, p: &Prepared, scene: &Scene, opts: &Options) -> Result<(), RenderError> {
+    pub(crate) fn fill(
+        &mut self,
+        (p, occ): (&Prepared, &Occluders),
+        scene: &Scene,
+        opts: &Options,
+    ) -> Result<(), RenderError> {
         (self.width, self.height, self.format, self.stages) = (p.width, p.height, scene.format, p.stages);
         (self.x0, self.dx, self.y0, self.dy) = (p.x0, p.dx, p.y0, p.dy);
         #[cfg(feature = "sensor")]
@@ -159,6 +168,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
                 }
             }
         }
+        self.occluders = *occ;
         self.k_origin = p.origin_scale.map_or(S::ZERO, S::from_q);
         self.gain = from_q3(p.gain);
         self.wide_scene(scene, opts, p.origin_scale);
@@ -521,7 +531,10 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         if R == PINHOLE && self.stages.aperture > 0 {
             return Some(self.blurred_key(xy));
         }
-        Some(self.look::<R>(o, d, a, xy).map_or(Key::NOTHING, |s| s.key))
+        Some(self.look::<R>(o, d, a, xy).map_or(Key::NOTHING, |s| Key {
+            shade: self.shadowed(&s),
+            ..s.key
+        }))
     }
 
     /// What the point of undistorted slopes `(x̂, ŷ)` sees through the
@@ -612,7 +625,11 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             hit,
             point,
             material: m,
-            key: Key { prim: i as u8, cell },
+            key: Key {
+                prim: i as u8,
+                cell,
+                shade: 0,
+            },
         })
     }
 
@@ -626,9 +643,9 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         let Some(mat) = self.materials.get(seen.material) else {
             return (self.background, seen.key);
         };
+        let shade = self.shadowed(&seen);
         let hit = seen.hit;
-        // Two-sided surfaces: the normal faces the viewer.
-        let normal = if hit.away { hit.n.map(S::neg) } else { hit.n };
+        let normal = hit.facing();
         let view = if SPEC {
             if R != PARALLEL {
                 let len = a.sqrt().unwrap_or(S::ONE);
@@ -647,8 +664,26 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
             normal,
             view,
             self.format.channels(),
+            shade,
         );
-        (l, seen.key)
+        (l, Key { shade, ..seen.key })
+    }
+
+    /// The lights a seen point does not receive (bit `i`: light `i`), by
+    /// the frame's shadow tests ([`crate::render::shadows`]).
+    #[inline(always)]
+    fn shadowed(&self, seen: &Seen<S>) -> u8 {
+        if cfg!(not(feature = "shadows")) || !self.stages.shadows {
+            return 0;
+        }
+        crate::render::shadows::shadowed(
+            &self.prims,
+            &self.lights,
+            &self.occluders,
+            seen.key.prim as usize,
+            seen.point,
+            seen.hit.facing(),
+        )
     }
 }
 
@@ -674,17 +709,19 @@ struct PixelRay<S> {
 }
 
 /// What a ray sees, for the adaptive sampling rule: the primitive (255:
-/// none) and, on a textured one, the texture cell.
+/// none), on a textured one the texture cell, and the lights shadowed there.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Key {
     prim: u8,
     cell: (i64, i64),
+    shade: u8,
 }
 
 impl Key {
     const NOTHING: Key = Key {
         prim: u8::MAX,
         cell: (0, 0),
+        shade: 0,
     };
     /// Through the aperture, a point whose rim rays see something else
     /// than its chief ray ([`WideFrame::blurred_key`]): never uniform. (No
@@ -694,6 +731,7 @@ impl Key {
     const MIXED: Key = Key {
         prim: u8::MAX - 1,
         cell: (0, 0),
+        shade: 0,
     };
 }
 
@@ -722,6 +760,18 @@ struct Seen<S> {
     point: V3<S>,
     material: usize,
     key: Key,
+}
+
+impl<S: Scalar> Hit<S> {
+    /// The unit normal towards the viewer (surfaces are two-sided).
+    #[inline(always)]
+    fn facing(&self) -> V3<S> {
+        if self.away {
+            self.n.map(S::neg)
+        } else {
+            self.n
+        }
+    }
 }
 
 /// A ray's hit on a shape.

@@ -24,12 +24,12 @@ use serde::Serialize;
 /// The largest encoded [`SceneData`] with at most `materials`,
 /// `primitives` and `lights` (each at most 127), bytes: every value given
 /// per channel, every shape a rectangle with a checker, every option
-/// given, every varint at its longest (tested): 297 bytes of camera,
-/// format, exposure, ambient, background, sampling, noise and list
-/// lengths; 62 a material (an RGB albedo and lobe), 124 a primitive (a
+/// given, every varint at its longest (tested): 396 bytes of camera,
+/// format, exposure, ambient, background, sampling, noise, lens, shadows
+/// and list lengths; 62 a material (an RGB albedo and lobe), 124 a primitive (a
 /// checkered rectangle), 50 a light.
 pub const fn max_bytes(materials: usize, primitives: usize, lights: usize) -> usize {
-    395 + 62 * materials + 124 * primitives + 50 * lights
+    396 + 62 * materials + 124 * primitives + 50 * lights
 }
 
 /// The largest encoded [`SceneData`] this build holds ([`max_bytes`] of
@@ -61,6 +61,8 @@ pub struct SceneData {
     pub noise: Option<NoiseData>,
     /// A calibrated lens in place of `camera.distortion`, if given.
     pub lens: Option<LensData>,
+    /// Cast shadows (camera-model.md §6; `environment.shadows`).
+    pub shadows: bool,
 }
 
 /// A calibrated lens (geom::calibrated): OpenCV's coefficients in its
@@ -449,6 +451,13 @@ fn fill(r: &mut Reader, s: &mut Scene) -> Result<(), DataError> {
             key: "camera.calibration",
         });
     }
+    let shadows = r.bool().ok_or(M)?;
+    if shadows && cfg!(not(feature = "shadows")) {
+        return Err(DataError::NotBuilt {
+            key: "environment.shadows",
+        });
+    }
+    s.set_shadows(shadows);
     if !r.0.is_empty() {
         return Err(M);
     }

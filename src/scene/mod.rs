@@ -376,6 +376,9 @@ pub struct Scene {
     pub(crate) sampling: Option<Sampling>,
     /// Sensor noise (camera-model.md §9), if the scene asks for it.
     pub(crate) noise: Option<Noise>,
+    /// Cast shadows (camera-model.md §6): on unless the scene turns them
+    /// off ([`Scene::set_shadows`]) or the build leaves them out.
+    pub(crate) shadows: bool,
 }
 
 /// Smallest edge-placement error a scene may ask of pixel-area sampling,
@@ -623,6 +626,20 @@ impl Scene {
         self.noise
     }
 
+    /// Whether lights cast shadows (camera-model.md §6; on by default).
+    pub fn shadows(&self) -> bool {
+        self.shadows
+    }
+
+    /// Turns cast shadows on or off (the scene file's
+    /// `environment.shadows`). Off, every light reaches every point that
+    /// faces it, as in a scene without occluders. A build without the
+    /// `shadows` feature keeps them off (its data reader refuses a scene
+    /// that asks for them).
+    pub fn set_shadows(&mut self, on: bool) {
+        self.shadows = on && cfg!(feature = "shadows");
+    }
+
     /// An empty scene (no materials, primitives or lights) for `camera`.
     ///
     /// `exposure` is `K` in DN per W/m² (0 to 10⁹); `ambient` and
@@ -668,6 +685,7 @@ impl Scene {
             lights: heapless::Vec::new(),
             sampling: None,
             noise: None,
+            shadows: cfg!(feature = "shadows"),
         }
     }
 

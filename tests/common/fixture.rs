@@ -1,8 +1,34 @@
 //! A small scene every rendering test starts from (96×64 Gray8, two
 //! materials, one directional light, no primitives), and a checkered floor.
 
-use host_sim::harness::Metrics;
+use hilcam::num::scalar::I32F32;
+use hilcam::planner::{Budget, Plan};
+use hilcam::render::Override;
+use host_sim::harness::{collect, prepare, Collect, Metrics};
+use host_sim::reference::render::RefScene;
+use host_sim::reference::sampling::Pattern;
 use host_sim::scene_file::Resolved;
+use host_sim::variant::Variant;
+
+/// The frame rendered as `variant` (its arithmetic, distortion and table)
+/// through a pinhole, and its metrics against the reference; `Err` with
+/// the renderer's refusal.
+#[allow(dead_code)] // not every test binary renders variants
+pub fn rendered_as(r: &Resolved, variant: &str) -> Result<(Metrics, Collect), String> {
+    let v = Variant::parse(variant).expect("variant");
+    let budget = Budget::default();
+    let pinhole = |p: &Plan| v.options(p).with(Override::Aperture { points: 0 });
+    let (_, plan, frame) = prepare::<I32F32>(r, &budget, pinhole)?;
+    let core = collect(&frame).map_err(|e| format!("{}: {e}", r.desc.name))?;
+    let rs = RefScene::new(r);
+    let rs = rs.with_pattern(Pattern {
+        aperture: 0,
+        ..rs.pattern
+    });
+    let reference = rs.render();
+    let m = host_sim::harness::compare(r, &rs, &reference, &plan, &budget, &frame, &core);
+    Ok((m, core))
+}
 
 /// The base scene (no primitives).
 pub const BASE: &str = r#"

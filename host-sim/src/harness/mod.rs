@@ -139,6 +139,10 @@ pub struct PlanReport {
     /// Predicted defocus error, px: the aperture pattern's placement error,
     /// or the blur left out when the aperture is not sampled.
     pub predicted_defocus_err_px: f64,
+    /// Shadow tests a sample takes on average, predicted (0: none needed),
+    /// and their share of the predicted M3 instructions a pixel.
+    pub predicted_shadow_tests: f64,
+    pub predicted_shadow_m3: f64,
 }
 
 /// `metrics.json`.
@@ -619,6 +623,8 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
             .map(|n| 1.0 - f64::from(n.traced + n.only) / f64::from(n.field.max(1))),
         aperture_shares: (stages.aperture > 0).then_some([plan.samples.traced, plan.samples.only]),
         closed_mean: plan.options.closed_mean.span(),
+        predicted_shadow_tests: plan.candidates.get(plan.chosen).map_or(0.0, |c| c.shadow_tests),
+        predicted_shadow_m3: plan.candidates.get(plan.chosen).map_or(0.0, |c| c.shadow_m3),
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,
         predicted_defocus_err_px: if stages.aperture > 0 {

@@ -10,6 +10,7 @@ pub mod projection;
 pub mod render;
 pub mod sampling;
 pub mod shading;
+pub mod shadows;
 pub mod vignetting;
 
 /// A 3-vector.

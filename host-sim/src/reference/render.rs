@@ -13,6 +13,7 @@ use super::intrinsics::Sensor;
 use super::noise::NoiseModel;
 use super::sampling::Pattern;
 use super::shading::{self, Light, Material};
+use super::shadows;
 use super::vignetting;
 use super::{cross, dot, unit, V3};
 use crate::scene_file::{LightData, Pose as PoseSpec, Resolved};
@@ -20,7 +21,7 @@ use hilcam::scene::{PixelFormat, ShapeSpec};
 
 /// A shape in the world frame.
 #[derive(Clone, Copy, Debug)]
-enum Shape {
+pub(super) enum Shape {
     Plane {
         p: V3,
         n: V3,
@@ -42,6 +43,45 @@ enum Shape {
         hu: f64,
         hv: f64,
     },
+}
+
+impl Shape {
+    /// Where the line `o + t d` meets the shape: up to two `(t, unit
+    /// normal)`, `t` of either sign.
+    pub(super) fn meets(&self, o: V3, d: V3) -> [Option<(f64, V3)>; 2] {
+        match *self {
+            Shape::Plane { p, n } => [line_plane(o, d, p, n).map(|t| (t, n)), None],
+            Shape::Disc { c, n, r } => [
+                line_plane(o, d, c, n).and_then(|t| {
+                    let q = sub(at(o, d, t), c);
+                    (dot(q, q) <= r * r).then_some((t, n))
+                }),
+                None,
+            ],
+            Shape::Rect { c, n, u, v, hu, hv } => [
+                line_plane(o, d, c, n).and_then(|t| {
+                    let q = sub(at(o, d, t), c);
+                    (dot(q, u).abs() <= hu && dot(q, v).abs() <= hv).then_some((t, n))
+                }),
+                None,
+            ],
+            Shape::Sphere { c, r } => {
+                let oc = sub(o, c);
+                let a = dot(d, d);
+                let b = dot(oc, d);
+                let cc = dot(oc, oc) - r * r;
+                let disc = b * b - a * cc;
+                if disc < 0.0 {
+                    return [None, None];
+                }
+                let s = disc.sqrt();
+                [(-b - s) / a, (-b + s) / a].map(|t| {
+                    let q = sub(at(o, d, t), c);
+                    Some((t, [q[0] / r, q[1] / r, q[2] / r]))
+                })
+            }
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -83,6 +123,8 @@ pub struct Key {
     /// or cell than the chief ray (the point lies within the blurred
     /// extent of an edge; docs/sensor.md).
     pub mixed: bool,
+    /// The lights shadowed at the point it sees (bit `i`: light `i`).
+    pub shade: u8,
 }
 
 /// A scene in f64.
@@ -101,6 +143,8 @@ pub struct RefScene {
     lights: Vec<Light>,
     ambient: [f64; 3],
     background: [f64; 3],
+    /// Cast shadows (§6).
+    shadows: bool,
     exposure: f64,
     aperture: f64,
     /// Focus distance `Z̃`, metres.
@@ -161,16 +205,7 @@ impl RefScene {
             sensor.ox = ox;
             sensor.oy = oy;
         }
-        let pose = match r.pose {
-            PoseSpec::LookAt { eye, target, up } => Pose::look_at(eye, target, up),
-            PoseSpec::Ypr { position, angles } => {
-                Pose::from_yaw_pitch_roll(angles[0], angles[1], angles[2], position)
-            }
-            PoseSpec::Matrix { position, rotation } => Pose {
-                r: rotation,
-                t: position,
-            },
-        };
+        let pose = pose_of(r);
         let model = match c.orthographic_scale {
             Some(m) if c.model == "orthographic" => RefModel::Orthographic(m),
             _ => RefModel::Perspective,
@@ -287,6 +322,7 @@ impl RefScene {
             lights,
             ambient: r.desc.environment.ambient.rgb(),
             background: r.desc.environment.background.rgb(),
+            shadows: r.desc.environment.shadows,
             exposure: r.desc.output.exposure,
             aperture: r.aperture_diameter(),
             focus: r.desc.camera.focus_distance,
@@ -418,43 +454,37 @@ impl RefScene {
     fn hit(&self, o: V3, d: V3) -> Option<(f64, usize, V3)> {
         let mut best: Option<(f64, usize, V3)> = None;
         for (i, p) in self.prims.iter().enumerate() {
-            let h = match p.shape {
-                Shape::Plane { p, n } => plane(o, d, p, n).map(|t| (t, n)),
-                Shape::Disc { c, n, r } => plane(o, d, c, n).and_then(|t| {
-                    let q = sub(at(o, d, t), c);
-                    (dot(q, q) <= r * r).then_some((t, n))
-                }),
-                Shape::Rect { c, n, u, v, hu, hv } => plane(o, d, c, n).and_then(|t| {
-                    let q = sub(at(o, d, t), c);
-                    (dot(q, u).abs() <= hu && dot(q, v).abs() <= hv).then_some((t, n))
-                }),
-                Shape::Sphere { c, r } => {
-                    let oc = sub(o, c);
-                    let a = dot(d, d);
-                    let b = dot(oc, d);
-                    let cc = dot(oc, oc) - r * r;
-                    let disc = b * b - a * cc;
-                    if disc < 0.0 {
-                        None
-                    } else {
-                        let s = disc.sqrt();
-                        [(-b - s) / a, (-b + s) / a]
-                            .into_iter()
-                            .find(|t| *t > 0.0)
-                            .map(|t| {
-                                let q = sub(at(o, d, t), c);
-                                (t, [q[0] / r, q[1] / r, q[2] / r])
-                            })
-                    }
-                }
-            };
-            if let Some((t, n)) = h {
-                if best.is_none_or(|(bt, _, _)| t < bt) {
+            for (t, n) in p.shape.meets(o, d).into_iter().flatten() {
+                if t > 0.0 && best.is_none_or(|(bt, _, _)| t < bt) {
                     best = Some((t, i, n));
                 }
             }
         }
         best
+    }
+
+    /// The lights a point `p` with unit normal `n` (towards the viewer)
+    /// does not receive (§6): bit `i` set where light `i` shines on its
+    /// side and a primitive meets the way to it. Shadows off: none.
+    fn shadowed(&self, p: V3, n: V3) -> u8 {
+        if !self.shadows {
+            return 0;
+        }
+        let mut mask = 0;
+        for (i, light) in self.lights.iter().enumerate() {
+            let (d, t_max) = match *light {
+                Light::Point { position, .. } => (sub(position, p), 1.0),
+                Light::Directional { towards, .. } => (towards, f64::INFINITY),
+            };
+            let meets = self
+                .prims
+                .iter()
+                .map(|q| q.shape.meets(p, d).map(|h| h.map(|(t, _)| t)));
+            if dot(n, d) > 0.0 && shadows::blocked(meets, d, t_max) {
+                mask |= 1 << i;
+            }
+        }
+        mask
     }
 
     fn cell(&self, prim: usize, p: V3) -> Option<(i64, i64)> {
@@ -477,6 +507,7 @@ impl RefScene {
                 prim: None,
                 cell: None,
                 mixed: false,
+                shade: 0,
             };
         };
         let (o, d) = self.ray(x, y);
@@ -506,13 +537,19 @@ impl RefScene {
                 prim: None,
                 cell: None,
                 mixed: false,
+                shade: 0,
             },
-            Some((t, i, _)) => Key {
-                in_field: true,
-                prim: Some(i),
-                cell: self.cell(i, at(o, d, t)),
-                mixed: false,
-            },
+            Some((t, i, n)) => {
+                let p = at(o, d, t);
+                let n = if dot(n, d) > 0.0 { [-n[0], -n[1], -n[2]] } else { n };
+                Key {
+                    in_field: true,
+                    prim: Some(i),
+                    cell: self.cell(i, p),
+                    mixed: false,
+                    shade: self.shadowed(p, n),
+                }
+            }
         }
     }
 
@@ -620,7 +657,14 @@ impl RefScene {
                 let n = if dot(n, d) > 0.0 { [-n[0], -n[1], -n[2]] } else { n };
                 let dl = dot(d, d).sqrt();
                 let v = [-d[0] / dl, -d[1] / dl, -d[2] / dl];
-                shading::radiance(&self.materials[m], &self.lights, self.ambient, p, n, v)
+                let shadowed = self.shadowed(p, n);
+                shading::radiance(
+                    &self.materials[m],
+                    &self.lights,
+                    self.ambient,
+                    (p, n, v),
+                    shadowed,
+                )
             }
         }
     }
@@ -784,11 +828,25 @@ pub struct RefRow<'a> {
 }
 
 /// `t > 0` where the ray meets the plane through `p` with normal `n`.
-fn plane(o: V3, d: V3, p: V3, n: V3) -> Option<f64> {
+/// The scene's camera pose, as its file gives it.
+fn pose_of(r: &Resolved) -> Pose {
+    match r.pose {
+        PoseSpec::LookAt { eye, target, up } => Pose::look_at(eye, target, up),
+        PoseSpec::Ypr {
+            position,
+            angles: [y, p, r],
+        } => Pose::from_yaw_pitch_roll(y, p, r, position),
+        PoseSpec::Matrix { position, rotation } => Pose {
+            r: rotation,
+            t: position,
+        },
+    }
+}
+
+fn line_plane(o: V3, d: V3, p: V3, n: V3) -> Option<f64> {
     let den = dot(n, d);
     if den == 0.0 {
         return None;
     }
-    let t = dot(n, sub(p, o)) / den;
-    (t > 0.0).then_some(t)
+    Some(dot(n, sub(p, o)) / den)
 }

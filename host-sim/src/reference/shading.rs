@@ -50,12 +50,22 @@ pub fn brdf(m: &Material, c: usize, n: V3, l: V3, v: V3) -> f64 {
 }
 
 /// Radiance towards the viewer (unit `v` from the point to the viewer) of a
-/// point `p` with unit normal `n`: `Σ BRDF E_i + ρ A`.
-pub fn radiance(m: &Material, lights: &[Light], ambient: [f64; 3], p: V3, n: V3, v: V3) -> [f64; 3] {
+/// point `p` with unit normal `n`: `Σ BRDF E_i + ρ A`, the sum over the
+/// lights not shadowed there (bit `i` of `shadowed` set: light `i` is).
+pub fn radiance(
+    m: &Material,
+    lights: &[Light],
+    ambient: [f64; 3],
+    (p, n, v): (V3, V3, V3),
+    shadowed: u8,
+) -> [f64; 3] {
     let mut out = [0.0; 3];
     for (c, o) in out.iter_mut().enumerate() {
         let mut l_sum = m.albedo[c] * ambient[c];
-        for light in lights {
+        for (i, light) in lights.iter().enumerate() {
+            if shadowed & (1 << i) != 0 {
+                continue;
+            }
             let (l, e) = match *light {
                 Light::Point { position, intensity } => {
                     let d = [position[0] - p[0], position[1] - p[1], position[2] - p[2]];

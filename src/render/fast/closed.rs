@@ -25,8 +25,10 @@ impl Mix32 {
         if self.parallel.is_some() {
             return None;
         }
-        let (index, p) = self.prims.iter().enumerate().find(|(_, p)| {
+        let (index, p) = self.prims.iter().enumerate().find(|(i, p)| {
             matches!(p.shape, MixShape::Plane { dist, .. } if dist.unsigned_abs() >= 1 << 14)
+                // (Not one that takes a shadow test: shaded point by point.)
+                && self.shadow_tests(*i) == 0
                 // (Not one behind the view, whose bounds are empty.)
                 && p.bounds.is_none()
                 && p.checker.is_none()

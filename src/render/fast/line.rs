@@ -564,7 +564,8 @@ impl Mix32 {
         if r.t == NO_HIT {
             return None;
         }
-        let p = self.prims.get((r.hit & !AWAY) as usize)?;
+        let prim = (r.hit & !AWAY) as usize;
+        let p = self.prims.get(prim)?;
         let away = r.hit & AWAY != 0;
         // The point, where a sphere's normal or a point light's term takes
         // it: a flat primitive ([`MixPrim::flat`]: directional lights
@@ -614,6 +615,7 @@ impl Mix32 {
             away,
             nl: &p.nl,
             flat: p.flat,
+            prim,
             view,
         })
     }
@@ -689,6 +691,7 @@ impl Mix32 {
             away,
             nl: nls,
             view: kept,
+            prim,
             ..
         } = *h;
         let nch = self.nch();
@@ -729,7 +732,19 @@ impl Mix32 {
         let lobe = if lobe_built::<L, C>() { k.lobe } else { None };
         let view = lobe.map(|_| kept.unwrap_or_else(|| Self::view::<PERSP>(r)));
         let mut sum = copy3!(k.ka);
+        #[cfg(feature = "shadows")]
+        let mut shadowed = self.shadow.as_ref().map_or(0, |s| s.shadowed(prim, pt, nt));
+        #[cfg(not(feature = "shadows"))]
+        let mut shadowed = {
+            let _ = prim;
+            0u8
+        };
         for (((l, kl), (ksl, top)), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
+            let lit = shadowed & 1 == 0;
+            shadowed >>= 1;
+            if !lit {
+                continue;
+            }
             let (w, ldir) = match l {
                 MixLight::Point { p, .. } => {
                     let lv = zip3(*p, pt, i32::saturating_sub);

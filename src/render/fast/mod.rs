@@ -102,6 +102,7 @@ mod prepare;
 mod rays;
 mod sampled;
 mod shade;
+mod shadow;
 #[cfg(test)]
 mod tests;
 
@@ -200,6 +201,8 @@ struct Hit<'a> {
     nl: &'a [i64; crate::scene::MAX_LIGHTS],
     /// [`MixPrim::flat`].
     flat: bool,
+    /// The primitive's index.
+    prim: usize,
     /// [`Mix32::view`] of the ray, where the normal took it already
     /// ([`fine_normal`]: a sphere under a lobe), for the lobe.
     view: Option<[i32; 3]>,
@@ -428,6 +431,9 @@ pub struct Mix32 {
     /// takes it from its chief ray ([`Mix32::uniform`]), unless every ray
     /// is to be traced ([`Mix32::trace_every_aperture_ray`]).
     uniform_on: bool,
+    /// Cast shadows, if some surface takes a test.
+    #[cfg(feature = "shadows")]
+    shadow: Option<shadow::Shadow>,
 }
 
 /// What [`Mix32::fill`] takes from the frame the generic path prepared (all
@@ -468,4 +474,6 @@ pub(crate) struct Input<'a> {
     pub centred: bool,
     /// [`crate::render::Options::closed_mean`].
     pub closed_mean: ClosedMean,
+    /// The shadow tests each surface takes under each light.
+    pub occluders: crate::render::shadows::Occluders,
 }

@@ -312,6 +312,11 @@ fn layout(f: &Input) -> Result<(Q, i32, (Q, Q), Slopes), Unfit> {
     if f.aperture > 0 && f.samples > 1 {
         return Err(Unfit::Defocus);
     }
+    // (The aperture loop takes a pixel's sum from its chief ray where its
+    // rays see one surface, which a shadow's edge does not change.)
+    if f.aperture > 0 && f.occluders.any() {
+        return Err(Unfit::Shadows);
+    }
     let (z0, e, ap) = frame_unit(f)?;
     Ok((z0, e, ap, fast_slopes(f, e, ap)?))
 }
@@ -338,7 +343,8 @@ fn prims_fit(f: &Input, e: i32) -> Result<(), Unfit> {
 pub(crate) fn fits(scene: &crate::scene::Scene, opts: &crate::render::Options) -> Result<(), Unfit> {
     match crate::render::prepare::Prepared::new(scene, opts) {
         Ok(p) => {
-            let f = Input::of(scene, opts, &p);
+            let occ = crate::render::shadows::of_frame(scene, opts, p.origin_scale);
+            let f = Input::of(scene, opts, &p, occ);
             prims_fit(&f, layout(&f)?.1)
         }
         Err(_) => Ok(()),
@@ -353,6 +359,7 @@ impl<'a> Input<'a> {
         scene: &'a crate::scene::Scene,
         opts: &crate::render::Options,
         p: &crate::render::prepare::Prepared,
+        occluders: crate::render::shadows::Occluders,
     ) -> Input<'a> {
         Input {
             table: p.stages.distortion.is_some()
@@ -375,6 +382,7 @@ impl<'a> Input<'a> {
             samples: p.stages.samples,
             adaptive: p.stages.adaptive,
             aperture: opts.aperture,
+            occluders,
             closed_mean: opts.closed_mean,
             centred: p.centred,
         }
@@ -414,6 +422,8 @@ impl Mix32 {
         inner: None,
         mirror: false,
         uniform_on: true,
+        #[cfg(feature = "shadows")]
+        shadow: None,
     };
 
     /// Converts a prepared frame in place (the path's state is kilobytes:
@@ -460,6 +470,10 @@ impl Mix32 {
             m => Some(Aperture::new(f, m, e)?),
         };
         self.mirror = f.centred && self.samples == 1 && self.aperture.is_none();
+        #[cfg(feature = "shadows")]
+        {
+            self.shadow = super::shadow::Shadow::of(f, e, z0);
+        }
         self.closed = self.closed_plane(f.closed_mean);
         self.inner = if parallel.is_none() {
             Inner::of(&self.prims)
@@ -472,8 +486,10 @@ impl Mix32 {
             .lights
             .iter()
             .all(|l| matches!(l, MixLight::Directional { .. }));
-        for p in self.prims.iter_mut() {
-            p.flat = directional && !matches!(p.shape, MixShape::Sphere { .. });
+        let tests: [u32; crate::scene::MAX_PRIMITIVES] = core::array::from_fn(|i| self.shadow_tests(i));
+        for (p, tests) in self.prims.iter_mut().zip(tests) {
+            // (A surface that takes a shadow test is shaded point by point.)
+            p.flat = directional && !matches!(p.shape, MixShape::Sphere { .. }) && tests == 0;
             let lobed = has_lobe(p.material) || p.checker.as_ref().is_some_and(|k| has_lobe(k.material));
             // (A sphere's is the bound its chief rays are tested against,
             // whatever its shading.)

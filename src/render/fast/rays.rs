@@ -39,32 +39,37 @@ pub(super) const KEEP_Q2: bool = M0 || cfg!(target_arch = "x86_64");
 pub(super) const AWAY: u8 = 0x80;
 
 /// What a ray sees, for the adaptive rule ([`crate::render::sensor::sampling`]): the
-/// primitive (or [`Key::NOTHING`]) and, on a textured one, the texture cell
-/// (its indices are below 2²⁴: lengths within 8 192 U, cells at least
-/// 2⁻¹⁰ U); or [`Key::OUTSIDE`]. Packed in one word, which only equality
-/// reads: the primitive in the top byte, the indices' low 28 bits below
-/// (one-to-one for indices below 2²⁷).
+/// primitive (or [`Key::NOTHING`]), on a textured one the texture cell
+/// (its indices within ±2²³: lengths within 8 192 U, cells at least
+/// 2⁻¹⁰ U), and the lights shadowed there; or [`Key::OUTSIDE`]. Packed in
+/// one word, which only equality reads: the primitive in the top byte,
+/// the shadowed lights' bits below it, the indices' low 24 bits below
+/// (one-to-one for indices within ±2²³).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Key(pub(super) u64);
 
 impl Key {
     /// A ray that hits nothing.
-    pub(super) const NOTHING: Key = Key::new(0, 0, u8::MAX);
+    pub(super) const NOTHING: Key = Key::new(0, 0, u8::MAX, 0);
     /// A ray outside the lens field (or, for a pixel's corners, corners
     /// that disagree): never the same as what a pixel's centre sees.
-    pub(super) const OUTSIDE: Key = Key::new(0, 0, u8::MAX - 1);
+    pub(super) const OUTSIDE: Key = Key::new(0, 0, u8::MAX - 1, 0);
 
-    /// The key of primitive `prim`'s cell `(u, v)`.
+    /// The key of primitive `prim`'s cell `(u, v)` with the lights
+    /// `shade` shadowed.
     #[inline(always)]
-    pub(super) const fn new(u: i32, v: i32, prim: u8) -> Key {
-        const LOW28: u64 = (1 << 28) - 1;
-        Key((u as u32 as u64 & LOW28) | ((v as u32 as u64 & LOW28) << 28) | ((prim as u64) << 56))
+    pub(super) const fn new(u: i32, v: i32, prim: u8, shade: u8) -> Key {
+        const LOW24: u64 = (1 << 24) - 1;
+        Key((u as u32 as u64 & LOW24)
+            | ((v as u32 as u64 & LOW24) << 24)
+            | ((shade as u64) << 48)
+            | ((prim as u64) << 56))
     }
 
     /// Whether its cell's `u + v` is odd (the checker's second material).
     #[inline(always)]
     pub(super) const fn odd(self) -> bool {
-        (self.0 ^ (self.0 >> 28)) & 1 != 0
+        (self.0 ^ (self.0 >> 24)) & 1 != 0
     }
 }
 

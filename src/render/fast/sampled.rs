@@ -87,7 +87,7 @@ impl Mix32 {
             }) => k.cells_of::<PERSP>(r, shape.bounded()),
             _ => (0, 0),
         };
-        Key::new(cell.0, cell.1, prim)
+        Key::new(cell.0, cell.1, prim, self.shade_key::<PERSP>(r))
     }
 
     /// [`Mix32::line_f`] with pixel-area sampling (camera-model.md §7,
