@@ -52,7 +52,8 @@ fn main() {
     println!("cargo:rerun-if-changed=../scenes");
 
     // HILCAM_SCENES: newline-separated scene files (host-sim hil --scene);
-    // otherwise every scene in ../scenes, sorted by file name.
+    // otherwise every scene in ../scenes the board holds, sorted by file
+    // name.
     println!("cargo:rerun-if-env-changed=HILCAM_SCENES");
     let paths: Vec<PathBuf> = match std::env::var("HILCAM_SCENES") {
         Ok(list) if !list.trim().is_empty() => list.lines().map(PathBuf::from).collect(),
@@ -63,7 +64,8 @@ fn main() {
                 .filter(|p| p.extension().is_some_and(|e| e == "toml"))
                 .collect();
             v.sort();
-            v
+            // (Less those the board leaves out: boards.toml skip_scenes.)
+            board.held(v)
         }
     };
     let mut code = String::new();

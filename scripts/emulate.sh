@@ -115,7 +115,11 @@ if [ $qemu = 1 ]; then
   poses=30
   [ $mode = full ] && poses=300
   drive_all() {
-    "$host_sim" drive --board lm3s6965evb --scene scenes/standard.toml --frames $poses \
+    # (The driven camera holds no cast shadows: boards.toml camera_features.
+    # It is sent the standard scene with environment.shadows off.)
+    mkdir -p out/drive
+    sed 's/^\[environment\]$/[environment]\nshadows = false/' scenes/standard.toml > out/drive/scene.toml
+    "$host_sim" drive --board lm3s6965evb --scene out/drive/scene.toml --frames $poses \
       --capture out/drive/camera.bin --out out/drive | tail -1
     # A scene the firmware was not built with (the standard scene in
     # RGB565, a sphere moved and coloured, a lens whose fold lies inside
@@ -125,8 +129,8 @@ if [ $qemu = 1 ]; then
     sed -e 's/^name = "standard"/name = "not-shipped"/' -e 's/^format = "gray8"/format = "rgb565"/' \
         -e 's/^distortion = \[0.15, 0.05\]/distortion = [-2.0, 0.0]/' \
         -e 's/^albedo = 0.8$/albedo = [0.8, 0.5, 0.3]/' \
-        -e 's/^centre = \[-0.5, 0.4, 0.3\]/centre = [-0.3, 0.5, 0.6]/' scenes/standard.toml > out/drive-new/scene.toml
-    cmp -s scenes/standard.toml out/drive-new/scene.toml && { echo "the edits changed nothing"; return 1; }
+        -e 's/^centre = \[-0.5, 0.4, 0.3\]/centre = [-0.3, 0.5, 0.6]/' out/drive/scene.toml > out/drive-new/scene.toml
+    cmp -s out/drive/scene.toml out/drive-new/scene.toml && { echo "the edits changed nothing"; return 1; }
     "$host_sim" drive --board lm3s6965evb --scene out/drive-new/scene.toml --frames 10 --out out/drive-new/frames | tail -1
   }
   stage drive drive_all

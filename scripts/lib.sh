@@ -52,7 +52,7 @@ build_firmware() {
   # The environment host-sim's build gives it (hil_cmd, qemu.rs), so that
   # a `host-sim hil` after this finds it built.
   (cd firmware && HILCAM_BOARD="$board" CARGO_PROFILE_RELEASE_OPT_LEVEL="${opt:-s}" \
-    HILCAM_SCENES= HILCAM_VARIANTS= HILCAM_MAX_MATERIALS=4 HILCAM_MAX_PRIMITIVES=7 HILCAM_MAX_LIGHTS=2 \
+    HILCAM_SCENES= HILCAM_VARIANTS= HILCAM_MAX_MATERIALS=4 HILCAM_MAX_PRIMITIVES=4 HILCAM_MAX_LIGHTS=1 \
     cargo build -q --release --target "$target")
 }
 

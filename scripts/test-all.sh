@@ -117,16 +117,18 @@ mkdir -p target/scenes640
 sed -e 's/^name = "standard"/name = "standard-640"/' -e 's/^width = 160/width = 640/' \
     -e 's/^height = 120/height = 480/' -e 's/^pitch = 12e-6/pitch = 3e-6/' \
     -e 's/^tolerable_blur = 12e-6/tolerable_blur = 3e-6/' scenes/standard.toml > target/scenes640/standard-640.toml
+# (The driven camera, which holds no cast shadows, is sent the same frame without them.)
+mkdir -p target/scenes-unshadowed
+sed 's/^\[environment\]$/[environment]\nshadows = false/' target/scenes640/standard-640.toml > target/scenes-unshadowed/standard-640.toml
 for b in $(boards); do
   "$HILCAM_HOST_SIM" hil --board "$b" --scene target/scenes640/standard-640.toml --out "target/hil/$b-640" | tail -1
 done
 # The driven camera, sent the 640x480 scene as data: its RAM with the widest lines it takes;
-# and the driven camera on the M0 (built for size there: host-sim's build_firmware_as;
-# without cast shadows, which its flash does not hold: sent the scenes with
-# environment.shadows off).
-"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene target/scenes640/standard-640.toml --frames 3 \
+# and the driven camera on the M0 (built for size there: host-sim's build_firmware_as).
+# Driven cameras hold no cast shadows (their flash): sent the scenes with
+# environment.shadows off.
+"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene target/scenes-unshadowed/standard-640.toml --frames 3 \
   --out target/drive-640 | tail -1
-mkdir -p target/scenes-unshadowed
 for s in standard shallow-dof; do
   sed 's/^\[environment\]$/[environment]\nshadows = false/' "scenes/$s.toml" > "target/scenes-unshadowed/$s.toml"
 done
@@ -145,8 +147,9 @@ echo "== a pose and its trigger sent at once: the camera plans before it answers
 # same however the host's writes are split. Before, it held the plan when
 # the host was loaded (20 frames --batched beside six busy loops on 2
 # cores: a mean of 738 932 instructions, against 180 159 since).
-"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene scenes/standard.toml --frames 3 --out target/drive-seq | tail -1
-"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene scenes/standard.toml --frames 3 --batched \
+"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene target/scenes-unshadowed/standard.toml --frames 3 \
+  --out target/drive-seq | tail -1
+"$HILCAM_HOST_SIM" drive --board lm3s6965evb --scene target/scenes-unshadowed/standard.toml --frames 3 --batched \
   --out target/drive-batched | tail -1
 rt() { awk '/"round_trip_instructions"/ { getline; gsub("[ ,]", ""); print; exit }' "$1"; }
 awk -v a="$(rt target/drive-seq/drive.json)" -v b="$(rt target/drive-batched/drive.json)" \
@@ -199,8 +202,9 @@ echo "== firmware built for size (opt-level z, no status): the M3 image within 6
 # sensor's area integration, a stage this build leaves out).
 mkdir -p target/scenes-point
 rm -f target/scenes-point/*.toml
-# (Nor cast shadows, the core's shadows feature: the copies turn them off.)
-for s in $(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v shallow-dof); do
+# (Nor cast shadows, the core's shadows feature: the copies turn them off;
+# the shadows scene is not one the boards hold: boards.toml skip_scenes.)
+for s in $(grep -L -E '^\[(sampling|noise)\]' scenes/*.toml | grep -v -e shallow-dof -e /shadows.toml); do
   { sed 's/^\[environment\]$/[environment]\nshadows = false/' "$s"; printf '\n[sampling]\nedge_error = 0.5\n'; } \
     > "target/scenes-point/$(basename "$s")"
 done

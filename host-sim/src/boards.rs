@@ -61,10 +61,15 @@ pub struct Spec {
     /// Rustc flags the driven camera is built with besides.
     #[serde(default)]
     pub camera_rustflags: Option<String>,
-    /// The driven camera's firmware features ("camera,mix32,sensor,status,shadows"
-    /// if absent).
+    /// The driven camera's firmware features ("camera,mix32,sensor,status"
+    /// if absent: no cast shadows, which the M3's and the M0's flash do not
+    /// hold beside the camera).
     #[serde(default)]
     pub camera_features: Option<String>,
+    /// Shipped scenes (file stems) the one-shot firmware leaves out by
+    /// default, its RAM being too small for them.
+    #[serde(default)]
+    pub skip_scenes: Vec<String>,
 }
 
 #[derive(Deserialize)]
@@ -163,12 +168,25 @@ impl Board {
         Some((var, flags.clone()))
     }
 
+    /// `scenes` less those this board's one-shot firmware leaves out
+    /// ([`Spec::skip_scenes`]).
+    pub fn held(self, scenes: Vec<std::path::PathBuf>) -> Vec<std::path::PathBuf> {
+        let skip = &self.0.skip_scenes;
+        scenes
+            .into_iter()
+            .filter(|p| {
+                !p.file_stem()
+                    .is_some_and(|s| skip.iter().any(|k| s == k.as_str()))
+            })
+            .collect()
+    }
+
     /// The driven camera's firmware features.
     pub fn camera_features(self) -> &'static str {
         self.0
             .camera_features
             .as_deref()
-            .unwrap_or("camera,mix32,sensor,status,shadows")
+            .unwrap_or("camera,mix32,sensor,status")
     }
 
     /// Picoseconds a SysTick tick.

@@ -109,7 +109,7 @@ pub fn hil_variants(
         variants.to_vec()
     };
     let list: Vec<PathBuf> = if scenes.is_empty() {
-        shipped_scenes()?
+        board.held(shipped_scenes()?)
     } else {
         scenes.to_vec()
     };
@@ -119,7 +119,7 @@ pub fn hil_variants(
     let elf: &Path = match &elf {
         Some(e) => e,
         None => {
-            built = build_firmware(board, scenes, &variants)?;
+            built = build_firmware(board, &list, &variants)?;
             &built
         }
     };

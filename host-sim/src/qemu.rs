@@ -72,7 +72,7 @@ pub fn build_firmware_as(
     let unshadowed = camera && !board.camera_features().split(',').any(|f| f == "shadows");
     let held = match (scenes.is_empty(), unshadowed) {
         (true, true) => sent.to_vec(),
-        (true, false) => shipped_scenes()?,
+        (true, false) => board.held(shipped_scenes()?),
         (false, _) => scenes.to_vec(),
     };
     let caps = capacities(&held, sent)?;
@@ -83,8 +83,9 @@ pub fn build_firmware_as(
     // Where cargo puts it: CARGO_TARGET_DIR (relative to firmware/, where
     // cargo runs) if set, else firmware/target.
     let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| dir.join("target"), |t| dir.join(t));
-    // (None given: every shipped scene, as the build script takes an
-    // empty list; a camera without shadows, the scenes it is sent.)
+    // (None given: the shipped scenes the board holds, as the build script
+    // takes an empty list; a camera without shadows, the scenes it is
+    // sent.)
     let listed = if unshadowed { &held[..] } else { scenes };
     let list: Vec<String> = listed
         .iter()

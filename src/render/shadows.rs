@@ -293,7 +293,8 @@ fn inside(s: &CamShape<Q>, aperture: Option<f64>) -> bool {
 fn segment_distance(x: F3, o: F3, d: F3, t_max: f64) -> f64 {
     let dd = fdot(d, d);
     let t = if dd > 0.0 {
-        (fdot(fsub(x, o), d) / dd).clamp(0.0, t_max)
+        // (max and min, not clamp: no panic path for a NaN.)
+        (fdot(fsub(x, o), d) / dd).max(0.0).min(t_max)
     } else {
         0.0
     };
