@@ -44,7 +44,7 @@ fn the_shadows_scene_meets_the_targets_in_both_arithmetics() {
             .pixels
             .iter()
             .zip(&without.pixels)
-            .filter(|(a, b)| **a + 10 <= **b)
+            .filter(|(a, b)| u16::from(**a) + 10 <= u16::from(**b))
             .count();
         let lighter = with
             .pixels
