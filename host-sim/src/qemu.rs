@@ -70,6 +70,19 @@ pub fn build_firmware_as(
     // A camera built without cast shadows (boards.toml camera_features)
     // holds the scenes it is sent alone: every shipped scene asks for them.
     let unshadowed = camera && !board.camera_features().split(',').any(|f| f == "shadows");
+    if unshadowed {
+        // Refused here, naming the key, rather than by the camera at boot.
+        for p in sent.iter().chain(scenes) {
+            if crate::scene_file::load(p)?.desc.environment.shadows {
+                return Err(format!(
+                    "{}: environment.shadows: the {} driven camera is built without cast shadows \
+                     (boards.toml camera_features); set environment.shadows = false",
+                    p.display(),
+                    board.machine()
+                ));
+            }
+        }
+    }
     let held = match (scenes.is_empty(), unshadowed) {
         (true, true) => sent.to_vec(),
         (true, false) => board.held(shipped_scenes()?),

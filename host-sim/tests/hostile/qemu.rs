@@ -78,6 +78,14 @@ fn qemu_commands_name_a_bad_board_file_or_count() {
             ],
             "--frames",
         ),
+        // The driven camera is built without cast shadows: a scene that
+        // asks for them is named before a firmware is built.
+        (
+            vec![
+                "drive", "--board", "microbit", "--scene", standard, "--frames", "1", "--out", out,
+            ],
+            "environment.shadows",
+        ),
         (vec!["costfit", "--keep", missing, "--out", out], missing),
         (
             vec!["tradeoff", "--boards", "lm3s6965evb,nosuch", "--out", out],
