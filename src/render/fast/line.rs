@@ -740,10 +740,13 @@ impl Mix32 {
             0u8
         };
         for (((l, kl), (ksl, top)), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
-            let lit = shadowed & 1 == 0;
-            shadowed >>= 1;
-            if !lit {
-                continue;
+            // (A branch a light where no light is shadowed.)
+            if shadowed != 0 {
+                let lit = shadowed & 1 == 0;
+                shadowed >>= 1;
+                if !lit {
+                    continue;
+                }
             }
             let (w, ldir) = match l {
                 MixLight::Point { p, .. } => {

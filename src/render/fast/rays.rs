@@ -66,6 +66,12 @@ impl Key {
             | ((prim as u64) << 56))
     }
 
+    /// This key with the lights `shade` shadowed (its own bits clear).
+    #[inline(always)]
+    pub(super) const fn shaded(self, shade: u8) -> Key {
+        Key(self.0 | ((shade as u64) << 48))
+    }
+
     /// Whether its cell's `u + v` is odd (the checker's second material).
     #[inline(always)]
     pub(super) const fn odd(self) -> bool {

@@ -87,7 +87,13 @@ impl Mix32 {
             }) => k.cells_of::<PERSP>(r, shape.bounded()),
             _ => (0, 0),
         };
-        Key::new(cell.0, cell.1, prim, self.shade_key::<PERSP>(r))
+        let key = Key::new(cell.0, cell.1, prim, 0);
+        // (Without a shadow test in the frame, no call and no lights' bits.)
+        if self.any_shadow_test() {
+            key.shaded(self.shade_key::<PERSP>(r))
+        } else {
+            key
+        }
     }
 
     /// [`Mix32::line_f`] with pixel-area sampling (camera-model.md §7,

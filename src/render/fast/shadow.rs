@@ -79,6 +79,15 @@ impl Shadow {
 }
 
 impl Mix32 {
+    /// Whether any surface of the frame takes a shadow test.
+    #[inline(always)]
+    pub(super) fn any_shadow_test(&self) -> bool {
+        #[cfg(feature = "shadows")]
+        return self.shadow.is_some();
+        #[cfg(not(feature = "shadows"))]
+        false
+    }
+
     /// The tests primitive `i` takes (0: none, or no shadows).
     #[inline(always)]
     pub(super) fn shadow_tests(&self, i: usize) -> u32 {
