@@ -57,6 +57,12 @@ impl Occluders {
             .unwrap_or(0)
     }
 
+    /// The occluders of `surface` under each light.
+    #[inline(always)]
+    pub(crate) fn for_surface(&self, surface: usize) -> [u16; MAX_LIGHTS] {
+        core::array::from_fn(|light| self.of(light, surface))
+    }
+
     /// Whether any point needs a test.
     pub(crate) fn any(&self) -> bool {
         self.mask.iter().flatten().any(|m| *m != 0)
@@ -353,22 +359,21 @@ pub(crate) fn occludes<S: Scalar>(s: &CamShape<S>, o: V3<S>, d: V3<S>, a: S, seg
     }
 }
 
-/// The lights whose light a point of primitive `surface` at `point`
-/// (unit `normal`, facing the viewer) does not receive: bit `i` set if a
-/// primitive of `occluders` lies between it and light `i`. Lights it faces
-/// away from are left clear (they send it nothing anyway).
+/// The lights whose light a point at `point` (unit `normal`, facing the
+/// viewer) does not receive: bit `i` set if a primitive of `occluders[i]`
+/// (its surface's, [`Occluders::for_surface`]) lies between it and light
+/// `i`. Lights it faces away from are left clear (they send it nothing
+/// anyway).
 #[inline(never)]
 pub(crate) fn shadowed<S: Scalar>(
     prims: &[CamPrim<S>],
     lights: &[ShadingLight<S>],
-    occluders: &Occluders,
-    surface: usize,
+    occluders: &[u16; MAX_LIGHTS],
     point: V3<S>,
     normal: V3<S>,
 ) -> u8 {
     let mut mask = 0u8;
-    for (li, light) in lights.iter().enumerate() {
-        let occ = occluders.of(li, surface);
+    for ((li, light), &occ) in lights.iter().enumerate().zip(occluders) {
         if occ == 0 {
             continue;
         }

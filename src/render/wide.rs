@@ -679,8 +679,7 @@ impl<S: Scalar, const T: usize> WideFrame<S, T> {
         crate::render::shadows::shadowed(
             &self.prims,
             &self.lights,
-            &self.occluders,
-            seen.key.prim as usize,
+            &self.occluders.for_surface(seen.key.prim as usize),
             seen.point,
             seen.hit.facing(),
         )

@@ -615,7 +615,8 @@ impl Mix32 {
             away,
             nl: &p.nl,
             flat: p.flat,
-            prim,
+            #[cfg(feature = "shadows")]
+            shade: key.map(Key::shade),
             view,
         })
     }
@@ -691,7 +692,6 @@ impl Mix32 {
             away,
             nl: nls,
             view: kept,
-            prim,
             ..
         } = *h;
         let nch = self.nch();
@@ -733,12 +733,16 @@ impl Mix32 {
         let view = lobe.map(|_| kept.unwrap_or_else(|| Self::view::<PERSP>(r)));
         let mut sum = copy3!(k.ka);
         #[cfg(feature = "shadows")]
-        let mut shadowed = self.shadow.as_ref().map_or(0, |s| s.shadowed(prim, pt, nt));
-        #[cfg(not(feature = "shadows"))]
-        let mut shadowed = {
-            let _ = prim;
-            0u8
+        let mut shadowed = match &self.shadow {
+            // (The key's, where the adaptive rule found them: the same
+            // point's test.)
+            Some(s) => h
+                .shade
+                .unwrap_or_else(|| s.shadowed((r.hit & !AWAY) as usize, pt, nt)),
+            None => 0,
         };
+        #[cfg(not(feature = "shadows"))]
+        let mut shadowed = 0u8;
         for (((l, kl), (ksl, top)), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
             // (A branch a light where no light is shadowed.)
             if shadowed != 0 {

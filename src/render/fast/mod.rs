@@ -201,8 +201,10 @@ struct Hit<'a> {
     nl: &'a [i64; crate::scene::MAX_LIGHTS],
     /// [`MixPrim::flat`].
     flat: bool,
-    /// The primitive's index.
-    prim: usize,
+    /// The lights shadowed here where the caller's [`Key`](rays::Key)
+    /// found them already (the adaptive rule's centre sample).
+    #[cfg(feature = "shadows")]
+    shade: Option<u8>,
     /// [`Mix32::view`] of the ray, where the normal took it already
     /// ([`fine_normal`]: a sphere under a lobe), for the lobe.
     view: Option<[i32; 3]>,

@@ -72,6 +72,13 @@ impl Key {
         Key(self.0 | ((shade as u64) << 48))
     }
 
+    /// The lights shadowed where it was found.
+    #[cfg(feature = "shadows")]
+    #[inline(always)]
+    pub(super) const fn shade(self) -> u8 {
+        (self.0 >> 48) as u8
+    }
+
     /// Whether its cell's `u + v` is odd (the checker's second material).
     #[inline(always)]
     pub(super) const fn odd(self) -> bool {
