@@ -92,8 +92,8 @@ pub fn plan_text(p: &PlanReport) -> String {
     }
     if p.predicted_shadow_tests > 0.0 {
         s.push_str(&format!(
-            "  shadows: {:.2} tests a sample, {:.0} M3 instructions a pixel of the cost (predicted)\n",
-            p.predicted_shadow_tests, p.predicted_shadow_m3
+            "  shadows: {:.2} tests a sample ({:.3} exact), {:.0} M3 instructions a pixel of the cost (predicted)\n",
+            p.predicted_shadow_tests, p.predicted_shadow_exact, p.predicted_shadow_m3
         ));
     }
     if p.samples > 1 || p.aperture_points > 0 {

@@ -493,22 +493,34 @@ pub const WIDE_COST: CostModel = CostModel {
     },
 };
 
-/// The shadow stage (either arithmetic: both run the I32F32 test): M3
-/// instructions a shadow test (one occluder, one light, one sample) and a
-/// shaded sample's overhead where any surface takes one (the closed form
-/// left, the hit point converted, the adaptive rule's keys tested). Fitted
-/// to the M3 counts of the shipped scenes that take tests (`host-sim hil
-/// --board lm3s6965evb`: standard, spheres-specular, low-light,
-/// wide-vignetting), each count less its prediction without this term,
-/// over its sample factor: not yet a term of `host-sim costfit`'s fit.
-pub const SHADOW_COST: [f64; 2] = [SHADOW_TEST, SHADOW_PIXEL];
-const SHADOW_TEST: f64 = 1500.0;
-const SHADOW_PIXEL: f64 = 2400.0;
+/// The shadow stage: M3 instructions a shadow test (one occluder, one
+/// light, one sample) in the wide arithmetic, or in the fast one a
+/// pre-test and an exact test (the tests the pre-test leaves, the
+/// planner's survey counts), and a shaded sample's overhead where
+/// any surface takes one (the closed form left, the adaptive rule's keys
+/// tested). Fitted by least squares to the M3 counts of the shipped
+/// scenes that take tests (`host-sim hil --board lm3s6965evb`: standard,
+/// spheres-specular, low-light, wide-vignetting, shallow-target; shadows
+/// with `--scene`), each count less its prediction without this term,
+/// over its sample factor (coverage taken as 1): not yet a term of
+/// `host-sim costfit`'s fit. The exact test's constant is about three
+/// times one test's cost: exact tests fall on shadow edges, where the
+/// adaptive rule takes its grid, so a pixel there takes many.
+pub const SHADOW_COST: [f64; 3] = [SHADOW_PRE, SHADOW_EXACT, SHADOW_PIXEL];
+const SHADOW_PRE: f64 = 70.0;
+const SHADOW_EXACT: f64 = 5000.0;
+const SHADOW_PIXEL: f64 = 490.0;
 
-/// [`SHADOW_COST`] of a frame's geometry `g`, M3 instructions a sample.
-pub(super) fn shadow_cost(g: &Geometry) -> f64 {
+/// [`SHADOW_COST`] of a frame's geometry `g` in the fast arithmetic (or
+/// not), M3 instructions a sample.
+pub(super) fn shadow_cost(g: &Geometry, fast: bool) -> f64 {
     if cfg!(feature = "shadows") && g.shadows {
-        SHADOW_TEST * g.shadow_tests + SHADOW_PIXEL * g.coverage
+        let tests = if fast {
+            SHADOW_PRE * g.shadow_tests + SHADOW_EXACT * g.shadow_exact
+        } else {
+            SHADOW_EXACT * g.shadow_tests
+        };
+        tests + SHADOW_PIXEL * g.coverage
     } else {
         0.0
     }

@@ -95,6 +95,10 @@ pub(super) struct Geometry {
     /// Shadow tests a pixel takes on average (each surface's share of the
     /// sensor, from the coverage grid, times its occluders over the lights).
     pub(super) shadow_tests: f64,
+    /// Of those, the tests a pixel takes on average that the fast
+    /// arithmetic's pre-test leaves to the exact one
+    /// (`super::survey::Coverage::exact_tests`).
+    pub(super) shadow_exact: f64,
     /// That plane's index among the primitives.
     pub(super) closed: Option<usize>,
 }

@@ -143,6 +143,9 @@ pub struct Candidate {
     /// 0 where the planner proves none is needed), and the M3
     /// instructions a pixel they add to the cost ([`SHADOW_COST`]).
     pub shadow_tests: f64,
+    /// Of those, the tests that take the exact test (all of them in the
+    /// wide arithmetic; in the fast one, those its pre-test leaves).
+    pub shadow_exact: f64,
     /// The shadow tests' share of `m3_instructions_per_pixel`.
     pub shadow_m3: f64,
 }

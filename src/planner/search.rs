@@ -167,6 +167,7 @@ pub(super) fn plan_with(scene: &Scene, budget: &Budget, shares: Shares) -> Plan 
         mean_lsb: 0.0,
         edge_differing: 1.0,
         shadow_tests: 0.0,
+        shadow_exact: 0.0,
         shadow_m3: 0.0,
     });
     let model = c.model;
@@ -303,7 +304,7 @@ pub(super) fn model_candidates(
             };
             let cost_model = CostModel::of(arithmetic);
             let fast = arithmetic == Arithmetic::Fast;
-            let shadows = shadow_cost(g);
+            let shadows = shadow_cost(g, fast);
             let one =
                 cost_model.predict(&Features::of(scene, g, distortion, fast, closed, closed_mean)) + shadows;
             let cost = cost_model.samples.cost(one, &terms.with(arithmetic, shares));
@@ -327,6 +328,15 @@ pub(super) fn model_candidates(
                 edge_differing: (edge_looks * geom + cells(arithmetic, geom) + flips).min(1.0),
                 shadow_tests: if cfg!(feature = "shadows") && g.shadows {
                     g.shadow_tests
+                } else {
+                    0.0
+                },
+                shadow_exact: if cfg!(feature = "shadows") && g.shadows {
+                    if fast {
+                        g.shadow_exact
+                    } else {
+                        g.shadow_tests
+                    }
                 } else {
                     0.0
                 },

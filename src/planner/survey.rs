@@ -4,8 +4,8 @@
 //! sensor each kind of primitive covers: the cost model's areas).
 
 use super::geometry::{
-    cam_point, corner_slopes_d, dot3, norm3, prim_light_distance, unit_exp, FromOrigin, Geometry, PrimGeom,
-    Reach, Reaches, COVERAGE_GRID,
+    cam_point, corner_slopes_d, dot3, norm3, prim_light_distance, sub3, unit_exp, FromOrigin, Geometry,
+    PrimGeom, Reach, Reaches, COVERAGE_GRID,
 };
 use crate::num::FixedF64;
 use crate::render::RenderModel;
@@ -72,6 +72,71 @@ pub(super) struct Coverage {
     pub(super) closed_flat_hits: u32,
     /// Grid rays whose nearest hit is each primitive.
     pub(super) nearest: [u32; crate::scene::MAX_PRIMITIVES],
+    /// Shadow tests at the grid rays' nearest hits that the fast
+    /// arithmetic's pre-test leaves to the exact test: the line to the
+    /// light within an occluder's bounding ball and margin, or an
+    /// unbounded occluder ([`Shadows::exact_tests`]).
+    pub(super) exact_tests: u32,
+}
+
+/// What the survey takes of a frame's shadow tests: each surface's
+/// occluders under each light, the lights (a point, or the direction
+/// towards it; camera frame).
+pub(super) struct Shadows<'a> {
+    pub(super) occ: &'a crate::render::shadows::Occluders,
+    pub(super) lights: &'a [(bool, [f64; 3])],
+}
+
+impl Shadows<'_> {
+    /// The surfaces (a bit each, of the first `n`) that take a test.
+    fn tested(occ: &crate::render::shadows::Occluders, n: usize) -> u16 {
+        (0..n)
+            .filter(|&i| cfg!(feature = "shadows") && occ.tests_of(i) > 0)
+            .fold(0, |m, i| m | 1 << i)
+    }
+
+    /// A scene's lights as [`Shadows`] takes them.
+    fn lights_of(scene: &Scene) -> heapless::Vec<(bool, [f64; 3]), { crate::scene::MAX_LIGHTS }> {
+        let mut towards = heapless::Vec::new();
+        for l in scene.lights() {
+            let _ = towards.push(match crate::render::prepare::shading_light(scene, l) {
+                crate::render::shading::ShadingLight::Point { p, .. } => (true, p.map(|c| c.f64())),
+                crate::render::shading::ShadingLight::Directional { l, .. } => (false, l.map(|c| c.f64())),
+            });
+        }
+        towards
+    }
+
+    /// The tests at `pt` (camera frame) of surface `i` that the fast
+    /// pre-test ([`crate::render::fast`]'s `Shadow::ball`) does not clear:
+    /// its margin `r/1024 + |oc|/1024 + 2⁻¹⁰` m taken as `|oc|/512`
+    /// (its `|oc|_∞` share) and 1 mm; a point light within 1/16 m, an
+    /// unbounded occluder, always.
+    fn exact_tests(&self, prims: &[PrimGeom], i: usize, pt: [f64; 3]) -> u32 {
+        let mut n = 0;
+        for (li, &(point, l)) in self.lights.iter().enumerate() {
+            let mut bits = self.occ.of(li, i);
+            let d = if point { sub3(l, pt) } else { l };
+            let dd = dot3(d, d);
+            let near = point && libm::fabs(d[0]).max(libm::fabs(d[1])).max(libm::fabs(d[2])) < 1.0 / 16.0;
+            while bits != 0 {
+                let o = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let Some(q) = prims.get(o) else { continue };
+                if near || matches!(q.shape, Shape::Plane { .. }) {
+                    n += 1;
+                    continue;
+                }
+                let oc = sub3(q.c, pt);
+                let along = dot3(oc, d);
+                let oc2 = dot3(oc, oc);
+                let dist2 = (oc2 - along * along / dd).max(0.0);
+                let reach = q.r * (1.0 + 1.0 / 1024.0) + 1.0 / 1024.0 + libm::sqrt(oc2) / 512.0;
+                n += u32::from(dist2 <= reach * reach);
+            }
+        }
+        n
+    }
 }
 
 impl Coverage {
@@ -85,6 +150,7 @@ impl Coverage {
         lights: &[Option<[f64; 3]>],
         origin_scale: Option<f64>,
         (closed, tested): (Option<usize>, u16),
+        shadows: &Shadows,
     ) -> Coverage {
         let intr = &scene.camera.intrinsics;
         let (fx, fy) = intr.focal_px();
@@ -150,8 +216,8 @@ impl Coverage {
                     &facing,
                     (closed, tested),
                     directional,
-                    (d, dd, y),
-                    origin_scale,
+                    (o, d, dd, y),
+                    (origin_scale, shadows),
                 );
             }
         }
@@ -169,8 +235,8 @@ impl Coverage {
         facing: &[bool],
         (closed, tested): (Option<usize>, u16),
         directional: bool,
-        (d, dd, y): ([f64; 3], f64, f64),
-        origin_scale: Option<f64>,
+        (o, d, dd, y): ([f64; 3], [f64; 3], f64, f64),
+        (origin_scale, shadows): (Option<f64>, &Shadows),
     ) {
         let (mut any, mut others) = (false, false);
         let mut nearest: Option<(f64, &PrimGeom, usize)> = None;
@@ -198,11 +264,14 @@ impl Coverage {
         self.hits += any as u32;
         self.closed_hits += (any && !others) as u32;
         self.lobe_hits += nearest.is_some_and(|(_, p, _)| p.ks > 0.0) as u32;
-        if let Some(c) = nearest
-            .filter(|_| cfg!(feature = "shadows"))
-            .and_then(|(_, _, i)| self.nearest.get_mut(i))
-        {
-            *c += 1;
+        if let Some((t, _, i)) = nearest.filter(|_| cfg!(feature = "shadows")) {
+            if let Some(c) = self.nearest.get_mut(i) {
+                *c += 1;
+            }
+            if tested & (1 << i) != 0 {
+                let pt = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+                self.exact_tests += shadows.exact_tests(prims, i, pt);
+            }
         }
         if directional
             && nearest.is_some_and(|(_, p, i)| {
@@ -302,12 +371,7 @@ impl Geometry {
             None,
             true,
         );
-        let mut tested = 0u16;
-        for i in (0..prims.len()).filter(|_| cfg!(feature = "shadows")) {
-            if occ.tests_of(i) > 0 {
-                tested |= 1 << i;
-            }
-        }
+        let tested = Shadows::tested(&occ, prims.len());
         let closed = (origin_scale.is_none())
             .then(|| {
                 prims
@@ -328,7 +392,12 @@ impl Geometry {
                     })
             })
             .flatten();
-        let cov = Coverage::of(scene, &prims, &lights, origin_scale, (closed, tested));
+        let towards = Shadows::lights_of(scene);
+        let shadows = Shadows {
+            occ: &occ,
+            lights: &towards,
+        };
+        let cov = Coverage::of(scene, &prims, &lights, origin_scale, (closed, tested), &shadows);
         let n = (COVERAGE_GRID.0 * COVERAGE_GRID.1) as f64;
         // (Each surface's share of the sensor times the occluders it is
         // tested against.)
@@ -368,6 +437,7 @@ impl Geometry {
             closed_flat_area: cov.closed_flat_hits as f64 / n,
             shadows: occ.any(),
             shadow_tests,
+            shadow_exact: cov.exact_tests as f64 / n,
         }
     }
 }

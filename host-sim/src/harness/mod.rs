@@ -143,6 +143,9 @@ pub struct PlanReport {
     /// and their share of the predicted M3 instructions a pixel.
     pub predicted_shadow_tests: f64,
     pub predicted_shadow_m3: f64,
+    /// Of the shadow tests, those that take the exact test (the rest the
+    /// fast arithmetic's pre-test clears).
+    pub predicted_shadow_exact: f64,
 }
 
 /// `metrics.json`.
@@ -624,6 +627,7 @@ pub fn plan_report<S: Scalar>(plan: &Plan, budget: &Budget, frame: &Frame<S>) ->
         aperture_shares: (stages.aperture > 0).then_some([plan.samples.traced, plan.samples.only]),
         closed_mean: plan.options.closed_mean.span(),
         predicted_shadow_tests: plan.candidates.get(plan.chosen).map_or(0.0, |c| c.shadow_tests),
+        predicted_shadow_exact: plan.candidates.get(plan.chosen).map_or(0.0, |c| c.shadow_exact),
         predicted_shadow_m3: plan.candidates.get(plan.chosen).map_or(0.0, |c| c.shadow_m3),
         blur_px: plan.defocus.blur_px,
         outside_dof: plan.defocus.outside_dof,
