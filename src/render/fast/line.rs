@@ -735,7 +735,8 @@ impl Mix32 {
         #[cfg(feature = "shadows")]
         let mut shadowed = match &self.shadow {
             // (The key's, where the adaptive rule found them: the same
-            // point's test.)
+            // point's test; its normal, coarse under a lobe, gates only
+            // `n·l ≤ 0`, where the light adds nothing.)
             Some(s) => h
                 .shade
                 .unwrap_or_else(|| s.shadowed((r.hit & !AWAY) as usize, pt, nt)),
@@ -744,7 +745,7 @@ impl Mix32 {
         #[cfg(not(feature = "shadows"))]
         let mut shadowed = 0u8;
         for (((l, kl), (ksl, top)), &nl) in self.lights.iter().zip(&k.k).zip(&k.ks).zip(nls) {
-            // (A branch a light where no light is shadowed.)
+            // (No bit test a light where none is shadowed.)
             if shadowed != 0 {
                 let lit = shadowed & 1 == 0;
                 shadowed >>= 1;
