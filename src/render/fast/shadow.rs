@@ -249,7 +249,7 @@ impl Shadow {
         let mut occ = self.occluders.for_surface(prim);
         let pt17 = pt.map(|c| c >> 1);
         let mut left = 0;
-        for (o, t) in occ.iter_mut().zip(&self.towards) {
+        for (o, t) in occ.iter_mut().zip(&self.towards).take(self.lights.len()) {
             if *o == 0 {
                 continue;
             }
