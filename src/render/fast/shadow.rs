@@ -183,7 +183,7 @@ impl Shadow {
     }
 
     /// A point (metres, camera frame) in S17 U about `z0`.
-    fn point18(c: V3, e: i32, z0: Q) -> Option<[i32; 3]> {
+    fn point17(c: V3, e: i32, z0: Q) -> Option<[i32; 3]> {
         let z = c[2].saturating_sub(z0);
         Some([
             Self::s17(c[0].f64(), e)?,
@@ -217,7 +217,7 @@ impl Shadow {
         let m0 = 1.0 / 1024.0;
         let r = Self::s17(r + r / 1024.0 + m0, e)?.unsigned_abs() + 4 + 1;
         Some(Ball {
-            c: Self::point18(c, e, z0)?,
+            c: Self::point17(c, e, z0)?,
             r,
         })
     }
@@ -226,7 +226,7 @@ impl Shadow {
     fn towards(l: &ShadingLight, e: i32, z0: Q) -> Option<Towards> {
         Some(match *l {
             ShadingLight::Point { p, .. } => Towards::Point {
-                p: Self::point18(p, e, z0)?,
+                p: Self::point17(p, e, z0)?,
                 // 1/16 m (and at least 2¹⁴ units, the normalization's).
                 near: Self::s17(1.0 / 16.0, e)?.unsigned_abs().max(1 << PRE_BITS),
             },
@@ -270,17 +270,24 @@ impl Shadow {
         if left == 0 {
             return 0;
         }
-        // S18 U = 2^(e − 18) m: I32F32 bits shifted by 14 + e, saturated.
-        let sh = 14 + self.e;
+        let point = Self::point_q(pt, self.e, self.z0);
+        let normal: V3 = nt.map(|n| Q::from_bits(i64::from(n) << 2));
+        crate::render::shadows::shadowed::<Q>(&self.prims, &self.lights, &occ, point, normal)
+    }
+
+    /// A hit point (S18 U, about `z0`) in I32F32 metres, the exact test's:
+    /// S18 U = 2^(e − 18) m, the bits shifted by 14 + e, saturated.
+    #[inline(always)]
+    fn point_q(pt: [i32; 3], e: i32, z0: Q) -> V3 {
+        let sh = 14 + e;
         let len = |v: i32| {
             let v = i128::from(v);
             let b = if sh >= 0 { v << sh } else { v >> -sh };
             Q::from_bits(b.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64)
         };
         let mut point: V3 = pt.map(len);
-        point[2] = point[2].saturating_add(self.z0);
-        let normal: V3 = nt.map(|n| Q::from_bits(i64::from(n) << 2));
-        crate::render::shadows::shadowed::<Q>(&self.prims, &self.lights, &occ, point, normal)
+        point[2] = point[2].saturating_add(z0);
+        point
     }
 }
 
@@ -464,14 +471,7 @@ mod tests {
                 continue;
             }
             let pt = scaled.map(|v| v as i32);
-            let point: V3 = pt.map(|v| {
-                let sh = 14 + e;
-                Q::from_bits(if sh >= 0 {
-                    i64::from(v) << sh
-                } else {
-                    i64::from(v) >> -sh
-                })
-            });
+            let point = Shadow::point_q(pt, e, Q::ZERO);
             let (d, segment) = match light {
                 ShadingLight::Point { p, .. } => (sub3(p, point), true),
                 ShadingLight::Directional { l, .. } => (l, false),
